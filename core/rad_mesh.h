@@ -1,0 +1,68 @@
+/* rad_mesh.h - the patch mesh: a scene's faces subdivided into patches.
+ *
+ * Usage:
+ *     rad_mesh mesh;
+ *     rad_mesh_options opt = {.subdiv = 3};
+ *     if (rad_mesh_build(&scene, &opt, &mesh) != RAD_OK) ...;
+ *     rad_mesh_free(&mesh);
+ *
+ * Subdivision level S splits every face into 4^S patches: a triangle into
+ * four triangles through its edge midpoints, a quad into four quads through
+ * its edge midpoints and its centre. Vertices are shared between patches
+ * (one midpoint per mesh edge, also across faces that share the edge), so
+ * render can interpolate. Patch vertices keep the face's winding, so
+ * normals point the same way as the face's.
+ *
+ * rad_patch is laid out exactly as a patch record of the form-factor and
+ * radiosity files (128 bytes, see docs/formats.md).
+ */
+#ifndef RAD_MESH_H
+#define RAD_MESH_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rad_math.h"
+#include "rad_scene.h"
+#include "rad_status.h"
+
+#define RAD_NO_VERTEX UINT32_MAX
+
+typedef struct rad_patch {
+    uint32_t vertex_count; /* 3 or 4 */
+    uint32_t v[4];         /* indices into rad_mesh.positions; v[3] = RAD_NO_VERTEX for triangles */
+    uint32_t source_face;  /* index of the scene face it came from */
+    double area;           /* scene units^2 */
+    rad_vec3 normal;       /* unit */
+    rad_vec3 centroid;     /* area centroid */
+    double rho[3];         /* reflectance, RGB, in [0, 1) */
+    double emission[3];    /* emitted radiosity, RGB, >= 0 */
+} rad_patch;
+
+typedef struct rad_mesh {
+    double *positions; /* xyz per vertex */
+    size_t vertex_count;
+    rad_patch *patches;
+    size_t patch_count;
+} rad_mesh;
+
+typedef struct rad_mesh_options {
+    int subdiv;              /* subdivision level S >= 0 (0 = faces as patches) */
+    const char *only_group;  /* NULL = subdivide every face; else only faces of this
+                                group (reproduces the paper code, which subdivided
+                                the box and not the sphere) */
+} rad_mesh_options;
+
+/* Fails with RAD_ERR_NOMEM (and the memory it would need in the message)
+ * when the patch count would exceed UINT32_MAX - 1 or memory runs out. */
+rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *options, rad_mesh *out_mesh);
+void rad_mesh_free(rad_mesh *mesh); /* safe on a zeroed or freed mesh */
+
+/* Patch count that rad_mesh_build would produce, without building. */
+uint64_t rad_mesh_count_patches(const rad_scene *scene, const rad_mesh_options *options);
+
+/* Geometry of one polygon (3 or 4 vertices, planar): area, unit normal (by
+ * Newell's method, following the winding) and area centroid. */
+void rad_polygon_geometry(const rad_vec3 *v, int n, double *out_area, rad_vec3 *out_normal, rad_vec3 *out_centroid);
+
+#endif

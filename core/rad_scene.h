@@ -1,0 +1,87 @@
+/* rad_scene.h - scenes loaded from Wavefront OBJ/MTL.
+ *
+ * Usage:
+ *     rad_scene scene;
+ *     rad_scene_options opt = {0};            // zero = defaults
+ *     if (rad_scene_load_file("cornell_box.obj", &opt, &scene) != RAD_OK) ...;
+ *     ... scene.faces[f] ...
+ *     rad_scene_free(&scene);
+ *
+ * The loader is strict: every problem is logged as "file:line: what is
+ * wrong" and returns RAD_ERR_PARSE (syntax), RAD_ERR_INVALID (values) or
+ * RAD_ERR_IO (missing file). Supported: `v`; `f` with n >= 3 vertices in all
+ * index forms (v, v/vt, v//vn, v/vt/vn; negative = relative); `g`, `o`, `s`,
+ * `usemtl`, `mtllib` (several files, several names per line); in MTL:
+ * `newmtl`, `Kd` (reflectance rho, RGB in [0,1)), `Ke` (emission E, RGB >= 0).
+ * `vt`, `vn` and other known-but-unused keys are accepted and ignored;
+ * unknown keys produce one warning each. CRLF, a UTF-8 BOM and a missing
+ * final newline are tolerated.
+ *
+ * After parsing, every face is planar and convex with 3 or 4 vertices:
+ *  - zero-area faces are dropped with a warning naming file:line;
+ *  - triangles and planar convex quads are kept as they are;
+ *  - anything else (n > 4, non-planar, non-convex) is triangulated with a
+ *    note (warning) naming file:line; each triangle becomes its own face.
+ * Planarity tolerance: every vertex within 1e-6 * (face diameter) of the
+ * best-fit plane through the face's Newell normal and centroid.
+ */
+#ifndef RAD_SCENE_H
+#define RAD_SCENE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rad_status.h"
+
+#define RAD_NAME_MAX 64
+
+typedef struct rad_material {
+    char name[RAD_NAME_MAX];
+    double rho[3];      /* diffuse reflectance (Kd), each in [0, 1) */
+    double emission[3]; /* emitted radiosity (Ke), W/m^2 in scene units, >= 0 */
+} rad_material;
+
+typedef struct rad_face {
+    uint32_t vertex_count; /* 3 or 4 */
+    uint32_t v[4];         /* indices into rad_scene.positions; v[3] unused for triangles */
+    uint32_t material;     /* index into rad_scene.materials */
+    uint32_t group;        /* index into rad_scene.groups (last `g` or `o` name) */
+    uint32_t line;         /* line of the OBJ `f` statement it came from (1-based) */
+} rad_face;
+
+typedef struct rad_scene {
+    char path[512];           /* the OBJ file name, for messages */
+    double *positions;        /* xyz per vertex */
+    size_t vertex_count;
+    rad_face *faces;
+    size_t face_count;
+    rad_material *materials;  /* materials[0] is "default" (see below) */
+    size_t material_count;
+    char (*groups)[RAD_NAME_MAX]; /* groups[0] is "default" */
+    size_t group_count;
+    uint64_t fingerprint;     /* hash of positions, faces and materials (rad_hash64) */
+} rad_scene;
+
+/* Reads a whole file into memory. Returns RAD_ERR_IO if it cannot, with
+ * *out_data = NULL. The loader calls it for the OBJ and every mtllib; a
+ * custom one serves embedded scenes. *out_data is freed with free(). */
+typedef rad_status (*rad_read_file_fn)(const char *path, char **out_data, size_t *out_size, void *user);
+
+typedef struct rad_scene_options {
+    rad_read_file_fn read_file; /* NULL = read from the file system */
+    void *read_file_user;
+} rad_scene_options;
+
+/* materials[0] is "default": rho 0.5 grey, no emission. Faces before any
+ * `usemtl` use it (one warning per file); `usemtl` naming a material that no
+ * loaded MTL defines is an error. */
+rad_status rad_scene_load_file(const char *path, const rad_scene_options *options, rad_scene *out_scene);
+
+/* The built-in Cornell box (scenes/cornell_box.obj embedded at build time). */
+rad_status rad_scene_load_default(rad_scene *out_scene);
+/* Name of the built-in scene, for messages and stats. */
+extern const char *const rad_default_scene_name;
+
+void rad_scene_free(rad_scene *scene); /* safe on a zeroed or freed scene */
+
+#endif
