@@ -1,0 +1,113 @@
+/* rad_ffile.h - the form-factor file ("RADFF"), see docs/formats.md.
+ *
+ * Layout (little-endian, every section 64-byte aligned):
+ *   header        256 bytes (rad_ff_header below)
+ *   vertex table  vertex_count * 3 float64 (x, y, z)
+ *   patch table   patch_count * 128-byte rad_patch records
+ *   matrix        patch_count^2 elements (float32 or float64), row-major,
+ *                 F_ij at i * N + j
+ *   row checksums patch_count * uint64: rad_hash64 of each matrix row's bytes
+ * The header carries a checksum of itself, of the vertex + patch tables and
+ * of the row-checksum table, so a reader detects truncation, corruption and
+ * foreign files before trusting any number.
+ *
+ * Writing is split so that MPI ranks can write their row blocks in
+ * parallel: rad_ff_layout() gives every offset, rad_ff_prologue_encode()
+ * the bytes of header + tables, rad_ff_row_checksum() each row's checksum,
+ * rad_ff_header_finish() the final header once all row checksums are known.
+ * Reading (rad_ff_open/read_rows/close) uses stdio and validates as it goes.
+ *
+ * `--format paper` files (int32 N, then N*N float64) are written by
+ * formfactor only; rad_ff_open recognises and refuses them with a message.
+ */
+#ifndef RAD_FFILE_H
+#define RAD_FFILE_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include "rad_mesh.h"
+#include "rad_status.h"
+
+#define RAD_FF_MAGIC "RADFF\r\n\x1a" /* 8 bytes; catches text-mode mangling */
+#define RAD_FF_VERSION 1u
+#define RAD_FF_HEADER_BYTES 256u
+#define RAD_FF_ALIGN 64u
+
+typedef enum rad_element_type {
+    RAD_ELEMENT_F32 = 1,
+    RAD_ELEMENT_F64 = 2
+} rad_element_type;
+
+typedef enum rad_estimator_id {
+    RAD_ESTIMATOR_MC = 1 /* uniform area-sampled point pairs, kernel-weighted visibility */
+} rad_estimator_id;
+
+/* What the matrix was computed with; recorded in the header. */
+typedef struct rad_ff_info {
+    uint64_t patch_count;
+    uint64_t vertex_count;
+    uint32_t element_type;     /* rad_element_type */
+    uint32_t estimator;        /* rad_estimator_id */
+    uint32_t samples;          /* point pairs per patch pair */
+    uint32_t shadow_rays;      /* of those, pairs that carry a shadow ray */
+    uint64_t seed;
+    uint64_t scene_fingerprint;
+    int32_t subdiv;
+    uint32_t flags;            /* RAD_FF_FLAG_* */
+    char scene_name[96];       /* NUL-terminated, informational */
+} rad_ff_info;
+
+#define RAD_FF_FLAG_PARTIAL_SUBDIV 1u /* only one group was subdivided */
+
+/* Byte offsets of each section, derived from N, V and the element type. */
+typedef struct rad_ff_layout {
+    uint64_t vertex_offset, patch_offset, matrix_offset, row_checksum_offset, file_bytes;
+    uint64_t element_bytes; /* 4 or 8 */
+    uint64_t row_bytes;     /* N * element_bytes */
+} rad_ff_layout;
+
+rad_ff_layout rad_ff_layout_of(const rad_ff_info *info);
+
+/* Header + vertex table + patch table as one buffer of
+ * layout.matrix_offset bytes (padding zeroed), to be written at offset 0.
+ * The header's row-checksum digest is left 0 until rad_ff_header_finish.
+ * *out_bytes is freed with free(). */
+rad_status rad_ff_prologue_encode(const rad_ff_info *info, const rad_mesh *mesh, unsigned char **out_bytes,
+                                  size_t *out_size);
+
+/* Checksum of one row as stored (element_type bytes). */
+uint64_t rad_ff_row_checksum(const void *row, size_t row_bytes);
+
+/* Rewrites the 256-byte header at the start of `prologue` with the digest
+ * of the N row checksums and recomputes the header checksum. */
+void rad_ff_header_finish(unsigned char *prologue, const uint64_t *row_checksums, uint64_t patch_count);
+
+/* Writes a whole file from one process (tests, tools): `matrix` holds
+ * N * N doubles, stored converted to info->element_type. Temporary name +
+ * rename, as every output. */
+rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info, const rad_mesh *mesh,
+                               const double *matrix);
+
+/* ---- reading ---- */
+
+typedef struct rad_ff_file rad_ff_file; /* opaque */
+
+/* Opens and validates: magic, version, sizes against the file size, header
+ * and table checksums, the row-checksum table's digest, patch records
+ * (finite, unit normals, rho in [0,1), E >= 0, vertex indices in range).
+ * Errors name the file and what is wrong. */
+rad_status rad_ff_open(const char *path, rad_ff_file **out_file);
+void rad_ff_close(rad_ff_file *file); /* NULL is fine */
+
+const rad_ff_info *rad_ff_file_info(const rad_ff_file *file);
+/* The patch mesh stored in the file (owned by the file). */
+const rad_mesh *rad_ff_file_mesh(const rad_ff_file *file);
+
+/* Reads rows [row_begin, row_begin + row_count) into `out` (row_count * N
+ * doubles, converted from the stored element type), verifying each row's
+ * checksum. Errors name the file and the first bad row. */
+rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, double *out);
+
+#endif
