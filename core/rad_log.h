@@ -13,6 +13,7 @@
 #include <stdarg.h>
 
 typedef enum rad_log_level {
+    RAD_LOG_NONE = -1, /* as a level: drop everything */
     RAD_LOG_ERROR = 0,
     RAD_LOG_WARN = 1,
     RAD_LOG_INFO = 2,

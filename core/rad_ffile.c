@@ -1,0 +1,423 @@
+#define _FILE_OFFSET_BITS 64
+#define _POSIX_C_SOURCE 200809L
+#include "rad_ffile.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rad_bytes.h"
+#include "rad_fs.h"
+#include "rad_hash.h"
+#include "rad_log.h"
+
+_Static_assert(sizeof(rad_patch) == 128, "rad_patch must match the 128-byte file record");
+
+/* Header field offsets (docs/formats.md). */
+enum {
+    H_MAGIC = 0,
+    H_VERSION = 8,
+    H_HEADER_BYTES = 12,
+    H_PATCH_COUNT = 16,
+    H_VERTEX_COUNT = 24,
+    H_ELEMENT_TYPE = 32,
+    H_ESTIMATOR = 36,
+    H_SAMPLES = 40,
+    H_SHADOW_RAYS = 44,
+    H_SEED = 48,
+    H_FINGERPRINT = 56,
+    H_SUBDIV = 64,
+    H_FLAGS = 68,
+    H_VERTEX_OFFSET = 72,
+    H_PATCH_OFFSET = 80,
+    H_MATRIX_OFFSET = 88,
+    H_ROW_CHECKSUM_OFFSET = 96,
+    H_FILE_BYTES = 104,
+    H_TABLES_CHECKSUM = 112,
+    H_ROW_CHECKSUMS_DIGEST = 120,
+    H_SCENE_NAME = 128, /* 96 bytes, NUL-padded */
+    H_HEADER_CHECKSUM = 248
+};
+
+/* Largest N the format allows: patch indices are uint32 in the mesh. */
+#define RAD_FF_MAX_PATCHES (UINT64_C(1) << 31)
+
+rad_ff_layout rad_ff_layout_of(const rad_ff_info *info)
+{
+    rad_ff_layout l;
+    uint64_t n = info->patch_count;
+    l.element_bytes = info->element_type == RAD_ELEMENT_F32 ? 4 : 8;
+    l.row_bytes = n * l.element_bytes;
+    l.vertex_offset = RAD_FF_HEADER_BYTES;
+    l.patch_offset = rad_align_up(l.vertex_offset + info->vertex_count * 24, RAD_FF_ALIGN);
+    l.matrix_offset = rad_align_up(l.patch_offset + n * sizeof(rad_patch), RAD_FF_ALIGN);
+    l.row_checksum_offset = rad_align_up(l.matrix_offset + n * l.row_bytes, RAD_FF_ALIGN);
+    l.file_bytes = l.row_checksum_offset + n * 8;
+    return l;
+}
+
+uint64_t rad_ff_row_checksum(const void *row, size_t row_bytes)
+{
+    return rad_hash64(RAD_HASH_SEED, row, row_bytes);
+}
+
+static void encode_header(const rad_ff_info *info, const rad_ff_layout *l, uint64_t tables_checksum,
+                          unsigned char *h)
+{
+    memset(h, 0, RAD_FF_HEADER_BYTES);
+    memcpy(h + H_MAGIC, RAD_FF_MAGIC, 8);
+    rad_put_u32(h + H_VERSION, RAD_FF_VERSION);
+    rad_put_u32(h + H_HEADER_BYTES, RAD_FF_HEADER_BYTES);
+    rad_put_u64(h + H_PATCH_COUNT, info->patch_count);
+    rad_put_u64(h + H_VERTEX_COUNT, info->vertex_count);
+    rad_put_u32(h + H_ELEMENT_TYPE, info->element_type);
+    rad_put_u32(h + H_ESTIMATOR, info->estimator);
+    rad_put_u32(h + H_SAMPLES, info->samples);
+    rad_put_u32(h + H_SHADOW_RAYS, info->shadow_rays);
+    rad_put_u64(h + H_SEED, info->seed);
+    rad_put_u64(h + H_FINGERPRINT, info->scene_fingerprint);
+    rad_put_u32(h + H_SUBDIV, (uint32_t)info->subdiv);
+    rad_put_u32(h + H_FLAGS, info->flags);
+    rad_put_u64(h + H_VERTEX_OFFSET, l->vertex_offset);
+    rad_put_u64(h + H_PATCH_OFFSET, l->patch_offset);
+    rad_put_u64(h + H_MATRIX_OFFSET, l->matrix_offset);
+    rad_put_u64(h + H_ROW_CHECKSUM_OFFSET, l->row_checksum_offset);
+    rad_put_u64(h + H_FILE_BYTES, l->file_bytes);
+    rad_put_u64(h + H_TABLES_CHECKSUM, tables_checksum);
+    size_t name_len = strnlen(info->scene_name, sizeof info->scene_name - 1);
+    memcpy(h + H_SCENE_NAME, info->scene_name, name_len);
+    rad_put_u64(h + H_HEADER_CHECKSUM, rad_hash64(RAD_HASH_SEED, h, H_HEADER_CHECKSUM));
+}
+
+static void decode_header(const unsigned char *h, rad_ff_info *info)
+{
+    memset(info, 0, sizeof *info);
+    info->patch_count = rad_get_u64(h + H_PATCH_COUNT);
+    info->vertex_count = rad_get_u64(h + H_VERTEX_COUNT);
+    info->element_type = rad_get_u32(h + H_ELEMENT_TYPE);
+    info->estimator = rad_get_u32(h + H_ESTIMATOR);
+    info->samples = rad_get_u32(h + H_SAMPLES);
+    info->shadow_rays = rad_get_u32(h + H_SHADOW_RAYS);
+    info->seed = rad_get_u64(h + H_SEED);
+    info->scene_fingerprint = rad_get_u64(h + H_FINGERPRINT);
+    info->subdiv = (int32_t)rad_get_u32(h + H_SUBDIV);
+    info->flags = rad_get_u32(h + H_FLAGS);
+    memcpy(info->scene_name, h + H_SCENE_NAME, sizeof info->scene_name - 1);
+}
+
+rad_status rad_ff_prologue_encode(const rad_ff_info *info, const rad_mesh *mesh, unsigned char **out_bytes,
+                                  size_t *out_size)
+{
+    if (info->patch_count != mesh->patch_count || info->vertex_count != mesh->vertex_count) {
+        rad_error("internal: form-factor info does not match the mesh");
+        return RAD_ERR_INVALID;
+    }
+    rad_ff_layout l = rad_ff_layout_of(info);
+    unsigned char *bytes = calloc(1, l.matrix_offset);
+    if (!bytes) {
+        rad_error("out of memory encoding the form-factor file header (%llu bytes)",
+                  (unsigned long long)l.matrix_offset);
+        return RAD_ERR_NOMEM;
+    }
+    memcpy(bytes + l.vertex_offset, mesh->positions, mesh->vertex_count * 24);
+    memcpy(bytes + l.patch_offset, mesh->patches, mesh->patch_count * sizeof(rad_patch));
+    uint64_t tables = rad_hash64(RAD_HASH_SEED, bytes + RAD_FF_HEADER_BYTES, l.matrix_offset - RAD_FF_HEADER_BYTES);
+    encode_header(info, &l, tables, bytes);
+    *out_bytes = bytes;
+    *out_size = l.matrix_offset;
+    return RAD_OK;
+}
+
+void rad_ff_header_finish(unsigned char *prologue, const uint64_t *row_checksums, uint64_t patch_count)
+{
+    rad_put_u64(prologue + H_ROW_CHECKSUMS_DIGEST, rad_hash64(RAD_HASH_SEED, row_checksums, patch_count * 8));
+    rad_put_u64(prologue + H_HEADER_CHECKSUM, rad_hash64(RAD_HASH_SEED, prologue, H_HEADER_CHECKSUM));
+}
+
+static int write_at(FILE *f, uint64_t offset, const void *data, size_t size)
+{
+    return fseeko(f, (off_t)offset, SEEK_SET) == 0 && fwrite(data, 1, size, f) == size;
+}
+
+rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info, const rad_mesh *mesh,
+                               const double *matrix)
+{
+    rad_status status = RAD_OK;
+    unsigned char *prologue = NULL, *row = NULL;
+    uint64_t *checksums = NULL;
+    size_t prologue_size = 0;
+    FILE *f = NULL;
+    char temp[4096];
+    if ((status = rad_fs_temp_path(path, temp, sizeof temp)) != RAD_OK) return status;
+    if ((status = rad_ff_prologue_encode(info, mesh, &prologue, &prologue_size)) != RAD_OK) return status;
+    rad_ff_layout l = rad_ff_layout_of(info);
+    uint64_t n = info->patch_count;
+    row = malloc(l.row_bytes ? l.row_bytes : 1);
+    checksums = malloc(n ? n * 8 : 8);
+    if (!row || !checksums) {
+        rad_error("%s: out of memory", path);
+        status = RAD_ERR_NOMEM;
+        goto done;
+    }
+    f = fopen(temp, "wb");
+    if (!f) {
+        rad_error("%s: cannot create: %s", temp, strerror(errno));
+        status = RAD_ERR_IO;
+        goto done;
+    }
+    int ok = 1;
+    for (uint64_t i = 0; i < n && ok; i++) {
+        const double *src = matrix + i * n;
+        if (info->element_type == RAD_ELEMENT_F32)
+            for (uint64_t j = 0; j < n; j++) ((float *)row)[j] = (float)src[j];
+        else
+            memcpy(row, src, l.row_bytes);
+        checksums[i] = rad_ff_row_checksum(row, l.row_bytes);
+        ok = write_at(f, l.matrix_offset + i * l.row_bytes, row, l.row_bytes);
+    }
+    rad_ff_header_finish(prologue, checksums, n);
+    ok = ok && write_at(f, l.row_checksum_offset, checksums, n * 8);
+    ok = ok && write_at(f, 0, prologue, prologue_size);
+    if (fclose(f) != 0) ok = 0;
+    f = NULL;
+    if (!ok) {
+        rad_error("%s: write failed: %s", temp, strerror(errno));
+        status = RAD_ERR_IO;
+        goto done;
+    }
+    status = rad_fs_commit(temp, path);
+done:
+    if (f) fclose(f);
+    if (status != RAD_OK) rad_fs_discard(temp);
+    free(prologue);
+    free(row);
+    free(checksums);
+    return status;
+}
+
+/* ---- reading ---- */
+
+struct rad_ff_file {
+    char path[4096];
+    FILE *f;
+    rad_ff_info info;
+    rad_ff_layout layout;
+    rad_mesh mesh;
+    uint64_t *row_checksums;
+    unsigned char *row_buffer;
+};
+
+static rad_status validate_patches(const char *path, const rad_mesh *mesh)
+{
+    for (size_t i = 0; i < mesh->patch_count; i++) {
+        const rad_patch *p = &mesh->patches[i];
+        const char *why = NULL;
+        double nlen = rad_v3_length(p->normal);
+        if (p->vertex_count != 3 && p->vertex_count != 4)
+            why = "vertex count is not 3 or 4";
+        else if (p->vertex_count == 3 && p->v[3] != RAD_NO_VERTEX)
+            why = "triangle has a fourth vertex";
+        else if (!(p->area > 0) || !isfinite(p->area))
+            why = "area is not positive and finite";
+        else if (!(fabs(nlen - 1) < 1e-6))
+            why = "normal is not a unit vector";
+        for (uint32_t k = 0; !why && k < p->vertex_count; k++)
+            if (p->v[k] >= mesh->vertex_count) why = "vertex index out of range";
+        for (int c = 0; !why && c < 3; c++) {
+            if (!(p->rho[c] >= 0 && p->rho[c] < 1)) why = "reflectance outside [0,1)";
+            if (!(p->emission[c] >= 0) || !isfinite(p->emission[c])) why = "emission negative or not finite";
+        }
+        if (why) {
+            rad_error("%s: patch %zu: %s", path, i, why);
+            return RAD_ERR_FORMAT;
+        }
+    }
+    for (size_t i = 0; i < 3 * mesh->vertex_count; i++)
+        if (!isfinite(mesh->positions[i])) {
+            rad_error("%s: vertex %zu: coordinate is not finite", path, i / 3);
+            return RAD_ERR_FORMAT;
+        }
+    return RAD_OK;
+}
+
+static int read_at(FILE *f, uint64_t offset, void *data, size_t size)
+{
+    return fseeko(f, (off_t)offset, SEEK_SET) == 0 && fread(data, 1, size, f) == size;
+}
+
+/* A file in the paper's layout: int32 N, then N*N float64. */
+static int looks_like_paper_format(const unsigned char *h, uint64_t file_size)
+{
+    int32_t n;
+    memcpy(&n, h, 4);
+    return n > 0 && file_size == 4 + 8 * (uint64_t)n * (uint64_t)n;
+}
+
+static rad_status check_header(const char *path, const unsigned char *h, uint64_t got, uint64_t file_size,
+                               rad_ff_info *info, rad_ff_layout *layout)
+{
+    if (got < 8 || memcmp(h, RAD_FF_MAGIC, 8) != 0) {
+        if (got >= 4 && looks_like_paper_format(h, file_size))
+            rad_error("%s: this is a paper-format matrix (int32 N + N*N float64, written by --format paper); "
+                      "it has no patch table: run formfactor without --format paper",
+                      path);
+        else
+            rad_error("%s: not a form-factor file (bad magic)", path);
+        return RAD_ERR_FORMAT;
+    }
+    if (got < RAD_FF_HEADER_BYTES) {
+        rad_error("%s: truncated: %llu bytes, the header alone needs %u", path, (unsigned long long)file_size,
+                  RAD_FF_HEADER_BYTES);
+        return RAD_ERR_FORMAT;
+    }
+    uint32_t version = rad_get_u32(h + H_VERSION);
+    if (version != RAD_FF_VERSION) {
+        rad_error("%s: format version %u, this program reads version %u%s", path, version, RAD_FF_VERSION,
+                  version > RAD_FF_VERSION ? " (written by a newer radiosity?)" : "");
+        return RAD_ERR_FORMAT;
+    }
+    if (rad_get_u64(h + H_HEADER_CHECKSUM) != rad_hash64(RAD_HASH_SEED, h, H_HEADER_CHECKSUM)) {
+        rad_error("%s: header checksum mismatch: the file is corrupted", path);
+        return RAD_ERR_FORMAT;
+    }
+    decode_header(h, info);
+    if (info->element_type != RAD_ELEMENT_F32 && info->element_type != RAD_ELEMENT_F64) {
+        rad_error("%s: unknown element type %u", path, info->element_type);
+        return RAD_ERR_FORMAT;
+    }
+    if (info->patch_count == 0 || info->patch_count > RAD_FF_MAX_PATCHES ||
+        info->vertex_count > 4 * RAD_FF_MAX_PATCHES) {
+        rad_error("%s: implausible sizes (N = %llu, %llu vertices)", path, (unsigned long long)info->patch_count,
+                  (unsigned long long)info->vertex_count);
+        return RAD_ERR_FORMAT;
+    }
+    *layout = rad_ff_layout_of(info);
+    if (rad_get_u64(h + H_MATRIX_OFFSET) != layout->matrix_offset ||
+        rad_get_u64(h + H_FILE_BYTES) != layout->file_bytes ||
+        rad_get_u64(h + H_ROW_CHECKSUM_OFFSET) != layout->row_checksum_offset) {
+        rad_error("%s: section offsets disagree with N = %llu", path, (unsigned long long)info->patch_count);
+        return RAD_ERR_FORMAT;
+    }
+    if (file_size != layout->file_bytes) {
+        rad_error("%s: %s: %llu bytes, N = %llu needs %llu", path, file_size < layout->file_bytes ? "truncated" : "trailing bytes",
+                  (unsigned long long)file_size, (unsigned long long)info->patch_count,
+                  (unsigned long long)layout->file_bytes);
+        return RAD_ERR_FORMAT;
+    }
+    return RAD_OK;
+}
+
+rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
+{
+    rad_status status = RAD_ERR_FORMAT;
+    unsigned char h[RAD_FF_HEADER_BYTES];
+    unsigned char *tables = NULL;
+    rad_ff_file *ff = calloc(1, sizeof *ff);
+    *out_file = NULL;
+    if (!ff) return RAD_ERR_NOMEM;
+    snprintf(ff->path, sizeof ff->path, "%s", path);
+    ff->f = fopen(path, "rb");
+    if (!ff->f) {
+        rad_error("%s: cannot open: %s", path, strerror(errno));
+        status = RAD_ERR_IO;
+        goto done;
+    }
+    if (fseeko(ff->f, 0, SEEK_END) != 0) {
+        rad_error("%s: cannot seek: %s", path, strerror(errno));
+        status = RAD_ERR_IO;
+        goto done;
+    }
+    uint64_t file_size = (uint64_t)ftello(ff->f);
+    rewind(ff->f);
+    size_t got = fread(h, 1, sizeof h, ff->f);
+    if ((status = check_header(path, h, got, file_size, &ff->info, &ff->layout)) != RAD_OK) goto done;
+    status = RAD_ERR_FORMAT;
+
+    const rad_ff_layout *l = &ff->layout;
+    uint64_t n = ff->info.patch_count, v = ff->info.vertex_count;
+    uint64_t tables_size = l->matrix_offset - RAD_FF_HEADER_BYTES;
+    tables = malloc(tables_size);
+    ff->mesh.positions = malloc(v * 24 + 1);
+    ff->mesh.patches = malloc(n * sizeof(rad_patch));
+    ff->row_checksums = malloc(n * 8);
+    ff->row_buffer = malloc(l->row_bytes);
+    if (!tables || !ff->mesh.positions || !ff->mesh.patches || !ff->row_checksums || !ff->row_buffer) {
+        rad_error("%s: out of memory for N = %llu", path, (unsigned long long)n);
+        status = RAD_ERR_NOMEM;
+        goto done;
+    }
+    if (!read_at(ff->f, RAD_FF_HEADER_BYTES, tables, tables_size) ||
+        !read_at(ff->f, l->row_checksum_offset, ff->row_checksums, n * 8)) {
+        rad_error("%s: read error", path);
+        status = RAD_ERR_IO;
+        goto done;
+    }
+    if (rad_hash64(RAD_HASH_SEED, tables, tables_size) != rad_get_u64(h + H_TABLES_CHECKSUM)) {
+        rad_error("%s: vertex/patch table checksum mismatch: the file is corrupted", path);
+        goto done;
+    }
+    if (rad_hash64(RAD_HASH_SEED, ff->row_checksums, n * 8) != rad_get_u64(h + H_ROW_CHECKSUMS_DIGEST)) {
+        rad_error("%s: row-checksum table is corrupted (or the file was not completely written)", path);
+        goto done;
+    }
+    memcpy(ff->mesh.positions, tables + (l->vertex_offset - RAD_FF_HEADER_BYTES), v * 24);
+    memcpy(ff->mesh.patches, tables + (l->patch_offset - RAD_FF_HEADER_BYTES), n * sizeof(rad_patch));
+    ff->mesh.vertex_count = v;
+    ff->mesh.patch_count = n;
+    if ((status = validate_patches(path, &ff->mesh)) != RAD_OK) goto done;
+    *out_file = ff;
+    ff = NULL;
+    status = RAD_OK;
+done:
+    free(tables);
+    rad_ff_close(ff);
+    return status;
+}
+
+void rad_ff_close(rad_ff_file *file)
+{
+    if (!file) return;
+    if (file->f) fclose(file->f);
+    rad_mesh_free(&file->mesh);
+    free(file->row_checksums);
+    free(file->row_buffer);
+    free(file);
+}
+
+const rad_ff_info *rad_ff_file_info(const rad_ff_file *file) { return &file->info; }
+const rad_mesh *rad_ff_file_mesh(const rad_ff_file *file) { return &file->mesh; }
+
+rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, double *out)
+{
+    const rad_ff_layout *l = &file->layout;
+    uint64_t n = file->info.patch_count;
+    if (row_begin > n || row_count > n - row_begin) {
+        rad_error("%s: rows %llu..%llu out of range (N = %llu)", file->path, (unsigned long long)row_begin,
+                  (unsigned long long)(row_begin + row_count), (unsigned long long)n);
+        return RAD_ERR_INVALID;
+    }
+    if (row_count && fseeko(file->f, (off_t)(l->matrix_offset + row_begin * l->row_bytes), SEEK_SET) != 0) {
+        rad_error("%s: cannot seek: %s", file->path, strerror(errno));
+        return RAD_ERR_IO;
+    }
+    for (uint64_t r = 0; r < row_count; r++) {
+        uint64_t i = row_begin + r;
+        if (fread(file->row_buffer, 1, l->row_bytes, file->f) != l->row_bytes) {
+            rad_error("%s: row %llu: read error", file->path, (unsigned long long)i);
+            return RAD_ERR_IO;
+        }
+        if (rad_ff_row_checksum(file->row_buffer, l->row_bytes) != file->row_checksums[i]) {
+            rad_error("%s: row %llu: checksum mismatch: the matrix is corrupted", file->path,
+                      (unsigned long long)i);
+            return RAD_ERR_FORMAT;
+        }
+        double *dst = out + r * n;
+        if (file->info.element_type == RAD_ELEMENT_F32)
+            for (uint64_t j = 0; j < n; j++) dst[j] = ((const float *)file->row_buffer)[j];
+        else
+            memcpy(dst, file->row_buffer, l->row_bytes);
+    }
+    return RAD_OK;
+}

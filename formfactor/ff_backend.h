@@ -1,0 +1,63 @@
+/* ff_backend.h - one interface, several form-factor backends.
+ *
+ * A backend computes whole matrix rows for a committed setup (patches +
+ * occluder triangles). The CPU backend (Embree) is the reference; the CUDA
+ * backend must agree with it. The driver (main.c) picks one at run time:
+ *
+ *     const ff_backend *b = &ff_backend_cpu;
+ *     void *state;
+ *     if (b->create(&setup, &state) == RAD_OK) {
+ *         b->compute_rows(state, row0, rows, out, &counters);
+ *         b->destroy(state);
+ *     }
+ */
+#ifndef FF_BACKEND_H
+#define FF_BACKEND_H
+
+#include <stdint.h>
+
+#include "rad_ff_kernel.h"
+#include "rad_status.h"
+
+/* Everything a backend needs; flat arrays, owned by the caller, read-only
+ * for the backend's lifetime. */
+typedef struct ff_setup {
+    const rad_ff_patch *patches; /* patch_count */
+    uint32_t patch_count;
+    const float *triangles;      /* occluders: triangle_count * 9 floats (3 vertices) */
+    const uint32_t *triangle_face; /* scene face of each triangle (to skip source/target) */
+    uint32_t triangle_count;
+    uint32_t samples;            /* K point pairs per patch pair, >= 1 */
+    uint32_t shadow_rays;        /* R <= K of them carry a shadow ray; 0 = no occlusion */
+    uint64_t seed;
+    double plane_eps;            /* rad_ff_pair_facing tolerance, scene units */
+    int threads;                 /* CPU threads (>= 1) */
+    /* Called now and then from one thread with the rows finished so far in
+     * the current compute_rows call; may be NULL. */
+    void (*progress)(void *user, uint64_t rows_done);
+    void *progress_user;
+} ff_setup;
+
+/* What a backend did; summed over calls, ranks and threads. */
+typedef struct ff_counters {
+    uint64_t pairs;          /* ordered pairs (i, j) considered */
+    uint64_t pairs_culled;   /* of those, zero without sampling (facing test) */
+    uint64_t samples;        /* point pairs evaluated */
+    uint64_t rays;           /* shadow rays traced */
+    uint64_t rays_occluded;  /* of those, blocked */
+    double kernel_seconds;   /* time sampling points and evaluating the kernel */
+    double visibility_seconds; /* time tracing shadow rays */
+} ff_counters;
+
+typedef struct ff_backend {
+    const char *name;
+    rad_status (*create)(const ff_setup *setup, void **out_state);
+    /* Rows [row_begin, row_begin + row_count) into out (row_count * N doubles). */
+    rad_status (*compute_rows)(void *state, uint32_t row_begin, uint32_t row_count, double *out,
+                               ff_counters *counters);
+    void (*destroy)(void *state);
+} ff_backend;
+
+extern const ff_backend ff_backend_cpu;
+
+#endif

@@ -1,0 +1,268 @@
+/* ff_backend_cpu.c - the reference backend: the shared kernel on CPU
+ * threads (OpenMP) and shadow rays through Embree 3. The only file that
+ * includes Embree.
+ *
+ * A row is computed in column blocks of FF_CPU_BLOCK patches, in two passes
+ * so that the paper's "form factor" and "occlusion" times stay separate:
+ *   1. kernel: K samples per facing pair, summing G; the first R point
+ *      pairs and their G are kept in the thread's scratch;
+ *   2. visibility: one rtcOccluded1 per kept point pair, with the source
+ *      and target faces excluded by a context filter (no self-intersection,
+ *      whatever the angle), then F = F_unoccluded * sum(G V) / sum(G).
+ */
+#define _POSIX_C_SOURCE 200809L
+#include <embree3/rtcore.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "ff_backend.h"
+#include "rad_log.h"
+
+enum { FF_CPU_BLOCK = 128 };
+
+typedef struct cpu_state {
+    ff_setup setup;
+    RTCDevice device;
+    RTCScene scene;
+} cpu_state;
+
+/* Per-thread scratch for one column block: R point pairs and kernels per column. */
+typedef struct cpu_scratch {
+    float *rays;     /* FF_CPU_BLOCK * R * 6: x then y */
+    double *kernel;  /* FF_CPU_BLOCK * R */
+    double *unoccluded; /* FF_CPU_BLOCK */
+} cpu_scratch;
+
+/* The context handed to Embree's filter: which faces a ray must ignore. */
+typedef struct occlusion_context {
+    struct RTCIntersectContext base; /* first member: Embree passes &base */
+    const uint32_t *triangle_face;
+    uint32_t skip_a, skip_b;
+} occlusion_context;
+
+static double now_seconds(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* Embree's RTCHitN_primID accessor is C++ only; RTCHitN is SoA with
+ * Ng_x, Ng_y, Ng_z, u, v, primID, ... arrays of N each (rtcore_ray.h). */
+static unsigned hit_prim_id(const struct RTCHitN *hit, unsigned n, unsigned k)
+{
+    return ((const unsigned *)hit)[5 * n + k];
+}
+
+static void skip_own_faces(const struct RTCFilterFunctionNArguments *args)
+{
+    const occlusion_context *ctx = (const occlusion_context *)args->context;
+    for (unsigned k = 0; k < args->N; k++) {
+        if (args->valid[k] != -1) continue;
+        uint32_t face = ctx->triangle_face[hit_prim_id(args->hit, args->N, k)];
+        if (face == ctx->skip_a || face == ctx->skip_b) args->valid[k] = 0;
+    }
+}
+
+static void embree_error(void *user, enum RTCError code, const char *message)
+{
+    (void)user;
+    rad_error("embree: error %d: %s", (int)code, message ? message : "");
+}
+
+static rad_status cpu_create(const ff_setup *setup, void **out_state)
+{
+    cpu_state *s = calloc(1, sizeof *s);
+    if (!s) return RAD_ERR_NOMEM;
+    s->setup = *setup;
+    s->device = rtcNewDevice(NULL);
+    if (!s->device) {
+        rad_error("embree: cannot create a device (error %d)", (int)rtcGetDeviceError(NULL));
+        free(s);
+        return RAD_ERR_BACKEND;
+    }
+    rtcSetDeviceErrorFunction(s->device, embree_error, NULL);
+    s->scene = rtcNewScene(s->device);
+    rtcSetSceneFlags(s->scene, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
+    rtcSetSceneBuildQuality(s->scene, RTC_BUILD_QUALITY_HIGH);
+    if (setup->triangle_count > 0) {
+        RTCGeometry geom = rtcNewGeometry(s->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        float *v = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                           3 * (size_t)setup->triangle_count);
+        unsigned *ix = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                               3 * sizeof(unsigned), setup->triangle_count);
+        if (v && ix) {
+            memcpy(v, setup->triangles, 9 * sizeof(float) * (size_t)setup->triangle_count);
+            for (unsigned t = 0; t < 3 * setup->triangle_count; t++) ix[t] = t;
+        }
+        rtcCommitGeometry(geom);
+        rtcAttachGeometry(s->scene, geom);
+        rtcReleaseGeometry(geom);
+    }
+    rtcCommitScene(s->scene);
+    if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE) {
+        rad_error("embree: building the occluder BVH failed");
+        rtcReleaseScene(s->scene);
+        rtcReleaseDevice(s->device);
+        free(s);
+        return RAD_ERR_BACKEND;
+    }
+    *out_state = s;
+    return RAD_OK;
+}
+
+static void cpu_destroy(void *state)
+{
+    cpu_state *s = state;
+    if (!s) return;
+    rtcReleaseScene(s->scene);
+    rtcReleaseDevice(s->device);
+    free(s);
+}
+
+/* Pass 1 for columns [j0, j1) of row i: unoccluded F and the kept samples. */
+static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j1, double *row, cpu_scratch *sc,
+                         ff_counters *c)
+{
+    const rad_ff_patch *pi = &su->patches[i];
+    uint32_t R = su->shadow_rays, K = su->samples;
+    for (uint32_t j = j0; j < j1; j++) {
+        const rad_ff_patch *pj = &su->patches[j];
+        uint32_t b = j - j0;
+        sc->unoccluded[b] = 0;
+        c->pairs++;
+        if (j == i || !rad_ff_pair_facing(pi, pj, su->plane_eps)) {
+            c->pairs_culled++;
+            row[j] = 0;
+            continue;
+        }
+        double sum = 0;
+        for (uint32_t k = 0; k < K; k++) {
+            rad_vec3 x, y;
+            rad_ff_sample_pair(pi, pj, i, j, k, su->seed, &x, &y);
+            double g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+            sum += g;
+            if (k < R) {
+                float *ray = sc->rays + ((size_t)b * R + k) * 6;
+                ray[0] = (float)x.x, ray[1] = (float)x.y, ray[2] = (float)x.z;
+                ray[3] = (float)y.x, ray[4] = (float)y.y, ray[5] = (float)y.z;
+                sc->kernel[(size_t)b * R + k] = g;
+            }
+        }
+        c->samples += K;
+        sc->unoccluded[b] = sum * pj->area / K;
+        row[j] = sc->unoccluded[b];
+    }
+}
+
+/* Pass 2: scale each unoccluded F by its kernel-weighted visible fraction. */
+static void visibility_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32_t j1, double *row,
+                             const cpu_scratch *sc, ff_counters *c)
+{
+    const ff_setup *su = &s->setup;
+    uint32_t R = su->shadow_rays;
+    occlusion_context ctx;
+    rtcInitIntersectContext(&ctx.base);
+    ctx.base.filter = skip_own_faces;
+    ctx.triangle_face = su->triangle_face;
+    ctx.skip_a = su->patches[i].face;
+    for (uint32_t j = j0; j < j1; j++) {
+        uint32_t b = j - j0;
+        if (!(sc->unoccluded[b] > 0)) continue;
+        ctx.skip_b = su->patches[j].face;
+        double seen = 0, total = 0;
+        uint32_t visible = 0;
+        for (uint32_t r = 0; r < R; r++) {
+            const float *p = sc->rays + ((size_t)b * R + r) * 6;
+            struct RTCRay ray;
+            ray.org_x = p[0], ray.org_y = p[1], ray.org_z = p[2];
+            ray.dir_x = p[3] - p[0], ray.dir_y = p[4] - p[1], ray.dir_z = p[5] - p[2];
+            ray.tnear = 0.0f;
+            ray.tfar = 1.0f;
+            ray.time = 0.0f;
+            ray.mask = ~0u;
+            ray.id = 0;
+            ray.flags = 0;
+            rtcOccluded1(s->scene, &ctx.base, &ray);
+            int is_visible = ray.tfar >= 0.0f; /* Embree sets tfar = -inf on a hit */
+            double g = sc->kernel[(size_t)b * R + r];
+            total += g;
+            seen += is_visible ? g : 0.0;
+            visible += (uint32_t)is_visible;
+        }
+        c->rays += R;
+        c->rays_occluded += R - visible;
+        /* If no kept sample has weight (all grazing), fall back to the plain fraction. */
+        double fraction = total > 0 ? seen / total : (double)visible / R;
+        row[j] = sc->unoccluded[b] * fraction;
+    }
+}
+
+static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row_count, double *out,
+                                   ff_counters *counters)
+{
+    cpu_state *s = state;
+    const ff_setup *su = &s->setup;
+    uint32_t n = su->patch_count, R = su->shadow_rays;
+    int failed = 0;
+    uint64_t rows_done = 0;
+
+#pragma omp parallel num_threads(su->threads) reduction(+ : failed)
+    {
+        cpu_scratch sc;
+        ff_counters c = {0};
+        sc.rays = malloc(sizeof(float) * 6 * FF_CPU_BLOCK * (R ? R : 1));
+        sc.kernel = malloc(sizeof(double) * FF_CPU_BLOCK * (R ? R : 1));
+        sc.unoccluded = malloc(sizeof(double) * FF_CPU_BLOCK);
+        int master = 1;
+#ifdef _OPENMP
+        master = omp_get_thread_num() == 0;
+#endif
+        if (!sc.rays || !sc.kernel || !sc.unoccluded) failed = 1;
+#pragma omp for schedule(dynamic, 1)
+        for (uint32_t r = 0; r < row_count; r++) {
+            if (failed) continue;
+            uint32_t i = row_begin + r;
+            double *row = out + (size_t)r * n;
+            for (uint32_t j0 = 0; j0 < n; j0 += FF_CPU_BLOCK) {
+                uint32_t j1 = j0 + FF_CPU_BLOCK < n ? j0 + FF_CPU_BLOCK : n;
+                double t0 = now_seconds();
+                kernel_block(su, i, j0, j1, row, &sc, &c);
+                double t1 = now_seconds();
+                if (R > 0) visibility_block(s, i, j0, j1, row, &sc, &c);
+                c.kernel_seconds += t1 - t0;
+                c.visibility_seconds += now_seconds() - t1;
+            }
+            uint64_t done;
+#pragma omp atomic capture
+            done = ++rows_done;
+            if (master && su->progress) su->progress(su->progress_user, done);
+        }
+#pragma omp critical
+        {
+            counters->pairs += c.pairs;
+            counters->pairs_culled += c.pairs_culled;
+            counters->samples += c.samples;
+            counters->rays += c.rays;
+            counters->rays_occluded += c.rays_occluded;
+            counters->kernel_seconds += c.kernel_seconds / su->threads;
+            counters->visibility_seconds += c.visibility_seconds / su->threads;
+        }
+        free(sc.rays);
+        free(sc.kernel);
+        free(sc.unoccluded);
+    }
+    if (failed) {
+        rad_error("out of memory for the CPU backend's scratch buffers");
+        return RAD_ERR_NOMEM;
+    }
+    if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE) return RAD_ERR_BACKEND;
+    return RAD_OK;
+}
+
+const ff_backend ff_backend_cpu = {"cpu", cpu_create, cpu_compute_rows, cpu_destroy};

@@ -1,0 +1,50 @@
+/* ff_comm.h - everything formfactor needs from MPI, and nothing else.
+ *
+ * The only header of the stage that stands between the numerics and MPI:
+ * ff_comm_mpi.c is the only file that includes <mpi.h>. A plain
+ * `./formfactor` runs as an MPI singleton (one rank).
+ *
+ * Failure protocol: every phase ends with ff_comm_agree(), which returns the
+ * same (worst) status on every rank, so ranks leave together and main()
+ * alone exits. No MPI_Abort in the call chain.
+ */
+#ifndef FF_COMM_H
+#define FF_COMM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rad_status.h"
+
+typedef struct ff_comm ff_comm;         /* opaque */
+typedef struct ff_comm_file ff_comm_file; /* opaque: a file opened by all ranks */
+
+rad_status ff_comm_init(int *argc, char ***argv, ff_comm **out_comm);
+void ff_comm_finalize(ff_comm *comm);
+
+int ff_comm_rank(const ff_comm *comm);
+int ff_comm_size(const ff_comm *comm);
+int ff_comm_node_size(const ff_comm *comm); /* ranks sharing this node */
+double ff_comm_time(void);                  /* wall-clock seconds */
+
+/* Collective: the worst (largest) status over all ranks. */
+rad_status ff_comm_agree(ff_comm *comm, rad_status local);
+/* Collective: max of a uint64 over all ranks. */
+uint64_t ff_comm_max_u64(ff_comm *comm, uint64_t value);
+/* Collective: root's bytes to every rank. */
+void ff_comm_broadcast(ff_comm *comm, void *data, size_t bytes, int root);
+/* Collective: every rank's `bytes` into root's `out` (size * bytes), rank order. */
+void ff_comm_gather(ff_comm *comm, const void *data, size_t bytes, void *out, int root);
+/* Collective: variable-sized blocks of uint64 gathered on root in rank order. */
+void ff_comm_gather_u64v(ff_comm *comm, const uint64_t *data, uint64_t count, uint64_t *out, int root);
+
+/* Collective open (create, write-only) of `path` on every rank. */
+rad_status ff_comm_file_open(ff_comm *comm, const char *path, ff_comm_file **out_file);
+/* Collective write: each rank its own (offset, bytes); bytes may be 0. */
+rad_status ff_comm_file_write_all(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes);
+/* Independent write from one rank. */
+rad_status ff_comm_file_write(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes);
+/* Collective close; returns the agreed status of all writes and the close. */
+rad_status ff_comm_file_close(ff_comm_file *file);
+
+#endif

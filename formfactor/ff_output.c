@@ -1,0 +1,160 @@
+#include "ff_output.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rad_fs.h"
+#include "rad_log.h"
+
+#define FF_OUTPUT_MAX_BYTES ((uint64_t)1 << 28) /* 256 MiB per collective write */
+
+struct ff_output {
+    ff_comm *comm;
+    ff_comm_file *file;
+    ff_format format;
+    char path[4096], temp[4096];
+    rad_ff_info info;
+    rad_ff_layout layout;
+    unsigned char *prologue; /* rank 0, native format */
+    size_t prologue_size;
+    uint64_t *row_checksums; /* this rank's rows, in order */
+    uint64_t checksum_count, checksum_cap;
+    void *convert; /* one write's rows in the stored element type */
+};
+
+uint32_t ff_output_max_rows(const ff_output *output)
+{
+    uint64_t rows = FF_OUTPUT_MAX_BYTES / output->layout.row_bytes;
+    return rows ? (uint32_t)rows : 1;
+}
+
+rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, const rad_ff_info *info,
+                          const rad_mesh *mesh, ff_output **out_output)
+{
+    rad_status status = RAD_OK;
+    ff_output *o = calloc(1, sizeof *o);
+    if (!o) status = RAD_ERR_NOMEM;
+    if (status == RAD_OK) {
+        o->comm = comm;
+        o->format = format;
+        o->info = *info;
+        if (format == FF_FORMAT_PAPER) o->info.element_type = RAD_ELEMENT_F64;
+        o->layout = rad_ff_layout_of(&o->info);
+        snprintf(o->path, sizeof o->path, "%s", path);
+        if (ff_comm_rank(comm) == 0) status = rad_fs_temp_path(path, o->temp, sizeof o->temp);
+        if (status == RAD_OK && ff_comm_rank(comm) == 0 && format == FF_FORMAT_NATIVE)
+            status = rad_ff_prologue_encode(&o->info, mesh, &o->prologue, &o->prologue_size);
+        uint64_t rows = ff_output_max_rows(o);
+        if (rows > o->info.patch_count) rows = o->info.patch_count;
+        o->convert = malloc(rows * o->layout.row_bytes + 1);
+        if (!o->convert) status = RAD_ERR_NOMEM;
+    }
+    status = ff_comm_agree(comm, status);
+    if (status == RAD_OK) {
+        ff_comm_broadcast(comm, o->temp, sizeof o->temp, 0);
+        status = ff_comm_file_open(comm, o->temp, &o->file);
+    }
+    if (status != RAD_OK) {
+        if (o) {
+            free(o->prologue);
+            free(o->convert);
+        }
+        free(o);
+        return status;
+    }
+    *out_output = o;
+    return RAD_OK;
+}
+
+static uint64_t matrix_offset(const ff_output *o, uint32_t row)
+{
+    if (o->format == FF_FORMAT_PAPER) return 4 + (uint64_t)row * o->layout.row_bytes;
+    return o->layout.matrix_offset + (uint64_t)row * o->layout.row_bytes;
+}
+
+rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_count, const double *rows)
+{
+    uint64_t n = o->info.patch_count, rb = o->layout.row_bytes;
+    rad_status status = RAD_OK;
+    if ((uint64_t)row_count * rb > FF_OUTPUT_MAX_BYTES) {
+        rad_error("internal: %u rows exceed one collective write", row_count);
+        status = RAD_ERR_INVALID;
+        row_count = 0;
+    }
+    if (o->checksum_count + row_count > o->checksum_cap) {
+        uint64_t cap = o->checksum_cap ? 2 * o->checksum_cap : 1024;
+        while (cap < o->checksum_count + row_count) cap *= 2;
+        uint64_t *grown = realloc(o->row_checksums, cap * 8);
+        if (!grown) {
+            rad_error("out of memory for row checksums");
+            status = RAD_ERR_NOMEM;
+            row_count = 0;
+        } else {
+            o->row_checksums = grown;
+            o->checksum_cap = cap;
+        }
+    }
+    for (uint32_t r = 0; r < row_count; r++) {
+        unsigned char *dst = (unsigned char *)o->convert + r * rb;
+        const double *src = rows + (uint64_t)r * n;
+        if (o->info.element_type == RAD_ELEMENT_F32)
+            for (uint64_t j = 0; j < n; j++) ((float *)dst)[j] = (float)src[j];
+        else
+            memcpy(dst, src, rb);
+        o->row_checksums[o->checksum_count++] = rad_ff_row_checksum(dst, rb);
+    }
+    /* Every rank takes part in the collective write, even with nothing to write. */
+    rad_status written = ff_comm_file_write_all(o->file, matrix_offset(o, row_begin), o->convert,
+                                                (size_t)row_count * rb);
+    return status != RAD_OK ? status : written;
+}
+
+/* Rank 0: the leading parts (header + tables, or the paper's int32 N) and
+ * the row-checksum table gathered from all ranks. */
+static rad_status write_prologue(ff_output *o, const uint64_t *all_checksums)
+{
+    if (o->format == FF_FORMAT_PAPER) {
+        int32_t n = (int32_t)o->info.patch_count;
+        return ff_comm_file_write(o->file, 0, &n, 4);
+    }
+    rad_ff_header_finish(o->prologue, all_checksums, o->info.patch_count);
+    rad_status status = ff_comm_file_write(o->file, o->layout.row_checksum_offset, all_checksums,
+                                           o->info.patch_count * 8);
+    if (status == RAD_OK) status = ff_comm_file_write(o->file, 0, o->prologue, o->prologue_size);
+    return status;
+}
+
+rad_status ff_output_finish(ff_output *o, rad_status status)
+{
+    int root = ff_comm_rank(o->comm) == 0;
+    uint64_t *all = NULL;
+    status = ff_comm_agree(o->comm, status);
+    if (status == RAD_OK) {
+        if (root) {
+            all = malloc(o->info.patch_count * 8);
+            if (!all) rad_error("out of memory gathering row checksums");
+        }
+        if (ff_comm_agree(o->comm, root && !all ? RAD_ERR_NOMEM : RAD_OK) != RAD_OK) status = RAD_ERR_NOMEM;
+    }
+    if (status == RAD_OK) {
+        ff_comm_gather_u64v(o->comm, o->row_checksums, o->checksum_count, all, 0);
+        rad_status local = root ? write_prologue(o, all) : RAD_OK;
+        status = ff_comm_agree(o->comm, local);
+    }
+    rad_status closed = ff_comm_file_close(o->file);
+    if (status == RAD_OK) status = closed;
+    if (root) {
+        if (status == RAD_OK)
+            status = rad_fs_commit(o->temp, o->path);
+        else
+            rad_fs_discard(o->temp);
+    }
+    status = ff_comm_agree(o->comm, status);
+    free(all);
+    free(o->prologue);
+    free(o->convert);
+    free(o->row_checksums);
+    free(o);
+    return status;
+}

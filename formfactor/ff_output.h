@@ -1,0 +1,39 @@
+/* ff_output.h - the form-factor file, written by all ranks at once.
+ *
+ *     ff_output *out;
+ *     ff_output_open(comm, path, FF_FORMAT_NATIVE, &info, &mesh, &out);   // collective
+ *     for each round: ff_output_write_rows(out, row0, rows, data);         // collective
+ *     status = ff_output_finish(out, status);                              // collective
+ *
+ * Rank 0 picks a temporary name beside `path`; every rank writes its row
+ * blocks there with MPI_File_write_at_all at offsets computed from the
+ * layout; rank 0 adds the header and the row checksums last and renames the
+ * file only if every rank succeeded. Otherwise the temporary is removed and
+ * whatever was under `path` before stays as it was.
+ */
+#ifndef FF_OUTPUT_H
+#define FF_OUTPUT_H
+
+#include <stdint.h>
+
+#include "ff_comm.h"
+#include "rad_ffile.h"
+
+typedef enum ff_format {
+    FF_FORMAT_NATIVE = 0, /* docs/formats.md */
+    FF_FORMAT_PAPER = 1   /* int32 N, then N*N float64, row-major; nothing else */
+} ff_format;
+
+typedef struct ff_output ff_output;
+
+rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, const rad_ff_info *info,
+                          const rad_mesh *mesh, ff_output **out_output);
+/* Largest number of rows one write may carry (keeps a collective write in one MPI piece). */
+uint32_t ff_output_max_rows(const ff_output *output);
+/* Collective: this rank's rows [row_begin, row_begin + row_count) (row_count may be 0). */
+rad_status ff_output_write_rows(ff_output *output, uint32_t row_begin, uint32_t row_count, const double *rows);
+/* Collective: completes (or, if `status` is not RAD_OK on any rank, discards)
+ * the file and frees `output`; returns the agreed status. */
+rad_status ff_output_finish(ff_output *output, rad_status status);
+
+#endif

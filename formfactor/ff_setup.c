@@ -1,0 +1,107 @@
+#include "ff_setup.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+#include "rad_log.h"
+
+rad_status ff_patches_build(const rad_mesh *mesh, rad_ff_patch **out_patches)
+{
+    rad_ff_patch *out = malloc(sizeof *out * (mesh->patch_count ? mesh->patch_count : 1));
+    if (!out) {
+        rad_error("out of memory for %zu patches", mesh->patch_count);
+        return RAD_ERR_NOMEM;
+    }
+    for (size_t i = 0; i < mesh->patch_count; i++) {
+        const rad_patch *p = &mesh->patches[i];
+        rad_ff_patch *q = &out[i];
+        for (uint32_t k = 0; k < 4; k++) {
+            uint32_t v = p->v[k < p->vertex_count ? k : 2];
+            q->p[k] = rad_v3(mesh->positions[3 * v], mesh->positions[3 * v + 1], mesh->positions[3 * v + 2]);
+        }
+        q->normal = p->normal;
+        q->area = p->area;
+        q->face = p->source_face;
+        q->vertex_count = p->vertex_count;
+        q->split = 1.0;
+        if (p->vertex_count == 4) {
+            double first = 0.5 * rad_v3_length(rad_v3_cross(rad_v3_sub(q->p[1], q->p[0]), rad_v3_sub(q->p[2], q->p[0])));
+            double second = 0.5 * rad_v3_length(rad_v3_cross(rad_v3_sub(q->p[2], q->p[0]), rad_v3_sub(q->p[3], q->p[0])));
+            q->split = first / (first + second);
+        }
+    }
+    *out_patches = out;
+    return RAD_OK;
+}
+
+rad_status ff_occluders_build(const rad_scene *scene, float **out_triangles, uint32_t **out_triangle_face,
+                              uint32_t *out_triangle_count)
+{
+    uint32_t count = 0;
+    for (size_t f = 0; f < scene->face_count; f++) count += scene->faces[f].vertex_count - 2;
+    float *tri = malloc(sizeof *tri * 9 * (count ? count : 1));
+    uint32_t *face = malloc(sizeof *face * (count ? count : 1));
+    if (!tri || !face) {
+        free(tri);
+        free(face);
+        rad_error("out of memory for %u occluder triangles", count);
+        return RAD_ERR_NOMEM;
+    }
+    uint32_t t = 0;
+    for (size_t f = 0; f < scene->face_count; f++) {
+        const rad_face *fc = &scene->faces[f];
+        for (uint32_t k = 1; k + 1 < fc->vertex_count; k++, t++) {
+            uint32_t corner[3] = {fc->v[0], fc->v[k], fc->v[k + 1]};
+            for (int c = 0; c < 3; c++)
+                for (int a = 0; a < 3; a++) tri[9 * t + 3 * c + a] = (float)scene->positions[3 * corner[c] + a];
+            face[t] = (uint32_t)f;
+        }
+    }
+    *out_triangles = tri;
+    *out_triangle_face = face;
+    *out_triangle_count = count;
+    return RAD_OK;
+}
+
+double ff_plane_eps(const rad_mesh *mesh)
+{
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t v = 0; v < mesh->vertex_count; v++)
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fmin(lo[a], mesh->positions[3 * v + a]);
+            hi[a] = fmax(hi[a], mesh->positions[3 * v + a]);
+        }
+    double d2 = 0;
+    for (int a = 0; a < 3; a++) d2 += mesh->vertex_count ? (hi[a] - lo[a]) * (hi[a] - lo[a]) : 0;
+    return 1e-9 * sqrt(d2);
+}
+
+rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps, int ranks, uint32_t *out_begin)
+{
+    double *prefix = malloc(sizeof *prefix * ((size_t)n + 1));
+    if (!prefix) {
+        rad_error("out of memory partitioning %u rows", n);
+        return RAD_ERR_NOMEM;
+    }
+    uint32_t probes = n < FF_PARTITION_PROBES ? n : FF_PARTITION_PROBES;
+    prefix[0] = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t facing = 0;
+        for (uint32_t p = 0; p < probes; p++) {
+            uint32_t j = (uint32_t)((uint64_t)p * n / probes);
+            facing += j != i && rad_ff_pair_facing(&patches[i], &patches[j], eps);
+        }
+        /* Every row also costs its loop and its write: at least one unit. */
+        prefix[i + 1] = prefix[i] + 1.0 + (double)facing * n / (probes ? probes : 1);
+    }
+    out_begin[0] = 0;
+    uint32_t i = 0;
+    for (int r = 1; r < ranks; r++) {
+        double target = prefix[n] * r / ranks;
+        while (i < n && prefix[i + 1] <= target) i++;
+        out_begin[r] = i;
+    }
+    out_begin[ranks] = n;
+    free(prefix);
+    return RAD_OK;
+}

@@ -1,0 +1,32 @@
+/* ff_setup.h - from scene and mesh to the flat arrays the backends read,
+ * and the split of rows among ranks. */
+#ifndef FF_SETUP_H
+#define FF_SETUP_H
+
+#include <stdint.h>
+
+#include "rad_ff_kernel.h"
+#include "rad_mesh.h"
+#include "rad_scene.h"
+#include "rad_status.h"
+
+/* One rad_ff_patch per mesh patch (caller frees *out_patches). */
+rad_status ff_patches_build(const rad_mesh *mesh, rad_ff_patch **out_patches);
+
+/* Occluders: every scene face as float triangles (a quad gives two), with
+ * the face each came from. Caller frees both arrays. */
+rad_status ff_occluders_build(const rad_scene *scene, float **out_triangles, uint32_t **out_triangle_face,
+                              uint32_t *out_triangle_count);
+
+/* Tolerance of the facing test: 1e-9 of the scene's bounding-box diagonal. */
+double ff_plane_eps(const rad_mesh *mesh);
+
+/* Splits rows 0..n-1 into `ranks` contiguous blocks of about equal work:
+ * row i costs the number of columns facing it, estimated on a fixed,
+ * evenly spaced subset of at most FF_PARTITION_PROBES columns (so the split
+ * is cheap and the same on every rank). out_begin has ranks + 1 entries;
+ * rank r owns [out_begin[r], out_begin[r + 1]). */
+#define FF_PARTITION_PROBES 512
+rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps, int ranks, uint32_t *out_begin);
+
+#endif

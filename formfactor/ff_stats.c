@@ -1,0 +1,130 @@
+#include "ff_stats.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "rad_fs.h"
+#include "rad_log.h"
+
+/* Phase times of the whole run: the slowest rank's, as the paper reported. */
+static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
+{
+    ff_rank_stats all = ranks[0];
+    all.row_begin = 0;
+    all.row_end = run->patch_count;
+    for (int r = 1; r < run->ranks; r++) {
+        const ff_rank_stats *s = &ranks[r];
+#define FF_MAX(field) all.field = s->field > all.field ? s->field : all.field
+        FF_MAX(load); FF_MAX(subdivide); FF_MAX(setup); FF_MAX(form_factors);
+        FF_MAX(visibility); FF_MAX(io); FF_MAX(total);
+#undef FF_MAX
+        all.counters.pairs += s->counters.pairs;
+        all.counters.pairs_culled += s->counters.pairs_culled;
+        all.counters.samples += s->counters.samples;
+        all.counters.rays += s->counters.rays;
+        all.counters.rays_occluded += s->counters.rays_occluded;
+        if (s->row_end > s->row_begin) {
+            if (s->row_sum_min < all.row_sum_min || all.row_end == all.row_begin) all.row_sum_min = s->row_sum_min;
+            if (s->row_sum_max > all.row_sum_max) all.row_sum_max = s->row_sum_max;
+        }
+        all.row_sum_total += s->row_sum_total;
+    }
+    return all;
+}
+
+static void write_times(FILE *f, const ff_rank_stats *s)
+{
+    fprintf(f,
+            "{\"load\": %.6f, \"subdivide\": %.6f, \"setup\": %.6f, \"form_factors\": %.6f, "
+            "\"visibility\": %.6f, \"io\": %.6f, \"total\": %.6f}",
+            s->load, s->subdivide, s->setup, s->form_factors, s->visibility, s->io, s->total);
+}
+
+static void write_counters(FILE *f, const ff_counters *c)
+{
+    fprintf(f,
+            "\"pairs\": %llu, \"pairs_culled\": %llu, \"samples\": %llu, \"rays\": %llu, "
+            "\"rays_occluded\": %llu",
+            (unsigned long long)c->pairs, (unsigned long long)c->pairs_culled, (unsigned long long)c->samples,
+            (unsigned long long)c->rays, (unsigned long long)c->rays_occluded);
+}
+
+static void write_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; s && *s; s++) {
+        if (*s == '"' || *s == '\\') fputc('\\', f);
+        if ((unsigned char)*s < 0x20)
+            fprintf(f, "\\u%04x", *s);
+        else
+            fputc(*s, f);
+    }
+    fputc('"', f);
+}
+
+rad_status ff_stats_write_json(const char *path, const ff_run_info *run, const ff_rank_stats *ranks)
+{
+    char temp[4096];
+    rad_status status = rad_fs_temp_path(path, temp, sizeof temp);
+    if (status != RAD_OK) return status;
+    FILE *f = fopen(temp, "w");
+    if (!f) {
+        rad_error("%s: cannot create: %s", temp, strerror(errno));
+        return RAD_ERR_IO;
+    }
+    ff_rank_stats all = overall(run, ranks);
+    double seconds = all.total > 0 ? all.total : 1e-9;
+    fprintf(f, "{\n  \"program\": \"formfactor\",\n  \"scene\": ");
+    write_string(f, run->scene);
+    fprintf(f, ",\n  \"scene_fingerprint\": \"%016llx\",\n", (unsigned long long)run->fingerprint);
+    fprintf(f, "  \"patches\": %u,\n  \"subdiv\": %d,\n  \"subdiv_only\": ", run->patch_count, run->subdiv);
+    if (run->subdiv_only) write_string(f, run->subdiv_only); else fputs("null", f);
+    fprintf(f, ",\n  \"samples_per_pair\": %u,\n  \"shadow_rays_per_pair\": %u,\n  \"seed\": %llu,\n",
+            run->samples, run->shadow_rays, (unsigned long long)run->seed);
+    fprintf(f, "  \"backend\": \"%s\",\n  \"element\": \"%s\",\n  \"format\": \"%s\",\n  \"output\": ", run->backend,
+            run->element, run->format);
+    write_string(f, run->output);
+    fprintf(f, ",\n  \"ranks\": %d,\n  \"gpus_visible\": %d,\n  ", run->ranks, run->gpus_visible);
+    write_counters(f, &all.counters);
+    fprintf(f, ",\n  \"rays_per_second\": %.6g,\n  \"samples_per_second\": %.6g,\n",
+            all.counters.rays / seconds, all.counters.samples / seconds);
+    fprintf(f, "  \"row_sum\": {\"min\": %.9g, \"max\": %.9g, \"mean\": %.9g},\n", all.row_sum_min, all.row_sum_max,
+            run->patch_count ? all.row_sum_total / run->patch_count : 0.0);
+    fprintf(f, "  \"time_seconds\": ");
+    write_times(f, &all);
+    fprintf(f, ",\n  \"per_rank\": [\n");
+    for (int r = 0; r < run->ranks; r++) {
+        const ff_rank_stats *s = &ranks[r];
+        fprintf(f, "    {\"rank\": %d, \"threads\": %d, \"rows\": [%u, %u], ", s->rank, s->threads, s->row_begin,
+                s->row_end);
+        write_counters(f, &s->counters);
+        fprintf(f, ", \"time_seconds\": ");
+        write_times(f, s);
+        fprintf(f, "}%s\n", r + 1 < run->ranks ? "," : "");
+    }
+    fprintf(f, "  ]\n}\n");
+    int ok = !ferror(f);
+    if (fclose(f) != 0) ok = 0;
+    if (!ok) {
+        rad_error("%s: write failed", temp);
+        rad_fs_discard(temp);
+        return RAD_ERR_IO;
+    }
+    return rad_fs_commit(temp, path);
+}
+
+void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
+{
+    ff_rank_stats all = overall(run, ranks);
+    const ff_counters *c = &all.counters;
+    rad_info("%u patches, %llu pairs (%llu culled), %llu samples, %llu shadow rays (%.1f%% occluded), %d rank(s)",
+             run->patch_count, (unsigned long long)c->pairs, (unsigned long long)c->pairs_culled,
+             (unsigned long long)c->samples, (unsigned long long)c->rays,
+             c->rays ? 100.0 * c->rays_occluded / c->rays : 0.0, run->ranks);
+    rad_info("time (s, slowest rank): load %.3f  subdivide %.3f  setup %.3f  form factors %.3f  visibility %.3f  "
+             "I/O %.3f  total %.3f",
+             all.load, all.subdivide, all.setup, all.form_factors, all.visibility, all.io, all.total);
+    rad_info("row sums: min %.6f  max %.6f  mean %.6f", all.row_sum_min, all.row_sum_max,
+             run->patch_count ? all.row_sum_total / run->patch_count : 0.0);
+}

@@ -1,0 +1,42 @@
+/* ff_stats.h - what one formfactor run did and how long each phase took,
+ * per rank and overall, as JSON (--stats) and as a summary on stderr. */
+#ifndef FF_STATS_H
+#define FF_STATS_H
+
+#include <stdint.h>
+
+#include "ff_backend.h"
+#include "rad_status.h"
+
+/* The paper's phases, wall-clock seconds on one rank. */
+typedef struct ff_rank_stats {
+    int32_t rank;
+    int32_t threads;
+    uint32_t row_begin, row_end;
+    double load, subdivide, setup, form_factors, visibility, io, total;
+    ff_counters counters;
+    double row_sum_min, row_sum_max, row_sum_total; /* over this rank's rows */
+} ff_rank_stats;
+
+typedef struct ff_run_info {
+    const char *scene;
+    uint64_t fingerprint;
+    uint32_t patch_count;
+    int subdiv;
+    const char *subdiv_only;
+    uint32_t samples, shadow_rays;
+    uint64_t seed;
+    const char *backend;
+    const char *element;
+    const char *format;
+    const char *output;
+    int ranks;
+    int gpus_visible;
+} ff_run_info;
+
+/* Writes the JSON document (temp + rename). `ranks` has run->ranks entries. */
+rad_status ff_stats_write_json(const char *path, const ff_run_info *run, const ff_rank_stats *ranks);
+/* One line per phase on stderr (rank 0): the paper's table for this run. */
+void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks);
+
+#endif

@@ -1,0 +1,420 @@
+/* formfactor - form factors F_ij for every patch pair of a subdivided scene.
+ *
+ *     mpirun -n P formfactor [options] [SCENE.obj]
+ *
+ * Every rank loads the scene and builds the same patch mesh; rows are split
+ * into contiguous blocks of about equal work; each rank computes its rows
+ * in rounds and all ranks write each round with one collective MPI-IO call.
+ * The file appears under its final name only when every rank succeeded.
+ */
+#define _POSIX_C_SOURCE 200809L
+#include <getopt.h>
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "ff_backend.h"
+#include "ff_comm.h"
+#include "ff_cuda.h"
+#include "ff_output.h"
+#include "ff_setup.h"
+#include "ff_stats.h"
+#include "rad_ffile.h"
+#include "rad_log.h"
+#include "rad_mesh.h"
+#include "rad_scene.h"
+
+#define FF_VERSION "0.1.0"
+
+typedef struct ff_options {
+    const char *scene_path; /* NULL = built-in Cornell box */
+    const char *output;     /* "formfactors" */
+    const char *stats_path; /* NULL = none */
+    const char *subdiv_only;
+    const char *backend;    /* auto | cpu | cuda */
+    int subdiv;
+    uint32_t samples, shadow_rays;
+    uint64_t seed;
+    rad_element_type element;
+    ff_format format;
+    int threads; /* 0 = cores / ranks on this node */
+    int quiet;
+    int help, version;
+} ff_options;
+
+static void print_help(void)
+{
+    printf("usage: mpirun -n P formfactor [options] [SCENE.obj]\n"
+           "       formfactor [options] [SCENE.obj]          (one rank)\n"
+           "\n"
+           "Computes the form factor F_ij of every patch pair of SCENE.obj (default: the\n"
+           "built-in Cornell box) and writes the N x N matrix with the patch table.\n"
+           "\n"
+           "  -o, --output FILE        output file (default: formfactors)\n"
+           "      --subdiv S           split every face into 4^S patches (default: 0)\n"
+           "      --subdiv-only GROUP  subdivide only faces of OBJ group GROUP (the paper's\n"
+           "                           code subdivided only the box: --subdiv-only box)\n"
+           "      --samples K          point pairs per patch pair (default: 512)\n"
+           "      --shadow-rays R      of those, pairs that carry a shadow ray (default: 32;\n"
+           "                           0 = no occlusion)\n"
+           "      --seed N             random seed (default: 1); same seed, same bytes\n"
+           "      --backend B          auto | cpu | cuda (default: auto)\n"
+           "      --element T          f64 | f32 matrix element type (default: f64)\n"
+           "      --format F           native | paper (paper: int32 N + N*N float64 only)\n"
+           "      --threads T          CPU threads per rank (default: cores / ranks per node)\n"
+           "      --stats FILE.json    write counts and phase times (per rank and total)\n"
+           "  -q, --quiet              only errors on stderr\n"
+           "  -h, --help               this help\n"
+           "      --version            print the version\n"
+           "\n"
+           "File layout: docs/formats.md. Estimator: docs/architecture.md.\n");
+}
+
+static rad_status parse_uint(const char *flag, const char *text, uint64_t max, uint64_t *out)
+{
+    char *end = NULL;
+    if (!text || !*text || *text == '-') goto bad;
+    unsigned long long v = strtoull(text, &end, 10);
+    if (*end || v > max) goto bad;
+    *out = v;
+    return RAD_OK;
+bad:
+    rad_error("%s: expected an integer in [0, %llu], got '%s'", flag, (unsigned long long)max, text ? text : "");
+    return RAD_ERR_USAGE;
+}
+
+static rad_status parse_options(int argc, char **argv, ff_options *o)
+{
+    enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
+           O_VERSION };
+    static const struct option longs[] = {
+        {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
+        {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
+        {"shadow-rays", required_argument, 0, O_RAYS}, {"seed", required_argument, 0, O_SEED},
+        {"backend", required_argument, 0, O_BACKEND}, {"element", required_argument, 0, O_ELEMENT},
+        {"format", required_argument, 0, O_FORMAT},   {"threads", required_argument, 0, O_THREADS},
+        {"stats", required_argument, 0, O_STATS},     {"quiet", no_argument, 0, 'q'},
+        {"help", no_argument, 0, 'h'},                {"version", no_argument, 0, O_VERSION},
+        {0, 0, 0, 0}};
+    *o = (ff_options){.output = "formfactors", .backend = "auto", .samples = 512, .shadow_rays = 32, .seed = 1,
+                      .element = RAD_ELEMENT_F64, .format = FF_FORMAT_NATIVE};
+    uint64_t v = 0;
+    rad_status st = RAD_OK;
+    int c;
+    opterr = 0;
+    while (st == RAD_OK && (c = getopt_long(argc, argv, "o:qh", longs, NULL)) != -1) {
+        switch (c) {
+        case 'o': o->output = optarg; break;
+        case 'q': o->quiet = 1; break;
+        case 'h': o->help = 1; break;
+        case O_VERSION: o->version = 1; break;
+        case O_SUBDIV: st = parse_uint("--subdiv", optarg, 12, &v); o->subdiv = (int)v; break;
+        case O_ONLY: o->subdiv_only = optarg; break;
+        case O_SAMPLES: st = parse_uint("--samples", optarg, 1u << 24, &v); o->samples = (uint32_t)v; break;
+        case O_RAYS: st = parse_uint("--shadow-rays", optarg, 1u << 24, &v); o->shadow_rays = (uint32_t)v; break;
+        case O_SEED: st = parse_uint("--seed", optarg, UINT64_MAX, &v); o->seed = v; break;
+        case O_THREADS: st = parse_uint("--threads", optarg, 1024, &v); o->threads = (int)v; break;
+        case O_STATS: o->stats_path = optarg; break;
+        case O_BACKEND:
+            o->backend = optarg;
+            if (strcmp(optarg, "auto") && strcmp(optarg, "cpu") && strcmp(optarg, "cuda")) {
+                rad_error("--backend: expected auto, cpu or cuda, got '%s'", optarg);
+                st = RAD_ERR_USAGE;
+            }
+            break;
+        case O_ELEMENT:
+            if (!strcmp(optarg, "f64")) o->element = RAD_ELEMENT_F64;
+            else if (!strcmp(optarg, "f32")) o->element = RAD_ELEMENT_F32;
+            else { rad_error("--element: expected f64 or f32, got '%s'", optarg); st = RAD_ERR_USAGE; }
+            break;
+        case O_FORMAT:
+            if (!strcmp(optarg, "native")) o->format = FF_FORMAT_NATIVE;
+            else if (!strcmp(optarg, "paper")) o->format = FF_FORMAT_PAPER;
+            else { rad_error("--format: expected native or paper, got '%s'", optarg); st = RAD_ERR_USAGE; }
+            break;
+        default:
+            rad_error("unknown or incomplete option '%s' (see --help)", argv[optind - 1]);
+            st = RAD_ERR_USAGE;
+        }
+    }
+    if (st != RAD_OK) return st;
+    if (optind < argc) o->scene_path = argv[optind++];
+    if (optind < argc) {
+        rad_error("unexpected argument '%s' (one scene at a time)", argv[optind]);
+        return RAD_ERR_USAGE;
+    }
+    if (o->samples == 0) {
+        rad_error("--samples must be at least 1");
+        return RAD_ERR_USAGE;
+    }
+    if (o->shadow_rays > o->samples) {
+        rad_error("--shadow-rays %u exceeds --samples %u (rays are cast along sample pairs)", o->shadow_rays,
+                  o->samples);
+        return RAD_ERR_USAGE;
+    }
+    if (o->format == FF_FORMAT_PAPER && o->element != RAD_ELEMENT_F64) {
+        rad_error("--format paper stores float64 only; drop --element f32");
+        return RAD_ERR_USAGE;
+    }
+    return RAD_OK;
+}
+
+/* Shared by every rank: what the run computes with. */
+typedef struct ff_run {
+    ff_comm *comm;
+    ff_options opt;
+    rad_scene scene;
+    rad_mesh mesh;
+    rad_ff_patch *patches;
+    float *triangles;
+    uint32_t *triangle_face, triangle_count;
+    uint32_t *row_begin; /* ranks + 1 */
+    const ff_backend *backend;
+    void *backend_state;
+    ff_rank_stats stats;
+    double start, last_progress;
+    uint32_t progress_base, progress_total;
+} ff_run;
+
+static void report_progress(void *user, uint64_t rows_done)
+{
+    ff_run *run = user;
+    double t = ff_comm_time();
+    if (t - run->last_progress < 2.0) return;
+    run->last_progress = t;
+    double done = (double)(run->progress_base + rows_done) / (run->progress_total ? run->progress_total : 1);
+    double elapsed = t - run->start;
+    rad_info("rank 0: %.1f%% of its rows, %.0f s elapsed, about %.0f s to go", 100 * done, elapsed,
+             done > 0 ? elapsed * (1 - done) / done : 0.0);
+}
+
+static int default_threads(const ff_run *run)
+{
+    if (run->opt.threads > 0) return run->opt.threads;
+    const char *env = getenv("OMP_NUM_THREADS");
+    if (env && atoi(env) > 0) return atoi(env);
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    long t = cores / ff_comm_node_size(run->comm);
+    return t > 0 ? (int)t : 1;
+}
+
+static rad_status load(ff_run *run)
+{
+    double t0 = ff_comm_time();
+    rad_status st = run->opt.scene_path ? rad_scene_load_file(run->opt.scene_path, NULL, &run->scene)
+                                        : rad_scene_load_default(&run->scene);
+    double t1 = ff_comm_time();
+    if (st == RAD_OK) {
+        rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
+        st = rad_mesh_build(&run->scene, &mo, &run->mesh);
+    }
+    if (st == RAD_OK && run->mesh.patch_count == 0) {
+        rad_error("%s: the scene has no faces", run->scene.path);
+        st = RAD_ERR_INVALID;
+    }
+    run->stats.load = t1 - t0;
+    run->stats.subdivide = ff_comm_time() - t1;
+    return st;
+}
+
+static rad_status select_backend(ff_run *run, int gpus)
+{
+    const char *want = run->opt.backend;
+    if (!strcmp(want, "cuda")) {
+        rad_error("--backend cuda: the CUDA form-factor backend is not part of this build yet "
+                  "(%d GPU(s) visible); use --backend cpu",
+                  gpus);
+        return RAD_ERR_UNSUPPORTED;
+    }
+    run->backend = &ff_backend_cpu; /* auto: the CPU until the CUDA backend lands */
+    return RAD_OK;
+}
+
+static rad_status setup(ff_run *run)
+{
+    double t0 = ff_comm_time();
+    int ranks = ff_comm_size(run->comm);
+    uint32_t n = (uint32_t)run->mesh.patch_count;
+    rad_status st = ff_patches_build(&run->mesh, &run->patches);
+    if (st == RAD_OK) st = ff_occluders_build(&run->scene, &run->triangles, &run->triangle_face, &run->triangle_count);
+    run->row_begin = calloc((size_t)ranks + 1, sizeof *run->row_begin);
+    if (st == RAD_OK && !run->row_begin) st = RAD_ERR_NOMEM;
+    double eps = ff_plane_eps(&run->mesh);
+    if (st == RAD_OK) st = ff_partition_rows(run->patches, n, eps, ranks, run->row_begin);
+    run->stats.threads = default_threads(run);
+    if (st == RAD_OK) {
+        ff_setup su = {.patches = run->patches, .patch_count = n, .triangles = run->triangles,
+                       .triangle_face = run->triangle_face, .triangle_count = run->triangle_count,
+                       .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
+                       .plane_eps = eps, .threads = run->stats.threads,
+                       .progress = ff_comm_rank(run->comm) == 0 ? report_progress : NULL, .progress_user = run};
+        st = run->backend->create(&su, &run->backend_state);
+    }
+    run->stats.setup = ff_comm_time() - t0;
+    return st;
+}
+
+/* Computes this rank's rows in rounds and writes each round collectively. */
+static rad_status compute_and_write(ff_run *run, ff_output *out)
+{
+    int rank = ff_comm_rank(run->comm);
+    uint32_t n = (uint32_t)run->mesh.patch_count;
+    uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
+    uint32_t per_round = ff_output_max_rows(out);
+    /* Smaller rounds at small N keep progress reports and memory modest. */
+    if (per_round > 256) per_round = 256;
+    uint64_t my_rounds = (end - begin + (uint64_t)per_round - 1) / per_round;
+    uint64_t rounds = ff_comm_max_u64(run->comm, my_rounds);
+    double *rows = malloc(sizeof(double) * (size_t)per_round * n);
+    rad_status st = ff_comm_agree(run->comm, rows ? RAD_OK : RAD_ERR_NOMEM);
+    if (st != RAD_OK) {
+        if (!rows) rad_error("out of memory for %u rows of %u form factors", per_round, n);
+        free(rows);
+        return st;
+    }
+    run->stats.row_begin = begin;
+    run->stats.row_end = end;
+    run->stats.row_sum_min = end > begin ? 1e300 : 0;
+    run->progress_total = end - begin;
+    ff_counters counters = {0};
+    for (uint64_t round = 0; round < rounds; round++) {
+        uint32_t r0 = begin + (uint32_t)(round * per_round);
+        uint32_t count = r0 < end ? (end - r0 < per_round ? end - r0 : per_round) : 0;
+        if (st == RAD_OK && count > 0) {
+            run->progress_base = r0 - begin;
+            st = run->backend->compute_rows(run->backend_state, r0, count, rows, &counters);
+        }
+        for (uint32_t r = 0; st == RAD_OK && r < count; r++) {
+            double sum = 0;
+            for (uint32_t j = 0; j < n; j++) sum += rows[(size_t)r * n + j];
+            run->stats.row_sum_total += sum;
+            if (sum < run->stats.row_sum_min) run->stats.row_sum_min = sum;
+            if (sum > run->stats.row_sum_max) run->stats.row_sum_max = sum;
+        }
+        double t0 = ff_comm_time();
+        /* A failed rank still joins the collective write, with no rows. */
+        rad_status w = ff_output_write_rows(out, r0 < end ? r0 : end, st == RAD_OK ? count : 0, rows);
+        if (st == RAD_OK) st = w;
+        run->stats.io += ff_comm_time() - t0;
+    }
+    run->stats.counters = counters;
+    run->stats.form_factors = counters.kernel_seconds;
+    run->stats.visibility = counters.visibility_seconds;
+    free(rows);
+    return st;
+}
+
+static rad_status write_stats(ff_run *run, int gpus)
+{
+    int rank = ff_comm_rank(run->comm), ranks = ff_comm_size(run->comm);
+    ff_rank_stats *all = rank == 0 ? calloc((size_t)ranks, sizeof *all) : NULL;
+    rad_status st = ff_comm_agree(run->comm, rank == 0 && !all ? RAD_ERR_NOMEM : RAD_OK);
+    if (st != RAD_OK) return st;
+    run->stats.rank = rank;
+    ff_comm_gather(run->comm, &run->stats, sizeof run->stats, all, 0);
+    if (rank == 0) {
+        const char *scene = run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name;
+        ff_run_info info = {.scene = scene, .fingerprint = run->scene.fingerprint,
+                            .patch_count = (uint32_t)run->mesh.patch_count, .subdiv = run->opt.subdiv,
+                            .subdiv_only = run->opt.subdiv_only, .samples = run->opt.samples,
+                            .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
+                            .backend = run->backend->name,
+                            .element = run->opt.element == RAD_ELEMENT_F32 ? "f32" : "f64",
+                            .format = run->opt.format == FF_FORMAT_PAPER ? "paper" : "native",
+                            .output = run->opt.output, .ranks = ranks, .gpus_visible = gpus};
+        ff_stats_log_summary(&info, all);
+        if (run->opt.stats_path) st = ff_stats_write_json(run->opt.stats_path, &info, all);
+    }
+    free(all);
+    return ff_comm_agree(run->comm, st);
+}
+
+static rad_status run_formfactor(ff_run *run)
+{
+    int rank = ff_comm_rank(run->comm);
+    run->start = ff_comm_time();
+    run->last_progress = run->start;
+    /* Loading is deterministic, so rank 0 alone reports its errors. */
+    rad_log_level level = rad_log_get_level();
+    if (rank != 0) rad_log_set_level(RAD_LOG_NONE);
+    rad_status st = ff_comm_agree(run->comm, load(run));
+    if (rank != 0) rad_log_set_level(level);
+    if (st != RAD_OK) return st;
+    if (run->mesh.patch_count > UINT32_MAX / 2) {
+        if (rank == 0) rad_error("%zu patches: more than this format's 2^31 limit", run->mesh.patch_count);
+        return RAD_ERR_NOMEM;
+    }
+    int gpus = ff_cuda_device_count();
+    if ((st = ff_comm_agree(run->comm, select_backend(run, gpus))) != RAD_OK) return st;
+    if ((st = ff_comm_agree(run->comm, setup(run))) != RAD_OK) return st;
+    if (rank == 0)
+        rad_info("%s: %zu patches from %zu faces, %u samples and %u shadow rays per pair, %d rank(s) x %d thread(s), "
+                 "backend %s",
+                 run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name, run->mesh.patch_count,
+                 run->scene.face_count, run->opt.samples, run->opt.shadow_rays, ff_comm_size(run->comm),
+                 run->stats.threads, run->backend->name);
+
+    rad_ff_info info = {.patch_count = run->mesh.patch_count, .vertex_count = run->mesh.vertex_count,
+                        .element_type = run->opt.element, .estimator = RAD_ESTIMATOR_MC,
+                        .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
+                        .scene_fingerprint = run->scene.fingerprint, .subdiv = run->opt.subdiv,
+                        .flags = run->opt.subdiv_only ? RAD_FF_FLAG_PARTIAL_SUBDIV : 0};
+    snprintf(info.scene_name, sizeof info.scene_name, "%s",
+             run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name);
+    ff_output *out = NULL;
+    double t0 = ff_comm_time();
+    st = ff_output_open(run->comm, run->opt.output, run->opt.format, &info, &run->mesh, &out);
+    run->stats.io += ff_comm_time() - t0;
+    if (st != RAD_OK) return st;
+    st = compute_and_write(run, out);
+    t0 = ff_comm_time();
+    st = ff_output_finish(out, st);
+    run->stats.io += ff_comm_time() - t0;
+    run->stats.total = ff_comm_time() - run->start;
+    if (st != RAD_OK) return st;
+    if (rank == 0) rad_info("wrote %s", run->opt.output);
+    return write_stats(run, gpus);
+}
+
+static void run_free(ff_run *run)
+{
+    if (run->backend && run->backend_state) run->backend->destroy(run->backend_state);
+    free(run->patches);
+    free(run->triangles);
+    free(run->triangle_face);
+    free(run->row_begin);
+    rad_mesh_free(&run->mesh);
+    rad_scene_free(&run->scene);
+}
+
+int main(int argc, char **argv)
+{
+    rad_log_set_program("formfactor");
+    ff_comm *comm = NULL;
+    rad_status st = ff_comm_init(&argc, &argv, &comm);
+    if (st != RAD_OK) return rad_status_exit_code(st);
+    int rank = ff_comm_rank(comm);
+    ff_run run = {.comm = comm};
+    /* Every rank parses the same argv; rank 0 speaks for all. */
+    rad_log_level level = rad_log_get_level();
+    if (rank != 0) rad_log_set_level(RAD_LOG_NONE);
+    st = parse_options(argc, argv, &run.opt);
+    if (rank != 0) rad_log_set_level(level);
+    if (st == RAD_OK && (run.opt.help || run.opt.version)) {
+        if (rank == 0) {
+            if (run.opt.help) print_help();
+            else printf("formfactor %s\n", FF_VERSION);
+        }
+    } else if (st == RAD_OK) {
+        if (run.opt.quiet) rad_log_set_level(RAD_LOG_WARN);
+        if (rank != 0) rad_log_set_level(RAD_LOG_ERROR);
+        st = run_formfactor(&run);
+    } else if (rank == 0) {
+        fprintf(stderr, "formfactor: try --help\n");
+    }
+    run_free(&run);
+    ff_comm_finalize(comm);
+    return rad_status_exit_code(st);
+}
