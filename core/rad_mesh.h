@@ -13,6 +13,10 @@
  * render can interpolate. Patch vertices keep the face's winding, so
  * normals point the same way as the face's.
  *
+ * Order: patches follow the scene's faces (each face's patches contiguous,
+ * source_face ascending); vertices are the scene's used vertices in order of
+ * first use, then the new ones. Unused scene vertices are left out.
+ *
  * rad_patch is laid out exactly as a patch record of the form-factor and
  * radiosity files (128 bytes, see docs/formats.md).
  */
@@ -54,11 +58,15 @@ typedef struct rad_mesh_options {
 } rad_mesh_options;
 
 /* Fails with RAD_ERR_NOMEM (and the memory it would need in the message)
- * when the patch count would exceed UINT32_MAX - 1 or memory runs out. */
+ * when the patch count, or the vertex count's upper bound, would exceed
+ * UINT32_MAX - 1 (checked before allocating) or memory runs out; with
+ * RAD_ERR_INVALID for subdiv < 0. options NULL = {0}. Warns when only_group
+ * names no face's group. */
 rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *options, rad_mesh *out_mesh);
 void rad_mesh_free(rad_mesh *mesh); /* safe on a zeroed or freed mesh */
 
-/* Patch count that rad_mesh_build would produce, without building. */
+/* Patch count that rad_mesh_build would produce, without building;
+ * saturates at UINT64_MAX; 0 for subdiv < 0. */
 uint64_t rad_mesh_count_patches(const rad_scene *scene, const rad_mesh_options *options);
 
 /* Geometry of one polygon (3 or 4 vertices, planar): area, unit normal (by

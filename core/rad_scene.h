@@ -16,6 +16,11 @@
  * `vt`, `vn` and other known-but-unused keys are accepted and ignored;
  * unknown keys produce one warning each. CRLF, a UTF-8 BOM and a missing
  * final newline are tolerated.
+ * Details (rad_scene.c): `v` may carry a w or an r g b after x y z (checked,
+ * ignored); vt/vn indices are range-checked too; `Kd r` (one value) means
+ * grey; a `newmtl` without Kd warns and gets grey 0.5; a material defined
+ * twice, a NUL byte in a file and a scene without faces are errors
+ * (RAD_ERR_INVALID / RAD_ERR_PARSE); each mtllib file is read once.
  *
  * After parsing, every face is planar and convex with 3 or 4 vertices:
  *  - zero-area faces are dropped with a warning naming file:line;
@@ -23,7 +28,12 @@
  *  - anything else (n > 4, non-planar, non-convex) is triangulated with a
  *    note (warning) naming file:line; each triangle becomes its own face.
  * Planarity tolerance: every vertex within 1e-6 * (face diameter) of the
- * best-fit plane through the face's Newell normal and centroid.
+ * best-fit plane through the face's Newell normal and centroid. The
+ * diameter is the bounding-box diagonal; "zero" area (and a zero turn, for
+ * convexity) means below 1e-12 * diameter^2. A corner repeated right after
+ * itself is removed (warning). Triangulation is ear clipping on the plane
+ * of the dominant normal axis; a planar polygon that crosses itself is an
+ * error, a warped one where clipping gets stuck is fanned.
  */
 #ifndef RAD_SCENE_H
 #define RAD_SCENE_H
@@ -50,7 +60,7 @@ typedef struct rad_face {
 } rad_face;
 
 typedef struct rad_scene {
-    char path[512];           /* the OBJ file name, for messages */
+    char path[512];           /* the OBJ file name, for messages ("cornell_box.obj" for the built-in one) */
     double *positions;        /* xyz per vertex */
     size_t vertex_count;
     rad_face *faces;

@@ -1,0 +1,250 @@
+/* rad_mesh.c - a scene's faces subdivided into patches (contract in rad_mesh.h).
+ *
+ * Sizes are known before anything is allocated: the patch count exactly,
+ * the vertex count as an upper bound (every face's own (2^S+1)^2 or
+ * (2^S+1)(2^S+2)/2 vertices, as if no vertex were shared). The recursion
+ * then cannot fail; positions are shrunk to the real count at the end.
+ * Midpoints are shared through a map keyed by the edge's two vertex indices,
+ * so faces that share an edge (same OBJ vertex indices) share its midpoints
+ * at every level.
+ */
+#include "rad_mesh.h"
+
+#include <assert.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rad_log.h"
+
+_Static_assert(sizeof(rad_patch) == 128, "rad_patch is the 128-byte patch record of the file formats");
+
+/* Indices are uint32_t and RAD_NO_VERTEX (UINT32_MAX) is taken. */
+#define MESH_LIMIT ((uint64_t)UINT32_MAX - 1)
+#define EMPTY_EDGE UINT64_MAX
+
+typedef struct builder {
+    const rad_scene *scene;
+    rad_mesh *mesh;
+    uint64_t *edge_keys;     /* (lo << 32) | hi, or EMPTY_EDGE */
+    uint32_t *edge_midpoint; /* mesh vertex at the middle of that edge */
+    size_t edge_mask;        /* table size - 1 (a power of two) */
+    size_t vertex_cap;       /* room in mesh->positions (the bound) */
+    const rad_face *face;
+    uint32_t face_index;
+} builder;
+
+static int is_subdivided(const rad_scene *scene, const rad_face *face, const char *only_group)
+{
+    return !only_group || strcmp(scene->groups[face->group], only_group) == 0;
+}
+
+static uint64_t add_saturating(uint64_t a, uint64_t b) { return a > UINT64_MAX - b ? UINT64_MAX : a + b; }
+
+uint64_t rad_mesh_count_patches(const rad_scene *scene, const rad_mesh_options *options)
+{
+    int subdiv = options ? options->subdiv : 0;
+    const char *only_group = options ? options->only_group : NULL;
+    if (subdiv < 0) return 0;
+    uint64_t per_face = subdiv >= 32 ? UINT64_MAX : (uint64_t)1 << (2 * subdiv);
+    uint64_t total = 0;
+    for (size_t f = 0; f < scene->face_count; f++)
+        total = add_saturating(total, is_subdivided(scene, &scene->faces[f], only_group) ? per_face : 1);
+    return total;
+}
+
+void rad_polygon_geometry(const rad_vec3 *v, int n, double *out_area, rad_vec3 *out_normal, rad_vec3 *out_centroid)
+{
+    assert(n == 3 || n == 4);
+    /* Newell's normal; for a quad it equals the cross product of the diagonals. */
+    rad_vec3 N = n == 3 ? rad_v3_cross(rad_v3_sub(v[1], v[0]), rad_v3_sub(v[2], v[0]))
+                        : rad_v3_cross(rad_v3_sub(v[2], v[0]), rad_v3_sub(v[3], v[1]));
+    double length = rad_v3_length(N);
+    rad_vec3 unit = rad_v3_normalize(N);
+    rad_vec3 centroid = rad_v3_scale(rad_v3_add(rad_v3_add(v[0], v[1]), v[2]), 1.0 / 3);
+    if (n == 4) {
+        /* Area-weighted centroids of the triangles (0,1,2) and (0,2,3). */
+        rad_vec3 c2 = rad_v3_scale(rad_v3_add(rad_v3_add(v[0], v[2]), v[3]), 1.0 / 3);
+        double a1 = rad_v3_dot(rad_v3_cross(rad_v3_sub(v[1], v[0]), rad_v3_sub(v[2], v[0])), unit);
+        double a2 = rad_v3_dot(rad_v3_cross(rad_v3_sub(v[2], v[0]), rad_v3_sub(v[3], v[0])), unit);
+        centroid = a1 + a2 != 0 ? rad_v3_scale(rad_v3_add(rad_v3_scale(centroid, a1), rad_v3_scale(c2, a2)), 1.0 / (a1 + a2))
+                                : rad_v3_scale(rad_v3_add(rad_v3_add(rad_v3_add(v[0], v[1]), v[2]), v[3]), 0.25);
+    }
+    *out_area = 0.5 * length;
+    *out_normal = unit;
+    *out_centroid = centroid;
+}
+
+static rad_vec3 mesh_position(const rad_mesh *mesh, uint32_t i)
+{
+    const double *p = mesh->positions + 3 * (size_t)i;
+    return rad_v3(p[0], p[1], p[2]);
+}
+
+static uint32_t add_vertex(builder *B, rad_vec3 p)
+{
+    rad_mesh *mesh = B->mesh;
+    assert(mesh->vertex_count < B->vertex_cap);
+    double *q = mesh->positions + 3 * mesh->vertex_count;
+    q[0] = p.x;
+    q[1] = p.y;
+    q[2] = p.z;
+    return (uint32_t)mesh->vertex_count++;
+}
+
+static uint32_t midpoint(builder *B, uint32_t a, uint32_t b)
+{
+    uint64_t key = a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a;
+    size_t i = (size_t)((key * UINT64_C(0x9E3779B97F4A7C15)) >> 17) & B->edge_mask;
+    while (B->edge_keys[i] != EMPTY_EDGE) {
+        if (B->edge_keys[i] == key) return B->edge_midpoint[i];
+        i = (i + 1) & B->edge_mask;
+    }
+    /* (a + b) / 2 is symmetric, so the midpoint does not depend on which
+     * face asked first. */
+    rad_vec3 m = rad_v3_scale(rad_v3_add(mesh_position(B->mesh, a), mesh_position(B->mesh, b)), 0.5);
+    B->edge_keys[i] = key;
+    return B->edge_midpoint[i] = add_vertex(B, m);
+}
+
+static void emit_patch(builder *B, const uint32_t *v, int n)
+{
+    rad_mesh *mesh = B->mesh;
+    rad_patch *p = &mesh->patches[mesh->patch_count++];
+    rad_vec3 corner[4];
+    for (int i = 0; i < n; i++) corner[i] = mesh_position(mesh, v[i]);
+    memset(p, 0, sizeof *p);
+    p->vertex_count = (uint32_t)n;
+    for (int i = 0; i < 4; i++) p->v[i] = i < n ? v[i] : RAD_NO_VERTEX;
+    p->source_face = B->face_index;
+    rad_polygon_geometry(corner, n, &p->area, &p->normal, &p->centroid);
+    const rad_material *m = &B->scene->materials[B->face->material];
+    memcpy(p->rho, m->rho, sizeof p->rho);
+    memcpy(p->emission, m->emission, sizeof p->emission);
+}
+
+/* Splits polygon v (n corners, in winding order) `level` more times. */
+static void split(builder *B, const uint32_t *v, int n, int level)
+{
+    if (level == 0) {
+        emit_patch(B, v, n);
+        return;
+    }
+    if (n == 3) {
+        uint32_t ab = midpoint(B, v[0], v[1]), bc = midpoint(B, v[1], v[2]), ca = midpoint(B, v[2], v[0]);
+        const uint32_t child[4][3] = {{v[0], ab, ca}, {ab, v[1], bc}, {ca, bc, v[2]}, {ab, bc, ca}};
+        for (int i = 0; i < 4; i++) split(B, child[i], 3, level - 1);
+        return;
+    }
+    uint32_t ab = midpoint(B, v[0], v[1]), bc = midpoint(B, v[1], v[2]);
+    uint32_t cd = midpoint(B, v[2], v[3]), da = midpoint(B, v[3], v[0]);
+    rad_vec3 sum = rad_v3(0, 0, 0);
+    for (int i = 0; i < 4; i++) sum = rad_v3_add(sum, mesh_position(B->mesh, v[i]));
+    uint32_t m = add_vertex(B, rad_v3_scale(sum, 0.25));
+    const uint32_t child[4][4] = {{v[0], ab, m, da}, {ab, v[1], bc, m}, {m, bc, v[2], cd}, {da, m, cd, v[3]}};
+    for (int i = 0; i < 4; i++) split(B, child[i], 4, level - 1);
+}
+
+/* Upper bound on the vertices of one face after `subdiv` levels (its own,
+ * unshared). Only called once the patch count has shown subdiv <= 15. */
+static uint64_t face_vertex_bound(uint32_t corners, int subdiv)
+{
+    uint64_t side = ((uint64_t)1 << subdiv) + 1; /* vertices along an edge */
+    return corners == 4 ? side * side : side * (side + 1) / 2;
+}
+
+rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *options, rad_mesh *out_mesh)
+{
+    rad_status status = RAD_ERR_NOMEM;
+    rad_mesh mesh;
+    builder B;
+    uint32_t *vertex_of = NULL; /* scene vertex -> mesh vertex */
+    memset(&mesh, 0, sizeof mesh);
+    memset(&B, 0, sizeof B);
+    int subdiv = options ? options->subdiv : 0;
+    const char *only_group = options ? options->only_group : NULL;
+    if (subdiv < 0) {
+        rad_error("mesh: subdivision level %d is negative", subdiv);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
+    uint64_t patches = rad_mesh_count_patches(scene, options), vertices = 0, midpoints = 0;
+    size_t subdivided = 0;
+    for (size_t f = 0; f < scene->face_count && patches <= MESH_LIMIT; f++) {
+        const rad_face *face = &scene->faces[f];
+        assert(face->vertex_count == 3 || face->vertex_count == 4);
+        uint64_t own = face->vertex_count;
+        if (is_subdivided(scene, face, only_group)) {
+            own = face_vertex_bound(face->vertex_count, subdiv);
+            midpoints += own - face->vertex_count;
+            subdivided++;
+        }
+        vertices += own;
+    }
+    size_t table = 16;
+    while (table < 2 * midpoints && table < SIZE_MAX / 4) table *= 2;
+    double need = (double)patches * sizeof(rad_patch) + (double)vertices * 3 * sizeof(double) +
+                  (double)table * (sizeof(uint64_t) + sizeof(uint32_t)) + (double)scene->vertex_count * sizeof(uint32_t);
+    if (patches > MESH_LIMIT || vertices > MESH_LIMIT) {
+        int too_many_patches = patches > MESH_LIMIT;
+        rad_error("mesh: subdivision level %d gives %llu %s; at most %llu are possible (it would need about %.1f GiB)",
+                  subdiv, (unsigned long long)(too_many_patches ? patches : vertices),
+                  too_many_patches ? "patches" : "vertices (at most)", (unsigned long long)MESH_LIMIT,
+                  need / (1024.0 * 1024 * 1024));
+        goto done;
+    }
+    if (only_group && subdivided == 0) rad_warn("mesh: no face is in group '%s'; nothing is subdivided", only_group);
+
+    mesh.patches = malloc((size_t)patches * sizeof *mesh.patches);
+    mesh.positions = malloc((size_t)vertices * 3 * sizeof *mesh.positions);
+    vertex_of = malloc((scene->vertex_count ? scene->vertex_count : 1) * sizeof *vertex_of);
+    B.edge_keys = malloc(table * sizeof *B.edge_keys);
+    B.edge_midpoint = malloc(table * sizeof *B.edge_midpoint);
+    if (!mesh.patches || !mesh.positions || !vertex_of || !B.edge_keys || !B.edge_midpoint) {
+        rad_error("mesh: out of memory (%llu patches need about %.1f MiB)", (unsigned long long)patches,
+                  need / (1024.0 * 1024));
+        goto done;
+    }
+    for (size_t i = 0; i < table; i++) B.edge_keys[i] = EMPTY_EDGE;
+    for (size_t i = 0; i < scene->vertex_count; i++) vertex_of[i] = RAD_NO_VERTEX;
+    B.scene = scene;
+    B.mesh = &mesh;
+    B.edge_mask = table - 1;
+    B.vertex_cap = (size_t)vertices;
+
+    /* Scene vertices in order of first use, then each face's new vertices. */
+    for (size_t f = 0; f < scene->face_count; f++) {
+        const rad_face *face = &scene->faces[f];
+        uint32_t corner[4];
+        for (uint32_t i = 0; i < face->vertex_count; i++) {
+            uint32_t s = face->v[i];
+            if (vertex_of[s] == RAD_NO_VERTEX) {
+                const double *p = scene->positions + 3 * (size_t)s;
+                vertex_of[s] = add_vertex(&B, rad_v3(p[0], p[1], p[2]));
+            }
+            corner[i] = vertex_of[s];
+        }
+        B.face = face;
+        B.face_index = (uint32_t)f;
+        split(&B, corner, (int)face->vertex_count, is_subdivided(scene, face, only_group) ? subdiv : 0);
+    }
+    assert(mesh.patch_count == patches && mesh.vertex_count <= vertices);
+    double *shrunk = realloc(mesh.positions, (mesh.vertex_count ? mesh.vertex_count : 1) * 3 * sizeof *shrunk);
+    if (shrunk) mesh.positions = shrunk;
+    *out_mesh = mesh;
+    memset(&mesh, 0, sizeof mesh);
+    status = RAD_OK;
+done:
+    rad_mesh_free(&mesh);
+    free(vertex_of);
+    free(B.edge_keys);
+    free(B.edge_midpoint);
+    return status;
+}
+
+void rad_mesh_free(rad_mesh *mesh)
+{
+    if (!mesh) return;
+    free(mesh->patches);
+    free(mesh->positions);
+    memset(mesh, 0, sizeof *mesh);
+}

@@ -1,0 +1,733 @@
+/* rad_scene.c - the strict OBJ/MTL loader (contract in rad_scene.h).
+ *
+ * One pass per file: each line is split into tokens and handled as it comes
+ * (an `f` needs only the vertices read so far; `usemtl` only the MTLs that
+ * `mtllib` loaded before it). Faces are checked and, where needed,
+ * triangulated as they are added, so every message can name file:line.
+ */
+#include "rad_scene.h"
+
+#include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rad_hash.h"
+#include "rad_log.h"
+#include "rad_math.h"
+
+/* A face is planar when every vertex lies within PLANAR_TOL * diameter of
+ * its plane, and has zero area (or a zero-length turn, for convexity) below
+ * AREA_TOL * diameter^2. The diameter is the bounding-box diagonal. */
+#define PLANAR_TOL 1e-6
+#define AREA_TOL 1e-12
+/* A planar polygon whose triangles' areas differ from its own area by more
+ * than this relative amount crosses itself. */
+#define SELF_INTERSECT_TOL 1e-9
+#define WARNED_KEYS_MAX 64
+#define PATH_MAX_LEN 1024
+
+/* Generated from scenes/cornell_box.{obj,mtl} by scenes/embed.cmake. */
+struct rad_embedded_file {
+    const char *name;
+    const unsigned char *data;
+    size_t size;
+};
+extern const struct rad_embedded_file rad_embedded_files[];
+
+const char *const rad_default_scene_name = "cornell_box.obj (built-in)";
+
+typedef struct source {
+    const char *path;
+    unsigned line;
+} source;
+
+typedef struct loader {
+    rad_scene *scene;
+    rad_read_file_fn read_file;
+    void *read_file_user;
+    size_t position_cap, face_cap, material_cap, group_cap;
+    size_t texcoord_count, normal_count; /* `vt`, `vn` seen: to check indices */
+    uint32_t material, group;            /* current `usemtl`, `g`/`o` */
+    int have_usemtl, warned_default;
+    size_t mtl_current;                  /* material being defined (0 = none) */
+    int mtl_has_kd;
+    unsigned mtl_line;
+    uint64_t *mtl_loaded; /* hashes of the MTL paths read, to read each once */
+    size_t mtl_loaded_count, mtl_loaded_cap;
+    char warned[WARNED_KEYS_MAX][32]; /* unknown keys warned about */
+    int warned_count;
+    uint32_t *poly; /* scratch for one face: vertex indices */
+    size_t poly_cap;
+    double *uv; /* scratch: projected 2D points */
+    size_t uv_cap;
+} loader;
+
+static rad_status fail(const source *src, rad_status status, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+static rad_status fail(const source *src, rad_status status, const char *format, ...)
+{
+    char message[1024];
+    va_list args;
+    va_start(args, format);
+    vsnprintf(message, sizeof message, format, args);
+    va_end(args);
+    rad_error("%s:%u: %s", src->path, src->line, message);
+    return status;
+}
+
+static rad_status out_of_memory(const source *src) { return fail(src, RAD_ERR_NOMEM, "out of memory"); }
+
+/* Returns `array` grown (possibly moved) to hold `need` elements, or NULL,
+ * leaving `array` valid, when memory runs out. */
+static void *reserve(void *array, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap) return array;
+    size_t n = *cap ? *cap : 16;
+    while (n < need) {
+        if (n > SIZE_MAX / 2) return NULL;
+        n *= 2;
+    }
+    if (n > SIZE_MAX / elem) return NULL;
+    void *p = realloc(array, n * elem);
+    if (p) *cap = n;
+    return p;
+}
+
+/* ---- reading files ---- */
+
+static rad_status read_file_system(const char *path, char **out_data, size_t *out_size, void *user)
+{
+    (void)user;
+    rad_status status = RAD_ERR_IO;
+    char *data = NULL;
+    size_t size = 0, cap = 0;
+    *out_data = NULL;
+    *out_size = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f) goto done;
+    for (;;) {
+        char *p = reserve(data, &cap, size + 65536, 1);
+        if (!p) {
+            status = RAD_ERR_NOMEM;
+            goto done;
+        }
+        data = p;
+        size_t got = fread(data + size, 1, cap - size, f);
+        size += got;
+        if (got == 0) break;
+    }
+    if (ferror(f)) goto done;
+    *out_data = data;
+    *out_size = size;
+    data = NULL;
+    status = RAD_OK;
+done:
+    if (f) fclose(f);
+    free(data);
+    return status;
+}
+
+static rad_status read_embedded(const char *path, char **out_data, size_t *out_size, void *user)
+{
+    (void)user;
+    *out_data = NULL;
+    *out_size = 0;
+    for (const struct rad_embedded_file *f = rad_embedded_files; f->name; f++) {
+        if (strcmp(f->name, path) != 0) continue;
+        char *data = malloc(f->size + 1);
+        if (!data) return RAD_ERR_NOMEM;
+        memcpy(data, f->data, f->size);
+        *out_data = data;
+        *out_size = f->size;
+        return RAD_OK;
+    }
+    return RAD_ERR_IO;
+}
+
+/* ---- tokens and numbers ---- */
+
+static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+/* Splits `line` in place into whitespace-separated tokens; a token starting
+ * with '#' ends the line (comment). */
+static rad_status tokenize(char *line, char ***tokens, size_t *cap, size_t *out_count)
+{
+    size_t n = 0;
+    char *p = line;
+    for (;;) {
+        while (is_space(*p)) p++;
+        if (!*p || *p == '#') break;
+        char **t = reserve(*tokens, cap, n + 1, sizeof **tokens);
+        if (!t) return RAD_ERR_NOMEM;
+        *tokens = t;
+        t[n++] = p;
+        while (*p && !is_space(*p)) p++;
+        if (*p) *p++ = 0;
+    }
+    *out_count = n;
+    return RAD_OK;
+}
+
+static rad_status parse_number(const source *src, const char *text, double *out)
+{
+    char *end;
+    errno = 0;
+    double x = strtod(text, &end);
+    if (end == text || *end) return fail(src, RAD_ERR_PARSE, "bad number '%s'", text);
+    *out = x;
+    return RAD_OK;
+}
+
+/* Parses `count` numbers from tok[1..]; n = tokens on the line. */
+static rad_status parse_numbers(const source *src, char **tok, size_t n, size_t count, double *out)
+{
+    if (n - 1 != count)
+        return fail(src, RAD_ERR_PARSE, "'%s' needs %zu numbers, got %zu", tok[0], count, n - 1);
+    for (size_t i = 0; i < count; i++) {
+        rad_status status = parse_number(src, tok[1 + i], &out[i]);
+        if (status) return status;
+    }
+    return RAD_OK;
+}
+
+/* Copies a `g`/`o`/`usemtl`/`newmtl` name, which must fit RAD_NAME_MAX. */
+static rad_status parse_name(const source *src, char **tok, size_t n, char *out)
+{
+    if (n < 2) return fail(src, RAD_ERR_PARSE, "'%s' needs a name", tok[0]);
+    if (strlen(tok[1]) >= RAD_NAME_MAX)
+        return fail(src, RAD_ERR_INVALID, "name '%.20s...' too long (at most %d bytes)", tok[1], RAD_NAME_MAX - 1);
+    strcpy(out, tok[1]);
+    return RAD_OK;
+}
+
+static void warn_unknown(loader *L, const source *src, const char *key)
+{
+    for (int i = 0; i < L->warned_count; i++)
+        if (strcmp(L->warned[i], key) == 0) return;
+    if (L->warned_count < WARNED_KEYS_MAX && strlen(key) < sizeof L->warned[0])
+        strcpy(L->warned[L->warned_count++], key);
+    rad_warn("%s:%u: unknown key '%s' ignored (warned once per key)", src->path, src->line, key);
+}
+
+/* ---- polygon geometry (n-gons, in the OBJ's vertex positions) ---- */
+
+static rad_vec3 position(const rad_scene *s, uint32_t i)
+{
+    const double *p = s->positions + 3 * (size_t)i;
+    return rad_v3(p[0], p[1], p[2]);
+}
+
+static rad_vec3 newell(const rad_scene *s, const uint32_t *v, size_t n)
+{
+    rad_vec3 sum = rad_v3(0, 0, 0);
+    for (size_t i = 0; i < n; i++)
+        sum = rad_v3_add(sum, rad_v3_cross(position(s, v[i]), position(s, v[(i + 1) % n])));
+    return sum;
+}
+
+static double diameter(const rad_scene *s, const uint32_t *v, size_t n)
+{
+    rad_vec3 lo = position(s, v[0]), hi = lo;
+    for (size_t i = 1; i < n; i++) {
+        rad_vec3 p = position(s, v[i]);
+        lo = rad_v3(fmin(lo.x, p.x), fmin(lo.y, p.y), fmin(lo.z, p.z));
+        hi = rad_v3(fmax(hi.x, p.x), fmax(hi.y, p.y), fmax(hi.z, p.z));
+    }
+    return rad_v3_length(rad_v3_sub(hi, lo));
+}
+
+static double triangle_area(const rad_scene *s, uint32_t a, uint32_t b, uint32_t c)
+{
+    rad_vec3 pa = position(s, a);
+    return 0.5 * rad_v3_length(rad_v3_cross(rad_v3_sub(position(s, b), pa), rad_v3_sub(position(s, c), pa)));
+}
+
+/* ---- adding faces ---- */
+
+static rad_status push_face(loader *L, const source *src, const uint32_t *v, uint32_t count)
+{
+    rad_scene *s = L->scene;
+    if (s->face_count >= UINT32_MAX - 1) return fail(src, RAD_ERR_INVALID, "too many faces");
+    rad_face *f = reserve(s->faces, &L->face_cap, s->face_count + 1, sizeof *f);
+    if (!f) return out_of_memory(src);
+    s->faces = f;
+    f += s->face_count++;
+    memset(f, 0, sizeof *f);
+    f->vertex_count = count;
+    memcpy(f->v, v, count * sizeof *v);
+    f->material = L->material;
+    f->group = L->group;
+    f->line = src->line;
+    return RAD_OK;
+}
+
+/* Signed doubled area of the projected triangle (a, b, c), positive when it
+ * turns the same way as the polygon. */
+static double turn(const double *uv, uint32_t a, uint32_t b, uint32_t c)
+{
+    return (uv[2 * b] - uv[2 * a]) * (uv[2 * c + 1] - uv[2 * a + 1]) -
+           (uv[2 * b + 1] - uv[2 * a + 1]) * (uv[2 * c] - uv[2 * a]);
+}
+
+/* Ear clipping of poly[0..n) (positions in L->uv, indexed by position in
+ * poly) on the plane perpendicular to the dominant axis of `normal`. Emits
+ * each ear whose area exceeds `min_area`; drops collinear vertices. Returns
+ * RAD_ERR_INVALID (unlogged) when no ear can be found. */
+static rad_status ear_clip(loader *L, const source *src, size_t n, rad_vec3 normal, double min_area)
+{
+    rad_scene *s = L->scene;
+    double nv[3] = {normal.x, normal.y, normal.z};
+    int axis = fabs(nv[0]) > fabs(nv[1]) ? (fabs(nv[0]) > fabs(nv[2]) ? 0 : 2) : (fabs(nv[1]) > fabs(nv[2]) ? 1 : 2);
+    double sign = nv[axis] < 0 ? -1 : 1;
+    double *uv = reserve(L->uv, &L->uv_cap, 2 * n, sizeof *uv);
+    if (!uv) return out_of_memory(src);
+    L->uv = uv;
+    uint32_t *idx = L->poly + n; /* idx[k] = position in poly of remaining vertex k */
+    for (size_t i = 0; i < n; i++) {
+        const double *p = s->positions + 3 * (size_t)L->poly[i];
+        uv[2 * i] = p[(axis + 1) % 3];
+        uv[2 * i + 1] = p[(axis + 2) % 3] * sign;
+        idx[i] = (uint32_t)i;
+    }
+    size_t left = n;
+    while (left >= 3) {
+        size_t pick = left;
+        int is_ear = 0;
+        for (size_t k = 0; k < left && pick == left; k++) {
+            uint32_t a = idx[(k + left - 1) % left], b = idx[k], c = idx[(k + 1) % left];
+            double t = turn(uv, a, b, c);
+            if (left == 3 || fabs(t) <= 2 * min_area) {
+                pick = k; /* last triangle, or a collinear vertex: just remove */
+                is_ear = left == 3 && t > 2 * min_area;
+                break;
+            }
+            if (t < 0) continue; /* reflex */
+            int empty = 1;
+            for (size_t m = 0; m < left && empty; m++) {
+                uint32_t p = idx[m];
+                if (p == a || p == b || p == c) continue;
+                empty = !(turn(uv, a, b, p) >= 0 && turn(uv, b, c, p) >= 0 && turn(uv, c, a, p) >= 0);
+            }
+            if (empty) {
+                pick = k;
+                is_ear = 1;
+            }
+        }
+        if (pick == left) return RAD_ERR_INVALID;
+        if (is_ear) {
+            uint32_t tri[3] = {L->poly[idx[(pick + left - 1) % left]], L->poly[idx[pick]], L->poly[idx[(pick + 1) % left]]};
+            rad_status status = push_face(L, src, tri, 3);
+            if (status) return status;
+        }
+        memmove(idx + pick, idx + pick + 1, (left - pick - 1) * sizeof *idx);
+        left--;
+    }
+    return RAD_OK;
+}
+
+/* Adds the polygon L->poly[0..n): drops it if it has zero area, keeps it if
+ * it is a planar convex triangle or quad, triangulates it otherwise. */
+static rad_status add_polygon(loader *L, const source *src, size_t n)
+{
+    rad_scene *s = L->scene;
+    uint32_t *v = L->poly;
+    /* A repeated corner (e.g. a triangle written as a quad) adds nothing. */
+    size_t kept = 0;
+    for (size_t i = 0; i < n; i++) {
+        rad_vec3 d = rad_v3_sub(position(s, v[i]), position(s, kept ? v[kept - 1] : v[n - 1]));
+        if (rad_v3_dot(d, d) > 0 || (kept == 0 && i == n - 1)) v[kept++] = v[i];
+    }
+    if (kept < n) rad_warn("%s:%u: face repeats a corner; repeat removed", src->path, src->line);
+    n = kept;
+    double diam = diameter(s, v, n);
+    rad_vec3 N = newell(s, v, n);
+    double area = 0.5 * rad_v3_length(N), min_area = AREA_TOL * diam * diam;
+    if (n < 3 || !(area > min_area)) {
+        rad_warn("%s:%u: face has zero area; dropped", src->path, src->line);
+        return RAD_OK;
+    }
+    rad_vec3 unit = rad_v3_scale(N, 1.0 / (2 * area)), centre = rad_v3(0, 0, 0);
+    for (size_t i = 0; i < n; i++) centre = rad_v3_add(centre, rad_v3_scale(position(s, v[i]), 1.0 / (double)n));
+    double off_plane = 0;
+    int convex = 1;
+    for (size_t i = 0; i < n; i++) {
+        rad_vec3 p = position(s, v[i]);
+        off_plane = fmax(off_plane, fabs(rad_v3_dot(unit, rad_v3_sub(p, centre))));
+        rad_vec3 e0 = rad_v3_sub(p, position(s, v[(i + n - 1) % n]));
+        rad_vec3 e1 = rad_v3_sub(position(s, v[(i + 1) % n]), p);
+        if (!(rad_v3_dot(rad_v3_cross(e0, e1), unit) > 2 * min_area)) convex = 0;
+    }
+    int planar = off_plane <= PLANAR_TOL * diam;
+    if (n <= 4 && planar && convex) return push_face(L, src, v, (uint32_t)n);
+
+    /* Triangulate: ear clipping on the projection (it needs 2n indices). */
+    uint32_t *p = reserve(L->poly, &L->poly_cap, 2 * n, sizeof *p);
+    if (!p) return out_of_memory(src);
+    L->poly = p;
+    size_t first = s->face_count;
+    rad_status status = ear_clip(L, src, n, N, min_area);
+    if (status == RAD_ERR_INVALID && !planar) {
+        s->face_count = first; /* a badly warped polygon: fan instead */
+        status = RAD_OK;
+        for (size_t i = 1; i + 1 < n && !status; i++) {
+            uint32_t tri[3] = {L->poly[0], L->poly[i], L->poly[i + 1]};
+            if (triangle_area(s, tri[0], tri[1], tri[2]) > min_area) status = push_face(L, src, tri, 3);
+        }
+    }
+    if (status && status != RAD_ERR_INVALID) return status;
+    double sum = 0; /* a simple planar polygon is covered exactly once */
+    for (size_t f = first; f < s->face_count; f++)
+        sum += triangle_area(s, s->faces[f].v[0], s->faces[f].v[1], s->faces[f].v[2]);
+    if (status || (planar && fabs(sum - area) > SELF_INTERSECT_TOL * area))
+        return fail(src, RAD_ERR_INVALID, "face crosses itself; cannot triangulate");
+    size_t emitted = s->face_count - first;
+    const char *why = !planar ? "non-planar" : !convex ? "non-convex" : "more than 4 vertices";
+    rad_warn("%s:%u: %zu-vertex face triangulated into %zu triangles (%s%s)", src->path, src->line, n, emitted, why,
+             planar ? "" : "; off its plane by more than 1e-6 of its size");
+    return RAD_OK;
+}
+
+/* Parses one index ("7", "-1"), 1-based or negative-relative, into 0-based.
+ * `what` names the index in messages, `things` what it counts. */
+static rad_status parse_index(const source *src, const char *text, size_t count, const char *what, const char *things, uint32_t *out)
+{
+    char *end;
+    errno = 0;
+    long long i = strtoll(text, &end, 10);
+    if (end == text || *end) return fail(src, RAD_ERR_PARSE, "bad index '%s'", text);
+    if (i == 0)
+        return fail(src, RAD_ERR_INVALID, "%s index 0 is invalid (indices are 1-based)", strcmp(what, "vertex") ? what : "face");
+    long long resolved = i > 0 ? i - 1 : (long long)count + i;
+    if (errno == ERANGE || resolved < 0 || (unsigned long long)resolved >= count)
+        return fail(src, RAD_ERR_INVALID, "%s index %s out of range (%zu %s so far)", what, text, count, things);
+    *out = (uint32_t)resolved;
+    return RAD_OK;
+}
+
+static rad_status parse_face(loader *L, const source *src, char **tok, size_t n)
+{
+    rad_scene *s = L->scene;
+    if (n - 1 < 3) return fail(src, RAD_ERR_PARSE, "face has %zu vertices, needs at least 3", n - 1);
+    uint32_t *poly = reserve(L->poly, &L->poly_cap, n - 1, sizeof *poly);
+    if (!poly) return out_of_memory(src);
+    L->poly = poly;
+    for (size_t i = 1; i < n; i++) {
+        /* v, v/vt, v//vn or v/vt/vn: split at the slashes in place. */
+        char *part[3] = {tok[i], NULL, NULL};
+        char *slash = strchr(tok[i], '/');
+        if (slash) {
+            *slash = 0;
+            part[1] = slash + 1;
+            slash = strchr(part[1], '/');
+            if (slash) {
+                *slash = 0;
+                part[2] = slash + 1;
+            }
+        }
+        uint32_t unused;
+        rad_status status = parse_index(src, part[0], s->vertex_count, "vertex", "vertices", &poly[i - 1]);
+        if (!status && part[1] && (*part[1] || !part[2]))
+            status = parse_index(src, part[1], L->texcoord_count, "texture", "texture coordinates", &unused);
+        if (!status && part[2]) status = parse_index(src, part[2], L->normal_count, "normal", "normals", &unused);
+        if (status) return status;
+    }
+    if (!L->have_usemtl && !L->warned_default) {
+        L->warned_default = 1;
+        rad_warn("%s:%u: face before any usemtl uses material 'default' (grey 0.5)", src->path, src->line);
+    }
+    return add_polygon(L, src, n - 1);
+}
+
+/* ---- OBJ and MTL statements ---- */
+
+static rad_status parse_text(loader *L, const char *path, char *text, int is_mtl);
+
+/* Reads and parses `path`; `from` is the mtllib statement that named it as
+ * `name` (NULL for the OBJ itself). */
+static rad_status load(loader *L, const char *path, const source *from, const char *name, int is_mtl)
+{
+    char *data = NULL;
+    size_t size = 0;
+    source here = {path, 0};
+    rad_status status = L->read_file(path, &data, &size, L->read_file_user);
+    if (status || !data) {
+        const char *what = status == RAD_ERR_NOMEM ? "out of memory" : "cannot open";
+        if (from)
+            fail(from, RAD_ERR_IO, "mtllib '%s': %s", name, what);
+        else
+            rad_error("%s: %s", path, what);
+        status = status == RAD_ERR_NOMEM ? RAD_ERR_NOMEM : RAD_ERR_IO;
+        goto done;
+    }
+    char *text = realloc(data, size + 1); /* the reader need not terminate it */
+    if (!text) {
+        status = out_of_memory(&here);
+        goto done;
+    }
+    data = text;
+    data[size] = 0;
+    const char *nul = memchr(data, 0, size);
+    if (nul) {
+        here.line = 1;
+        for (const char *c = data; c < nul; c++) here.line += *c == '\n';
+        status = fail(&here, RAD_ERR_PARSE, "contains a NUL byte (not a text file)");
+        goto done;
+    }
+    status = parse_text(L, path, data, is_mtl);
+done:
+    free(data);
+    return status;
+}
+
+static rad_status load_mtllibs(loader *L, const source *src, char **tok, size_t n)
+{
+    if (n < 2) return fail(src, RAD_ERR_PARSE, "mtllib needs a file name");
+    const char *slash = strrchr(src->path, '/');
+    int dir_len = slash ? (int)(slash - src->path + 1) : 0;
+    for (size_t i = 1; i < n; i++) {
+        char path[PATH_MAX_LEN];
+        int len = tok[i][0] == '/' ? snprintf(path, sizeof path, "%s", tok[i])
+                                   : snprintf(path, sizeof path, "%.*s%s", dir_len, src->path, tok[i]);
+        if (len < 0 || (size_t)len >= sizeof path) return fail(src, RAD_ERR_INVALID, "mtllib '%s': path too long", tok[i]);
+        uint64_t h = rad_hash64(RAD_HASH_SEED, path, (size_t)len);
+        int seen = 0;
+        for (size_t k = 0; k < L->mtl_loaded_count; k++) seen |= L->mtl_loaded[k] == h;
+        if (seen) continue;
+        uint64_t *loaded = reserve(L->mtl_loaded, &L->mtl_loaded_cap, L->mtl_loaded_count + 1, sizeof *loaded);
+        if (!loaded) return out_of_memory(src);
+        L->mtl_loaded = loaded;
+        loaded[L->mtl_loaded_count++] = h;
+        rad_status status = load(L, path, src, tok[i], 1);
+        if (status) return status;
+    }
+    return RAD_OK;
+}
+
+static size_t find_material(const rad_scene *s, const char *name)
+{
+    for (size_t i = s->material_count; i-- > 1;)
+        if (strcmp(s->materials[i].name, name) == 0) return i;
+    return strcmp(s->materials[0].name, name) == 0 ? 0 : SIZE_MAX;
+}
+
+static rad_status obj_statement(loader *L, const source *src, char **tok, size_t n)
+{
+    rad_scene *s = L->scene;
+    const char *key = tok[0];
+    if (strcmp(key, "v") == 0) {
+        double p[3];
+        /* x y z, optionally w or an r g b colour: the extras are checked and ignored. */
+        size_t count = n == 5 || n == 7 ? n - 1 : 3;
+        double extra[6];
+        rad_status status = parse_numbers(src, tok, n, count, extra);
+        if (status) return status;
+        memcpy(p, extra, sizeof p);
+        if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2]))
+            return fail(src, RAD_ERR_INVALID, "coordinate is NaN or infinite");
+        if (s->vertex_count >= UINT32_MAX - 1) return fail(src, RAD_ERR_INVALID, "too many vertices");
+        double *pos = reserve(s->positions, &L->position_cap, 3 * (s->vertex_count + 1), sizeof *pos);
+        if (!pos) return out_of_memory(src);
+        s->positions = pos;
+        memcpy(pos + 3 * s->vertex_count++, p, sizeof p);
+        return RAD_OK;
+    }
+    if (strcmp(key, "f") == 0) return parse_face(L, src, tok, n);
+    if (strcmp(key, "vt") == 0) return L->texcoord_count++, RAD_OK;
+    if (strcmp(key, "vn") == 0) return L->normal_count++, RAD_OK;
+    if (strcmp(key, "s") == 0) return RAD_OK;
+    if (strcmp(key, "mtllib") == 0) return load_mtllibs(L, src, tok, n);
+    if (strcmp(key, "usemtl") == 0) {
+        char name[RAD_NAME_MAX];
+        rad_status status = parse_name(src, tok, n, name);
+        if (status) return status;
+        size_t m = find_material(s, name);
+        if (m == SIZE_MAX) return fail(src, RAD_ERR_INVALID, "usemtl '%s': no such material", name);
+        L->material = (uint32_t)m;
+        L->have_usemtl = 1;
+        return RAD_OK;
+    }
+    if (strcmp(key, "g") == 0 || strcmp(key, "o") == 0) {
+        char name[RAD_NAME_MAX] = "default";
+        rad_status status = n < 2 ? RAD_OK : parse_name(src, tok, n, name);
+        if (status) return status;
+        size_t g = 0;
+        while (g < s->group_count && strcmp(s->groups[g], name) != 0) g++;
+        if (g == s->group_count) {
+            char(*groups)[RAD_NAME_MAX] = reserve(s->groups, &L->group_cap, g + 1, sizeof *groups);
+            if (!groups) return out_of_memory(src);
+            s->groups = groups;
+            strcpy(groups[s->group_count++], name);
+        }
+        L->group = (uint32_t)g;
+        return RAD_OK;
+    }
+    warn_unknown(L, src, key);
+    return RAD_OK;
+}
+
+static void finish_material(loader *L, const char *path)
+{
+    if (L->mtl_current && !L->mtl_has_kd)
+        rad_warn("%s:%u: material '%s' has no Kd; using grey 0.5", path, L->mtl_line,
+                 L->scene->materials[L->mtl_current].name);
+    L->mtl_current = 0;
+}
+
+static rad_status mtl_statement(loader *L, const source *src, char **tok, size_t n)
+{
+    rad_scene *s = L->scene;
+    const char *key = tok[0];
+    static const char *const ignored[] = {"Ka", "Ks", "Ns", "Ni", "d", "Tr", "illum", "Tf"};
+    for (size_t i = 0; i < sizeof ignored / sizeof ignored[0]; i++)
+        if (strcmp(key, ignored[i]) == 0) return RAD_OK;
+    if (strncmp(key, "map_", 4) == 0) return RAD_OK;
+    if (strcmp(key, "newmtl") == 0) {
+        finish_material(L, src->path);
+        char name[RAD_NAME_MAX];
+        rad_status status = parse_name(src, tok, n, name);
+        if (status) return status;
+        size_t m = find_material(s, name);
+        if (m != SIZE_MAX && m != 0) return fail(src, RAD_ERR_INVALID, "material '%s' defined twice", name);
+        rad_material *mat = reserve(s->materials, &L->material_cap, s->material_count + 1, sizeof *mat);
+        if (!mat) return out_of_memory(src);
+        s->materials = mat;
+        mat += s->material_count;
+        *mat = s->materials[0]; /* defaults */
+        strcpy(mat->name, name);
+        L->mtl_current = s->material_count++;
+        L->mtl_has_kd = 0;
+        L->mtl_line = src->line;
+        return RAD_OK;
+    }
+    int is_kd = strcmp(key, "Kd") == 0;
+    if (is_kd || strcmp(key, "Ke") == 0) {
+        if (!L->mtl_current) return fail(src, RAD_ERR_PARSE, "%s before any newmtl", key);
+        double rgb[3];
+        rad_status status = parse_numbers(src, tok, n, n == 2 ? 1 : 3, rgb); /* "Kd r" means grey */
+        if (status) return status;
+        if (n == 2) rgb[1] = rgb[2] = rgb[0];
+        for (int c = 0; c < 3; c++) {
+            const char *text = tok[n == 2 ? 1 : 1 + c];
+            if (!isfinite(rgb[c])) return fail(src, RAD_ERR_INVALID, "%s %s is NaN or infinite", key, text);
+            if (is_kd && !(rgb[c] >= 0 && rgb[c] < 1))
+                return fail(src, RAD_ERR_INVALID, "Kd %s out of range [0,1)%s", text,
+                            rgb[c] >= 1 ? " (reflectance 1 makes the system singular)" : "");
+            if (!is_kd && rgb[c] < 0) return fail(src, RAD_ERR_INVALID, "Ke %s out of range (must be >= 0)", text);
+        }
+        memcpy(is_kd ? s->materials[L->mtl_current].rho : s->materials[L->mtl_current].emission, rgb, sizeof rgb);
+        L->mtl_has_kd |= is_kd;
+        return RAD_OK;
+    }
+    warn_unknown(L, src, key);
+    return RAD_OK;
+}
+
+static rad_status parse_text(loader *L, const char *path, char *text, int is_mtl)
+{
+    rad_status status = RAD_OK;
+    char **tok = NULL;
+    size_t tok_cap = 0, n;
+    source src = {path, 0};
+    if ((unsigned char)text[0] == 0xEF && (unsigned char)text[1] == 0xBB && (unsigned char)text[2] == 0xBF) text += 3;
+    while (*text) {
+        char *line = text, *end = strchr(text, '\n');
+        if (end) {
+            *end = 0;
+            text = end + 1;
+        } else {
+            text += strlen(text);
+        }
+        src.line++;
+        status = tokenize(line, &tok, &tok_cap, &n);
+        if (status) {
+            out_of_memory(&src);
+            goto done;
+        }
+        if (n == 0) continue;
+        status = is_mtl ? mtl_statement(L, &src, tok, n) : obj_statement(L, &src, tok, n);
+        if (status) goto done;
+    }
+    if (is_mtl) finish_material(L, path);
+done:
+    free(tok);
+    return status;
+}
+
+/* ---- the public functions ---- */
+
+static uint64_t fingerprint(const rad_scene *s)
+{
+    uint64_t counts[3] = {s->vertex_count, s->face_count, s->material_count};
+    uint64_t h = rad_hash64(RAD_HASH_SEED, counts, sizeof counts);
+    h = rad_hash64(h, s->positions, 3 * s->vertex_count * sizeof *s->positions);
+    for (size_t i = 0; i < s->face_count; i++) {
+        const rad_face *f = &s->faces[i];
+        uint32_t words[6] = {f->vertex_count, f->v[0], f->v[1], f->v[2], f->vertex_count == 4 ? f->v[3] : 0, f->material};
+        h = rad_hash64(h, words, sizeof words);
+    }
+    for (size_t i = 0; i < s->material_count; i++) {
+        h = rad_hash64(h, s->materials[i].rho, sizeof s->materials[i].rho);
+        h = rad_hash64(h, s->materials[i].emission, sizeof s->materials[i].emission);
+    }
+    return h;
+}
+
+rad_status rad_scene_load_file(const char *path, const rad_scene_options *options, rad_scene *out_scene)
+{
+    rad_status status = RAD_ERR_NOMEM;
+    rad_scene scene;
+    loader L;
+    memset(&scene, 0, sizeof scene);
+    memset(&L, 0, sizeof L);
+    L.scene = &scene;
+    L.read_file = options && options->read_file ? options->read_file : read_file_system;
+    L.read_file_user = options ? options->read_file_user : NULL;
+    snprintf(scene.path, sizeof scene.path, "%s", path);
+    scene.materials = reserve(NULL, &L.material_cap, 8, sizeof *scene.materials);
+    scene.groups = reserve(NULL, &L.group_cap, 8, sizeof *scene.groups);
+    if (!scene.materials || !scene.groups) {
+        rad_error("%s: out of memory", path);
+        goto done;
+    }
+    scene.materials[0] = (rad_material){.name = "default", .rho = {0.5, 0.5, 0.5}};
+    scene.material_count = 1;
+    strcpy(scene.groups[0], "default");
+    scene.group_count = 1;
+    status = load(&L, path, NULL, path, 0);
+    if (status) goto done;
+    if (scene.face_count == 0) {
+        rad_error("%s: no faces", path);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
+    scene.fingerprint = fingerprint(&scene);
+    *out_scene = scene;
+    memset(&scene, 0, sizeof scene);
+done:
+    rad_scene_free(&scene);
+    free(L.poly);
+    free(L.uv);
+    free(L.mtl_loaded);
+    return status;
+}
+
+rad_status rad_scene_load_default(rad_scene *out_scene)
+{
+    rad_scene_options options = {.read_file = read_embedded};
+    return rad_scene_load_file("cornell_box.obj", &options, out_scene);
+}
+
+void rad_scene_free(rad_scene *scene)
+{
+    if (!scene) return;
+    free(scene->positions);
+    free(scene->faces);
+    free(scene->materials);
+    free(scene->groups);
+    memset(scene, 0, sizeof *scene);
+}
