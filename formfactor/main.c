@@ -7,8 +7,9 @@
  * in rounds and all ranks write each round with one collective MPI-IO call.
  * The file appears under its final name only when every rank succeeded.
  */
-#define _POSIX_C_SOURCE 200809L
+#define _GNU_SOURCE /* sched_getaffinity */
 #include <getopt.h>
+#include <sched.h>
 #include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -195,8 +196,12 @@ static int default_threads(const ff_run *run)
     if (run->opt.threads > 0) return run->opt.threads;
     const char *env = getenv("OMP_NUM_THREADS");
     if (env && atoi(env) > 0) return atoi(env);
+    /* The cores this rank may run on (mpirun binds ranks to cores by
+     * default), and no more than its share of the node. */
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
     long t = cores / ff_comm_node_size(run->comm);
+    cpu_set_t mask;
+    if (sched_getaffinity(0, sizeof mask, &mask) == 0 && CPU_COUNT(&mask) < t) t = CPU_COUNT(&mask);
     return t > 0 ? (int)t : 1;
 }
 

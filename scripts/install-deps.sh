@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Installs the Debian packages radiosity builds and tests with (bookworm).
+# Runs apt-get only for what is missing; uses sudo when not root.
+set -euo pipefail
+packages=(build-essential cmake pkg-config libopenmpi-dev openmpi-bin libembree-dev
+          libopenimageio-dev openimageio-tools python3-numpy python3-matplotlib)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  sudo=""; [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  echo "install-deps: installing ${missing[*]}" >&2
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
