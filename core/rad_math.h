@@ -10,7 +10,7 @@
 #include <math.h>
 
 #if defined(__CUDACC__)
-#define RAD_HD __host__ __device__ __forceinline__
+#define RAD_HD __host__ __device__
 #else
 #define RAD_HD
 #endif

@@ -32,6 +32,7 @@ typedef struct ff_setup {
     uint64_t seed;
     double plane_eps;            /* rad_ff_pair_facing tolerance, scene units */
     int threads;                 /* CPU threads (>= 1) */
+    int device;                  /* GPU index for the CUDA backend (rank mod GPUs) */
     /* Called now and then from one thread with the rows finished so far in
      * the current compute_rows call; may be NULL. */
     void (*progress)(void *user, uint64_t rows_done);
@@ -45,8 +46,10 @@ typedef struct ff_counters {
     uint64_t samples;        /* point pairs evaluated */
     uint64_t rays;           /* shadow rays traced */
     uint64_t rays_occluded;  /* of those, blocked */
-    double kernel_seconds;   /* time sampling points and evaluating the kernel */
-    double visibility_seconds; /* time tracing shadow rays */
+    double kernel_seconds;   /* time sampling points and evaluating the kernel
+                                (CUDA: the whole kernel, shadow rays included) */
+    double visibility_seconds; /* time tracing shadow rays (CPU backend) */
+    double memory_seconds;   /* CUDA: device allocation and transfers */
 } ff_counters;
 
 typedef struct ff_backend {
@@ -59,5 +62,7 @@ typedef struct ff_backend {
 } ff_backend;
 
 extern const ff_backend ff_backend_cpu;
+/* In builds without CUDA its create() fails with RAD_ERR_UNSUPPORTED. */
+extern const ff_backend ff_backend_cuda;
 
 #endif

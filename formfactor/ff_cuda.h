@@ -1,5 +1,6 @@
 /* ff_cuda.h - the C-callable face of the CUDA code (ff_cuda_*.cu).
- * No CUDA types here: callers are plain C. */
+ * No CUDA types here: callers are plain C. The backend itself is
+ * ff_backend_cuda (ff_backend.h). */
 #ifndef FF_CUDA_H
 #define FF_CUDA_H
 

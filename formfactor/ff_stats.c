@@ -17,7 +17,7 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
         const ff_rank_stats *s = &ranks[r];
 #define FF_MAX(field) all.field = s->field > all.field ? s->field : all.field
         FF_MAX(load); FF_MAX(subdivide); FF_MAX(setup); FF_MAX(form_factors);
-        FF_MAX(visibility); FF_MAX(io); FF_MAX(total);
+        FF_MAX(visibility); FF_MAX(io); FF_MAX(total); FF_MAX(gpu_memory);
 #undef FF_MAX
         all.counters.pairs += s->counters.pairs;
         all.counters.pairs_culled += s->counters.pairs_culled;
@@ -37,8 +37,8 @@ static void write_times(FILE *f, const ff_rank_stats *s)
 {
     fprintf(f,
             "{\"load\": %.6f, \"subdivide\": %.6f, \"setup\": %.6f, \"form_factors\": %.6f, "
-            "\"visibility\": %.6f, \"io\": %.6f, \"total\": %.6f}",
-            s->load, s->subdivide, s->setup, s->form_factors, s->visibility, s->io, s->total);
+            "\"visibility\": %.6f, \"gpu_memory\": %.6f, \"io\": %.6f, \"total\": %.6f}",
+            s->load, s->subdivide, s->setup, s->form_factors, s->visibility, s->gpu_memory, s->io, s->total);
 }
 
 static void write_counters(FILE *f, const ff_counters *c)
@@ -123,8 +123,8 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
              (unsigned long long)c->samples, (unsigned long long)c->rays,
              c->rays ? 100.0 * c->rays_occluded / c->rays : 0.0, run->ranks);
     rad_info("time (s, slowest rank): load %.3f  subdivide %.3f  setup %.3f  form factors %.3f  visibility %.3f  "
-             "I/O %.3f  total %.3f",
-             all.load, all.subdivide, all.setup, all.form_factors, all.visibility, all.io, all.total);
+             "GPU memory %.3f  I/O %.3f  total %.3f",
+             all.load, all.subdivide, all.setup, all.form_factors, all.visibility, all.gpu_memory, all.io, all.total);
     rad_info("row sums: min %.6f  max %.6f  mean %.6f", all.row_sum_min, all.row_sum_max,
              run->patch_count ? all.row_sum_total / run->patch_count : 0.0);
 }

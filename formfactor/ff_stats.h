@@ -14,6 +14,7 @@ typedef struct ff_rank_stats {
     int32_t threads;
     uint32_t row_begin, row_end;
     double load, subdivide, setup, form_factors, visibility, io, total;
+    double gpu_memory; /* CUDA: allocation + transfers (form_factors is then the GPU kernel) */
     ff_counters counters;
     double row_sum_min, row_sum_max, row_sum_total; /* over this rank's rows */
 } ff_rank_stats;

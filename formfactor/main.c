@@ -227,13 +227,8 @@ static rad_status load(ff_run *run)
 static rad_status select_backend(ff_run *run, int gpus)
 {
     const char *want = run->opt.backend;
-    if (!strcmp(want, "cuda")) {
-        rad_error("--backend cuda: the CUDA form-factor backend is not part of this build yet "
-                  "(%d GPU(s) visible); use --backend cpu",
-                  gpus);
-        return RAD_ERR_UNSUPPORTED;
-    }
-    run->backend = &ff_backend_cpu; /* auto: the CPU until the CUDA backend lands */
+    /* auto: the GPU when this process sees one, else the CPU. */
+    run->backend = !strcmp(want, "cuda") || (!strcmp(want, "auto") && gpus > 0) ? &ff_backend_cuda : &ff_backend_cpu;
     return RAD_OK;
 }
 
@@ -253,7 +248,7 @@ static rad_status setup(ff_run *run)
         ff_setup su = {.patches = run->patches, .patch_count = n, .triangles = run->triangles,
                        .triangle_face = run->triangle_face, .triangle_count = run->triangle_count,
                        .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
-                       .plane_eps = eps, .threads = run->stats.threads,
+                       .plane_eps = eps, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
                        .progress = ff_comm_rank(run->comm) == 0 ? report_progress : NULL, .progress_user = run};
         st = run->backend->create(&su, &run->backend_state);
     }
@@ -307,6 +302,7 @@ static rad_status compute_and_write(ff_run *run, ff_output *out)
     run->stats.counters = counters;
     run->stats.form_factors = counters.kernel_seconds;
     run->stats.visibility = counters.visibility_seconds;
+    run->stats.gpu_memory = counters.memory_seconds;
     free(rows);
     return st;
 }

@@ -1,0 +1,267 @@
+/* ff_backend_cuda.cu - the CUDA backend. No MPI here, only CUDA.
+ *
+ * One warp per patch pair (i, j): the lanes share the K point pairs of the
+ * shared kernel (rad_ff_kernel.h, the very code the CPU runs) and reduce
+ * them with shuffles; the first R point pairs then carry shadow rays, one
+ * per lane, through the flat BVH of ff_bvh.h (any hit, first hit returns).
+ * Culled pairs (facing test) cost the warp one test and one store.
+ *
+ * This file is compiled with --fmad=false so each double operation rounds
+ * as on the CPU: the per-sample kernel values are bit-identical to the CPU
+ * backend's, and only the order of the final sums (and borderline ray
+ * hits, Moller-Trumbore here vs Embree there) differs.
+ */
+#include <cuda_runtime.h>
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+
+extern "C" {
+#include "ff_backend.h"
+#include "ff_bvh.h"
+#include "ff_cuda.h"
+#include "rad_log.h"
+}
+
+enum { FF_CUDA_BLOCK = 256, FF_CUDA_WARPS_PER_BLOCK = FF_CUDA_BLOCK / 32 };
+enum { C_CULLED, C_SAMPLES, C_RAYS, C_OCCLUDED, C_COUNT };
+
+struct cuda_params {
+    const rad_ff_patch *patches;
+    uint32_t n;
+    const ff_bvh_node *nodes;
+    const ff_bvh_tri *tris;
+    int32_t root;
+    uint32_t root_count;
+    uint32_t samples, rays;
+    uint64_t seed;
+    double eps;
+    uint32_t row_begin, row_count;
+    double *out;                   /* row_count * n */
+    unsigned long long *counters;  /* C_COUNT */
+};
+
+struct cuda_state {
+    ff_setup setup;
+    rad_ff_patch *d_patches;
+    ff_bvh_node *d_nodes;
+    ff_bvh_tri *d_tris;
+    int32_t root;
+    uint32_t root_count;
+    double *d_out;
+    size_t out_capacity; /* doubles */
+    unsigned long long *d_counters;
+    cudaEvent_t start, stop;
+};
+
+static double now_seconds(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* Logs a failed CUDA call with its place and returns RAD_ERR_BACKEND. */
+static rad_status cuda_check(cudaError_t err, const char *what, int line)
+{
+    if (err == cudaSuccess) return RAD_OK;
+    rad_error("cuda: %s (ff_backend_cuda.cu:%d): %s", what, line, cudaGetErrorString(err));
+    return RAD_ERR_BACKEND;
+}
+#define CUDA_TRY(call)                                                         \
+    do {                                                                       \
+        if ((status = cuda_check((call), #call, __LINE__)) != RAD_OK) goto done; \
+    } while (0)
+
+__device__ static double warp_sum(double v)
+{
+    for (int offset = 16; offset > 0; offset >>= 1) v += __shfl_xor_sync(0xffffffffu, v, offset);
+    return v;
+}
+
+__device__ static unsigned warp_sum_u(unsigned v)
+{
+    for (int offset = 16; offset > 0; offset >>= 1) v += __shfl_xor_sync(0xffffffffu, v, offset);
+    return v;
+}
+
+__global__ static void __launch_bounds__(FF_CUDA_BLOCK) ff_rows_kernel(cuda_params p)
+{
+    __shared__ unsigned long long block_counts[C_COUNT];
+    if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
+    __syncthreads();
+    uint64_t warp = ((uint64_t)blockIdx.x * blockDim.x + threadIdx.x) >> 5;
+    unsigned lane = threadIdx.x & 31u;
+    if (warp < (uint64_t)p.row_count * p.n) {
+        uint32_t j = (uint32_t)(warp % p.n), i = p.row_begin + (uint32_t)(warp / p.n);
+        const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
+        double value = 0.0;
+        if (i != j && rad_ff_pair_facing(pi, pj, p.eps)) { /* uniform across the warp */
+            double sum = 0.0;
+            for (uint32_t k = lane; k < p.samples; k += 32) {
+                rad_vec3 x, y;
+                rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
+                sum += rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+            }
+            sum = warp_sum(sum);
+            value = sum * pj->area / p.samples;
+            if (p.rays > 0 && value > 0.0) {
+                double seen = 0.0, total = 0.0;
+                unsigned visible = 0;
+                for (uint32_t k = lane; k < p.rays; k += 32) {
+                    rad_vec3 x, y;
+                    rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
+                    double g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+                    float o[3] = {(float)x.x, (float)x.y, (float)x.z};
+                    float d[3] = {(float)y.x - o[0], (float)y.y - o[1], (float)y.z - o[2]};
+                    int blocked = ff_bvh_occluded(p.nodes, p.tris, p.root, p.root_count, o, d, pi->face, pj->face);
+                    total += g;
+                    if (!blocked) {
+                        seen += g;
+                        visible++;
+                    }
+                }
+                seen = warp_sum(seen);
+                total = warp_sum(total);
+                visible = warp_sum_u(visible);
+                value *= total > 0.0 ? seen / total : (double)visible / p.rays;
+                if (lane == 0) {
+                    atomicAdd(&block_counts[C_RAYS], (unsigned long long)p.rays);
+                    atomicAdd(&block_counts[C_OCCLUDED], (unsigned long long)(p.rays - visible));
+                }
+            }
+            if (lane == 0) atomicAdd(&block_counts[C_SAMPLES], (unsigned long long)p.samples);
+        } else if (lane == 0) {
+            atomicAdd(&block_counts[C_CULLED], 1ull);
+        }
+        if (lane == 0) p.out[warp] = value;
+    }
+    __syncthreads();
+    if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
+}
+
+extern "C" int ff_cuda_device_count(void)
+{
+    int count = 0;
+    if (cudaGetDeviceCount(&count) != cudaSuccess) {
+        cudaGetLastError(); /* clear the "no device" error */
+        return 0;
+    }
+    return count;
+}
+
+static void cuda_destroy(void *state)
+{
+    cuda_state *s = (cuda_state *)state;
+    if (!s) return;
+    cudaFree(s->d_patches);
+    cudaFree(s->d_nodes);
+    cudaFree(s->d_tris);
+    cudaFree(s->d_out);
+    cudaFree(s->d_counters);
+    if (s->start) cudaEventDestroy(s->start);
+    if (s->stop) cudaEventDestroy(s->stop);
+    delete s;
+}
+
+static rad_status cuda_create(const ff_setup *setup, void **out_state)
+{
+    rad_status status = RAD_OK;
+    ff_bvh bvh = {};
+    cuda_state *s = new cuda_state();
+    s->setup = *setup;
+    int count = ff_cuda_device_count();
+    if (count == 0) {
+        rad_error("--backend cuda: no CUDA device is visible to this process");
+        status = RAD_ERR_UNSUPPORTED;
+        goto done;
+    }
+    CUDA_TRY(cudaSetDevice(setup->device % count));
+    if ((status = ff_bvh_build(setup->triangles, setup->triangle_face, setup->triangle_count, &bvh)) != RAD_OK)
+        goto done;
+    s->root = bvh.root;
+    s->root_count = bvh.root_count;
+    CUDA_TRY(cudaMalloc(&s->d_patches, sizeof(rad_ff_patch) * setup->patch_count));
+    CUDA_TRY(cudaMalloc(&s->d_nodes, sizeof(ff_bvh_node) * (bvh.node_count ? bvh.node_count : 1)));
+    CUDA_TRY(cudaMalloc(&s->d_tris, sizeof(ff_bvh_tri) * (bvh.tri_count ? bvh.tri_count : 1)));
+    CUDA_TRY(cudaMalloc(&s->d_counters, sizeof(unsigned long long) * C_COUNT));
+    CUDA_TRY(cudaMemcpy(s->d_patches, setup->patches, sizeof(rad_ff_patch) * setup->patch_count,
+                        cudaMemcpyHostToDevice));
+    if (bvh.node_count)
+        CUDA_TRY(cudaMemcpy(s->d_nodes, bvh.nodes, sizeof(ff_bvh_node) * bvh.node_count, cudaMemcpyHostToDevice));
+    if (bvh.tri_count)
+        CUDA_TRY(cudaMemcpy(s->d_tris, bvh.tris, sizeof(ff_bvh_tri) * bvh.tri_count, cudaMemcpyHostToDevice));
+    CUDA_TRY(cudaEventCreate(&s->start));
+    CUDA_TRY(cudaEventCreate(&s->stop));
+done:
+    ff_bvh_free(&bvh);
+    if (status != RAD_OK) {
+        cuda_destroy(s);
+        return status;
+    }
+    *out_state = s;
+    return RAD_OK;
+}
+
+static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t row_count, double *out,
+                                    ff_counters *counters)
+{
+    cuda_state *s = (cuda_state *)state;
+    const ff_setup *su = &s->setup;
+    rad_status status = RAD_OK;
+    size_t need = (size_t)row_count * su->patch_count;
+    unsigned long long counts[C_COUNT] = {0, 0, 0, 0};
+    float kernel_ms = 0;
+    uint64_t warps = need, blocks = (warps + FF_CUDA_WARPS_PER_BLOCK - 1) / FF_CUDA_WARPS_PER_BLOCK;
+    cuda_params p;
+    double t0 = now_seconds(), t1 = 0;
+    if (need == 0) return RAD_OK;
+    if (need > s->out_capacity) {
+        cudaFree(s->d_out);
+        s->d_out = NULL;
+        s->out_capacity = 0;
+        CUDA_TRY(cudaMalloc(&s->d_out, sizeof(double) * need));
+        s->out_capacity = need;
+    }
+    CUDA_TRY(cudaMemset(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT));
+    p.patches = s->d_patches;
+    p.n = su->patch_count;
+    p.nodes = s->d_nodes;
+    p.tris = s->d_tris;
+    p.root = s->root;
+    p.root_count = s->root_count;
+    p.samples = su->samples;
+    p.rays = su->shadow_rays;
+    p.seed = su->seed;
+    p.eps = su->plane_eps;
+    p.row_begin = row_begin;
+    p.row_count = row_count;
+    p.out = s->d_out;
+    p.counters = s->d_counters;
+    t1 = now_seconds();
+    CUDA_TRY(cudaEventRecord(s->start));
+    ff_rows_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+    CUDA_TRY(cudaGetLastError()); /* launch configuration errors */
+    CUDA_TRY(cudaEventRecord(s->stop));
+    CUDA_TRY(cudaEventSynchronize(s->stop)); /* execution errors surface here */
+    CUDA_TRY(cudaEventElapsedTime(&kernel_ms, s->start, s->stop));
+    t1 = now_seconds() - t1 - kernel_ms * 1e-3; /* launch overhead counts as memory/overhead */
+    {
+        double t2 = now_seconds();
+        CUDA_TRY(cudaMemcpy(out, s->d_out, sizeof(double) * need, cudaMemcpyDeviceToHost));
+        CUDA_TRY(cudaMemcpy(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost));
+        counters->memory_seconds += (now_seconds() - t2) + (t1 > 0 ? t1 : 0);
+    }
+    counters->pairs += need;
+    counters->pairs_culled += counts[C_CULLED];
+    counters->samples += counts[C_SAMPLES];
+    counters->rays += counts[C_RAYS];
+    counters->rays_occluded += counts[C_OCCLUDED];
+    counters->kernel_seconds += kernel_ms * 1e-3;
+    if (su->progress) su->progress(su->progress_user, row_count);
+done:
+    (void)t0;
+    return status;
+}
+
+extern "C" const ff_backend ff_backend_cuda = {"cuda", cuda_create, cuda_compute_rows, cuda_destroy};

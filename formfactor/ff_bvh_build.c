@@ -1,0 +1,181 @@
+/* ff_bvh_build.c - Embree's BVH builder (rtcBuildBVH, binned SAH) turned
+ * into the flat layout of ff_bvh.h. Embree builds a pointer tree in its
+ * thread-local allocator; one depth-first walk numbers the inner nodes and
+ * gathers leaf triangles contiguously. */
+#include <embree3/rtcore.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ff_bvh.h"
+#include "rad_log.h"
+
+typedef struct build_node {
+    int is_leaf;
+    void *child[2];
+    struct RTCBounds bounds[2];
+    uint32_t prim_count; /* leaves */
+    uint32_t prims[];    /* leaves: triangle indices */
+} build_node;
+
+static void *create_node(RTCThreadLocalAllocator alloc, unsigned child_count, void *user)
+{
+    (void)child_count;
+    (void)user;
+    build_node *n = rtcThreadLocalAlloc(alloc, sizeof(build_node), 16);
+    memset(n, 0, sizeof *n);
+    return n;
+}
+
+static void set_children(void *node, void **children, unsigned count, void *user)
+{
+    (void)user;
+    build_node *n = node;
+    for (unsigned k = 0; k < count && k < 2; k++) n->child[k] = children[k];
+}
+
+static void set_bounds(void *node, const struct RTCBounds **bounds, unsigned count, void *user)
+{
+    (void)user;
+    build_node *n = node;
+    for (unsigned k = 0; k < count && k < 2; k++) n->bounds[k] = *bounds[k];
+}
+
+static void *create_leaf(RTCThreadLocalAllocator alloc, const struct RTCBuildPrimitive *prims, size_t count,
+                         void *user)
+{
+    (void)user;
+    build_node *n = rtcThreadLocalAlloc(alloc, sizeof(build_node) + count * sizeof(uint32_t), 16);
+    memset(n, 0, sizeof *n);
+    n->is_leaf = 1;
+    n->prim_count = (uint32_t)count;
+    for (size_t k = 0; k < count; k++) n->prims[k] = prims[k].primID;
+    return n;
+}
+
+typedef struct flatten_ctx {
+    ff_bvh *bvh;
+    const float *triangles;
+    const uint32_t *triangle_face;
+} flatten_ctx;
+
+static void put_tri(flatten_ctx *c, uint32_t src)
+{
+    const float *v = c->triangles + 9 * (size_t)src;
+    ff_bvh_tri *t = &c->bvh->tris[c->bvh->tri_count++];
+    memset(t, 0, sizeof *t);
+    for (int a = 0; a < 3; a++) {
+        t->v0[a] = v[a];
+        t->e1[a] = v[3 + a] - v[a];
+        t->e2[a] = v[6 + a] - v[a];
+    }
+    t->face = c->triangle_face[src];
+}
+
+/* Returns the child reference of `n` and fills its leaf count. */
+static int32_t flatten(flatten_ctx *c, const build_node *n, uint32_t *out_count)
+{
+    if (n->is_leaf) {
+        int32_t ref = ~(int32_t)c->bvh->tri_count;
+        for (uint32_t k = 0; k < n->prim_count; k++) put_tri(c, n->prims[k]);
+        *out_count = n->prim_count;
+        return ref;
+    }
+    uint32_t index = c->bvh->node_count++;
+    ff_bvh_node node;
+    memset(&node, 0, sizeof node);
+    const struct RTCBounds *b = n->bounds;
+    node.lo0[0] = b[0].lower_x, node.lo0[1] = b[0].lower_y, node.lo0[2] = b[0].lower_z;
+    node.hi0[0] = b[0].upper_x, node.hi0[1] = b[0].upper_y, node.hi0[2] = b[0].upper_z;
+    node.lo1[0] = b[1].lower_x, node.lo1[1] = b[1].lower_y, node.lo1[2] = b[1].lower_z;
+    node.hi1[0] = b[1].upper_x, node.hi1[1] = b[1].upper_y, node.hi1[2] = b[1].upper_z;
+    node.child0 = flatten(c, n->child[0], &node.count0);
+    node.child1 = flatten(c, n->child[1], &node.count1);
+    c->bvh->nodes[index] = node;
+    *out_count = 0;
+    return (int32_t)index;
+}
+
+rad_status ff_bvh_build(const float *triangles, const uint32_t *triangle_face, uint32_t triangle_count,
+                        ff_bvh *out_bvh)
+{
+    rad_status status = RAD_OK;
+    ff_bvh bvh = {0};
+    bvh.root = -1;
+    RTCDevice device = NULL;
+    RTCBVH handle = NULL;
+    struct RTCBuildPrimitive *prims = NULL;
+    /* A binary tree over T leaves of >= 1 triangle has < T inner nodes. */
+    bvh.nodes = malloc(sizeof *bvh.nodes * (triangle_count ? triangle_count : 1));
+    bvh.tris = malloc(sizeof *bvh.tris * (triangle_count ? triangle_count : 1));
+    prims = malloc(sizeof *prims * (triangle_count ? triangle_count : 1));
+    if (!bvh.nodes || !bvh.tris || !prims) {
+        rad_error("out of memory for a BVH over %u triangles", triangle_count);
+        status = RAD_ERR_NOMEM;
+        goto done;
+    }
+    if (triangle_count == 0) goto done;
+    for (uint32_t t = 0; t < triangle_count; t++) {
+        const float *v = triangles + 9 * (size_t)t;
+        struct RTCBuildPrimitive *p = &prims[t];
+        p->lower_x = p->upper_x = v[0];
+        p->lower_y = p->upper_y = v[1];
+        p->lower_z = p->upper_z = v[2];
+        for (int k = 1; k < 3; k++) {
+            const float *w = v + 3 * k;
+            p->lower_x = w[0] < p->lower_x ? w[0] : p->lower_x, p->upper_x = w[0] > p->upper_x ? w[0] : p->upper_x;
+            p->lower_y = w[1] < p->lower_y ? w[1] : p->lower_y, p->upper_y = w[1] > p->upper_y ? w[1] : p->upper_y;
+            p->lower_z = w[2] < p->lower_z ? w[2] : p->lower_z, p->upper_z = w[2] > p->upper_z ? w[2] : p->upper_z;
+        }
+        p->geomID = 0;
+        p->primID = t;
+    }
+    device = rtcNewDevice(NULL);
+    handle = device ? rtcNewBVH(device) : NULL;
+    if (!handle) {
+        rad_error("embree: cannot create a BVH builder");
+        status = RAD_ERR_BACKEND;
+        goto done;
+    }
+    struct RTCBuildArguments args = rtcDefaultBuildArguments();
+    args.buildQuality = RTC_BUILD_QUALITY_MEDIUM; /* binned SAH, no spatial splits */
+    args.maxBranchingFactor = 2;
+    args.maxDepth = 32;
+    args.minLeafSize = 1;
+    args.maxLeafSize = 4;
+    args.traversalCost = 1.0f;
+    args.intersectionCost = 1.0f;
+    args.bvh = handle;
+    args.primitives = prims;
+    args.primitiveCount = triangle_count;
+    args.primitiveArrayCapacity = triangle_count;
+    args.createNode = create_node;
+    args.setNodeChildren = set_children;
+    args.setNodeBounds = set_bounds;
+    args.createLeaf = create_leaf;
+    build_node *root = rtcBuildBVH(&args);
+    if (!root || rtcGetDeviceError(device) != RTC_ERROR_NONE) {
+        rad_error("embree: rtcBuildBVH failed");
+        status = RAD_ERR_BACKEND;
+        goto done;
+    }
+    flatten_ctx ctx = {&bvh, triangles, triangle_face};
+    bvh.root = flatten(&ctx, root, &bvh.root_count);
+done:
+    if (handle) rtcReleaseBVH(handle);
+    if (device) rtcReleaseDevice(device);
+    free(prims);
+    if (status != RAD_OK) {
+        ff_bvh_free(&bvh);
+        return status;
+    }
+    *out_bvh = bvh;
+    return RAD_OK;
+}
+
+void ff_bvh_free(ff_bvh *bvh)
+{
+    free(bvh->nodes);
+    free(bvh->tris);
+    memset(bvh, 0, sizeof *bvh);
+    bvh->root = -1;
+}

@@ -1,0 +1,93 @@
+/* ff_fixture.h - scenes and whole-matrix runs shared by the form-factor
+ * tests (CPU and CUDA). Static functions: include from one test file. */
+#ifndef FF_FIXTURE_H
+#define FF_FIXTURE_H
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "ff_backend.h"
+#include "ff_setup.h"
+
+/* Scenes served from memory through the loader's read_file hook. */
+static const char *const scene_mtl = "newmtl grey\nKd 0.5 0.5 0.5\n";
+static const char *const parallel_obj =
+    "mtllib s.mtl\nusemtl grey\n"
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n"
+    "v 0 0 1\nv 0 1 1\nv 1 1 1\nv 1 0 1\nf 5 6 7 8\n";
+static const char *const perpendicular_obj =
+    "mtllib s.mtl\nusemtl grey\n"
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n"
+    "v 0 0 1\nv 0 1 1\nf 1 4 6 5\n";
+/* The parallel pair with a 2x2 plate between them: nothing gets through. */
+static const char *const blocked_obj =
+    "mtllib s.mtl\nusemtl grey\n"
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n"
+    "v 0 0 1\nv 0 1 1\nv 1 1 1\nv 1 0 1\nf 5 6 7 8\n"
+    "v -0.5 -0.5 0.5\nv 1.5 -0.5 0.5\nv 1.5 1.5 0.5\nv -0.5 1.5 0.5\nf 9 10 11 12\n";
+
+static const char *g_obj;
+
+static rad_status read_memory(const char *path, char **out_data, size_t *out_size, void *user)
+{
+    (void)user;
+    const char *text = strstr(path, ".mtl") ? scene_mtl : g_obj;
+    *out_size = strlen(text);
+    *out_data = malloc(*out_size + 1);
+    memcpy(*out_data, text, *out_size + 1);
+    return RAD_OK;
+}
+
+typedef struct fixture {
+    rad_scene scene;
+    rad_mesh mesh;
+    rad_ff_patch *patches;
+    float *triangles;
+    uint32_t *triangle_face, triangle_count;
+} fixture;
+
+static int fixture_load(fixture *fx, const char *obj_text, const char *path, int subdiv)
+{
+    memset(fx, 0, sizeof *fx);
+    g_obj = obj_text;
+    rad_scene_options so = {.read_file = obj_text ? read_memory : NULL};
+    rad_mesh_options mo = {.subdiv = subdiv};
+    return rad_scene_load_file(path, &so, &fx->scene) == RAD_OK && rad_mesh_build(&fx->scene, &mo, &fx->mesh) == RAD_OK &&
+           ff_patches_build(&fx->mesh, &fx->patches) == RAD_OK &&
+           ff_occluders_build(&fx->scene, &fx->triangles, &fx->triangle_face, &fx->triangle_count) == RAD_OK;
+}
+
+static void fixture_free(fixture *fx)
+{
+    free(fx->patches);
+    free(fx->triangles);
+    free(fx->triangle_face);
+    rad_mesh_free(&fx->mesh);
+    rad_scene_free(&fx->scene);
+}
+
+/* The whole matrix of a fixture with the CPU backend. */
+static double *compute_with(const ff_backend *backend, const fixture *fx, uint32_t samples, uint32_t rays,
+                            uint64_t seed, ff_counters *counters)
+{
+    uint32_t n = (uint32_t)fx->mesh.patch_count;
+    ff_setup su = {.patches = fx->patches, .patch_count = n, .triangles = fx->triangles,
+                   .triangle_face = fx->triangle_face, .triangle_count = fx->triangle_count, .samples = samples,
+                   .shadow_rays = rays, .seed = seed, .plane_eps = ff_plane_eps(&fx->mesh), .threads = 2};
+    void *state = NULL;
+    double *f = malloc(sizeof(double) * n * n);
+    ff_counters local = {0};
+    if (backend->create(&su, &state) != RAD_OK) {
+        free(f);
+        return NULL;
+    }
+    rad_status st = backend->compute_rows(state, 0, n, f, counters ? counters : &local);
+    backend->destroy(state);
+    if (st != RAD_OK) {
+        free(f);
+        return NULL;
+    }
+    return f;
+}
+
+#endif

@@ -1,0 +1,95 @@
+/* test_cuda.c - the CUDA backend against the CPU reference (label gpu).
+ * Exits 77 (skipped) when no GPU is visible; never fails for that reason.
+ *
+ * Both backends evaluate the very same point pairs and, with --fmad=false,
+ * the very same per-sample kernel values; they differ only in the order of
+ * the final sums (relative 1e-12 at most, K = 512 terms) and in shadow rays
+ * that graze an edge (Moller-Trumbore vs Embree). So:
+ *   - entries equal to 1e-9 relative, except
+ *   - at most 0.5 % of the nonzero entries (borderline rays), which must
+ *     still agree within 25 % (one ray of 32 weighs ~1/32 on average);
+ *   - culled pairs, samples and rays counted identically.
+ * Plus the closed forms on the GPU, as in test_formfactor.c.
+ */
+#include "ff_cuda.h"
+#include "ff_fixture.h"
+#include "rad_test.h"
+
+static void compare(const char *path, int subdiv)
+{
+    fixture fx;
+    RAD_CHECK(fixture_load(&fx, NULL, path, subdiv));
+    uint32_t n = (uint32_t)fx.mesh.patch_count;
+    ff_counters cc = {0}, gc = {0};
+    double *cpu = compute_with(&ff_backend_cpu, &fx, 512, 32, 1, &cc);
+    double *gpu = compute_with(&ff_backend_cuda, &fx, 512, 32, 1, &gc);
+    RAD_CHECK(cpu && gpu);
+    if (!cpu || !gpu) return;
+    uint64_t nonzero = 0, loose = 0, bad = 0;
+    double worst_tight = 0;
+    for (uint64_t k = 0; k < (uint64_t)n * n; k++) {
+        double a = cpu[k], b = gpu[k], diff = fabs(a - b), scale = fmax(fabs(a), fabs(b));
+        nonzero += a != 0;
+        if (diff <= 1e-9 * scale) {
+            worst_tight = fmax(worst_tight, scale > 0 ? diff / scale : 0);
+            continue;
+        }
+        loose++;
+        if (diff > 0.25 * scale) bad++;
+    }
+    fprintf(stderr,
+            "%s --subdiv %d: N=%u, %llu nonzero; %llu entries differ beyond 1e-9 (borderline rays), %llu beyond 25%%; "
+            "largest tight difference %.2e; rays occluded cpu %llu gpu %llu\n",
+            path, subdiv, n, (unsigned long long)nonzero, (unsigned long long)loose, (unsigned long long)bad,
+            worst_tight, (unsigned long long)cc.rays_occluded, (unsigned long long)gc.rays_occluded);
+    RAD_CHECK(loose <= nonzero / 200);
+    RAD_CHECK(bad == 0);
+    RAD_CHECK(cc.pairs == gc.pairs && cc.pairs_culled == gc.pairs_culled);
+    RAD_CHECK(cc.samples == gc.samples && cc.rays == gc.rays);
+    free(cpu);
+    free(gpu);
+    fixture_free(&fx);
+}
+
+static void closed_form(const char *name, const char *obj, double exact, double max_se)
+{
+    fixture fx;
+    RAD_CHECK(fixture_load(&fx, obj, "s.obj", 0));
+    enum { REPLICATES = 16 };
+    double sum = 0, sum2 = 0;
+    for (int r = 1; r <= REPLICATES; r++) {
+        double *f = compute_with(&ff_backend_cuda, &fx, 65536, 0, (uint64_t)r, NULL);
+        RAD_CHECK(f != NULL);
+        if (!f) break;
+        sum += f[1];
+        sum2 += f[1] * f[1];
+        RAD_CHECK(f[0] == 0 && f[3] == 0);
+        free(f);
+    }
+    double mean = sum / REPLICATES;
+    double se = sqrt((sum2 / REPLICATES - mean * mean) / (REPLICATES - 1));
+    fprintf(stderr, "cuda %s: F = %.6f +- %.6f (exact %.6f)\n", name, mean, se, exact);
+    RAD_CHECK(se < max_se);
+    RAD_CHECK_NEAR(mean, exact, 5 * se);
+    fixture_free(&fx);
+}
+
+int main(void)
+{
+    if (ff_cuda_device_count() == 0) {
+        fprintf(stderr, "no CUDA device: skipped\n");
+        return 77;
+    }
+    compare(RAD_SCENES "/cornell_box.obj", 1);
+    compare(RAD_SCENES "/cornell_sphere.obj", 2);
+    closed_form("parallel unit squares", parallel_obj, 0.199825, 1.5e-4);
+    closed_form("perpendicular unit squares", perpendicular_obj, 0.200044, 2e-3);
+
+    fixture fx;
+    RAD_CHECK(fixture_load(&fx, blocked_obj, "s.obj", 0));
+    double *f = compute_with(&ff_backend_cuda, &fx, 512, 32, 1, NULL);
+    RAD_CHECK(f && f[1] == 0.0 && f[3] == 0.0 && f[5] > 0.1);
+    free(f);
+    fixture_free(&fx);
+    return rad_test_finish();
+}

@@ -1,0 +1,660 @@
+/* test_render.c - tests of render/: rasterizer, shading, tone map, camera,
+ * image files; and the reference-free checks of a rendered Cornell box.
+ *
+ *   test_render                        unit tests
+ *   test_render check-cornell IMAGE    checks a Cornell box picture taken
+ *                                      with the default (measured) camera
+ */
+#define _POSIX_C_SOURCE 200809L
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "camera.h"
+#include "frame.h"
+#include "image.h"
+#include "rad_fs.h"
+#include "rad_test.h"
+#include "raster.h"
+#include "shade.h"
+#include "tonemap.h"
+
+/* ---- rasterizer ---- */
+
+static render_vertex vtx(double x, double y, double w, float r, float g, float b)
+{
+    render_vertex v = {x * w, y * w, w, {r, g, b}};
+    return v;
+}
+
+static uint32_t lcg_next(uint32_t *state)
+{
+    *state = *state * 1664525u + 1013904223u;
+    return *state >> 8;
+}
+
+/* A jittered grid of points covering more than the screen, triangulated
+ * with random diagonals and random winding: every sample must be covered
+ * exactly once. Some points sit exactly on sample centres and some edges
+ * run exactly through them, to exercise the tie rules. */
+static void test_fill_rule_watertight(int spp)
+{
+    enum { G = 7 };
+    const int width = 23, height = 17;
+    int n = (int)lround(sqrt(spp));
+    double px[G][G], py[G][G];
+    uint32_t seed = 12345u + (uint32_t)spp;
+    for (int j = 0; j < G; j++) {
+        for (int i = 0; i < G; i++) {
+            double x = -1.6 + 3.2 * i / (G - 1), y = -1.6 + 3.2 * j / (G - 1);
+            if (i > 0 && i < G - 1 && j > 0 && j < G - 1) {
+                uint32_t r = lcg_next(&seed);
+                if (r % 3 == 0) { /* snap to a sample centre */
+                    int si = (int)((x + 1) / 2 * width * n), sj = (int)((1 - y) / 2 * height * n);
+                    x = 2.0 * (si + 0.5) / (width * n) - 1.0;
+                    y = 1.0 - 2.0 * (sj + 0.5) / (height * n);
+                } else {
+                    x += 0.15 * ((r & 0xffff) / 65536.0 - 0.5);
+                    y += 0.15 * (((r >> 12) & 0xfff) / 4096.0 - 0.5);
+                }
+            }
+            px[j][i] = x;
+            py[j][i] = y;
+        }
+    }
+    render_vertex tris[2 * (G - 1) * (G - 1) * 3];
+    size_t count = 0;
+    for (int j = 0; j + 1 < G; j++) {
+        for (int i = 0; i + 1 < G; i++) {
+            render_vertex a = vtx(px[j][i], py[j][i], 1, 1, 1, 1), b = vtx(px[j][i + 1], py[j][i + 1], 1, 1, 1, 1);
+            render_vertex c = vtx(px[j + 1][i + 1], py[j + 1][i + 1], 1, 1, 1, 1);
+            render_vertex d = vtx(px[j + 1][i], py[j + 1][i], 1, 1, 1, 1);
+            uint32_t r = lcg_next(&seed);
+            render_vertex q[2][3] = {{a, b, c}, {a, c, d}};
+            if (r & 1) {
+                render_vertex alt[2][3] = {{a, b, d}, {b, c, d}};
+                memcpy(q, alt, sizeof q);
+            }
+            for (int t = 0; t < 2; t++) {
+                if (r & (4u << t)) { /* reverse winding */
+                    render_vertex tmp = q[t][1];
+                    q[t][1] = q[t][2];
+                    q[t][2] = tmp;
+                }
+                memcpy(&tris[3 * count++], q[t], sizeof q[t]);
+            }
+        }
+    }
+    render_raster_options opt = {width, height, spp, 0, 1e-3};
+    size_t samples = (size_t)width * n * height * n;
+    uint32_t *counts = malloc(samples * sizeof *counts);
+    RAD_CHECK(counts != NULL);
+    if (!counts) return;
+    RAD_CHECK(render_raster_coverage(&opt, tris, count, counts) == RAD_OK);
+    size_t wrong = 0;
+    for (size_t s = 0; s < samples; s++) wrong += counts[s] != 1;
+    if (wrong) fprintf(stderr, "spp %d: %zu of %zu samples not covered exactly once\n", spp, wrong, samples);
+    RAD_CHECK(wrong == 0);
+    free(counts);
+}
+
+/* A sample exactly on a shared edge goes to one triangle only; a sample
+ * on an outer edge goes in by the top-left rule only. */
+static void test_fill_rule_ties(void)
+{
+    /* 4x4 pixels, spp 1: sample centres at ndc -0.75, -0.25, 0.25, 0.75.
+     * The square [-0.75, 0.25]^2 has its edges through sample centres. */
+    render_vertex q[6] = {vtx(-0.75, -0.75, 1, 1, 1, 1), vtx(0.25, -0.75, 1, 1, 1, 1), vtx(0.25, 0.25, 1, 1, 1, 1),
+                          vtx(-0.75, -0.75, 1, 1, 1, 1), vtx(0.25, 0.25, 1, 1, 1, 1), vtx(-0.75, 0.25, 1, 1, 1, 1)};
+    render_raster_options opt = {4, 4, 1, 1, 1e-3};
+    uint32_t counts[16];
+    RAD_CHECK(render_raster_coverage(&opt, q, 2, counts) == RAD_OK);
+    /* Columns 0..2 lie on or inside the x range; rows 1..3 (y down) the y
+     * range. Top edge (row 1) and left edge (column 0) are in; the right
+     * edge (column 2) and bottom edge (row 3) are out: a 2x2 block. */
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++) RAD_CHECK(counts[4 * j + i] == ((i <= 1 && j >= 1 && j <= 2) ? 1u : 0u));
+}
+
+static void test_culling(void)
+{
+    render_vertex ccw[3] = {vtx(-1, -1, 1, 1, 1, 1), vtx(1, -1, 1, 1, 1, 1), vtx(0, 1, 1, 1, 1, 1)};
+    render_vertex cw[3] = {ccw[0], ccw[2], ccw[1]};
+    render_raster_options opt = {8, 8, 1, 1, 1e-3};
+    uint32_t counts[64];
+    size_t covered = 0;
+    RAD_CHECK(render_raster_coverage(&opt, ccw, 1, counts) == RAD_OK);
+    for (int s = 0; s < 64; s++) covered += counts[s];
+    RAD_CHECK(covered > 20);
+    RAD_CHECK(render_raster_coverage(&opt, cw, 1, counts) == RAD_OK);
+    covered = 0;
+    for (int s = 0; s < 64; s++) covered += counts[s];
+    RAD_CHECK(covered == 0);
+}
+
+static void test_zbuffer(void)
+{
+    /* Two screen-filling triangles: red far (w = 4), green near (w = 2). */
+    render_vertex far_near[6] = {vtx(-3, -3, 4, 1, 0, 0), vtx(3, -3, 4, 1, 0, 0), vtx(0, 3, 4, 1, 0, 0),
+                                 vtx(-3, -3, 2, 0, 1, 0), vtx(3, -3, 2, 0, 1, 0), vtx(0, 3, 2, 0, 1, 0)};
+    render_vertex near_far[6];
+    memcpy(near_far, far_near + 3, 3 * sizeof *near_far);
+    memcpy(near_far + 3, far_near, 3 * sizeof *near_far);
+    float rgb[4 * 4 * 3];
+    render_raster_options opt = {4, 4, 4, 1, 1e-3};
+    for (int order = 0; order < 2; order++) {
+        RAD_CHECK(render_raster_draw(&opt, order ? near_far : far_near, 2, rgb) == RAD_OK);
+        for (int p = 0; p < 16; p++) {
+            RAD_CHECK_NEAR(rgb[3 * p + 0], 0.0, 1e-6);
+            RAD_CHECK_NEAR(rgb[3 * p + 1], 1.0, 1e-6);
+        }
+    }
+    /* Interpenetrating: a plane tilted in depth crosses a flat one at
+     * ndc x = 0; left of it the tilted one (nearer there) wins. */
+    render_vertex cross[9] = {vtx(-3, -3, 3, 0, 1, 0),  vtx(3, -3, 3, 0, 1, 0),  vtx(0, 3, 3, 0, 1, 0),
+                              vtx(-1, -30, 1, 1, 0, 0), vtx(1, -30, 5, 1, 0, 0), vtx(1, 30, 5, 1, 0, 0),
+                              vtx(-1, -30, 1, 1, 0, 0), vtx(1, 30, 5, 1, 0, 0),  vtx(-1, 30, 1, 1, 0, 0)};
+    RAD_CHECK(render_raster_draw(&(render_raster_options){4, 4, 1, 0, 1e-3}, cross, 3, rgb) == RAD_OK);
+    /* The red quad goes from w = 1 at ndc x = -1 to w = 5 at ndc x = +1:
+     * at ndc x = -0.75 its w is below 3 (red wins), at +0.75 above (green). */
+    RAD_CHECK(rgb[3 * (4 * 1 + 0) + 0] > 0.5f && rgb[3 * (4 * 1 + 3) + 1] > 0.5f);
+}
+
+static void test_perspective_and_clipping(void)
+{
+    /* View-space points (X, Y, Z) with tan(half fov) = 1: clip = (X, Y, Z).
+     * P0 = (-1,-2,1), P1 = (-1,2,1) have colour 0, P2 = (3,0,3) colour 1;
+     * the ray through the image centre meets the plane at X = 0, where the
+     * world-linear colour is (X + 1) / 4 = 0.25 (affine would give 0.5). */
+    render_vertex t[3] = {{-1, -2, 1, {0, 0, 0}}, {3, 0, 3, {1, 1, 1}}, {-1, 2, 1, {0, 0, 0}}};
+    float rgb[3 * 3 * 3];
+    RAD_CHECK(render_raster_draw(&(render_raster_options){3, 3, 1, 0, 1e-3}, t, 1, rgb) == RAD_OK);
+    RAD_CHECK_NEAR(rgb[3 * 4], 0.25, 1e-6);
+    /* A triangle reaching behind the eye is clipped, not mirrored: the part
+     * in front still shows, nothing appears where only the hidden part would
+     * project. */
+    render_vertex behind[3] = {{-1, -1, 1, {1, 1, 1}}, {1, -1, 1, {1, 1, 1}}, {0, 5, -1, {1, 1, 1}}};
+    uint32_t counts[9 * 9];
+    RAD_CHECK(render_raster_coverage(&(render_raster_options){9, 9, 1, 0, 1e-3}, behind, 1, counts) == RAD_OK);
+    RAD_CHECK(counts[9 * 8 + 4] == 1); /* bottom centre: the front part */
+    RAD_CHECK(counts[9 * 0 + 4] == 1); /* the clipped part runs up off-screen */
+}
+
+static void test_raster_options(void)
+{
+    rad_test_capture_log();
+    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 3, 1, 1}, NULL) == RAD_ERR_INVALID);
+    RAD_CHECK(rad_test_log_contains("not a square"));
+    RAD_CHECK(render_raster_check(&(render_raster_options){0, 8, 1, 1, 1}, NULL) == RAD_ERR_INVALID);
+    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 4, 1, 0}, NULL) == RAD_ERR_INVALID);
+    int n = 0;
+    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 0, 1, 1}, &n) == RAD_OK && n == 4);
+    rad_log_set_sink(NULL, NULL);
+}
+
+/* ---- tone map ---- */
+
+static void test_srgb(void)
+{
+    RAD_CHECK_NEAR(render_srgb_encode(0.0), 0.0, 1e-12);
+    RAD_CHECK_NEAR(render_srgb_encode(1.0), 1.0, 1e-12);
+    RAD_CHECK_NEAR(render_srgb_encode(0.0031308), 0.040449936, 1e-9); /* the linear segment's end */
+    RAD_CHECK_NEAR(render_srgb_encode(0.18), 0.4613561, 1e-6);
+    RAD_CHECK_NEAR(render_srgb_encode(0.5), 0.7353570, 1e-6);
+    RAD_CHECK_NEAR(render_srgb_encode(2.0), 1.0, 1e-12);
+    RAD_CHECK_NEAR(render_srgb_encode(-1.0), 0.0, 1e-12);
+    RAD_CHECK_NEAR(render_srgb_encode(NAN), 0.0, 1e-12);
+    double prev = -1;
+    int monotone = 1;
+    for (int i = 0; i <= 1000; i++) {
+        double v = render_srgb_encode(i / 1000.0);
+        monotone &= v > prev;
+        prev = v;
+    }
+    RAD_CHECK(monotone);
+    float px[3] = {0.25f, 0.5f, 4.0f};
+    render_tonemap_apply(px, 1, 2.0);
+    RAD_CHECK_NEAR(px[0], 0.7353570, 1e-6);
+    RAD_CHECK_NEAR(px[1], 1.0, 1e-6);
+    RAD_CHECK_NEAR(px[2], 1.0, 1e-6);
+}
+
+/* ---- synthetic meshes ---- */
+
+typedef struct test_mesh {
+    rad_mesh mesh;
+    size_t vcap, pcap;
+} test_mesh;
+
+static uint32_t add_vertex(test_mesh *t, rad_vec3 p)
+{
+    if (t->mesh.vertex_count == t->vcap) {
+        t->vcap = t->vcap ? 2 * t->vcap : 64;
+        t->mesh.positions = realloc(t->mesh.positions, 3 * t->vcap * sizeof(double));
+    }
+    double *dst = &t->mesh.positions[3 * t->mesh.vertex_count];
+    dst[0] = p.x;
+    dst[1] = p.y;
+    dst[2] = p.z;
+    return (uint32_t)t->mesh.vertex_count++;
+}
+
+static rad_patch *add_quad(test_mesh *t, const uint32_t v[4], const double rho[3], const double emission[3])
+{
+    if (t->mesh.patch_count == t->pcap) {
+        t->pcap = t->pcap ? 2 * t->pcap : 64;
+        t->mesh.patches = realloc(t->mesh.patches, t->pcap * sizeof(rad_patch));
+    }
+    rad_patch *p = &t->mesh.patches[t->mesh.patch_count++];
+    memset(p, 0, sizeof *p);
+    p->vertex_count = 4;
+    rad_vec3 c[4];
+    for (int k = 0; k < 4; k++) {
+        p->v[k] = v[k];
+        const double *x = &t->mesh.positions[3 * v[k]];
+        c[k] = rad_v3(x[0], x[1], x[2]);
+    }
+    rad_vec3 n = rad_v3_add(rad_v3_cross(rad_v3_sub(c[1], c[0]), rad_v3_sub(c[2], c[0])),
+                            rad_v3_cross(rad_v3_sub(c[2], c[0]), rad_v3_sub(c[3], c[0])));
+    p->area = 0.5 * rad_v3_length(n);
+    p->normal = rad_v3_normalize(n);
+    p->centroid = rad_v3_scale(rad_v3_add(rad_v3_add(c[0], c[1]), rad_v3_add(c[2], c[3])), 0.25);
+    memcpy(p->rho, rho, sizeof p->rho);
+    memcpy(p->emission, emission, sizeof p->emission);
+    return p;
+}
+
+/* A wall with corners a, b, c, d (counter-clockwise seen from the front)
+ * cut into k x k patches on a shared vertex grid. */
+static void add_wall(test_mesh *t, rad_vec3 a, rad_vec3 b, rad_vec3 c, rad_vec3 d, int k, const double rho[3],
+                     const double emission[3])
+{
+    uint32_t grid[9][9];
+    for (int j = 0; j <= k; j++) {
+        for (int i = 0; i <= k; i++) {
+            rad_vec3 ab = rad_v3_lerp(a, b, (double)i / k), dc = rad_v3_lerp(d, c, (double)i / k);
+            grid[j][i] = add_vertex(t, rad_v3_lerp(ab, dc, (double)j / k));
+        }
+    }
+    for (int j = 0; j < k; j++) {
+        for (int i = 0; i < k; i++) {
+            uint32_t v[4] = {grid[j][i], grid[j][i + 1], grid[j + 1][i + 1], grid[j + 1][i]};
+            add_quad(t, v, rho, emission);
+        }
+    }
+}
+
+static void test_shade_creases(void)
+{
+    const double white[3] = {0.7, 0.7, 0.7}, red[3] = {0.6, 0.1, 0.1}, none[3] = {0, 0, 0}, glow[3] = {5, 5, 5};
+    test_mesh t = {{0}, 0, 0};
+    /* Floor (normal +y): two patches [0,1] and [1,3] in x, sharing the edge
+     * x = 1. A wall at x = 0 (normal +x) shares the floor's edge x = 0.
+     * An emitting patch beside the floor, coplanar, shares the edge x = 3. */
+    uint32_t f[6] = {add_vertex(&t, rad_v3(0, 0, 0)), add_vertex(&t, rad_v3(1, 0, 0)), add_vertex(&t, rad_v3(3, 0, 0)),
+                     add_vertex(&t, rad_v3(0, 0, -1)), add_vertex(&t, rad_v3(1, 0, -1)),
+                     add_vertex(&t, rad_v3(3, 0, -1))};
+    uint32_t up0 = add_vertex(&t, rad_v3(0, 1, 0)), up1 = add_vertex(&t, rad_v3(0, 1, -1));
+    uint32_t e0 = add_vertex(&t, rad_v3(4, 0, 0)), e1 = add_vertex(&t, rad_v3(4, 0, -1));
+    add_quad(&t, (uint32_t[4]){f[0], f[1], f[4], f[3]}, white, none);  /* area 1 */
+    add_quad(&t, (uint32_t[4]){f[1], f[2], f[5], f[4]}, white, none);  /* area 2 */
+    add_quad(&t, (uint32_t[4]){f[0], f[3], up1, up0}, red, none);      /* wall */
+    add_quad(&t, (uint32_t[4]){f[2], e0, e1, f[5]}, white, glow);      /* emitter */
+    RAD_CHECK(rad_v3_dot(t.mesh.patches[0].normal, rad_v3(0, 1, 0)) > 0.999);
+    RAD_CHECK(rad_v3_dot(t.mesh.patches[2].normal, rad_v3(1, 0, 0)) > 0.999);
+    double b[4 * 3] = {1, 1, 1, 4, 4, 4, 10, 1, 1, 50, 50, 50};
+    double corners[4 * 12];
+    RAD_CHECK(render_shade_corners(&t.mesh, b, RENDER_SHADING_SMOOTH, corners) == RAD_OK);
+    /* Floor patch 0: corner at x = 0 sees only itself (the wall is a
+     * crease); corner at x = 1 averages 1 and 4 by area: (1 + 2*4) / 3. */
+    RAD_CHECK_NEAR(corners[(4 * 0 + 0) * 3], 1.0, 1e-12);
+    RAD_CHECK_NEAR(corners[(4 * 0 + 1) * 3], 3.0, 1e-12);
+    RAD_CHECK_NEAR(corners[(4 * 1 + 0) * 3], 3.0, 1e-12);
+    /* Floor patch 1 at x = 3: the coplanar emitter is another material. */
+    RAD_CHECK_NEAR(corners[(4 * 1 + 1) * 3], 4.0, 1e-12);
+    /* The wall keeps its own colour at the crease; the emitter its own. */
+    RAD_CHECK_NEAR(corners[(4 * 2 + 0) * 3 + 0], 10.0, 1e-12);
+    RAD_CHECK_NEAR(corners[(4 * 2 + 0) * 3 + 1], 1.0, 1e-12);
+    RAD_CHECK_NEAR(corners[(4 * 3 + 0) * 3], 50.0, 1e-12);
+    RAD_CHECK(render_shade_corners(&t.mesh, b, RENDER_SHADING_FLAT, corners) == RAD_OK);
+    RAD_CHECK_NEAR(corners[(4 * 0 + 1) * 3], 1.0, 1e-12);
+    RAD_CHECK_NEAR(corners[(4 * 1 + 0) * 3], 4.0, 1e-12);
+    /* Auto exposure ignores the emitter (50) and uses the brightest
+     * channel: by area, {1: 1, 4: 2, 10: 1}; the 95th percentile is 10,
+     * the 70th would be 4. */
+    RAD_CHECK_NEAR(render_tonemap_auto_scale(&t.mesh, b), RENDER_AUTO_TARGET / 10.0, 1e-12);
+    b[6] = 0.5; /* the wall now darkest: {0.5: 1, 1: 1, 4: 2} -> 4 */
+    RAD_CHECK_NEAR(render_tonemap_auto_scale(&t.mesh, b), RENDER_AUTO_TARGET / 4.0, 1e-12);
+    RAD_CHECK_NEAR(render_luminance(b), 1.0, 1e-12);
+    rad_mesh_free(&t.mesh);
+}
+
+/* A Cornell-sized room (floor, ceiling with a light, back, red left wall
+ * at x = 556, green right wall at x = 0), patches with made-up radiosity. */
+static void make_room(test_mesh *t, double **out_b)
+{
+    const double white[3] = {0.7, 0.7, 0.7}, red[3] = {0.6, 0.06, 0.05}, green[3] = {0.14, 0.45, 0.09};
+    const double none[3] = {0, 0, 0}, light[3] = {17, 12, 4};
+    const double X = 556, Y = 548.8, Z = 559.2;
+    add_wall(t, rad_v3(X, 0, 0), rad_v3(0, 0, 0), rad_v3(0, 0, Z), rad_v3(X, 0, Z), 4, white, none);    /* floor */
+    add_wall(t, rad_v3(X, Y, 0), rad_v3(X, Y, Z), rad_v3(0, Y, Z), rad_v3(0, Y, 0), 4, white, none);    /* ceiling */
+    add_wall(t, rad_v3(X, 0, Z), rad_v3(0, 0, Z), rad_v3(0, Y, Z), rad_v3(X, Y, Z), 4, white, none);    /* back */
+    add_wall(t, rad_v3(0, 0, Z), rad_v3(0, 0, 0), rad_v3(0, Y, 0), rad_v3(0, Y, Z), 4, green, none);    /* right */
+    add_wall(t, rad_v3(X, 0, 0), rad_v3(X, 0, Z), rad_v3(X, Y, Z), rad_v3(X, Y, 0), 4, red, none);      /* left */
+    add_wall(t, rad_v3(343, Y - 1, 227), rad_v3(343, Y - 1, 332), rad_v3(213, Y - 1, 332),
+             rad_v3(213, Y - 1, 227), 1, white, light);                                                   /* light */
+    double *b = malloc(3 * t->mesh.patch_count * sizeof *b);
+    for (size_t p = 0; p < t->mesh.patch_count; p++) {
+        const rad_patch *patch = &t->mesh.patches[p];
+        /* Brighter towards the top, plus a hint of the left wall's red. */
+        double h = 0.2 + 0.2 * patch->centroid.y / Y, bleed = 0.05 * patch->centroid.x / X;
+        for (int c = 0; c < 3; c++)
+            b[3 * p + c] = patch->emission[c] + patch->rho[c] * h + (c == 0 ? bleed : 0.0);
+    }
+    *out_b = b;
+}
+
+/* ---- camera ---- */
+
+static void test_camera_parse(void)
+{
+    render_camera cam;
+    const char good[] = "\xEF\xBB\xBF# comment\r\neye 1 2 3   # trailing comment\r\n\n  look_at 1 2 4\nfov_y 50";
+    RAD_CHECK(render_camera_parse("good.camera", good, &cam) == RAD_OK);
+    RAD_CHECK_NEAR(cam.eye.z, 3, 0);
+    RAD_CHECK_NEAR(cam.look_at.z, 4, 0);
+    RAD_CHECK_NEAR(cam.up.y, 1, 0); /* default up */
+    RAD_CHECK_NEAR(cam.fov_y, 50, 0);
+    static const struct {
+        const char *text, *message;
+        rad_status status;
+    } bad[] = {
+        {"eye 0 0 0\nlook_at 0 0 1\nzoom 2\n", "bad.camera:3: unknown key 'zoom'", RAD_ERR_PARSE},
+        {"eye 0 0\nlook_at 0 0 1\n", "bad.camera:1: 'eye' takes 3 numbers", RAD_ERR_PARSE},
+        {"eye 0 0 0 0\nlook_at 0 0 1\n", "bad.camera:1: 'eye' takes 3 numbers", RAD_ERR_PARSE},
+        {"eye 0 0 0\nlook_at 0 abc 1\n", "bad.camera:2: 'abc' is not a finite number", RAD_ERR_PARSE},
+        {"eye 0 0 0\nlook_at 0 0 1\neye 1 1 1\n", "bad.camera:3: 'eye' given twice (first on line 1)", RAD_ERR_PARSE},
+        {"eye 0 0 0\nlook_at 0 0 inf\n", "bad.camera:2: 'inf' is not a finite number", RAD_ERR_PARSE},
+        {"look_at 0 0 1\n", "bad.camera: missing 'eye'", RAD_ERR_INVALID},
+        {"eye 0 0 0\nlook_at 0 0 1\nfov_y 180\n", "bad.camera:3: fov_y 180 is outside (0, 180)", RAD_ERR_INVALID},
+        {"eye 0 0 0\nlook_at 0 0 0\n", "bad.camera: eye and look_at are the same point", RAD_ERR_INVALID},
+        {"eye 0 0 0\nlook_at 0 5 0\n", "bad.camera: up (0 1 0) is zero or parallel", RAD_ERR_INVALID},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        rad_test_capture_log();
+        cam.eye = rad_v3(42, 42, 42);
+        rad_status s = render_camera_parse("bad.camera", bad[i].text, &cam);
+        if (s != bad[i].status || !rad_test_log_contains(bad[i].message))
+            fprintf(stderr, "case %zu: status %d, log: %s", i, (int)s, rad_test_log);
+        RAD_CHECK(s == bad[i].status);
+        RAD_CHECK(rad_test_log_contains(bad[i].message));
+        RAD_CHECK(cam.eye.x == 42); /* untouched on failure */
+    }
+    rad_test_capture_log();
+    RAD_CHECK(render_camera_load("/nonexistent/x.camera", &cam) == RAD_ERR_IO);
+    rad_log_set_sink(NULL, NULL);
+
+    /* The scene's sidecar holds the built-in measured camera. */
+    char path[1024];
+    snprintf(path, sizeof path, "%s/cornell_box.camera", RAD_SCENES);
+    if (access(path, R_OK) == 0) {
+        render_camera ref = render_camera_cornell();
+        RAD_CHECK(render_camera_load(path, &cam) == RAD_OK);
+        RAD_CHECK(memcmp(&cam, &ref, sizeof cam) == 0);
+    }
+}
+
+static void test_camera_default(void)
+{
+    test_mesh t = {{0}, 0, 0};
+    double *b = NULL;
+    make_room(&t, &b);
+    render_camera cam;
+    int cornell = 0;
+    render_camera_default(&t.mesh, 1.0, &cam, &cornell);
+    RAD_CHECK(cornell);
+    RAD_CHECK_NEAR(cam.eye.z, -800, 0);
+
+    /* Auto framing: scale and turn the room so that z is up (light at the
+     * top); the camera must then use up = +z, stand outside, and see every
+     * corner of the box. */
+    for (size_t v = 0; v < t.mesh.vertex_count; v++) {
+        double *x = &t.mesh.positions[3 * v], y = x[1];
+        x[1] = -x[2] * 0.01;
+        x[2] = y * 0.01;
+        x[0] *= 0.01;
+    }
+    for (size_t p = 0; p < t.mesh.patch_count; p++) {
+        rad_vec3 c = t.mesh.patches[p].centroid;
+        t.mesh.patches[p].centroid = rad_v3(c.x * 0.01, -c.z * 0.01, c.y * 0.01);
+    }
+    render_camera_default(&t.mesh, 1.5, &cam, &cornell);
+    RAD_CHECK(!cornell);
+    RAD_CHECK(cam.up.z == 1.0);
+    RAD_CHECK(cam.eye.y < -5.592);
+    render_view view;
+    RAD_CHECK(render_view_init(&cam, 1.5, &view) == RAD_OK);
+    for (int k = 0; k < 8; k++) {
+        rad_vec3 corner = rad_v3(k & 1 ? 5.56 : 0, k & 2 ? 0 : -5.592, k & 4 ? 5.488 : 0);
+        double x = -1, y = -1;
+        RAD_CHECK(render_view_project(&view, 300, 200, corner, &x, &y));
+        RAD_CHECK(x >= 0 && x <= 300 && y >= 0 && y <= 200);
+    }
+    free(b);
+    rad_mesh_free(&t.mesh);
+}
+
+/* ---- images ---- */
+
+static void test_image_files(void)
+{
+    char dir[] = "/tmp/test_render_XXXXXX";
+    RAD_CHECK(mkdtemp(dir) != NULL);
+    char png[256], exr[256], exr2[256], bad[256], missing[256];
+    snprintf(png, sizeof png, "%s/a.png", dir);
+    snprintf(exr, sizeof exr, "%s/a.exr", dir);
+    snprintf(exr2, sizeof exr2, "%s/b.EXR", dir);
+    snprintf(bad, sizeof bad, "%s/a.bmpx", dir);
+    snprintf(missing, sizeof missing, "%s/no/such/dir/a.png", dir);
+    enum { W = 5, H = 3 };
+    float rgb[W * H * 3];
+    for (int i = 0; i < W * H * 3; i++) rgb[i] = (float)i / (W * H * 3 - 1) * 1.25f; /* > 1 at the end */
+    render_image_attr attrs[] = {{"rad:camera", "eye 1 2 3"}};
+    RAD_CHECK(render_image_write(png, rgb, W, H, attrs, 1) == RAD_OK);
+    RAD_CHECK(render_image_write(exr, rgb, W, H, attrs, 1) == RAD_OK);
+    RAD_CHECK(render_image_write(exr2, rgb, W, H, attrs, 1) == RAD_OK);
+    float *back = NULL;
+    int w = 0, h = 0;
+    RAD_CHECK(render_image_read(png, &back, &w, &h) == RAD_OK && w == W && h == H);
+    for (int i = 0; back && i < W * H * 3; i++) {
+        double want = rgb[i] >= 1.0f ? 255.0 : floor(rgb[i] * 255.0 + 0.5);
+        RAD_CHECK_NEAR(back[i] * 255.0, want, 1e-3);
+    }
+    free(back);
+    back = NULL;
+    RAD_CHECK(render_image_read(exr, &back, &w, &h) == RAD_OK && w == W && h == H);
+    for (int i = 0; back && i < W * H * 3; i++) RAD_CHECK_NEAR(back[i], rgb[i], 1e-3 * rgb[i] + 1e-6);
+    free(back);
+    char text[64] = "";
+    RAD_CHECK(render_image_read_attr(exr, "rad:camera", text, sizeof text) == RAD_OK);
+    RAD_CHECK(strcmp(text, "eye 1 2 3") == 0);
+    RAD_CHECK(render_image_read_attr(png, "rad:camera", text, sizeof text) == RAD_OK);
+    RAD_CHECK(strcmp(text, "eye 1 2 3") == 0);
+
+    /* Identical inputs, identical bytes (fixed DateTime). */
+    char *a = NULL, *b = NULL;
+    size_t na = 0, nb = 0;
+    RAD_CHECK(rad_fs_read_all(exr, &a, &na) == RAD_OK && rad_fs_read_all(exr2, &b, &nb) == RAD_OK);
+    RAD_CHECK(na == nb && a && b && memcmp(a, b, na) == 0);
+    free(a);
+    free(b);
+
+    /* Failures: clear message, no file under the final name, no temporary. */
+    rad_test_capture_log();
+    RAD_CHECK(render_image_write(bad, rgb, W, H, NULL, 0) == RAD_ERR_USAGE);
+    RAD_CHECK(rad_test_log_contains("unknown image type"));
+    RAD_CHECK(access(bad, F_OK) != 0);
+    RAD_CHECK(render_image_write(missing, rgb, W, H, NULL, 0) == RAD_ERR_IO);
+    RAD_CHECK(rad_test_log_contains("no/such/dir/a.png: cannot write"));
+    RAD_CHECK(access(missing, F_OK) != 0);
+    rad_log_set_sink(NULL, NULL);
+    char cmd[512];
+    snprintf(cmd, sizeof cmd, "ls %s | grep -c tmp- >/dev/null", dir);
+    RAD_CHECK(system(cmd) != 0); /* no leftover temporaries */
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    RAD_CHECK(system(cmd) == 0);
+}
+
+/* ---- whole frame ---- */
+
+typedef struct window_mean {
+    double r, g, b;
+} window_mean;
+
+/* Mean colour of the pixels in [x0, x1) x [y0, y1), in image fractions. */
+static window_mean mean_in(const float *rgb, int w, int h, double x0, double x1, double y0, double y1)
+{
+    window_mean m = {0, 0, 0};
+    int n = 0;
+    for (int y = (int)(y0 * h); y < (int)(y1 * h); y++) {
+        for (int x = (int)(x0 * w); x < (int)(x1 * w); x++) {
+            const float *p = &rgb[3 * ((size_t)y * w + x)];
+            m.r += p[0];
+            m.g += p[1];
+            m.b += p[2];
+            n++;
+        }
+    }
+    if (n) {
+        m.r /= n;
+        m.g /= n;
+        m.b /= n;
+    }
+    return m;
+}
+
+/* The reference-free checks of a Cornell box image taken with the
+ * measured camera (docs/render.md); returns the number of failures. */
+static int check_cornell(const float *rgb, int w, int h)
+{
+    int before = rad_test_failures;
+    /* Red wall on the left (it spans about 1-21 % of the width at mid
+     * height), green wall on the right. */
+    window_mean left = mean_in(rgb, w, h, 0.03, 0.12, 0.35, 0.65), right = mean_in(rgb, w, h, 0.88, 0.97, 0.35, 0.65);
+    RAD_CHECK(left.r > 2.0 * left.g && left.r > 2.0 * left.b);
+    RAD_CHECK(right.g > 1.2 * right.r && right.g > 1.2 * right.b); /* the light is warm */
+    /* The light is the brightest region: of 16 x 16 blocks, the brightest
+     * is in the top centre, and it is white. */
+    int bx = -1, by = -1;
+    double best = -1;
+    for (int j = 0; j < 16; j++) {
+        for (int i = 0; i < 16; i++) {
+            window_mean m = mean_in(rgb, w, h, i / 16.0, (i + 1) / 16.0, j / 16.0, (j + 1) / 16.0);
+            if (m.r + m.g + m.b > best) {
+                best = m.r + m.g + m.b;
+                bx = i;
+                by = j;
+            }
+        }
+    }
+    RAD_CHECK(bx >= 6 && bx <= 9 && by >= 1 && by <= 3);
+    /* ... and the brightest pixel is there too, and white. */
+    size_t brightest = 0, n = (size_t)w * h;
+    for (size_t p = 1; p < n; p++)
+        if (rgb[3 * p] + rgb[3 * p + 1] + rgb[3 * p + 2] >
+            rgb[3 * brightest] + rgb[3 * brightest + 1] + rgb[3 * brightest + 2])
+            brightest = p;
+    const float *light = &rgb[3 * brightest];
+    double lx = (double)(brightest % (size_t)w) / w, ly = (double)(brightest / (size_t)w) / h;
+    RAD_CHECK(lx > 0.35 && lx < 0.65 && ly > 0.05 && ly < 0.25);
+    RAD_CHECK(light[0] > 0.95f && light[1] > 0.95f && light[2] > 0.95f);
+    /* Not black, not saturated: mean in a sensible range, few clipped or
+     * black pixels (only the light may clip). */
+    window_mean all = mean_in(rgb, w, h, 0, 1, 0, 1);
+    double mean = (all.r + all.g + all.b) / 3.0;
+    size_t clipped = 0, black = 0;
+    for (size_t p = 0; p < n; p++) {
+        const float *c = &rgb[3 * p];
+        clipped += c[0] >= 1.0f && c[1] >= 1.0f && c[2] >= 1.0f;
+        black += c[0] < 0.02f && c[1] < 0.02f && c[2] < 0.02f;
+    }
+    RAD_CHECK(mean > 0.15 && mean < 0.8);
+    RAD_CHECK(clipped < n / 20);
+    RAD_CHECK(black < n / 8); /* the camera sees a thin black margin around the open front */
+    /* Colour bleeding: the floor beside the red wall is redder than the
+     * floor beside the green wall, and the other way round for green. */
+    window_mean floor_red = mean_in(rgb, w, h, 0.08, 0.14, 0.90, 0.95);
+    window_mean floor_green = mean_in(rgb, w, h, 0.86, 0.92, 0.90, 0.95);
+    RAD_CHECK(floor_red.r / (floor_red.r + floor_red.g + floor_red.b) >
+              floor_green.r / (floor_green.r + floor_green.g + floor_green.b));
+    RAD_CHECK(floor_green.g / (floor_green.r + floor_green.g + floor_green.b) >
+              floor_red.g / (floor_red.r + floor_red.g + floor_red.b));
+    if (rad_test_failures != before)
+        fprintf(stderr,
+                "left %.3f %.3f %.3f, right %.3f %.3f %.3f, brightest block (%d,%d) pixel (%.2f,%.2f), "
+                "mean %.3f, clipped %zu, black %zu of %zu, floor red side %.3f %.3f %.3f, green side %.3f %.3f %.3f\n",
+                left.r, left.g, left.b, right.r, right.g, right.b, bx, by, lx, ly, mean, clipped, black, n,
+                floor_red.r, floor_red.g, floor_red.b, floor_green.r, floor_green.g, floor_green.b);
+    return rad_test_failures - before;
+}
+
+static void test_frame_room(void)
+{
+    test_mesh t = {{0}, 0, 0};
+    double *b = NULL;
+    make_room(&t, &b);
+    render_camera cam;
+    render_camera_default(&t.mesh, 1.0, &cam, NULL);
+    enum { W = 96, H = 96 };
+    float *rgb = malloc(W * H * 3 * sizeof *rgb), *rgb2 = malloc(W * H * 3 * sizeof *rgb2);
+    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH};
+    RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
+    render_tonemap_apply(rgb, W * H, render_tonemap_auto_scale(&t.mesh, b));
+    RAD_CHECK(check_cornell(rgb, W, H) == 0);
+    /* Flat shading differs, but not in the big picture. */
+    opt.shading = RENDER_SHADING_FLAT;
+    RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb2) == RAD_OK);
+    render_tonemap_apply(rgb2, W * H, render_tonemap_auto_scale(&t.mesh, b));
+    RAD_CHECK(memcmp(rgb, rgb2, W * H * 3 * sizeof *rgb) != 0);
+    RAD_CHECK(check_cornell(rgb2, W, H) == 0);
+    free(rgb);
+    free(rgb2);
+    free(b);
+    rad_mesh_free(&t.mesh);
+}
+
+static int check_cornell_file(const char *path)
+{
+    float *rgb = NULL;
+    int w = 0, h = 0;
+    if (render_image_read(path, &rgb, &w, &h) != RAD_OK) return 1;
+    check_cornell(rgb, w, h);
+    free(rgb);
+    return rad_test_finish();
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 3 && strcmp(argv[1], "check-cornell") == 0) return check_cornell_file(argv[2]);
+    if (argc != 1) {
+        fprintf(stderr, "usage: test_render [check-cornell IMAGE]\n");
+        return 2;
+    }
+    test_fill_rule_ties();
+    test_fill_rule_watertight(1);
+    test_fill_rule_watertight(4);
+    test_fill_rule_watertight(9);
+    test_culling();
+    test_zbuffer();
+    test_perspective_and_clipping();
+    test_raster_options();
+    test_srgb();
+    test_shade_creases();
+    test_camera_parse();
+    test_camera_default();
+    test_image_files();
+    test_frame_room();
+    return rad_test_finish();
+}
