@@ -14,6 +14,7 @@
 #ifndef FF_BACKEND_H
 #define FF_BACKEND_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "rad_ff_kernel.h"
@@ -59,6 +60,11 @@ typedef struct ff_backend {
     rad_status (*compute_rows)(void *state, uint32_t row_begin, uint32_t row_count, double *out,
                                ff_counters *counters);
     void (*destroy)(void *state);
+    /* The buffer compute_rows writes into (count doubles), allocated where
+     * this backend writes fastest (page-locked memory for CUDA); NULL on
+     * failure. Freed with free_rows before destroy. */
+    double *(*alloc_rows)(void *state, size_t count);
+    void (*free_rows)(void *state, double *rows);
 } ff_backend;
 
 extern const ff_backend ff_backend_cpu;

@@ -265,4 +265,16 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
     return RAD_OK;
 }
 
-const ff_backend ff_backend_cpu = {"cpu", cpu_create, cpu_compute_rows, cpu_destroy};
+static double *cpu_alloc_rows(void *state, size_t count)
+{
+    (void)state;
+    return malloc(sizeof(double) * (count ? count : 1));
+}
+
+static void cpu_free_rows(void *state, double *rows)
+{
+    (void)state;
+    free(rows);
+}
+
+const ff_backend ff_backend_cpu = {"cpu", cpu_create, cpu_compute_rows, cpu_destroy, cpu_alloc_rows, cpu_free_rows};

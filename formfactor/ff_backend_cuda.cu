@@ -4,7 +4,7 @@
  * shared kernel (rad_ff_kernel.h, the very code the CPU runs) and reduce
  * them with shuffles; the first R point pairs then carry shadow rays, one
  * per lane, through the flat BVH of ff_bvh.h (any hit, first hit returns).
- * Culled pairs (facing test) cost the warp one test and one store.
+ * Culled pairs cost one thread one test and one store, no warp.
  *
  * This file is compiled with --fmad=false so each double operation rounds
  * as on the CPU: the per-sample kernel values are bit-identical to the CPU
@@ -24,7 +24,7 @@ extern "C" {
 }
 
 enum { FF_CUDA_BLOCK = 256, FF_CUDA_WARPS_PER_BLOCK = FF_CUDA_BLOCK / 32 };
-enum { C_CULLED, C_SAMPLES, C_RAYS, C_OCCLUDED, C_COUNT };
+enum { C_SAMPLES, C_RAYS, C_OCCLUDED, C_UNUSED, C_COUNT };
 
 struct cuda_params {
     const rad_ff_patch *patches;
@@ -39,6 +39,8 @@ struct cuda_params {
     uint32_t row_begin, row_count;
     double *out;                   /* row_count * n */
     unsigned long long *counters;  /* C_COUNT */
+    const uint32_t *pairs;         /* facing pairs: r * n + j, pair_count of them */
+    uint32_t pair_count;
 };
 
 struct cuda_state {
@@ -49,6 +51,8 @@ struct cuda_state {
     int32_t root;
     uint32_t root_count;
     double *d_out;
+    uint32_t *d_pairs;   /* facing-pair list, out_capacity entries */
+    uint32_t *d_pair_count;
     size_t out_capacity; /* doubles */
     unsigned long long *d_counters;
     cudaEvent_t start, stop;
@@ -85,56 +89,69 @@ __device__ static unsigned warp_sum_u(unsigned v)
     return v;
 }
 
-__global__ static void __launch_bounds__(FF_CUDA_BLOCK) ff_rows_kernel(cuda_params p)
+/* Pass 1: thread per pair; zeros for pairs that cannot exchange light, the
+ * rest into p.pairs (order irrelevant: each pair's value depends only on
+ * (i, j)). */
+__global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t *pair_count)
+{
+    uint64_t t = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
+    if (t >= (uint64_t)p.row_count * p.n) return;
+    uint32_t j = (uint32_t)(t % p.n), i = p.row_begin + (uint32_t)(t / p.n);
+    if (i != j && rad_ff_pair_facing(&p.patches[i], &p.patches[j], p.eps))
+        pairs[atomicAdd(pair_count, 1u)] = (uint32_t)t;
+    else
+        p.out[t] = 0.0;
+}
+
+/* Pass 2: warp per facing pair. */
+__global__ static void __launch_bounds__(FF_CUDA_BLOCK) ff_pairs_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
     if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
     __syncthreads();
     uint64_t warp = ((uint64_t)blockIdx.x * blockDim.x + threadIdx.x) >> 5;
     unsigned lane = threadIdx.x & 31u;
-    if (warp < (uint64_t)p.row_count * p.n) {
-        uint32_t j = (uint32_t)(warp % p.n), i = p.row_begin + (uint32_t)(warp / p.n);
+    if (warp < p.pair_count) {
+        uint32_t t = p.pairs[warp];
+        uint32_t j = t % p.n, i = p.row_begin + t / p.n;
         const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
-        double value = 0.0;
-        if (i != j && rad_ff_pair_facing(pi, pj, p.eps)) { /* uniform across the warp */
-            double sum = 0.0;
-            for (uint32_t k = lane; k < p.samples; k += 32) {
+        double sum = 0.0;
+        for (uint32_t k = lane; k < p.samples; k += 32) {
+            rad_vec3 x, y;
+            rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
+            sum += rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+        }
+        sum = warp_sum(sum);
+        double value = sum * pj->area / p.samples;
+        if (p.rays > 0 && value > 0.0) {
+            double seen = 0.0, total = 0.0;
+            unsigned visible = 0;
+            for (uint32_t k = lane; k < p.rays; k += 32) {
                 rad_vec3 x, y;
                 rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
-                sum += rad_ff_point_kernel(x, pi->normal, y, pj->normal);
-            }
-            sum = warp_sum(sum);
-            value = sum * pj->area / p.samples;
-            if (p.rays > 0 && value > 0.0) {
-                double seen = 0.0, total = 0.0;
-                unsigned visible = 0;
-                for (uint32_t k = lane; k < p.rays; k += 32) {
-                    rad_vec3 x, y;
-                    rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
-                    double g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
-                    float o[3] = {(float)x.x, (float)x.y, (float)x.z};
-                    float d[3] = {(float)y.x - o[0], (float)y.y - o[1], (float)y.z - o[2]};
-                    int blocked = ff_bvh_occluded(p.nodes, p.tris, p.root, p.root_count, o, d, pi->face, pj->face);
-                    total += g;
-                    if (!blocked) {
-                        seen += g;
-                        visible++;
-                    }
-                }
-                seen = warp_sum(seen);
-                total = warp_sum(total);
-                visible = warp_sum_u(visible);
-                value *= total > 0.0 ? seen / total : (double)visible / p.rays;
-                if (lane == 0) {
-                    atomicAdd(&block_counts[C_RAYS], (unsigned long long)p.rays);
-                    atomicAdd(&block_counts[C_OCCLUDED], (unsigned long long)(p.rays - visible));
+                double g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+                float o[3] = {(float)x.x, (float)x.y, (float)x.z};
+                float d[3] = {(float)y.x - o[0], (float)y.y - o[1], (float)y.z - o[2]};
+                int blocked = ff_bvh_occluded(p.nodes, p.tris, p.root, p.root_count, o, d, pi->face, pj->face);
+                total += g;
+                if (!blocked) {
+                    seen += g;
+                    visible++;
                 }
             }
-            if (lane == 0) atomicAdd(&block_counts[C_SAMPLES], (unsigned long long)p.samples);
-        } else if (lane == 0) {
-            atomicAdd(&block_counts[C_CULLED], 1ull);
+            seen = warp_sum(seen);
+            total = warp_sum(total);
+            visible = warp_sum_u(visible);
+            value *= total > 0.0 ? seen / total : (double)visible / p.rays;
+            if (lane == 0) {
+                atomicAdd(&block_counts[C_RAYS], (unsigned long long)p.rays);
+                atomicAdd(&block_counts[C_OCCLUDED], (unsigned long long)(p.rays - visible));
+            }
         }
-        if (lane == 0) p.out[warp] = value;
+        if (lane == 0) {
+            atomicAdd(&block_counts[C_SAMPLES], (unsigned long long)p.samples);
+            p.out[t] = value;
+        }
     }
     __syncthreads();
     if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
@@ -158,6 +175,8 @@ static void cuda_destroy(void *state)
     cudaFree(s->d_nodes);
     cudaFree(s->d_tris);
     cudaFree(s->d_out);
+    cudaFree(s->d_pairs);
+    cudaFree(s->d_pair_count);
     cudaFree(s->d_counters);
     if (s->start) cudaEventDestroy(s->start);
     if (s->stop) cudaEventDestroy(s->stop);
@@ -185,6 +204,7 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
     CUDA_TRY(cudaMalloc(&s->d_nodes, sizeof(ff_bvh_node) * (bvh.node_count ? bvh.node_count : 1)));
     CUDA_TRY(cudaMalloc(&s->d_tris, sizeof(ff_bvh_tri) * (bvh.tri_count ? bvh.tri_count : 1)));
     CUDA_TRY(cudaMalloc(&s->d_counters, sizeof(unsigned long long) * C_COUNT));
+    CUDA_TRY(cudaMalloc(&s->d_pair_count, sizeof(uint32_t)));
     CUDA_TRY(cudaMemcpy(s->d_patches, setup->patches, sizeof(rad_ff_patch) * setup->patch_count,
                         cudaMemcpyHostToDevice));
     if (bvh.node_count)
@@ -212,18 +232,26 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     size_t need = (size_t)row_count * su->patch_count;
     unsigned long long counts[C_COUNT] = {0, 0, 0, 0};
     float kernel_ms = 0;
-    uint64_t warps = need, blocks = (warps + FF_CUDA_WARPS_PER_BLOCK - 1) / FF_CUDA_WARPS_PER_BLOCK;
+    uint32_t pair_count = 0;
     cuda_params p;
-    double t0 = now_seconds(), t1 = 0;
+    double t_mem = now_seconds();
     if (need == 0) return RAD_OK;
+    if (need > UINT32_MAX) {
+        rad_error("cuda: %u rows of %u patches exceed one launch's pair index range", row_count, su->patch_count);
+        return RAD_ERR_INVALID;
+    }
     if (need > s->out_capacity) {
         cudaFree(s->d_out);
+        cudaFree(s->d_pairs);
         s->d_out = NULL;
+        s->d_pairs = NULL;
         s->out_capacity = 0;
         CUDA_TRY(cudaMalloc(&s->d_out, sizeof(double) * need));
+        CUDA_TRY(cudaMalloc(&s->d_pairs, sizeof(uint32_t) * need));
         s->out_capacity = need;
     }
     CUDA_TRY(cudaMemset(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT));
+    CUDA_TRY(cudaMemset(s->d_pair_count, 0, sizeof(uint32_t)));
     p.patches = s->d_patches;
     p.n = su->patch_count;
     p.nodes = s->d_nodes;
@@ -238,30 +266,57 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     p.row_count = row_count;
     p.out = s->d_out;
     p.counters = s->d_counters;
-    t1 = now_seconds();
+    p.pairs = s->d_pairs;
+    p.pair_count = 0;
+    counters->memory_seconds += now_seconds() - t_mem;
+
     CUDA_TRY(cudaEventRecord(s->start));
-    ff_rows_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+    ff_facing_kernel<<<(unsigned)((need + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK>>>(p, s->d_pairs,
+                                                                                              s->d_pair_count);
     CUDA_TRY(cudaGetLastError()); /* launch configuration errors */
+    CUDA_TRY(cudaMemcpy(&pair_count, s->d_pair_count, sizeof pair_count, cudaMemcpyDeviceToHost));
+    p.pair_count = pair_count;
+    if (pair_count > 0) {
+        uint64_t blocks = ((uint64_t)pair_count + FF_CUDA_WARPS_PER_BLOCK - 1) / FF_CUDA_WARPS_PER_BLOCK;
+        ff_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+        CUDA_TRY(cudaGetLastError());
+    }
     CUDA_TRY(cudaEventRecord(s->stop));
     CUDA_TRY(cudaEventSynchronize(s->stop)); /* execution errors surface here */
     CUDA_TRY(cudaEventElapsedTime(&kernel_ms, s->start, s->stop));
-    t1 = now_seconds() - t1 - kernel_ms * 1e-3; /* launch overhead counts as memory/overhead */
-    {
-        double t2 = now_seconds();
-        CUDA_TRY(cudaMemcpy(out, s->d_out, sizeof(double) * need, cudaMemcpyDeviceToHost));
-        CUDA_TRY(cudaMemcpy(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost));
-        counters->memory_seconds += (now_seconds() - t2) + (t1 > 0 ? t1 : 0);
-    }
+
+    t_mem = now_seconds();
+    CUDA_TRY(cudaMemcpy(out, s->d_out, sizeof(double) * need, cudaMemcpyDeviceToHost));
+    CUDA_TRY(cudaMemcpy(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost));
+    counters->memory_seconds += now_seconds() - t_mem;
     counters->pairs += need;
-    counters->pairs_culled += counts[C_CULLED];
+    counters->pairs_culled += need - pair_count;
     counters->samples += counts[C_SAMPLES];
     counters->rays += counts[C_RAYS];
     counters->rays_occluded += counts[C_OCCLUDED];
     counters->kernel_seconds += kernel_ms * 1e-3;
     if (su->progress) su->progress(su->progress_user, row_count);
 done:
-    (void)t0;
     return status;
 }
 
-extern "C" const ff_backend ff_backend_cuda = {"cuda", cuda_create, cuda_compute_rows, cuda_destroy};
+/* Row buffers in page-locked host memory: results stream back by DMA. */
+static double *cuda_alloc_rows(void *state, size_t count)
+{
+    (void)state;
+    void *p = NULL;
+    if (cudaMallocHost(&p, sizeof(double) * count) != cudaSuccess) {
+        cudaGetLastError();
+        return NULL;
+    }
+    return (double *)p;
+}
+
+static void cuda_free_rows(void *state, double *rows)
+{
+    (void)state;
+    if (rows) cudaFreeHost(rows);
+}
+
+extern "C" const ff_backend ff_backend_cuda = {"cuda", cuda_create, cuda_compute_rows, cuda_destroy,
+                                               cuda_alloc_rows, cuda_free_rows};

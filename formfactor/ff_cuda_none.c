@@ -23,4 +23,13 @@ static rad_status none_compute_rows(void *state, uint32_t row_begin, uint32_t ro
 
 static void none_destroy(void *state) { (void)state; }
 
-const ff_backend ff_backend_cuda = {"cuda", none_create, none_compute_rows, none_destroy};
+static double *none_alloc_rows(void *state, size_t count)
+{
+    (void)state, (void)count;
+    return NULL;
+}
+
+static void none_free_rows(void *state, double *rows) { (void)state, (void)rows; }
+
+const ff_backend ff_backend_cuda = {"cuda", none_create, none_compute_rows, none_destroy, none_alloc_rows,
+                                    none_free_rows};

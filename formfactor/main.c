@@ -267,11 +267,11 @@ static rad_status compute_and_write(ff_run *run, ff_output *out)
     if (per_round > 256) per_round = 256;
     uint64_t my_rounds = (end - begin + (uint64_t)per_round - 1) / per_round;
     uint64_t rounds = ff_comm_max_u64(run->comm, my_rounds);
-    double *rows = malloc(sizeof(double) * (size_t)per_round * n);
+    double *rows = run->backend->alloc_rows(run->backend_state, (size_t)per_round * n);
     rad_status st = ff_comm_agree(run->comm, rows ? RAD_OK : RAD_ERR_NOMEM);
     if (st != RAD_OK) {
         if (!rows) rad_error("out of memory for %u rows of %u form factors", per_round, n);
-        free(rows);
+        run->backend->free_rows(run->backend_state, rows);
         return st;
     }
     run->stats.row_begin = begin;
@@ -303,7 +303,7 @@ static rad_status compute_and_write(ff_run *run, ff_output *out)
     run->stats.form_factors = counters.kernel_seconds;
     run->stats.visibility = counters.visibility_seconds;
     run->stats.gpu_memory = counters.memory_seconds;
-    free(rows);
+    run->backend->free_rows(run->backend_state, rows);
     return st;
 }
 
