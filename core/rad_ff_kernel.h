@@ -31,6 +31,8 @@ typedef struct rad_ff_patch {
     rad_vec3 normal;       /* unit */
     double area;
     double split;          /* area of triangle (p0,p1,p2) / area; 1 for triangles */
+    double inv_split;      /* 1 / split */
+    double inv_rest;       /* 1 / (1 - split); 0 for triangles */
     uint32_t face;         /* scene face it lies on (shadow rays ignore it) */
     uint32_t vertex_count; /* 3 or 4 */
 } rad_ff_patch;
@@ -43,12 +45,13 @@ static inline RAD_HD rad_vec3 rad_ff_sample_point(const rad_ff_patch *patch, dou
 {
     rad_vec3 a = patch->p[0], b = patch->p[1], c = patch->p[2];
     if (u1 >= patch->split) {
-        u1 = (u1 - patch->split) / (1.0 - patch->split);
+        u1 = (u1 - patch->split) * patch->inv_rest;
         b = patch->p[2];
         c = patch->p[3];
     } else {
-        u1 = u1 / patch->split;
+        u1 = u1 * patch->inv_split;
     }
+    u1 = u1 < 1.0 ? u1 : 1.0; /* the reciprocal may round u1 just past 1 */
     /* Barycentric weights of a uniform point: wa = 1 - sqrt(u1), wb = u2 sqrt(u1). */
     double s = sqrt(u1);
     double wa = 1.0 - s, wb = u2 * s, wc = s - wb;

@@ -29,6 +29,8 @@ rad_status ff_patches_build(const rad_mesh *mesh, rad_ff_patch **out_patches)
             double second = 0.5 * rad_v3_length(rad_v3_cross(rad_v3_sub(q->p[2], q->p[0]), rad_v3_sub(q->p[3], q->p[0])));
             q->split = first / (first + second);
         }
+        q->inv_split = 1.0 / q->split;
+        q->inv_rest = q->split < 1.0 ? 1.0 / (1.0 - q->split) : 0.0;
     }
     *out_patches = out;
     return RAD_OK;

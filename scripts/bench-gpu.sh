@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # GPU benchmark, end to end in one go (build, check, time), as run on the
 # device machine:   . .devdeps/setup.sh && scripts/bench-gpu.sh
-# Writes logs, stats JSON and bench.md (a table) under $OUT (default ./bench-out).
+# Writes logs and stats JSON under $OUT (default ./bench-out), packed into
+# bench.tgz at the end so that they travel back in one file.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out=${OUT:-bench-out}; mkdir -p "$out"
@@ -26,5 +27,11 @@ run n2944_cpu16 $scene --subdiv 3 --backend cpu
 cmp /tmp/ff_n2944_gpu /tmp/ff_n2944_cpu16 >/dev/null && echo "cpu/gpu bytes identical" || echo "cpu/gpu bytes differ (expected: sum order)"
 run n11776_gpu $scene --subdiv 4 --backend cuda --element f32
 [ "${BIG:-1}" = 1 ] && run n47104_gpu $scene --subdiv 5 --backend cuda --element f32
-nvidia-smi --query-gpu=memory.used --format=csv > "$out/mem_after.txt" 2>&1
+if [ "${RANKS2:-0}" = 1 ]; then   # two GPUs of one host, one rank each
+  mpirun -n 1 "$ff" $scene --subdiv 5 --backend cuda --element f32 -o /tmp/ff_g1 --stats "$out/n47104_gpu1rank.json" > "$out/n47104_gpu1rank.log" 2>&1
+  mpirun -n 2 "$ff" $scene --subdiv 5 --backend cuda --element f32 -o /tmp/ff_g2 --stats "$out/n47104_gpu2rank.json" > "$out/n47104_gpu2rank.log" 2>&1
+  cmp /tmp/ff_g1 /tmp/ff_g2 && echo "1 vs 2 GPUs: identical bytes" || echo "1 vs 2 GPUs: DIFFER"
+  grep -E "time \(s" "$out"/n47104_gpu?rank.log
+fi
 rm -f /tmp/ff_*
+(cd "$out" && tar czf bench.tgz --exclude=bench.tgz . && find . -type f ! -name bench.tgz -delete)

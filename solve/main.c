@@ -1,0 +1,136 @@
+/* main.c - the `solve` command line; the work is in stage.c. */
+#include <errno.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rad_log.h"
+#include "stage.h"
+
+static const char usage_text[] =
+    "usage: solve [options] [FORMFACTORS]\n"
+    "\n"
+    "Solves (I - diag(rho) F) B = E for every colour channel of the form-factor\n"
+    "file FORMFACTORS (default: formfactors) and writes the radiosity file.\n"
+    "\n"
+    "options:\n"
+    "  -o, --output FILE   radiosity file to write (default: radiosity)\n"
+    "  --method M          jacobi | gauss-seidel | cg | auto (default: auto =\n"
+    "                      cg when the matrix is reciprocal enough, else\n"
+    "                      gauss-seidel)\n"
+    "  --tol X             stop when ||E + rho F B - B||inf / ||E||inf <= X\n"
+    "                      (default: 1e-10; see docs/solve.md)\n"
+    "  --max-iter N        iteration limit per channel (default: 100000)\n"
+    "  --stats FILE.json   write iterations, residuals and timings as JSON\n"
+    "  -q, --quiet         only warnings and errors on stderr\n"
+    "  -h, --help          this text\n"
+    "\n"
+    "exit status: 0 solved; 1 bad input or I/O error; 2 bad command line;\n"
+    "3 not converged (the output is still written, marked unconverged)\n";
+
+typedef struct cli {
+    solve_options options;
+    int help, quiet;
+} cli;
+
+static rad_status parse_tolerance(const char *text, double *out)
+{
+    char *end = NULL;
+    errno = 0;
+    double x = strtod(text, &end);
+    if (errno || end == text || *end || !(x > 0 && x < 1)) {
+        rad_error("--tol: '%s' is not a number in (0, 1)", text);
+        return RAD_ERR_USAGE;
+    }
+    *out = x;
+    return RAD_OK;
+}
+
+static rad_status parse_count(const char *text, uint32_t *out)
+{
+    char *end = NULL;
+    errno = 0;
+    unsigned long long x = strtoull(text, &end, 10);
+    if (errno || end == text || *end || text[0] == '-' || x == 0 || x > UINT32_MAX) {
+        rad_error("--max-iter: '%s' is not an integer in [1, %u]", text, UINT32_MAX);
+        return RAD_ERR_USAGE;
+    }
+    *out = (uint32_t)x;
+    return RAD_OK;
+}
+
+/* Option `name` matched argv[*i], in the form "--name VALUE" or
+ * "--name=VALUE"; *value gets VALUE. 0 if argv[*i] is another option. */
+static int take_value(int argc, char **argv, int *i, const char *name, const char **value, rad_status *status)
+{
+    size_t len = strlen(name);
+    const char *arg = argv[*i];
+    if (strncmp(arg, name, len) != 0) return 0;
+    if (arg[len] == '=') {
+        *value = arg + len + 1;
+        return 1;
+    }
+    if (arg[len] != 0) return 0;
+    if (*i + 1 >= argc) {
+        rad_error("%s needs a value", name);
+        *status = RAD_ERR_USAGE;
+        return 1;
+    }
+    *value = argv[++*i];
+    return 1;
+}
+
+static rad_status parse_args(int argc, char **argv, cli *out)
+{
+    cli c;
+    memset(&c, 0, sizeof c);
+    rad_status status = RAD_OK;
+    for (int i = 1; i < argc && status == RAD_OK; i++) {
+        const char *arg = argv[i], *value = NULL;
+        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
+            c.help = 1;
+        } else if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) {
+            c.quiet = 1;
+        } else if (take_value(argc, argv, &i, "-o", &value, &status) ||
+                   take_value(argc, argv, &i, "--output", &value, &status)) {
+            if (status == RAD_OK) c.options.output = value;
+        } else if (take_value(argc, argv, &i, "--method", &value, &status)) {
+            if (status == RAD_OK) status = solve_method_parse(value, &c.options.params.method);
+        } else if (take_value(argc, argv, &i, "--tol", &value, &status)) {
+            if (status == RAD_OK) status = parse_tolerance(value, &c.options.params.tolerance);
+        } else if (take_value(argc, argv, &i, "--max-iter", &value, &status)) {
+            if (status == RAD_OK) status = parse_count(value, &c.options.params.max_iterations);
+        } else if (take_value(argc, argv, &i, "--stats", &value, &status)) {
+            if (status == RAD_OK) c.options.stats = value;
+        } else if (arg[0] == '-' && arg[1] != 0) {
+            rad_error("unknown option '%s' (see solve --help)", arg);
+            status = RAD_ERR_USAGE;
+        } else if (c.options.input) {
+            rad_error("more than one form-factor file given ('%s' and '%s')", c.options.input, arg);
+            status = RAD_ERR_USAGE;
+        } else {
+            c.options.input = arg;
+        }
+    }
+    if (status == RAD_OK) *out = c;
+    return status;
+}
+
+int main(int argc, char **argv)
+{
+    rad_log_set_program("solve");
+    cli c;
+    rad_status status = parse_args(argc, argv, &c);
+    if (status != RAD_OK) {
+        fputs("try 'solve --help'\n", stderr);
+        return rad_status_exit_code(status);
+    }
+    if (c.help) {
+        fputs(usage_text, stdout);
+        return 0;
+    }
+    if (c.quiet) rad_log_set_level(RAD_LOG_WARN);
+    status = solve_stage_run(&c.options);
+    return rad_status_exit_code(status);
+}

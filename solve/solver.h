@@ -1,0 +1,115 @@
+/* solver.h - solves (I - diag(rho)·F)·B = E for one colour channel.
+ *
+ * Usage:
+ *     solve_system sys = {.patch_count = n, .form_factors = F, .area = A,
+ *                         .row_sum = s};
+ *     solve_params p = {0};                      // zero = defaults
+ *     solve_report rep;
+ *     rad_status st = solve_channel(&sys, rho, E, &p, B, &rep);
+ *     if (st == RAD_OK || st == RAD_ERR_NOT_CONVERGED) { ... B, rep ... }
+ *     solve_report_free(&rep);
+ *
+ * Methods (docs/solve.md):
+ *  - Jacobi:        B_i += r_i / (1 - rho_i F_ii), all rows from the old B.
+ *  - Gauss-Seidel:  the same update, in place, row by row.
+ *  - CG:            conjugate gradients, preconditioned by the diagonal, on
+ *                   K = diag(A/rho) - diag(A)·F, which is symmetric positive
+ *                   definite when A_i F_ij = A_j F_ji and rho·(row sum) < 1.
+ *                   Patches with rho = 0 are eliminated (B = E). CG runs only
+ *                   when the reciprocity check passes (SOLVE_CG_RECIPROCITY);
+ *                   otherwise, or when CG stalls, the solve says so and
+ *                   continues with Gauss-Seidel from where CG stopped.
+ *  - auto:          CG when the reciprocity check passes, else Gauss-Seidel.
+ * Every method starts from B = E, accumulates in double precision, and stops
+ * when the relative residual ||E + diag(rho)·F·B - B||_inf / ||E||_inf of
+ * the returned B is <= tolerance (verified with a fresh product at the end),
+ * or after max_iterations. Rows are summed in a fixed order, so results do
+ * not depend on the number of OpenMP threads.
+ */
+#ifndef SOLVE_SOLVER_H
+#define SOLVE_SOLVER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rad_rfile.h"
+#include "rad_status.h"
+
+/* Default stopping tolerance on the relative residual. The solver's error
+ * in the displayed image is then at most ~1e-4 of the smallest 8-bit step
+ * on the Cornell box, so it never decides a pixel's code (docs/solve.md:
+ * the bound, and renders at 1e-6 ... 1e-12 compared pixel by pixel). */
+#define SOLVE_DEFAULT_TOLERANCE 1e-10
+/* Default iteration limit: Jacobi needs about ln(tol)/ln(rho) iterations,
+ * 23,000 at rho = 0.999 and tol = 1e-10; CG needs tens. */
+#define SOLVE_DEFAULT_MAX_ITERATIONS 100000u
+/* Seconds between progress messages of a long solve. */
+#define SOLVE_DEFAULT_PROGRESS_SECONDS 2.0
+/* CG is used only if, for every patch i with rho_i > 0,
+ *   delta_i = sum_j |A_i F_ij - A_j F_ji| / (2 A_i)  <=  0.1 * m_i,
+ *   m_i     = 1/rho_i - sum_j F_ij  (the diagonal-dominance margin),
+ * sums over patches with rho > 0. Then the symmetric part of K is provably
+ * positive definite (Gershgorin) and its skew part is small against it. */
+#define SOLVE_CG_RECIPROCITY 0.1
+/* CG has stalled when its residual sets no new minimum for this many
+ * iterations (at most 3 restarts after recurrence drift). */
+#define SOLVE_CG_STALL_WINDOW 100u
+#define SOLVE_CG_MAX_RESTARTS 3
+
+typedef enum solve_method {
+    SOLVE_AUTO = 0,
+    SOLVE_JACOBI = RAD_SOLVE_JACOBI,
+    SOLVE_GAUSS_SEIDEL = RAD_SOLVE_GAUSS_SEIDEL,
+    SOLVE_CG = RAD_SOLVE_CG
+} solve_method;
+
+/* "auto", "jacobi", "gauss-seidel", "cg". */
+const char *solve_method_name(solve_method method);
+/* Parses one of those names; RAD_ERR_USAGE (logged) otherwise. */
+rad_status solve_method_parse(const char *name, solve_method *out_method);
+
+typedef struct solve_params {
+    solve_method method;       /* 0 = auto */
+    double tolerance;          /* relative residual; 0 = SOLVE_DEFAULT_TOLERANCE */
+    uint32_t max_iterations;   /* 0 = SOLVE_DEFAULT_MAX_ITERATIONS */
+    double progress_seconds;   /* 0 = SOLVE_DEFAULT_PROGRESS_SECONDS; < 0 = never */
+    const char *label;         /* names the channel in messages; NULL = "channel" */
+} solve_params;
+
+/* The matrix, shared by all channels; nothing here is copied or freed. */
+typedef struct solve_system {
+    size_t patch_count;          /* N >= 1 */
+    const double *form_factors;  /* N * N, F_ij at i * N + j, validated */
+    const double *area;          /* N patch areas (> 0) */
+    const double *row_sum;       /* N row sums of F */
+} solve_system;
+
+typedef struct solve_report {
+    solve_method method_used;  /* the method that produced B */
+    int fell_back;             /* 1 if CG was refused or stopped (fallback_reason) */
+    char fallback_reason[192];
+    uint32_t iterations;       /* updates that produced B (over all methods) */
+    double residual;           /* verified final relative residual */
+    int converged;             /* residual <= tolerance */
+    double seconds;            /* wall time of the solve */
+    double reciprocity;        /* max_i delta_i / m_i (see above); -1 if not measured */
+    double error_bound;        /* bound on ||B - B_exact||_inf: residual·||E||/(1 - max rho·rowsum),
+                                  +inf when max rho·rowsum >= 1 */
+    double *history;           /* history[k] = relative residual of iterate k,
+                                  k = 0..iterations (owned) */
+    size_t history_count;
+} solve_report;
+
+/* Solves one channel. rho and emission hold N values (rho in [0, 1),
+ * emission >= 0). On RAD_OK and on RAD_ERR_NOT_CONVERGED (iteration limit
+ * reached; message logged) out_radiosity (N values) and *out_report are
+ * filled, the latter to be released with solve_report_free; on any other
+ * status neither is touched. */
+rad_status solve_channel(const solve_system *system, const double *rho, const double *emission,
+                         const solve_params *params, double *out_radiosity, solve_report *out_report);
+void solve_report_free(solve_report *report); /* safe on zeroed */
+
+/* Seconds on a monotonic clock (for timings). */
+double solve_now(void);
+
+#endif

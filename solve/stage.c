@@ -1,0 +1,153 @@
+/* stage.c - the solve stage: read and validate the form factors, solve
+ * each channel (once for grey scenes), write the radiosity and stats. */
+#include "stage.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "matrix.h"
+#include "rad_ffile.h"
+#include "rad_log.h"
+#include "rad_rfile.h"
+#include "stats.h"
+
+static int scene_is_grey(const rad_mesh *mesh)
+{
+    for (size_t i = 0; i < mesh->patch_count; i++) {
+        const rad_patch *p = &mesh->patches[i];
+        if (p->rho[0] != p->rho[1] || p->rho[0] != p->rho[2] || p->emission[0] != p->emission[1] ||
+            p->emission[0] != p->emission[2])
+            return 0;
+    }
+    return 1;
+}
+
+/* Everything the stage allocates, freed in one place. */
+typedef struct stage_state {
+    rad_ff_file *file;
+    solve_matrix matrix;
+    double *rho, *emission, *channel_b; /* N each, one channel at a time */
+    double *radiosity;                  /* N * 3 */
+    solve_report reports[3];
+} stage_state;
+
+static void stage_state_free(stage_state *s)
+{
+    rad_ff_close(s->file);
+    solve_matrix_free(&s->matrix);
+    free(s->rho);
+    free(s->emission);
+    free(s->channel_b);
+    free(s->radiosity);
+    for (int c = 0; c < 3; c++) solve_report_free(&s->reports[c]);
+}
+
+/* Solves channel c (all three at once when grey) into s->radiosity. */
+static rad_status solve_one(stage_state *s, const char *input, const rad_mesh *mesh, int c, int grey,
+                            const solve_params *base, const char *label)
+{
+    const size_t n = mesh->patch_count;
+    for (size_t i = 0; i < n; i++) {
+        s->rho[i] = mesh->patches[i].rho[c];
+        s->emission[i] = mesh->patches[i].emission[c];
+    }
+    solve_params p = *base;
+    p.label = label;
+    solve_system sys = solve_matrix_system(&s->matrix);
+    rad_status status = solve_channel(&sys, s->rho, s->emission, &p, s->channel_b, &s->reports[c]);
+    if (status != RAD_OK && status != RAD_ERR_NOT_CONVERGED) return status;
+    for (size_t i = 0; i < n; i++)
+        for (int k = grey ? 0 : c; k <= (grey ? 2 : c); k++) s->radiosity[3 * i + k] = s->channel_b[i];
+    const solve_report *r = &s->reports[c];
+    rad_info("%s: %s: %s, %u iterations, residual %.3g, %.3f s", input, label, solve_method_name(r->method_used),
+             r->iterations, r->residual, r->seconds);
+    return status;
+}
+
+rad_status solve_stage_run(const solve_options *options)
+{
+    static const char *const rgb_names[3] = {"red", "green", "blue"};
+    const char *input = options->input ? options->input : SOLVE_DEFAULT_INPUT;
+    const char *output = options->output ? options->output : SOLVE_DEFAULT_OUTPUT;
+    rad_status status, solved = RAD_OK;
+    stage_state s;
+    memset(&s, 0, sizeof s);
+    double t0 = solve_now();
+
+    status = rad_ff_open(input, &s.file);
+    if (status != RAD_OK) goto done;
+    status = solve_matrix_load(s.file, input, &s.matrix);
+    if (status != RAD_OK) goto done;
+    double load_seconds = solve_now() - t0;
+    const rad_mesh *mesh = rad_ff_file_mesh(s.file);
+    const size_t n = mesh->patch_count;
+    s.rho = malloc(n * sizeof(double));
+    s.emission = malloc(n * sizeof(double));
+    s.channel_b = malloc(n * sizeof(double));
+    s.radiosity = malloc(3 * n * sizeof(double));
+    if (!s.rho || !s.emission || !s.channel_b || !s.radiosity) {
+        rad_error("%s: out of memory for %zu patches", input, n);
+        status = RAD_ERR_NOMEM;
+        goto done;
+    }
+    const int grey = scene_is_grey(mesh);
+    const uint32_t channels = grey ? 1 : 3;
+    rad_info("%s: %zu patches, %s, loaded in %.2f s", input, n, grey ? "grey (solved once)" : "RGB", load_seconds);
+    for (uint32_t c = 0; c < channels; c++) {
+        status = solve_one(&s, input, mesh, (int)c, grey, &options->params, grey ? "grey" : rgb_names[c]);
+        if (status == RAD_ERR_NOT_CONVERGED)
+            solved = status;
+        else if (status != RAD_OK)
+            goto done;
+    }
+
+    rad_radiosity out;
+    memset(&out, 0, sizeof out);
+    out.mesh = *mesh; /* borrowed from the file; not freed here */
+    out.radiosity = s.radiosity;
+    out.channel_count = channels;
+    out.method = (uint32_t)s.reports[0].method_used;
+    out.converged = solved == RAD_OK;
+    out.tolerance = options->params.tolerance > 0 ? options->params.tolerance : SOLVE_DEFAULT_TOLERANCE;
+    out.scene_fingerprint = rad_ff_file_info(s.file)->scene_fingerprint;
+    for (uint32_t c = 0; c < 3; c++) {
+        const solve_report *r = &s.reports[grey ? 0 : c];
+        out.iterations[c] = r->iterations;
+        out.residual[c] = r->residual;
+        out.channel_method[c] = (uint32_t)r->method_used;
+    }
+    status = rad_rf_write(output, &out);
+    if (status != RAD_OK) goto done;
+
+    if (options->stats) {
+        solve_stats st = {
+            .input = input,
+            .output = output,
+            .patch_count = n,
+            .method = options->params.method,
+            .tolerance = out.tolerance,
+            .max_iterations = options->params.max_iterations ? options->params.max_iterations
+                                                             : SOLVE_DEFAULT_MAX_ITERATIONS,
+            .load_seconds = load_seconds,
+            .total_seconds = solve_now() - t0,
+            .converged = out.converged != 0,
+            .channel_count = channels,
+        };
+        for (uint32_t c = 0; c < channels; c++) {
+            st.channel_names[c] = grey ? "grey" : rgb_names[c];
+            st.reports[c] = &s.reports[c];
+        }
+        status = solve_stats_write(options->stats, &st);
+        if (status != RAD_OK) goto done;
+    }
+    if (solved != RAD_OK) {
+        rad_error("%s: not converged; wrote %s marked unconverged (raise --max-iter or try --method cg)", input,
+                  output);
+        status = solved;
+    } else {
+        rad_info("%s: wrote %s", input, output);
+    }
+done:
+    stage_state_free(&s);
+    return status;
+}

@@ -1,0 +1,28 @@
+/* stage.h - the solve stage as one call: form-factor file in, radiosity
+ * file (and optionally a stats JSON) out. main.c only parses the command
+ * line into solve_options; tests call this directly.
+ *
+ * Grey scenes (rho and E equal in all three channels on every patch) are
+ * solved once and stored in all three channels. A channel that does not
+ * converge does not stop the others; the radiosity file is still written,
+ * marked unconverged, and the result is RAD_ERR_NOT_CONVERGED.
+ */
+#ifndef SOLVE_STAGE_H
+#define SOLVE_STAGE_H
+
+#include "rad_status.h"
+#include "solver.h"
+
+#define SOLVE_DEFAULT_INPUT "formfactors"
+#define SOLVE_DEFAULT_OUTPUT "radiosity"
+
+typedef struct solve_options {
+    const char *input;   /* form-factor file; NULL = SOLVE_DEFAULT_INPUT */
+    const char *output;  /* radiosity file; NULL = SOLVE_DEFAULT_OUTPUT */
+    const char *stats;   /* JSON statistics file; NULL = none */
+    solve_params params; /* zero = defaults (solver.h) */
+} solve_options;
+
+rad_status solve_stage_run(const solve_options *options);
+
+#endif

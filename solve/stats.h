@@ -1,0 +1,30 @@
+/* stats.h - the --stats JSON file: what was solved, how, and the residual
+ * history of every channel (schema in docs/solve.md). */
+#ifndef SOLVE_STATS_H
+#define SOLVE_STATS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rad_status.h"
+#include "solver.h"
+
+typedef struct solve_stats {
+    const char *input;            /* form-factor file */
+    const char *output;           /* radiosity file */
+    size_t patch_count;
+    solve_method method;          /* as asked (auto stays auto) */
+    double tolerance;
+    uint32_t max_iterations;
+    double load_seconds;          /* reading and validating the matrix */
+    double total_seconds;
+    int converged;                /* every channel */
+    uint32_t channel_count;       /* 1 (grey) or 3 */
+    const char *channel_names[3];
+    const solve_report *reports[3];
+} solve_stats;
+
+/* Writes `stats` as JSON to `path` (temporary name + rename). */
+rad_status solve_stats_write(const char *path, const solve_stats *stats);
+
+#endif
