@@ -43,17 +43,16 @@ typedef struct rad_ff_patch {
  * was not). */
 static inline RAD_HD rad_vec3 rad_ff_sample_point(const rad_ff_patch *patch, double u1, double u2)
 {
-    rad_vec3 a = patch->p[0], b = patch->p[1], c = patch->p[2];
-    if (u1 >= patch->split) {
-        u1 = (u1 - patch->split) * patch->inv_rest;
-        b = patch->p[2];
-        c = patch->p[3];
-    } else {
-        u1 = u1 * patch->inv_split;
-    }
-    u1 = u1 < 1.0 ? u1 : 1.0; /* the reciprocal may round u1 just past 1 */
-    /* Barycentric weights of a uniform point: wa = 1 - sqrt(u1), wb = u2 sqrt(u1). */
-    double s = sqrt(u1);
+    /* Branch-free (selects, not jumps) so that CPU compilers vectorize it
+     * and GPU warps do not diverge. */
+    int second = u1 >= patch->split;
+    rad_vec3 a = patch->p[0];
+    rad_vec3 b = second ? patch->p[2] : patch->p[1];
+    rad_vec3 c = second ? patch->p[3] : patch->p[2];
+    double t = second ? (u1 - patch->split) * patch->inv_rest : u1 * patch->inv_split;
+    t = t < 1.0 ? t : 1.0; /* the reciprocal may round t just past 1 */
+    /* Barycentric weights of a uniform point: wa = 1 - sqrt(t), wb = u2 sqrt(t). */
+    double s = sqrt(t);
     double wa = 1.0 - s, wb = u2 * s, wc = s - wb;
     return rad_v3(wa * a.x + wb * b.x + wc * c.x, wa * a.y + wb * b.y + wc * c.y, wa * a.z + wb * b.z + wc * c.z);
 }
@@ -68,15 +67,11 @@ static inline RAD_HD void rad_ff_sample_pair(const rad_ff_patch *pi, const rad_f
     ctr.v[2] = k;
     ctr.v[3] = 0;
     rad_u32x4 r = rad_philox4x32(ctr, (uint32_t)seed, (uint32_t)(seed >> 32));
+    int lower = i < j; /* patch i is the pair's first: it takes numbers 0 and 1 */
     double ua1 = rad_u01(r.v[0]), ua2 = rad_u01(r.v[1]);
     double ub1 = rad_u01(r.v[2]), ub2 = rad_u01(r.v[3]);
-    if (i < j) {
-        *x = rad_ff_sample_point(pi, ua1, ua2);
-        *y = rad_ff_sample_point(pj, ub1, ub2);
-    } else {
-        *x = rad_ff_sample_point(pi, ub1, ub2);
-        *y = rad_ff_sample_point(pj, ua1, ua2);
-    }
+    *x = rad_ff_sample_point(pi, lower ? ua1 : ub1, lower ? ua2 : ub2);
+    *y = rad_ff_sample_point(pj, lower ? ub1 : ua1, lower ? ub2 : ua2);
 }
 
 /* G(x, y) = cos_i cos_j / (pi r^2), zero for back-facing directions. */
@@ -85,8 +80,9 @@ static inline RAD_HD double rad_ff_point_kernel(rad_vec3 x, rad_vec3 nx, rad_vec
     rad_vec3 d = rad_v3_sub(y, x);
     double r2 = rad_v3_dot(d, d);
     double ci = rad_v3_dot(nx, d), cj = -rad_v3_dot(ny, d);
-    if (!(ci > 0.0) || !(cj > 0.0) || !(r2 > 0.0)) return 0.0;
-    return ci * cj / (RAD_PI * r2 * r2);
+    double g = ci * cj / (RAD_PI * r2 * r2);
+    /* A select, not a branch (see above); r2 = 0 gives NaN, discarded here. */
+    return ci > 0.0 && cj > 0.0 && r2 > 0.0 ? g : 0.0;
 }
 
 /* Can the two patches exchange light at all? No if every vertex of one lies

@@ -30,6 +30,12 @@ static inline RAD_HD uint32_t rad_mulhilo32(uint32_t a, uint32_t b, uint32_t *hi
 /* Philox-4x32 with 10 rounds. */
 static inline RAD_HD rad_u32x4 rad_philox4x32(rad_u32x4 ctr, uint32_t key0, uint32_t key1)
 {
+    /* Fully unrolled so that CPU compilers can vectorize loops over samples. */
+#if defined(__CUDACC__)
+#pragma unroll
+#elif defined(__GNUC__)
+#pragma GCC unroll 10
+#endif
     for (int round = 0; round < 10; round++) {
         uint32_t hi0, hi1;
         uint32_t lo0 = rad_mulhilo32(0xD2511F53u, ctr.v[0], &hi0);
@@ -47,6 +53,11 @@ static inline RAD_HD rad_u32x4 rad_philox4x32(rad_u32x4 ctr, uint32_t key0, uint
 }
 
 /* A uint32 mapped to the open interval (0, 1): never exactly 0 or 1. */
-static inline RAD_HD double rad_u01(uint32_t x) { return ((double)x + 0.5) * (1.0 / 4294967296.0); }
+static inline RAD_HD double rad_u01(uint32_t x)
+{
+    /* Exactly ((double)x + 0.5) / 2^32, through a signed conversion, which
+     * vector units (AVX2) have and the unsigned one lacks. */
+    return ((double)(int32_t)(x ^ 0x80000000u) + 2147483648.5) * (1.0 / 4294967296.0);
+}
 
 #endif

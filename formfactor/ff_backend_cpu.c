@@ -36,6 +36,7 @@ typedef struct cpu_scratch {
     float *rays;     /* FF_CPU_BLOCK * R * 6: x then y */
     double *kernel;  /* FF_CPU_BLOCK * R */
     double *unoccluded; /* FF_CPU_BLOCK */
+    double *g;       /* samples: one pair's kernel values */
 } cpu_scratch;
 
 /* The context handed to Embree's filter: which faces a ray must ignore. */
@@ -125,6 +126,21 @@ static void cpu_destroy(void *state)
     free(s);
 }
 
+/* Kernel values of samples [0, count) of pair (i, j) into g. Written as a
+ * plain loop over independent samples so that the compiler vectorizes it
+ * (the shared kernel is branch-free); the caller sums g in order, so the
+ * result does not depend on the vector width. */
+static void kernel_samples(const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j, uint32_t count,
+                           uint64_t seed, double *restrict g)
+{
+#pragma omp simd
+    for (uint32_t k = 0; k < count; k++) {
+        rad_vec3 x, y;
+        rad_ff_sample_pair(pi, pj, i, j, k, seed, &x, &y);
+        g[k] = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+    }
+}
+
 /* Pass 1 for columns [j0, j1) of row i: unoccluded F and the kept samples. */
 static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j1, double *row, cpu_scratch *sc,
                          ff_counters *c)
@@ -141,18 +157,17 @@ static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j
             row[j] = 0;
             continue;
         }
+        kernel_samples(pi, pj, i, j, K, su->seed, sc->g);
         double sum = 0;
-        for (uint32_t k = 0; k < K; k++) {
+        for (uint32_t k = 0; k < K; k++) sum += sc->g[k];
+        /* The first R point pairs carry shadow rays: keep them and their G. */
+        for (uint32_t k = 0; k < R; k++) {
             rad_vec3 x, y;
             rad_ff_sample_pair(pi, pj, i, j, k, su->seed, &x, &y);
-            double g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
-            sum += g;
-            if (k < R) {
-                float *ray = sc->rays + ((size_t)b * R + k) * 6;
-                ray[0] = (float)x.x, ray[1] = (float)x.y, ray[2] = (float)x.z;
-                ray[3] = (float)y.x, ray[4] = (float)y.y, ray[5] = (float)y.z;
-                sc->kernel[(size_t)b * R + k] = g;
-            }
+            float *ray = sc->rays + ((size_t)b * R + k) * 6;
+            ray[0] = (float)x.x, ray[1] = (float)x.y, ray[2] = (float)x.z;
+            ray[3] = (float)y.x, ray[4] = (float)y.y, ray[5] = (float)y.z;
+            sc->kernel[(size_t)b * R + k] = sc->g[k];
         }
         c->samples += K;
         sc->unoccluded[b] = sum * pj->area / K;
@@ -219,11 +234,12 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
         sc.rays = malloc(sizeof(float) * 6 * FF_CPU_BLOCK * (R ? R : 1));
         sc.kernel = malloc(sizeof(double) * FF_CPU_BLOCK * (R ? R : 1));
         sc.unoccluded = malloc(sizeof(double) * FF_CPU_BLOCK);
+        sc.g = malloc(sizeof(double) * su->samples);
         int master = 1;
 #ifdef _OPENMP
         master = omp_get_thread_num() == 0;
 #endif
-        if (!sc.rays || !sc.kernel || !sc.unoccluded) failed = 1;
+        if (!sc.rays || !sc.kernel || !sc.unoccluded || !sc.g) failed = 1;
 #pragma omp for schedule(dynamic, 1)
         for (uint32_t r = 0; r < row_count; r++) {
             if (failed) continue;
@@ -256,6 +272,7 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
         free(sc.rays);
         free(sc.kernel);
         free(sc.unoccluded);
+        free(sc.g);
     }
     if (failed) {
         rad_error("out of memory for the CPU backend's scratch buffers");
