@@ -1,0 +1,209 @@
+// image_oiio.cpp - image.h implemented with OpenImageIO: the only file of
+// the project that includes it. No exception leaves this file: every entry
+// point catches and turns failures into a logged rad_status.
+#include "image.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <memory>
+#include <new>
+#include <string>
+#include <vector>
+
+extern "C" {
+#include "rad_fs.h"
+#include "rad_log.h"
+}
+
+namespace {
+
+const char *const kSoftware = "radiosity render";
+
+bool ends_with_nocase(const char *s, const char *suffix)
+{
+    size_t n = std::strlen(s), m = std::strlen(suffix);
+    if (n < m) return false;
+    for (size_t i = 0; i < m; i++) {
+        char c = s[n - m + i];
+        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+        if (c != suffix[i]) return false;
+    }
+    return true;
+}
+
+// Display-encoded [0, 1] floats -> 8-bit, round to nearest, clamped.
+std::vector<unsigned char> quantize_8bit(const float *rgb, size_t count)
+{
+    std::vector<unsigned char> bytes(count);
+    for (size_t i = 0; i < count; i++) {
+        float v = rgb[i];
+        v = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; // NaN -> 0
+        bytes[i] = static_cast<unsigned char>(std::lround(v * 255.0f));
+    }
+    return bytes;
+}
+
+// Opens, writes and closes `temp`; returns RAD_OK or a logged status.
+rad_status write_temp(const char *path, const char *temp, render_image_format format, const float *rgb, int width,
+                      int height, const render_image_attr *attrs, size_t attr_count)
+{
+    using namespace OIIO;
+    const bool png = format == RENDER_IMAGE_PNG;
+    std::unique_ptr<ImageOutput> out = ImageOutput::create(png ? "png" : "openexr");
+    if (!out) {
+        rad_error("%s: this OpenImageIO cannot write %s: %s", path, png ? "PNG" : "OpenEXR", OIIO::geterror().c_str());
+        return RAD_ERR_UNSUPPORTED;
+    }
+    ImageSpec spec(width, height, 3, png ? TypeDesc::UINT8 : TypeDesc::HALF);
+    spec.attribute("Software", kSoftware);
+    spec.attribute("DateTime", RENDER_IMAGE_DATETIME);
+    spec.attribute("oiio:ColorSpace", png ? "sRGB" : "Linear");
+    if (!png) spec.attribute("compression", "zip");
+    for (size_t i = 0; i < attr_count; i++) spec.attribute(attrs[i].name, attrs[i].value);
+    if (!out->open(temp, spec)) {
+        rad_error("%s: cannot write: %s", path, out->geterror().c_str());
+        return RAD_ERR_IO;
+    }
+    const size_t count = 3 * static_cast<size_t>(width) * static_cast<size_t>(height);
+    bool ok;
+    if (png) {
+        std::vector<unsigned char> bytes = quantize_8bit(rgb, count);
+        ok = out->write_image(TypeDesc::UINT8, bytes.data());
+    } else {
+        ok = out->write_image(TypeDesc::FLOAT, rgb);
+    }
+    std::string why = ok ? std::string() : out->geterror();
+    if (!out->close() && ok) {
+        ok = false;
+        why = out->geterror();
+    }
+    if (!ok) {
+        rad_error("%s: cannot write: %s", path, why.empty() ? "unknown OpenImageIO error" : why.c_str());
+        return RAD_ERR_IO;
+    }
+    return RAD_OK;
+}
+
+} // namespace
+
+extern "C" render_image_format render_image_format_of(const char *path)
+{
+    if (ends_with_nocase(path, ".png")) return RENDER_IMAGE_PNG;
+    if (ends_with_nocase(path, ".exr")) return RENDER_IMAGE_EXR;
+    return RENDER_IMAGE_UNKNOWN;
+}
+
+extern "C" rad_status render_image_write(const char *path, const float *rgb, int width, int height,
+                                         const render_image_attr *attrs, size_t attr_count)
+{
+    rad_status status = RAD_OK;
+    char temp[4096];
+    bool temp_named = false;
+    render_image_format format = render_image_format_of(path);
+    if (format == RENDER_IMAGE_UNKNOWN) {
+        rad_error("%s: unknown image type (the name must end in .png or .exr)", path);
+        status = RAD_ERR_USAGE;
+        goto done;
+    }
+    if (width < 1 || height < 1) {
+        rad_error("%s: image size %dx%d is empty", path, width, height);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
+    status = rad_fs_temp_path(path, temp, sizeof temp);
+    if (status != RAD_OK) goto done;
+    temp_named = true;
+    try {
+        status = write_temp(path, temp, format, rgb, width, height, attrs, attr_count);
+    } catch (const std::bad_alloc &) {
+        rad_error("%s: out of memory writing the image", path);
+        status = RAD_ERR_NOMEM;
+    } catch (const std::exception &e) {
+        rad_error("%s: cannot write: %s", path, e.what());
+        status = RAD_ERR_IO;
+    }
+    if (status != RAD_OK) goto done;
+    status = rad_fs_commit(temp, path);
+    temp_named = false; /* commit removes the temporary itself on failure */
+done:
+    if (status != RAD_OK && temp_named) rad_fs_discard(temp);
+    return status;
+}
+
+namespace {
+
+rad_status read_impl(const char *path, float **out_rgb, int *out_width, int *out_height)
+{
+    using namespace OIIO;
+    std::unique_ptr<ImageInput> in = ImageInput::open(path);
+    if (!in) {
+        rad_error("%s: cannot read: %s", path, OIIO::geterror().c_str());
+        return RAD_ERR_IO;
+    }
+    const ImageSpec &spec = in->spec();
+    if (spec.nchannels < 3 || spec.width < 1 || spec.height < 1) {
+        rad_error("%s: not an RGB image (%d channels, %dx%d)", path, spec.nchannels, spec.width, spec.height);
+        in->close();
+        return RAD_ERR_FORMAT;
+    }
+    const size_t count = 3 * static_cast<size_t>(spec.width) * static_cast<size_t>(spec.height);
+    float *rgb = static_cast<float *>(std::malloc(count * sizeof *rgb));
+    if (!rgb) {
+        rad_error("%s: out of memory reading the image", path);
+        in->close();
+        return RAD_ERR_NOMEM;
+    }
+    if (!in->read_image(0, 0, 0, 3, TypeDesc::FLOAT, rgb)) {
+        rad_error("%s: cannot read pixels: %s", path, in->geterror().c_str());
+        std::free(rgb);
+        in->close();
+        return RAD_ERR_IO;
+    }
+    *out_width = spec.width;
+    *out_height = spec.height;
+    *out_rgb = rgb;
+    in->close();
+    return RAD_OK;
+}
+
+} // namespace
+
+extern "C" rad_status render_image_read(const char *path, float **out_rgb, int *out_width, int *out_height)
+{
+    try {
+        return read_impl(path, out_rgb, out_width, out_height);
+    } catch (const std::exception &e) {
+        rad_error("%s: cannot read: %s", path, e.what());
+        return RAD_ERR_IO;
+    }
+}
+
+extern "C" rad_status render_image_read_attr(const char *path, const char *name, char *out, size_t size)
+{
+    try {
+        std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(path);
+        if (!in) {
+            rad_error("%s: cannot read: %s", path, OIIO::geterror().c_str());
+            return RAD_ERR_IO;
+        }
+        const OIIO::ParamValue *p = in->spec().find_attribute(name, OIIO::TypeDesc::STRING);
+        if (!p) {
+            rad_error("%s: no attribute '%s'", path, name);
+            return RAD_ERR_INVALID;
+        }
+        std::string value = p->get_string();
+        if (size > 0) {
+            std::strncpy(out, value.c_str(), size - 1);
+            out[size - 1] = 0;
+        }
+        return RAD_OK;
+    } catch (const std::exception &e) {
+        rad_error("%s: cannot read: %s", path, e.what());
+        return RAD_ERR_IO;
+    }
+}

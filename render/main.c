@@ -1,0 +1,310 @@
+/* render - draws a solved radiosity file into a PNG or EXR image.
+ *
+ * The only file of this stage that exits or prints outside the logger
+ * (--help). See docs/render.md.
+ */
+#define _POSIX_C_SOURCE 200809L
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "camera.h"
+#include "frame.h"
+#include "image.h"
+#include "rad_log.h"
+#include "rad_rfile.h"
+#include "rad_status.h"
+#include "raster.h"
+#include "tonemap.h"
+
+#define RENDER_DEFAULT_INPUT "radiosity"
+#define RENDER_DEFAULT_OUTPUT "cornell.png"
+#define RENDER_MAX_EXPOSURE 64.0 /* |EV| beyond this is surely a typo */
+
+static const char usage_text[] =
+    "usage: render [RADIOSITY] [options]\n"
+    "Draws a radiosity solution (from solve) into a PNG or EXR image.\n"
+    "\n"
+    "  RADIOSITY            radiosity file to draw (default: " RENDER_DEFAULT_INPUT ")\n"
+    "  -o, --output FILE    image to write; .png (8-bit sRGB) or .exr (linear half)\n"
+    "                       (default: " RENDER_DEFAULT_OUTPUT ")\n"
+    "  --width N            image width in pixels (default: 512)\n"
+    "  --height N           image height in pixels (default: 512)\n"
+    "  --spp N              samples per pixel, a square: 1, 4, 9, 16, ... 256 (default: 16)\n"
+    "  --camera FILE        camera file (lines: eye X Y Z, look_at X Y Z, up X Y Z,\n"
+    "                       fov_y DEGREES; # comments). Default: the measured camera\n"
+    "                       for the Cornell box, automatic framing for other scenes\n"
+    "  --eye X,Y,Z          camera position (overrides the camera file or default)\n"
+    "  --look-at X,Y,Z      point at the image centre\n"
+    "  --up X,Y,Z           up direction\n"
+    "  --fov DEGREES        vertical field of view\n"
+    "  --exposure EV        multiply the PNG's values by 2^EV (default: 0)\n"
+    "  --no-auto-exposure   use 2^EV alone instead of 2^EV times the automatic scale\n"
+    "  --shading MODE       smooth (Gouraud between patches, default) or flat (patches)\n"
+    "  -q, --quiet          report errors only\n"
+    "  -h, --help           show this help\n"
+    "\n"
+    "PNG: sRGB(clamp(B * scale)); EXR: radiosity B per channel, unscaled.\n";
+
+typedef struct render_cli {
+    const char *input, *output, *camera_path;
+    render_frame_options frame;
+    int have_eye, have_look_at, have_up, have_fov;
+    rad_vec3 eye, look_at, up;
+    double fov_y;
+    double exposure;
+    int auto_exposure;
+    int quiet, help;
+} render_cli;
+
+static rad_status parse_int(const char *opt, const char *text, int lo, int hi, int *out)
+{
+    char *end = NULL;
+    errno = 0;
+    long v = strtol(text, &end, 10);
+    if (end == text || *end || errno || v < lo || v > hi) {
+        rad_error("%s: '%s' is not an integer in %d..%d", opt, text, lo, hi);
+        return RAD_ERR_USAGE;
+    }
+    *out = (int)v;
+    return RAD_OK;
+}
+
+static rad_status parse_double(const char *opt, const char *text, double *out)
+{
+    char *end = NULL;
+    double v = strtod(text, &end);
+    if (end == text || *end || !isfinite(v)) {
+        rad_error("%s: '%s' is not a finite number", opt, text);
+        return RAD_ERR_USAGE;
+    }
+    *out = v;
+    return RAD_OK;
+}
+
+/* "X,Y,Z" */
+static rad_status parse_vec3(const char *opt, const char *text, rad_vec3 *out)
+{
+    double v[3];
+    const char *p = text;
+    for (int i = 0; i < 3; i++) {
+        char *end = NULL;
+        v[i] = strtod(p, &end);
+        if (end == p || !isfinite(v[i]) || (i < 2 ? *end != ',' : *end != 0)) {
+            rad_error("%s: '%s' is not three numbers X,Y,Z", opt, text);
+            return RAD_ERR_USAGE;
+        }
+        p = end + 1;
+    }
+    *out = rad_v3(v[0], v[1], v[2]);
+    return RAD_OK;
+}
+
+/* Matches "--name VALUE" and "--name=VALUE"; *io_index advances past what
+ * was consumed. Returns 1 on a match (with *out_value, or a logged usage
+ * error in *out_status), 0 if argv[i] is another option. */
+static int match_value(int argc, char **argv, int *io_index, const char *name, const char *alias,
+                       const char **out_value, rad_status *out_status)
+{
+    const char *arg = argv[*io_index];
+    size_t len = strlen(name);
+    if (strncmp(arg, name, len) == 0 && arg[len] == '=') {
+        *out_value = arg + len + 1;
+        return 1;
+    }
+    if (strcmp(arg, name) != 0 && !(alias && strcmp(arg, alias) == 0)) return 0;
+    if (*io_index + 1 >= argc) {
+        rad_error("%s needs a value (see --help)", arg);
+        *out_status = RAD_ERR_USAGE;
+        return 1;
+    }
+    *out_value = argv[++*io_index];
+    return 1;
+}
+
+static rad_status parse_args(int argc, char **argv, render_cli *cli)
+{
+    rad_status status = RAD_OK;
+    const render_cli defaults = {RENDER_DEFAULT_INPUT, RENDER_DEFAULT_OUTPUT, NULL, {0, 0, 0, RENDER_SHADING_SMOOTH},
+                                 0, 0, 0, 0, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0.0, 0.0, 1, 0, 0};
+    int have_input = 0;
+    *cli = defaults;
+    for (int i = 1; i < argc && status == RAD_OK; i++) {
+        const char *arg = argv[i], *v = NULL;
+        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
+            cli->help = 1;
+        } else if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) {
+            cli->quiet = 1;
+        } else if (strcmp(arg, "--no-auto-exposure") == 0) {
+            cli->auto_exposure = 0;
+        } else if (match_value(argc, argv, &i, "--output", "-o", &v, &status)) {
+            if (v) cli->output = v;
+        } else if (match_value(argc, argv, &i, "--width", NULL, &v, &status)) {
+            if (v) status = parse_int("--width", v, 1, RENDER_MAX_SAMPLE_DIM, &cli->frame.width);
+        } else if (match_value(argc, argv, &i, "--height", NULL, &v, &status)) {
+            if (v) status = parse_int("--height", v, 1, RENDER_MAX_SAMPLE_DIM, &cli->frame.height);
+        } else if (match_value(argc, argv, &i, "--spp", NULL, &v, &status)) {
+            if (v) status = parse_int("--spp", v, 1, RENDER_MAX_SPP, &cli->frame.spp);
+        } else if (match_value(argc, argv, &i, "--camera", NULL, &v, &status)) {
+            if (v) cli->camera_path = v;
+        } else if (match_value(argc, argv, &i, "--eye", NULL, &v, &status)) {
+            if (v) status = parse_vec3("--eye", v, &cli->eye);
+            cli->have_eye = 1;
+        } else if (match_value(argc, argv, &i, "--look-at", NULL, &v, &status)) {
+            if (v) status = parse_vec3("--look-at", v, &cli->look_at);
+            cli->have_look_at = 1;
+        } else if (match_value(argc, argv, &i, "--up", NULL, &v, &status)) {
+            if (v) status = parse_vec3("--up", v, &cli->up);
+            cli->have_up = 1;
+        } else if (match_value(argc, argv, &i, "--fov", NULL, &v, &status)) {
+            if (v) status = parse_double("--fov", v, &cli->fov_y);
+            cli->have_fov = 1;
+        } else if (match_value(argc, argv, &i, "--exposure", NULL, &v, &status)) {
+            if (v) status = parse_double("--exposure", v, &cli->exposure);
+            if (status == RAD_OK && fabs(cli->exposure) > RENDER_MAX_EXPOSURE) {
+                rad_error("--exposure: %g stops is out of range (|EV| <= %g)", cli->exposure, RENDER_MAX_EXPOSURE);
+                status = RAD_ERR_USAGE;
+            }
+        } else if (match_value(argc, argv, &i, "--shading", NULL, &v, &status)) {
+            if (v && strcmp(v, "smooth") == 0) {
+                cli->frame.shading = RENDER_SHADING_SMOOTH;
+            } else if (v && strcmp(v, "flat") == 0) {
+                cli->frame.shading = RENDER_SHADING_FLAT;
+            } else if (v) {
+                rad_error("--shading: '%s' is not smooth or flat", v);
+                status = RAD_ERR_USAGE;
+            }
+        } else if (arg[0] == '-' && arg[1] != 0) {
+            rad_error("unknown option '%s' (see --help)", arg);
+            status = RAD_ERR_USAGE;
+        } else if (have_input) {
+            rad_error("more than one radiosity file given ('%s' and '%s')", cli->input, arg);
+            status = RAD_ERR_USAGE;
+        } else {
+            cli->input = arg;
+            have_input = 1;
+        }
+    }
+    return status;
+}
+
+static double seconds_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The camera: file or default, then the flags on top. */
+static rad_status choose_camera(const render_cli *cli, const rad_mesh *mesh, double aspect, render_camera *out)
+{
+    rad_status status = RAD_OK;
+    int cornell = 0;
+    if (cli->camera_path) {
+        status = render_camera_load(cli->camera_path, out);
+        if (status != RAD_OK) return status;
+    } else {
+        render_camera_default(mesh, aspect, out, &cornell);
+        rad_info("camera: %s", cornell ? "the Cornell box's measured camera" : "automatic framing");
+    }
+    if (cli->have_eye) out->eye = cli->eye;
+    if (cli->have_look_at) out->look_at = cli->look_at;
+    if (cli->have_up) out->up = cli->up;
+    if (cli->have_fov) out->fov_y = cli->fov_y;
+    return render_camera_validate(out, "camera (after --eye/--look-at/--up/--fov)");
+}
+
+static rad_status run(const render_cli *cli)
+{
+    rad_status status = RAD_OK;
+    rad_radiosity rf;
+    float *rgb = NULL;
+    memset(&rf, 0, sizeof rf);
+    double t0 = seconds_now();
+    render_image_format format = render_image_format_of(cli->output);
+    if (format == RENDER_IMAGE_UNKNOWN) {
+        rad_error("%s: unknown image type (the name must end in .png or .exr)", cli->output);
+        status = RAD_ERR_USAGE;
+        goto done;
+    }
+    render_frame_options frame = render_frame_options_resolve(&cli->frame);
+    status = render_raster_check(&(render_raster_options){frame.width, frame.height, frame.spp, 1, 1.0}, NULL);
+    if (status != RAD_OK) {
+        status = RAD_ERR_USAGE;
+        goto done;
+    }
+    status = rad_rf_read(cli->input, &rf);
+    if (status != RAD_OK) goto done;
+    if (rf.mesh.patch_count == 0) {
+        rad_error("%s: no patches to draw", cli->input);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
+
+    render_camera camera;
+    status = choose_camera(cli, &rf.mesh, (double)frame.width / frame.height, &camera);
+    if (status != RAD_OK) goto done;
+    char camera_text[512];
+    render_camera_format(&camera, camera_text, sizeof camera_text);
+    rad_info("%s: %zu patches; %s", cli->input, rf.mesh.patch_count, camera_text);
+
+    size_t pixels = (size_t)frame.width * (size_t)frame.height;
+    rgb = malloc(3 * pixels * sizeof *rgb);
+    if (!rgb) {
+        rad_error("out of memory for a %dx%d image", frame.width, frame.height);
+        status = RAD_ERR_NOMEM;
+        goto done;
+    }
+    double t_draw = seconds_now();
+    status = render_frame_draw(&rf.mesh, rf.radiosity, &camera, &frame, rgb);
+    if (status != RAD_OK) goto done;
+    t_draw = seconds_now() - t_draw;
+
+    double scale = pow(2.0, cli->exposure);
+    if (cli->auto_exposure) scale *= render_tonemap_auto_scale(&rf.mesh, rf.radiosity);
+    if (format == RENDER_IMAGE_PNG) render_tonemap_apply(rgb, pixels, scale);
+
+    char fingerprint[32], scale_text[32], spp_text[16];
+    snprintf(fingerprint, sizeof fingerprint, "%016" PRIx64, rf.scene_fingerprint);
+    snprintf(scale_text, sizeof scale_text, "%.9g", scale);
+    snprintf(spp_text, sizeof spp_text, "%d", frame.spp);
+    const render_image_attr attrs[] = {
+        {"ImageDescription", "radiosity solution rendered by render (radiosity project)"},
+        {"rad:camera", camera_text},
+        {"rad:scene_fingerprint", fingerprint},
+        {"rad:shading", frame.shading == RENDER_SHADING_FLAT ? "flat" : "smooth"},
+        {"rad:spp", spp_text},
+        {"rad:display_scale", scale_text},
+        {"rad:values", format == RENDER_IMAGE_PNG ? "sRGB(clamp(B * rad:display_scale))"
+                                                  : "radiosity B per channel, linear, unscaled"},
+    };
+    status = render_image_write(cli->output, rgb, frame.width, frame.height, attrs, sizeof attrs / sizeof attrs[0]);
+    if (status != RAD_OK) goto done;
+    rad_info("wrote %s: %dx%d, %d spp, %s shading, scale %.4g; draw %.3f s, total %.3f s", cli->output, frame.width,
+             frame.height, frame.spp, frame.shading == RENDER_SHADING_FLAT ? "flat" : "smooth", scale, t_draw,
+             seconds_now() - t0);
+done:
+    free(rgb);
+    rad_radiosity_free(&rf);
+    return status;
+}
+
+int main(int argc, char **argv)
+{
+    render_cli cli;
+    rad_log_set_program("render");
+    rad_status status = parse_args(argc, argv, &cli);
+    if (status == RAD_OK && cli.help) {
+        fputs(usage_text, stdout);
+        return 0;
+    }
+    if (status == RAD_OK) {
+        if (cli.quiet) rad_log_set_level(RAD_LOG_ERROR);
+        status = run(&cli);
+    }
+    return rad_status_exit_code(status);
+}

@@ -1,0 +1,36 @@
+/* shade.h - colours at patch corners from per-patch radiosity.
+ *
+ * Smooth shading (the classic radiosity look): the colour at corner k of
+ * patch p is the area-weighted mean radiosity of the patches around that
+ * vertex that lie on the same smooth surface as p: normals within
+ * RENDER_CREASE_DEGREES of p's and the same material (rho and emission
+ * equal). So values blend across the seams of a subdivided wall but never
+ * around a wall corner, a block's edge, or from the light into the ceiling.
+ * The raster stage then interpolates the corners across the patch
+ * (Gouraud). Emitters show their radiosity B = E + reflected, like any patch.
+ *
+ * Flat shading gives every corner the patch's own radiosity.
+ */
+#ifndef RENDER_SHADE_H
+#define RENDER_SHADE_H
+
+#include "rad_mesh.h"
+#include "rad_status.h"
+
+/* Normals further apart than this are a crease. */
+#define RENDER_CREASE_DEGREES 1.0
+
+typedef enum render_shading {
+    RENDER_SHADING_SMOOTH = 0,
+    RENDER_SHADING_FLAT = 1
+} render_shading;
+
+/* radiosity: patch_count * 3 (RGB per patch). out_corner_rgb: the caller's
+ * buffer of patch_count * 4 * 3 doubles, corner k of patch p at
+ * (4 * p + k) * 3; corner 3 of a triangle is left 0. Fails only for lack of
+ * memory (RAD_ERR_NOMEM) or patches that are not triangles or quads or
+ * have vertex indices out of range (RAD_ERR_INVALID). */
+rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, render_shading shading,
+                                double *out_corner_rgb);
+
+#endif
