@@ -27,6 +27,7 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#include "rad_ff_kernel.h" /* rad_estimator_id */
 #include "rad_mesh.h"
 #include "rad_status.h"
 
@@ -40,9 +41,6 @@ typedef enum rad_element_type {
     RAD_ELEMENT_F64 = 2
 } rad_element_type;
 
-typedef enum rad_estimator_id {
-    RAD_ESTIMATOR_MC = 1 /* uniform area-sampled point pairs, kernel-weighted visibility */
-} rad_estimator_id;
 
 /* What the matrix was computed with; recorded in the header. */
 typedef struct rad_ff_info {

@@ -31,6 +31,7 @@ typedef struct ff_setup {
     uint32_t samples;            /* K point pairs per patch pair, >= 1 */
     uint32_t shadow_rays;        /* R <= K of them carry a shadow ray; 0 = no occlusion */
     uint64_t seed;
+    uint32_t estimator;          /* rad_estimator_id: MC, or AUTO (near pairs by contour integral) */
     double plane_eps;            /* rad_ff_pair_facing tolerance, scene units */
     int threads;                 /* CPU threads (>= 1) */
     int device;                  /* GPU index for the CUDA backend (rank mod GPUs) */
@@ -44,6 +45,7 @@ typedef struct ff_setup {
 typedef struct ff_counters {
     uint64_t pairs;          /* ordered pairs (i, j) considered */
     uint64_t pairs_culled;   /* of those, zero without sampling (facing test) */
+    uint64_t pairs_near;     /* of those, computed by the near-field estimator */
     uint64_t samples;        /* point pairs evaluated */
     uint64_t rays;           /* shadow rays traced */
     uint64_t rays_occluded;  /* of those, blocked */

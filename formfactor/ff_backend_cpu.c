@@ -37,6 +37,7 @@ typedef struct cpu_scratch {
     double *kernel;  /* FF_CPU_BLOCK * R */
     double *unoccluded; /* FF_CPU_BLOCK */
     double *g;       /* samples: one pair's kernel values */
+    uint32_t *ray_count; /* FF_CPU_BLOCK: shadow rays of each column's pair */
 } cpu_scratch;
 
 /* The context handed to Embree's filter: which faces a ray must ignore. */
@@ -127,13 +128,12 @@ static void cpu_destroy(void *state)
 }
 
 /* Kernel values of samples [0, count) of pair (i, j) into g. Written as a
- * plain loop over independent samples so that the compiler vectorizes it
- * (the shared kernel is branch-free); the caller sums g in order, so the
- * result does not depend on the vector width. */
+ * plain loop over independent samples (the shared kernel is branch-free);
+ * the caller sums g in order, so the result does not depend on how the
+ * compiler schedules it. */
 static void kernel_samples(const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j, uint32_t count,
                            uint64_t seed, double *restrict g)
 {
-#pragma omp simd
     for (uint32_t k = 0; k < count; k++) {
         rad_vec3 x, y;
         rad_ff_sample_pair(pi, pj, i, j, k, seed, &x, &y);
@@ -141,36 +141,61 @@ static void kernel_samples(const rad_ff_patch *pi, const rad_ff_patch *pj, uint3
     }
 }
 
-/* Pass 1 for columns [j0, j1) of row i: unoccluded F and the kept samples. */
+/* Near-field terms (A_i F_ij contributions, rad_ff_near_sample) into g. */
+static void near_samples(const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j, uint32_t count,
+                         uint64_t seed, double *restrict g)
+{
+    for (uint32_t k = 0; k < count; k++) {
+        rad_vec3 x, y;
+        g[k] = rad_ff_near_sample(pi, pj, i, j, k, seed, &x, &y);
+    }
+}
+
+/* Pass 1 for columns [j0, j1) of row i: unoccluded F, and the point pairs
+ * and weights of the samples that carry shadow rays. */
 static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j1, double *row, cpu_scratch *sc,
                          ff_counters *c)
 {
     const rad_ff_patch *pi = &su->patches[i];
-    uint32_t R = su->shadow_rays, K = su->samples;
+    uint32_t R = su->shadow_rays;
     for (uint32_t j = j0; j < j1; j++) {
         const rad_ff_patch *pj = &su->patches[j];
         uint32_t b = j - j0;
         sc->unoccluded[b] = 0;
+        sc->ray_count[b] = 0;
         c->pairs++;
         if (j == i || !rad_ff_pair_facing(pi, pj, su->plane_eps)) {
             c->pairs_culled++;
             row[j] = 0;
             continue;
         }
-        kernel_samples(pi, pj, i, j, K, su->seed, sc->g);
+        int near = su->estimator == RAD_ESTIMATOR_AUTO && rad_ff_pair_near(pi, pj);
+        uint32_t K = near ? rad_ff_near_samples(su->samples) : su->samples;
+        if (near)
+            near_samples(pi, pj, i, j, K, su->seed, sc->g);
+        else
+            kernel_samples(pi, pj, i, j, K, su->seed, sc->g);
         double sum = 0;
         for (uint32_t k = 0; k < K; k++) sum += sc->g[k];
-        /* The first R point pairs carry shadow rays: keep them and their G. */
-        for (uint32_t k = 0; k < R; k++) {
+        /* The first R point pairs carry shadow rays: keep them and their weights. */
+        uint32_t rays = R < K ? R : K;
+        for (uint32_t k = 0; k < rays; k++) {
             rad_vec3 x, y;
             rad_ff_sample_pair(pi, pj, i, j, k, su->seed, &x, &y);
+            if (i > j) { /* trace from the lower-numbered patch: rows i and j test one segment */
+                rad_vec3 t = x;
+                x = y;
+                y = t;
+            }
             float *ray = sc->rays + ((size_t)b * R + k) * 6;
             ray[0] = (float)x.x, ray[1] = (float)x.y, ray[2] = (float)x.z;
             ray[3] = (float)y.x, ray[4] = (float)y.y, ray[5] = (float)y.z;
             sc->kernel[(size_t)b * R + k] = sc->g[k];
         }
+        sc->ray_count[b] = rays;
         c->samples += K;
-        sc->unoccluded[b] = sum * pj->area / K;
+        c->pairs_near += (uint64_t)near;
+        sc->unoccluded[b] = near ? sum / K / pi->area : sum * pj->area / K;
         row[j] = sc->unoccluded[b];
     }
 }
@@ -188,11 +213,12 @@ static void visibility_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32
     ctx.skip_a = su->patches[i].face;
     for (uint32_t j = j0; j < j1; j++) {
         uint32_t b = j - j0;
-        if (!(sc->unoccluded[b] > 0)) continue;
+        if (!(sc->unoccluded[b] > 0) || sc->ray_count[b] == 0) continue;
         ctx.skip_b = su->patches[j].face;
+        uint32_t rays = sc->ray_count[b];
         double seen = 0, total = 0;
         uint32_t visible = 0;
-        for (uint32_t r = 0; r < R; r++) {
+        for (uint32_t r = 0; r < rays; r++) {
             const float *p = sc->rays + ((size_t)b * R + r) * 6;
             struct RTCRay ray;
             ray.org_x = p[0], ray.org_y = p[1], ray.org_z = p[2];
@@ -210,10 +236,10 @@ static void visibility_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32
             seen += is_visible ? g : 0.0;
             visible += (uint32_t)is_visible;
         }
-        c->rays += R;
-        c->rays_occluded += R - visible;
+        c->rays += rays;
+        c->rays_occluded += rays - visible;
         /* If no kept sample has weight (all grazing), fall back to the plain fraction. */
-        double fraction = total > 0 ? seen / total : (double)visible / R;
+        double fraction = total > 0 ? seen / total : (double)visible / rays;
         row[j] = sc->unoccluded[b] * fraction;
     }
 }
@@ -235,11 +261,12 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
         sc.kernel = malloc(sizeof(double) * FF_CPU_BLOCK * (R ? R : 1));
         sc.unoccluded = malloc(sizeof(double) * FF_CPU_BLOCK);
         sc.g = malloc(sizeof(double) * su->samples);
+        sc.ray_count = malloc(sizeof(uint32_t) * FF_CPU_BLOCK);
         int master = 1;
 #ifdef _OPENMP
         master = omp_get_thread_num() == 0;
 #endif
-        if (!sc.rays || !sc.kernel || !sc.unoccluded || !sc.g) failed = 1;
+        if (!sc.rays || !sc.kernel || !sc.unoccluded || !sc.g || !sc.ray_count) failed = 1;
 #pragma omp for schedule(dynamic, 1)
         for (uint32_t r = 0; r < row_count; r++) {
             if (failed) continue;
@@ -263,6 +290,7 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
         {
             counters->pairs += c.pairs;
             counters->pairs_culled += c.pairs_culled;
+            counters->pairs_near += c.pairs_near;
             counters->samples += c.samples;
             counters->rays += c.rays;
             counters->rays_occluded += c.rays_occluded;
@@ -273,6 +301,7 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
         free(sc.kernel);
         free(sc.unoccluded);
         free(sc.g);
+        free(sc.ray_count);
     }
     if (failed) {
         rad_error("out of memory for the CPU backend's scratch buffers");

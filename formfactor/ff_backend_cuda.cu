@@ -24,7 +24,7 @@ extern "C" {
 }
 
 enum { FF_CUDA_BLOCK = 256, FF_CUDA_WARPS_PER_BLOCK = FF_CUDA_BLOCK / 32 };
-enum { C_SAMPLES, C_RAYS, C_OCCLUDED, C_UNUSED, C_COUNT };
+enum { C_SAMPLES, C_RAYS, C_OCCLUDED, C_NEAR, C_COUNT };
 
 struct cuda_params {
     const rad_ff_patch *patches;
@@ -35,6 +35,7 @@ struct cuda_params {
     uint32_t root_count;
     uint32_t samples, rays;
     uint64_t seed;
+    uint32_t estimator;
     double eps;
     uint32_t row_begin, row_count;
     double *out;                   /* row_count * n */
@@ -115,21 +116,39 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK) ff_pairs_kernel(cuda_par
         uint32_t t = p.pairs[warp];
         uint32_t j = t % p.n, i = p.row_begin + t / p.n;
         const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
+        /* Same estimator choice and sample budget as the CPU backend. */
+        int near = p.estimator == RAD_ESTIMATOR_AUTO && rad_ff_pair_near(pi, pj);
+        uint32_t samples = near ? rad_ff_near_samples(p.samples) : p.samples;
+        uint32_t rays = p.rays < samples ? p.rays : samples;
         double sum = 0.0;
-        for (uint32_t k = lane; k < p.samples; k += 32) {
+        for (uint32_t k = lane; k < samples; k += 32) {
             rad_vec3 x, y;
-            rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
-            sum += rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+            if (near) {
+                sum += rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
+            } else {
+                rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
+                sum += rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+            }
         }
         sum = warp_sum(sum);
-        double value = sum * pj->area / p.samples;
-        if (p.rays > 0 && value > 0.0) {
+        double value = near ? sum / samples / pi->area : sum * pj->area / samples;
+        if (rays > 0 && value > 0.0) {
             double seen = 0.0, total = 0.0;
             unsigned visible = 0;
-            for (uint32_t k = lane; k < p.rays; k += 32) {
+            for (uint32_t k = lane; k < rays; k += 32) {
                 rad_vec3 x, y;
-                rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
-                double g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+                double g;
+                if (near) {
+                    g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
+                } else {
+                    rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
+                    g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+                }
+                if (i > j) { /* trace from the lower-numbered patch, as the CPU does */
+                    rad_vec3 t = x;
+                    x = y;
+                    y = t;
+                }
                 float o[3] = {(float)x.x, (float)x.y, (float)x.z};
                 float d[3] = {(float)y.x - o[0], (float)y.y - o[1], (float)y.z - o[2]};
                 int blocked = ff_bvh_occluded(p.nodes, p.tris, p.root, p.root_count, o, d, pi->face, pj->face);
@@ -142,14 +161,15 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK) ff_pairs_kernel(cuda_par
             seen = warp_sum(seen);
             total = warp_sum(total);
             visible = warp_sum_u(visible);
-            value *= total > 0.0 ? seen / total : (double)visible / p.rays;
+            value *= total > 0.0 ? seen / total : (double)visible / rays;
             if (lane == 0) {
-                atomicAdd(&block_counts[C_RAYS], (unsigned long long)p.rays);
-                atomicAdd(&block_counts[C_OCCLUDED], (unsigned long long)(p.rays - visible));
+                atomicAdd(&block_counts[C_RAYS], (unsigned long long)rays);
+                atomicAdd(&block_counts[C_OCCLUDED], (unsigned long long)(rays - visible));
             }
         }
         if (lane == 0) {
-            atomicAdd(&block_counts[C_SAMPLES], (unsigned long long)p.samples);
+            atomicAdd(&block_counts[C_SAMPLES], (unsigned long long)samples);
+            atomicAdd(&block_counts[C_NEAR], (unsigned long long)near);
             p.out[t] = value;
         }
     }
@@ -261,6 +281,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     p.samples = su->samples;
     p.rays = su->shadow_rays;
     p.seed = su->seed;
+    p.estimator = su->estimator;
     p.eps = su->plane_eps;
     p.row_begin = row_begin;
     p.row_count = row_count;
@@ -294,6 +315,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     counters->samples += counts[C_SAMPLES];
     counters->rays += counts[C_RAYS];
     counters->rays_occluded += counts[C_OCCLUDED];
+    counters->pairs_near += counts[C_NEAR];
     counters->kernel_seconds += kernel_ms * 1e-3;
     if (su->progress) su->progress(su->progress_user, row_count);
 done:

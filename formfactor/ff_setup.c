@@ -20,6 +20,14 @@ rad_status ff_patches_build(const rad_mesh *mesh, rad_ff_patch **out_patches)
             q->p[k] = rad_v3(mesh->positions[3 * v], mesh->positions[3 * v + 1], mesh->positions[3 * v + 2]);
         }
         q->normal = p->normal;
+        q->centre = rad_v3(0, 0, 0);
+        for (uint32_t k = 0; k < p->vertex_count; k++) q->centre = rad_v3_add(q->centre, q->p[k]);
+        q->centre = rad_v3_scale(q->centre, 1.0 / p->vertex_count);
+        q->radius = 0;
+        for (uint32_t k = 0; k < p->vertex_count; k++) {
+            double r = rad_v3_length(rad_v3_sub(q->p[k], q->centre));
+            q->radius = r > q->radius ? r : q->radius;
+        }
         q->area = p->area;
         q->face = p->source_face;
         q->vertex_count = p->vertex_count;

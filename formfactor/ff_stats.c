@@ -21,6 +21,7 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
 #undef FF_MAX
         all.counters.pairs += s->counters.pairs;
         all.counters.pairs_culled += s->counters.pairs_culled;
+        all.counters.pairs_near += s->counters.pairs_near;
         all.counters.samples += s->counters.samples;
         all.counters.rays += s->counters.rays;
         all.counters.rays_occluded += s->counters.rays_occluded;
@@ -44,9 +45,10 @@ static void write_times(FILE *f, const ff_rank_stats *s)
 static void write_counters(FILE *f, const ff_counters *c)
 {
     fprintf(f,
-            "\"pairs\": %llu, \"pairs_culled\": %llu, \"samples\": %llu, \"rays\": %llu, "
+            "\"pairs\": %llu, \"pairs_culled\": %llu, \"pairs_near\": %llu, \"samples\": %llu, \"rays\": %llu, "
             "\"rays_occluded\": %llu",
-            (unsigned long long)c->pairs, (unsigned long long)c->pairs_culled, (unsigned long long)c->samples,
+            (unsigned long long)c->pairs, (unsigned long long)c->pairs_culled, (unsigned long long)c->pairs_near,
+            (unsigned long long)c->samples,
             (unsigned long long)c->rays, (unsigned long long)c->rays_occluded);
 }
 
@@ -84,6 +86,7 @@ rad_status ff_stats_write_json(const char *path, const ff_run_info *run, const f
     if (run->subdiv_only) write_string(f, run->subdiv_only); else fputs("null", f);
     fprintf(f, ",\n  \"samples_per_pair\": %u,\n  \"shadow_rays_per_pair\": %u,\n  \"seed\": %llu,\n",
             run->samples, run->shadow_rays, (unsigned long long)run->seed);
+    fprintf(f, "  \"estimator\": \"%s\",\n", run->estimator);
     fprintf(f, "  \"backend\": \"%s\",\n  \"element\": \"%s\",\n  \"format\": \"%s\",\n  \"output\": ", run->backend,
             run->element, run->format);
     write_string(f, run->output);
@@ -120,8 +123,9 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
 {
     ff_rank_stats all = overall(run, ranks);
     const ff_counters *c = &all.counters;
-    rad_info("%u patches, %llu pairs (%llu culled), %llu samples, %llu shadow rays (%.1f%% occluded), %d rank(s)",
+    rad_info("%u patches, %llu pairs (%llu culled, %llu near-field), %llu samples, %llu shadow rays (%.1f%% occluded), %d rank(s)",
              run->patch_count, (unsigned long long)c->pairs, (unsigned long long)c->pairs_culled,
+             (unsigned long long)c->pairs_near,
              (unsigned long long)c->samples, (unsigned long long)c->rays,
              c->rays ? 100.0 * c->rays_occluded / c->rays : 0.0, run->ranks);
     rad_info("time (s, slowest rank): load %.3f  subdivide %.3f  setup %.3f  form factors %.3f  visibility %.3f  "

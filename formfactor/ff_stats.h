@@ -27,6 +27,7 @@ typedef struct ff_run_info {
     const char *subdiv_only;
     uint32_t samples, shadow_rays;
     uint64_t seed;
+    const char *estimator;
     const char *backend;
     const char *element;
     const char *format;

@@ -39,6 +39,7 @@ typedef struct ff_options {
     uint32_t samples, shadow_rays;
     uint64_t seed;
     rad_element_type element;
+    rad_estimator_id estimator;
     ff_format format;
     int threads; /* 0 = cores / ranks on this node */
     int quiet;
@@ -61,6 +62,9 @@ static void print_help(void)
            "      --shadow-rays R      of those, pairs that carry a shadow ray (default: 32;\n"
            "                           0 = no occlusion)\n"
            "      --seed N             random seed (default: 1); same seed, same bytes\n"
+           "      --estimator E        auto | mc (default: auto: pairs closer than twice their\n"
+           "                           radii use the contour-integral near-field estimator with\n"
+           "                           K/8 samples; mc: point pairs everywhere, as the paper)\n"
            "      --backend B          auto | cpu | cuda (default: auto)\n"
            "      --element T          f64 | f32 matrix element type (default: f64)\n"
            "      --format F           native | paper (paper: int32 N + N*N float64 only)\n"
@@ -89,7 +93,7 @@ bad:
 static rad_status parse_options(int argc, char **argv, ff_options *o)
 {
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
-           O_VERSION };
+           O_VERSION, O_ESTIMATOR };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -98,9 +102,10 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         {"format", required_argument, 0, O_FORMAT},   {"threads", required_argument, 0, O_THREADS},
         {"stats", required_argument, 0, O_STATS},     {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'},                {"version", no_argument, 0, O_VERSION},
+        {"estimator", required_argument, 0, O_ESTIMATOR},
         {0, 0, 0, 0}};
     *o = (ff_options){.output = "formfactors", .backend = "auto", .samples = 512, .shadow_rays = 32, .seed = 1,
-                      .element = RAD_ELEMENT_F64, .format = FF_FORMAT_NATIVE};
+                      .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_AUTO, .format = FF_FORMAT_NATIVE};
     uint64_t v = 0;
     rad_status st = RAD_OK;
     int c;
@@ -129,6 +134,11 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
             if (!strcmp(optarg, "f64")) o->element = RAD_ELEMENT_F64;
             else if (!strcmp(optarg, "f32")) o->element = RAD_ELEMENT_F32;
             else { rad_error("--element: expected f64 or f32, got '%s'", optarg); st = RAD_ERR_USAGE; }
+            break;
+        case O_ESTIMATOR:
+            if (!strcmp(optarg, "auto")) o->estimator = RAD_ESTIMATOR_AUTO;
+            else if (!strcmp(optarg, "mc")) o->estimator = RAD_ESTIMATOR_MC;
+            else { rad_error("--estimator: expected auto or mc, got '%s'", optarg); st = RAD_ERR_USAGE; }
             break;
         case O_FORMAT:
             if (!strcmp(optarg, "native")) o->format = FF_FORMAT_NATIVE;
@@ -248,7 +258,7 @@ static rad_status setup(ff_run *run)
         ff_setup su = {.patches = run->patches, .patch_count = n, .triangles = run->triangles,
                        .triangle_face = run->triangle_face, .triangle_count = run->triangle_count,
                        .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
-                       .plane_eps = eps, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
+                       .estimator = run->opt.estimator, .plane_eps = eps, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
                        .progress = ff_comm_rank(run->comm) == 0 ? report_progress : NULL, .progress_user = run};
         st = run->backend->create(&su, &run->backend_state);
     }
@@ -321,6 +331,7 @@ static rad_status write_stats(ff_run *run, int gpus)
                             .patch_count = (uint32_t)run->mesh.patch_count, .subdiv = run->opt.subdiv,
                             .subdiv_only = run->opt.subdiv_only, .samples = run->opt.samples,
                             .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
+                            .estimator = run->opt.estimator == RAD_ESTIMATOR_AUTO ? "auto" : "mc",
                             .backend = run->backend->name,
                             .element = run->opt.element == RAD_ELEMENT_F32 ? "f32" : "f64",
                             .format = run->opt.format == FF_FORMAT_PAPER ? "paper" : "native",
@@ -358,7 +369,7 @@ static rad_status run_formfactor(ff_run *run)
                  run->stats.threads, run->backend->name);
 
     rad_ff_info info = {.patch_count = run->mesh.patch_count, .vertex_count = run->mesh.vertex_count,
-                        .element_type = run->opt.element, .estimator = RAD_ESTIMATOR_MC,
+                        .element_type = run->opt.element, .estimator = run->opt.estimator,
                         .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
                         .scene_fingerprint = run->scene.fingerprint, .subdiv = run->opt.subdiv,
                         .flags = run->opt.subdiv_only ? RAD_FF_FLAG_PARTIAL_SUBDIV : 0};

@@ -67,13 +67,13 @@ static void fixture_free(fixture *fx)
 }
 
 /* The whole matrix of a fixture with the CPU backend. */
-static double *compute_with(const ff_backend *backend, const fixture *fx, uint32_t samples, uint32_t rays,
-                            uint64_t seed, ff_counters *counters)
+static double *compute_estimator(const ff_backend *backend, const fixture *fx, uint32_t samples, uint32_t rays,
+                                 uint64_t seed, rad_estimator_id estimator, ff_counters *counters)
 {
     uint32_t n = (uint32_t)fx->mesh.patch_count;
     ff_setup su = {.patches = fx->patches, .patch_count = n, .triangles = fx->triangles,
                    .triangle_face = fx->triangle_face, .triangle_count = fx->triangle_count, .samples = samples,
-                   .shadow_rays = rays, .seed = seed, .plane_eps = ff_plane_eps(&fx->mesh), .threads = 2};
+                   .shadow_rays = rays, .seed = seed, .estimator = estimator, .plane_eps = ff_plane_eps(&fx->mesh), .threads = 2};
     void *state = NULL;
     double *f = malloc(sizeof(double) * n * n);
     ff_counters local = {0};
@@ -88,6 +88,13 @@ static double *compute_with(const ff_backend *backend, const fixture *fx, uint32
         return NULL;
     }
     return f;
+}
+
+/* The plain point-pair estimator (the paper's, corrected). */
+static double *compute_with(const ff_backend *backend, const fixture *fx, uint32_t samples, uint32_t rays,
+                            uint64_t seed, ff_counters *counters)
+{
+    return compute_estimator(backend, fx, samples, rays, seed, RAD_ESTIMATOR_MC, counters);
 }
 
 #endif
