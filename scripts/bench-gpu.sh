@@ -34,4 +34,4 @@ if [ "${RANKS2:-0}" = 1 ]; then   # two GPUs of one host, one rank each
   grep -E "time \(s" "$out"/n47104_gpu?rank.log
 fi
 rm -f /tmp/ff_*
-(cd "$out" && tar czf bench.tgz --exclude=bench.tgz . && find . -type f ! -name bench.tgz -delete)
+tar czf /tmp/bench.tgz -C "$out" . && find "$out" -type f -delete && mv /tmp/bench.tgz "$out/"
