@@ -24,6 +24,11 @@ extern "C" {
 }
 
 enum { FF_CUDA_BLOCK = 256, FF_CUDA_WARPS_PER_BLOCK = FF_CUDA_BLOCK / 32 };
+/* Blocks per SM the pair kernels are compiled for: bounds their registers
+ * (65536 / (256 * blocks) per thread), trading spills for occupancy. */
+#ifndef FF_CUDA_MIN_BLOCKS
+#define FF_CUDA_MIN_BLOCKS 3 /* measured on H200: 2 -> 10.8 ms, 3 -> 10.3 ms, 4 -> 10.3 ms (N = 2944) */
+#endif
 enum { C_SAMPLES, C_RAYS, C_OCCLUDED, C_NEAR, C_COUNT };
 
 struct cuda_params {
@@ -53,7 +58,7 @@ struct cuda_state {
     uint32_t root_count;
     double *d_out;
     uint32_t *d_pairs;   /* facing-pair list, out_capacity entries */
-    uint32_t *d_pair_count;
+    uint32_t *d_pair_counts; /* [0] far pairs, [1] near pairs */
     size_t out_capacity; /* doubles */
     unsigned long long *d_counters;
     cudaEvent_t start, stop;
@@ -90,22 +95,30 @@ __device__ static unsigned warp_sum_u(unsigned v)
     return v;
 }
 
-/* Pass 1: thread per pair; zeros for pairs that cannot exchange light, the
- * rest into p.pairs (order irrelevant: each pair's value depends only on
- * (i, j)). */
-__global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t *pair_count)
+/* Pass 1: thread per pair; zeros for pairs that cannot exchange light; far
+ * pairs listed from the front of p.pairs, near pairs (auto estimator) from
+ * the back, so each list gets a kernel of its own: the near-field code
+ * (clipping, atan2) would otherwise cost every far pair registers and
+ * occupancy. Order within a list is irrelevant: a pair's value depends
+ * only on (i, j). */
+__global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t *counts, uint64_t capacity)
 {
     uint64_t t = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
     if (t >= (uint64_t)p.row_count * p.n) return;
     uint32_t j = (uint32_t)(t % p.n), i = p.row_begin + (uint32_t)(t / p.n);
-    if (i != j && rad_ff_pair_facing(&p.patches[i], &p.patches[j], p.eps))
-        pairs[atomicAdd(pair_count, 1u)] = (uint32_t)t;
-    else
+    const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
+    if (i == j || !rad_ff_pair_facing(pi, pj, p.eps))
         p.out[t] = 0.0;
+    else if (p.estimator == RAD_ESTIMATOR_AUTO && rad_ff_pair_near(pi, pj))
+        pairs[capacity - 1 - atomicAdd(&counts[1], 1u)] = (uint32_t)t;
+    else
+        pairs[atomicAdd(&counts[0], 1u)] = (uint32_t)t;
 }
 
-/* Pass 2: warp per facing pair. */
-__global__ static void __launch_bounds__(FF_CUDA_BLOCK) ff_pairs_kernel(cuda_params p)
+/* Pass 2: one warp per listed pair; NEAR selects the estimator (the same
+ * choice and sample budget as the CPU backend). */
+template <bool NEAR>
+__global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_pairs_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
     if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
@@ -113,41 +126,52 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK) ff_pairs_kernel(cuda_par
     uint64_t warp = ((uint64_t)blockIdx.x * blockDim.x + threadIdx.x) >> 5;
     unsigned lane = threadIdx.x & 31u;
     if (warp < p.pair_count) {
-        uint32_t t = p.pairs[warp];
+        uint32_t t = p.pairs[NEAR ? -(int64_t)warp : (int64_t)warp]; /* near list runs backwards */
         uint32_t j = t % p.n, i = p.row_begin + t / p.n;
         const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
-        /* Same estimator choice and sample budget as the CPU backend. */
-        int near = p.estimator == RAD_ESTIMATOR_AUTO && rad_ff_pair_near(pi, pj);
-        uint32_t samples = near ? rad_ff_near_samples(p.samples) : p.samples;
+        uint32_t samples = NEAR ? rad_ff_near_samples(p.samples) : p.samples;
         uint32_t rays = p.rays < samples ? p.rays : samples;
         double sum = 0.0;
+        /* Each lane keeps its first sample (k = lane): when R <= 32 that is
+         * the one its shadow ray needs, so the ray loop need not redo it. */
+        rad_vec3 first_x = {0, 0, 0}, first_y = {0, 0, 0};
+        double first_g = 0.0;
         for (uint32_t k = lane; k < samples; k += 32) {
             rad_vec3 x, y;
-            if (near) {
-                sum += rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
+            double g;
+            if (NEAR) {
+                g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
             } else {
                 rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
-                sum += rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+                g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+            }
+            sum += g;
+            if (k == lane) {
+                first_x = x;
+                first_y = y;
+                first_g = g;
             }
         }
         sum = warp_sum(sum);
-        double value = near ? sum / samples / pi->area : sum * pj->area / samples;
+        double value = NEAR ? sum / samples / pi->area : sum * pj->area / samples;
         if (rays > 0 && value > 0.0) {
             double seen = 0.0, total = 0.0;
             unsigned visible = 0;
             for (uint32_t k = lane; k < rays; k += 32) {
-                rad_vec3 x, y;
-                double g;
-                if (near) {
-                    g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
-                } else {
-                    rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
-                    g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+                rad_vec3 x = first_x, y = first_y;
+                double g = first_g;
+                if (k != lane) { /* R > 32: later ray samples are recomputed */
+                    if (NEAR) {
+                        g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
+                    } else {
+                        rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
+                        g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+                    }
                 }
                 if (i > j) { /* trace from the lower-numbered patch, as the CPU does */
-                    rad_vec3 t = x;
+                    rad_vec3 tmp = x;
                     x = y;
-                    y = t;
+                    y = tmp;
                 }
                 float o[3] = {(float)x.x, (float)x.y, (float)x.z};
                 float d[3] = {(float)y.x - o[0], (float)y.y - o[1], (float)y.z - o[2]};
@@ -169,7 +193,7 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK) ff_pairs_kernel(cuda_par
         }
         if (lane == 0) {
             atomicAdd(&block_counts[C_SAMPLES], (unsigned long long)samples);
-            atomicAdd(&block_counts[C_NEAR], (unsigned long long)near);
+            if (NEAR) atomicAdd(&block_counts[C_NEAR], 1ull);
             p.out[t] = value;
         }
     }
@@ -196,7 +220,7 @@ static void cuda_destroy(void *state)
     cudaFree(s->d_tris);
     cudaFree(s->d_out);
     cudaFree(s->d_pairs);
-    cudaFree(s->d_pair_count);
+    cudaFree(s->d_pair_counts);
     cudaFree(s->d_counters);
     if (s->start) cudaEventDestroy(s->start);
     if (s->stop) cudaEventDestroy(s->stop);
@@ -224,7 +248,7 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
     CUDA_TRY(cudaMalloc(&s->d_nodes, sizeof(ff_bvh_node) * (bvh.node_count ? bvh.node_count : 1)));
     CUDA_TRY(cudaMalloc(&s->d_tris, sizeof(ff_bvh_tri) * (bvh.tri_count ? bvh.tri_count : 1)));
     CUDA_TRY(cudaMalloc(&s->d_counters, sizeof(unsigned long long) * C_COUNT));
-    CUDA_TRY(cudaMalloc(&s->d_pair_count, sizeof(uint32_t)));
+    CUDA_TRY(cudaMalloc(&s->d_pair_counts, 2 * sizeof(uint32_t)));
     CUDA_TRY(cudaMemcpy(s->d_patches, setup->patches, sizeof(rad_ff_patch) * setup->patch_count,
                         cudaMemcpyHostToDevice));
     if (bvh.node_count)
@@ -252,7 +276,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     size_t need = (size_t)row_count * su->patch_count;
     unsigned long long counts[C_COUNT] = {0, 0, 0, 0};
     float kernel_ms = 0;
-    uint32_t pair_count = 0;
+    uint32_t pair_counts[2] = {0, 0};
     cuda_params p;
     double t_mem = now_seconds();
     if (need == 0) return RAD_OK;
@@ -271,7 +295,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
         s->out_capacity = need;
     }
     CUDA_TRY(cudaMemset(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT));
-    CUDA_TRY(cudaMemset(s->d_pair_count, 0, sizeof(uint32_t)));
+    CUDA_TRY(cudaMemset(s->d_pair_counts, 0, 2 * sizeof(uint32_t)));
     p.patches = s->d_patches;
     p.n = su->patch_count;
     p.nodes = s->d_nodes;
@@ -292,14 +316,21 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     counters->memory_seconds += now_seconds() - t_mem;
 
     CUDA_TRY(cudaEventRecord(s->start));
-    ff_facing_kernel<<<(unsigned)((need + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK>>>(p, s->d_pairs,
-                                                                                              s->d_pair_count);
+    ff_facing_kernel<<<(unsigned)((need + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK>>>(
+        p, s->d_pairs, s->d_pair_counts, need);
     CUDA_TRY(cudaGetLastError()); /* launch configuration errors */
-    CUDA_TRY(cudaMemcpy(&pair_count, s->d_pair_count, sizeof pair_count, cudaMemcpyDeviceToHost));
-    p.pair_count = pair_count;
-    if (pair_count > 0) {
-        uint64_t blocks = ((uint64_t)pair_count + FF_CUDA_WARPS_PER_BLOCK - 1) / FF_CUDA_WARPS_PER_BLOCK;
-        ff_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+    CUDA_TRY(cudaMemcpy(pair_counts, s->d_pair_counts, sizeof pair_counts, cudaMemcpyDeviceToHost));
+    if (pair_counts[0] > 0) {
+        p.pair_count = pair_counts[0];
+        uint64_t blocks = ((uint64_t)p.pair_count + FF_CUDA_WARPS_PER_BLOCK - 1) / FF_CUDA_WARPS_PER_BLOCK;
+        ff_pairs_kernel<false><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+        CUDA_TRY(cudaGetLastError());
+    }
+    if (pair_counts[1] > 0) {
+        p.pair_count = pair_counts[1];
+        p.pairs = s->d_pairs + need - 1; /* the near list, read backwards */
+        uint64_t blocks = ((uint64_t)p.pair_count + FF_CUDA_WARPS_PER_BLOCK - 1) / FF_CUDA_WARPS_PER_BLOCK;
+        ff_pairs_kernel<true><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
         CUDA_TRY(cudaGetLastError());
     }
     CUDA_TRY(cudaEventRecord(s->stop));
@@ -311,7 +342,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     CUDA_TRY(cudaMemcpy(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost));
     counters->memory_seconds += now_seconds() - t_mem;
     counters->pairs += need;
-    counters->pairs_culled += need - pair_count;
+    counters->pairs_culled += need - pair_counts[0] - pair_counts[1];
     counters->samples += counts[C_SAMPLES];
     counters->rays += counts[C_RAYS];
     counters->rays_occluded += counts[C_OCCLUDED];

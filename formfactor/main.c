@@ -28,6 +28,7 @@
 #include "rad_scene.h"
 
 #define FF_VERSION "0.1.0"
+#define FF_ROUND_BYTES ((uint64_t)96 << 20) /* rows computed between collective writes */
 
 typedef struct ff_options {
     const char *scene_path; /* NULL = built-in Cornell box */
@@ -272,9 +273,14 @@ static rad_status compute_and_write(ff_run *run, ff_output *out)
     int rank = ff_comm_rank(run->comm);
     uint32_t n = (uint32_t)run->mesh.patch_count;
     uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
+    /* Rounds of about FF_ROUND_BYTES of double rows (at least 16 rows, at
+     * most what one collective write takes): big enough that a GPU launch
+     * fills the device (N = 2944 is one round), small enough that memory
+     * stays O(N), not O(N^2). */
+    uint64_t by_memory = FF_ROUND_BYTES / (sizeof(double) * (uint64_t)n);
     uint32_t per_round = ff_output_max_rows(out);
-    /* Smaller rounds at small N keep progress reports and memory modest. */
-    if (per_round > 256) per_round = 256;
+    if (by_memory < 16) by_memory = 16;
+    if (per_round > by_memory) per_round = (uint32_t)by_memory;
     uint64_t my_rounds = (end - begin + (uint64_t)per_round - 1) / per_round;
     uint64_t rounds = ff_comm_max_u64(run->comm, my_rounds);
     double *rows = run->backend->alloc_rows(run->backend_state, (size_t)per_round * n);
