@@ -33,6 +33,14 @@ typedef struct ff_setup {
     uint64_t seed;
     uint32_t estimator;          /* rad_estimator_id: MC, or AUTO (near pairs by contour integral) */
     double plane_eps;            /* rad_ff_pair_facing tolerance, scene units */
+    /* Occlusion culling (docs/architecture.md): with cull set, a pair casts
+     * no shadow rays when nothing can lie between its patches - the whole
+     * scene is one convex enclosure (scene_convex), or no other triangle
+     * meets the box around the two patches (grown by cull_margin). Such rays
+     * could not have hit anything, so the matrix is byte-identical. */
+    int cull;
+    int scene_convex;
+    float cull_margin;           /* scene units */
     int threads;                 /* CPU threads (>= 1) */
     int device;                  /* GPU index for the CUDA backend (rank mod GPUs) */
     /* Called now and then from one thread with the rows finished so far in
@@ -46,6 +54,9 @@ typedef struct ff_counters {
     uint64_t pairs;          /* ordered pairs (i, j) considered */
     uint64_t pairs_culled;   /* of those, zero without sampling (facing test) */
     uint64_t pairs_near;     /* of those, computed by the near-field estimator */
+    uint64_t pairs_open_scene; /* facing pairs without rays: the scene is a convex enclosure */
+    uint64_t pairs_open_box;   /* facing pairs without rays: nothing else meets their box */
+    uint64_t rays_saved;     /* shadow rays those pairs would have cast */
     uint64_t samples;        /* point pairs evaluated */
     uint64_t rays;           /* shadow rays traced */
     uint64_t rays_occluded;  /* of those, blocked */

@@ -21,6 +21,7 @@
 #endif
 
 #include "ff_backend.h"
+#include "ff_bvh.h"
 #include "rad_log.h"
 
 enum { FF_CPU_BLOCK = 128 };
@@ -29,6 +30,7 @@ typedef struct cpu_state {
     ff_setup setup;
     RTCDevice device;
     RTCScene scene;
+    ff_bvh bvh; /* the flat BVH, for the occlusion-culling box queries */
 } cpu_state;
 
 /* Per-thread scratch for one column block: R point pairs and kernels per column. */
@@ -107,8 +109,15 @@ static rad_status cpu_create(const ff_setup *setup, void **out_state)
         rtcReleaseGeometry(geom);
     }
     rtcCommitScene(s->scene);
+    if (ff_bvh_build(setup->triangles, setup->triangle_face, setup->triangle_count, &s->bvh) != RAD_OK) {
+        rtcReleaseScene(s->scene);
+        rtcReleaseDevice(s->device);
+        free(s);
+        return RAD_ERR_BACKEND;
+    }
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE) {
         rad_error("embree: building the occluder BVH failed");
+        ff_bvh_free(&s->bvh);
         rtcReleaseScene(s->scene);
         rtcReleaseDevice(s->device);
         free(s);
@@ -122,6 +131,7 @@ static void cpu_destroy(void *state)
 {
     cpu_state *s = state;
     if (!s) return;
+    ff_bvh_free(&s->bvh);
     rtcReleaseScene(s->scene);
     rtcReleaseDevice(s->device);
     free(s);
@@ -216,6 +226,19 @@ static void visibility_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32
         if (!(sc->unoccluded[b] > 0) || sc->ray_count[b] == 0) continue;
         ctx.skip_b = su->patches[j].face;
         uint32_t rays = sc->ray_count[b];
+        if (su->cull) { /* rays that cannot hit anything: F stays as it is (their fraction is exactly 1) */
+            if (su->scene_convex) {
+                c->pairs_open_scene++;
+                c->rays_saved += rays;
+                continue;
+            }
+            if (!ff_pair_may_be_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &su->patches[i],
+                                         &su->patches[j], su->cull_margin)) {
+                c->pairs_open_box++;
+                c->rays_saved += rays;
+                continue;
+            }
+        }
         double seen = 0, total = 0;
         uint32_t visible = 0;
         for (uint32_t r = 0; r < rays; r++) {
@@ -291,6 +314,9 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
             counters->pairs += c.pairs;
             counters->pairs_culled += c.pairs_culled;
             counters->pairs_near += c.pairs_near;
+            counters->pairs_open_scene += c.pairs_open_scene;
+            counters->pairs_open_box += c.pairs_open_box;
+            counters->rays_saved += c.rays_saved;
             counters->samples += c.samples;
             counters->rays += c.rays;
             counters->rays_occluded += c.rays_occluded;

@@ -17,6 +17,7 @@
 
 #include <stdint.h>
 
+#include "rad_ff_kernel.h"
 #include "rad_math.h"
 #include "rad_status.h"
 
@@ -137,6 +138,112 @@ static inline RAD_HD int ff_bvh_occluded(const ff_bvh_node *nodes, const ff_bvh_
         }
     }
     return 0;
+}
+
+/* Could a triangle other than those of the two patches' faces meet a
+ * shadow segment between patches pi and pj? Conservative, so "no" is
+ * certain and "yes" only possible. A triangle is out of the way if
+ *  - it lies wholly on or behind the plane of pi or of pj, and each patch
+ *    lies wholly on or in front of the other's plane (then every segment
+ *    leaves pi's plane at once and meets pj's only at its end; a patch
+ *    that straddles the other's plane has segments from behind it), or
+ *  - its bounding box misses the box around both patches (which holds
+ *    every segment), grown by a margin for the rays' float rounding. */
+static inline RAD_HD int ff_bvh_box_overlaps(const float a_lo[3], const float a_hi[3], const float b_lo[3],
+                                             const float b_hi[3])
+{
+    return a_lo[0] <= b_hi[0] && b_lo[0] <= a_hi[0] && a_lo[1] <= b_hi[1] && b_lo[1] <= a_hi[1] &&
+           a_lo[2] <= b_hi[2] && b_lo[2] <= a_hi[2];
+}
+
+static inline RAD_HD int ff_tri_behind(const float v[3][3], const rad_ff_patch *q)
+{
+    for (int k = 0; k < 3; k++)
+        if (rad_v3_dot(q->normal, rad_v3_sub(rad_v3(v[k][0], v[k][1], v[k][2]), q->p[0])) > 0.0) return 0;
+    return 1;
+}
+
+static inline RAD_HD int ff_bvh_leaf_in_shaft(const ff_bvh_tri *tris, int32_t ref, uint32_t count, const float lo[3],
+                                              const float hi[3], const rad_ff_patch *pi, const rad_ff_patch *pj,
+                                              int use_planes)
+{
+    for (uint32_t k = 0; k < count; k++) {
+        const ff_bvh_tri *t = &tris[~ref + (int32_t)k];
+        if (t->face == pi->face || t->face == pj->face) continue;
+        float v[3][3], tlo[3], thi[3];
+        for (int a = 0; a < 3; a++) {
+            v[0][a] = t->v0[a];
+            v[1][a] = t->v0[a] + t->e1[a];
+            v[2][a] = t->v0[a] + t->e2[a];
+            tlo[a] = fminf(v[0][a], fminf(v[1][a], v[2][a]));
+            thi[a] = fmaxf(v[0][a], fmaxf(v[1][a], v[2][a]));
+        }
+        if (ff_bvh_box_overlaps(tlo, thi, lo, hi) && !(use_planes && (ff_tri_behind(v, pi) || ff_tri_behind(v, pj))))
+            return 1;
+    }
+    return 0;
+}
+
+/* Is every vertex of `a` on or in front of the plane of `b`? */
+static inline RAD_HD int ff_patch_in_front(const rad_ff_patch *a, const rad_ff_patch *b)
+{
+    for (uint32_t k = 0; k < a->vertex_count; k++)
+        if (rad_v3_dot(b->normal, rad_v3_sub(a->p[k], b->p[0])) < 0.0) return 0;
+    return 1;
+}
+
+static inline RAD_HD int ff_bvh_shaft_may_occlude(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
+                                                  uint32_t root_count, const float lo[3], const float hi[3],
+                                                  const rad_ff_patch *pi, const rad_ff_patch *pj)
+{
+    int use_planes = ff_patch_in_front(pi, pj) && ff_patch_in_front(pj, pi);
+    if (root < 0) return root_count ? ff_bvh_leaf_in_shaft(tris, root, root_count, lo, hi, pi, pj, use_planes) : 0;
+    int32_t stack[FF_BVH_STACK];
+    int top = 0;
+    stack[top++] = root;
+    while (top > 0) {
+        const ff_bvh_node *n = &nodes[stack[--top]];
+        for (int c = 0; c < 2; c++) {
+            const float *clo = c ? n->lo1 : n->lo0, *chi = c ? n->hi1 : n->hi0;
+            int32_t child = c ? n->child1 : n->child0;
+            uint32_t count = c ? n->count1 : n->count0;
+            if (!ff_bvh_box_overlaps(clo, chi, lo, hi)) continue;
+            if (child < 0) {
+                if (ff_bvh_leaf_in_shaft(tris, child, count, lo, hi, pi, pj, use_planes)) return 1;
+            } else if (top < FF_BVH_STACK) {
+                stack[top++] = child;
+            } else {
+                return 1; /* cannot look further: assume it may */
+            }
+        }
+    }
+    return 0;
+}
+
+/* Must pair (pi, pj) trace its shadow rays? Not if no other triangle meets
+ * the box around both patches, grown by `margin` (float rounding of the
+ * rays' end points). */
+static inline RAD_HD int ff_pair_may_be_occluded(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
+                                                 uint32_t root_count, const rad_ff_patch *pi, const rad_ff_patch *pj,
+                                                 float margin)
+{
+    float lo[3] = {(float)pi->p[0].x, (float)pi->p[0].y, (float)pi->p[0].z};
+    float hi[3] = {lo[0], lo[1], lo[2]};
+    for (int side = 0; side < 2; side++) {
+        const rad_ff_patch *q = side ? pj : pi;
+        for (uint32_t k = 0; k < q->vertex_count; k++) {
+            float v[3] = {(float)q->p[k].x, (float)q->p[k].y, (float)q->p[k].z};
+            for (int a = 0; a < 3; a++) {
+                lo[a] = fminf(lo[a], v[a]);
+                hi[a] = fmaxf(hi[a], v[a]);
+            }
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        lo[a] -= margin;
+        hi[a] += margin;
+    }
+    return ff_bvh_shaft_may_occlude(nodes, tris, root, root_count, lo, hi, pi, pj);
 }
 
 #endif

@@ -1,8 +1,11 @@
+#define _POSIX_C_SOURCE 200809L /* sigaction */
 #include "ff_output.h"
 
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "rad_fs.h"
 #include "rad_log.h"
@@ -22,6 +25,41 @@ struct ff_output {
     uint64_t checksum_count, checksum_cap;
     void *convert; /* one write's rows in the stored element type */
 };
+
+/* A run stopped by a signal (mpirun terminating the other ranks after one
+ * died, a batch system's time limit, Ctrl-C) removes the temporary file
+ * it was writing: every rank knows its name, so whichever rank is
+ * signalled unlinks it, then dies of the signal as it would have. This is
+ * the one piece of process-wide state here - a handler reaches nothing
+ * else. SIGKILL cannot be caught: a rank killed that way relies on the
+ * others being terminated (mpirun does that). */
+static const int guarded_signals[] = {SIGTERM, SIGINT, SIGHUP};
+static char g_signal_temp[4096];
+static struct sigaction g_previous[sizeof guarded_signals / sizeof guarded_signals[0]];
+
+static void remove_temp_and_die(int sig)
+{
+    unlink(g_signal_temp);
+    signal(sig, SIG_DFL);
+    raise(sig);
+}
+
+static void guard_temp(const char *temp)
+{
+    snprintf(g_signal_temp, sizeof g_signal_temp, "%s", temp);
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = remove_temp_and_die;
+    sigfillset(&sa.sa_mask);
+    for (size_t k = 0; k < sizeof guarded_signals / sizeof guarded_signals[0]; k++)
+        sigaction(guarded_signals[k], &sa, &g_previous[k]);
+}
+
+static void unguard_temp(void)
+{
+    for (size_t k = 0; k < sizeof guarded_signals / sizeof guarded_signals[0]; k++)
+        sigaction(guarded_signals[k], &g_previous[k], NULL);
+}
 
 uint32_t ff_output_max_rows(const ff_output *output)
 {
@@ -53,7 +91,9 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
     status = ff_comm_agree(comm, status);
     if (status == RAD_OK) {
         ff_comm_broadcast(comm, o->temp, sizeof o->temp, 0);
+        guard_temp(o->temp);
         status = ff_comm_file_open(comm, o->temp, &o->file);
+        if (status != RAD_OK) unguard_temp();
     }
     if (status != RAD_OK) {
         if (o) {
@@ -151,6 +191,7 @@ rad_status ff_output_finish(ff_output *o, rad_status status)
             rad_fs_discard(o->temp);
     }
     status = ff_comm_agree(o->comm, status);
+    unguard_temp();
     free(all);
     free(o->prologue);
     free(o->convert);

@@ -73,6 +73,27 @@ rad_status ff_occluders_build(const rad_scene *scene, float **out_triangles, uin
     return RAD_OK;
 }
 
+int ff_scene_is_convex_enclosure(const rad_scene *scene, double eps)
+{
+    for (size_t f = 0; f < scene->face_count; f++) {
+        const rad_face *face = &scene->faces[f];
+        rad_vec3 v[4];
+        for (uint32_t k = 0; k < face->vertex_count; k++) {
+            const double *p = scene->positions + 3 * (size_t)face->v[k];
+            v[k] = rad_v3(p[0], p[1], p[2]);
+        }
+        double area;
+        rad_vec3 normal, centroid;
+        rad_polygon_geometry(v, (int)face->vertex_count, &area, &normal, &centroid);
+        for (size_t g = 0; g < scene->face_count; g++)
+            for (uint32_t k = 0; k < scene->faces[g].vertex_count; k++) {
+                const double *p = scene->positions + 3 * (size_t)scene->faces[g].v[k];
+                if (rad_v3_dot(normal, rad_v3_sub(rad_v3(p[0], p[1], p[2]), centroid)) < -eps) return 0;
+            }
+    }
+    return scene->face_count > 0;
+}
+
 double ff_plane_eps(const rad_mesh *mesh)
 {
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};

@@ -18,6 +18,11 @@ rad_status ff_patches_build(const rad_mesh *mesh, rad_ff_patch **out_patches);
 rad_status ff_occluders_build(const rad_scene *scene, float **out_triangles, uint32_t **out_triangle_face,
                               uint32_t *out_triangle_count);
 
+/* Is the scene one convex enclosure seen from inside (every vertex on or
+ * in front of every face's plane)? Then no face can come between two
+ * others and no shadow ray is needed. */
+int ff_scene_is_convex_enclosure(const rad_scene *scene, double eps);
+
 /* Tolerance of the facing test: 1e-9 of the scene's bounding-box diagonal. */
 double ff_plane_eps(const rad_mesh *mesh);
 

@@ -22,6 +22,9 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
         all.counters.pairs += s->counters.pairs;
         all.counters.pairs_culled += s->counters.pairs_culled;
         all.counters.pairs_near += s->counters.pairs_near;
+        all.counters.pairs_open_scene += s->counters.pairs_open_scene;
+        all.counters.pairs_open_box += s->counters.pairs_open_box;
+        all.counters.rays_saved += s->counters.rays_saved;
         all.counters.samples += s->counters.samples;
         all.counters.rays += s->counters.rays;
         all.counters.rays_occluded += s->counters.rays_occluded;
@@ -46,10 +49,11 @@ static void write_counters(FILE *f, const ff_counters *c)
 {
     fprintf(f,
             "\"pairs\": %llu, \"pairs_culled\": %llu, \"pairs_near\": %llu, \"samples\": %llu, \"rays\": %llu, "
-            "\"rays_occluded\": %llu",
+            "\"rays_occluded\": %llu, \"pairs_open_scene\": %llu, \"pairs_open_box\": %llu, \"rays_saved\": %llu",
             (unsigned long long)c->pairs, (unsigned long long)c->pairs_culled, (unsigned long long)c->pairs_near,
             (unsigned long long)c->samples,
-            (unsigned long long)c->rays, (unsigned long long)c->rays_occluded);
+            (unsigned long long)c->rays, (unsigned long long)c->rays_occluded, (unsigned long long)c->pairs_open_scene,
+            (unsigned long long)c->pairs_open_box, (unsigned long long)c->rays_saved);
 }
 
 static void write_string(FILE *f, const char *s)
@@ -86,7 +90,7 @@ rad_status ff_stats_write_json(const char *path, const ff_run_info *run, const f
     if (run->subdiv_only) write_string(f, run->subdiv_only); else fputs("null", f);
     fprintf(f, ",\n  \"samples_per_pair\": %u,\n  \"shadow_rays_per_pair\": %u,\n  \"seed\": %llu,\n",
             run->samples, run->shadow_rays, (unsigned long long)run->seed);
-    fprintf(f, "  \"estimator\": \"%s\",\n", run->estimator);
+    fprintf(f, "  \"estimator\": \"%s\",\n  \"cull\": \"%s\",\n", run->estimator, run->cull);
     fprintf(f, "  \"backend\": \"%s\",\n  \"element\": \"%s\",\n  \"format\": \"%s\",\n  \"output\": ", run->backend,
             run->element, run->format);
     write_string(f, run->output);
@@ -128,6 +132,12 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
              (unsigned long long)c->pairs_near,
              (unsigned long long)c->samples, (unsigned long long)c->rays,
              c->rays ? 100.0 * c->rays_occluded / c->rays : 0.0, run->ranks);
+    if (c->rays + c->rays_saved > 0)
+        rad_info("culling: %llu pairs need no shadow rays (%llu: convex scene, %llu: nothing in their box); "
+                 "%llu rays saved, %.1f%% of %llu",
+                 (unsigned long long)(c->pairs_open_scene + c->pairs_open_box), (unsigned long long)c->pairs_open_scene,
+                 (unsigned long long)c->pairs_open_box, (unsigned long long)c->rays_saved,
+                 100.0 * c->rays_saved / (double)(c->rays + c->rays_saved), (unsigned long long)(c->rays + c->rays_saved));
     rad_info("time (s, slowest rank): load %.3f  subdivide %.3f  setup %.3f  form factors %.3f  visibility %.3f  "
              "GPU memory %.3f  I/O %.3f  total %.3f",
              all.load, all.subdivide, all.setup, all.form_factors, all.visibility, all.gpu_memory, all.io, all.total);

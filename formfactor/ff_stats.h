@@ -28,6 +28,7 @@ typedef struct ff_run_info {
     uint32_t samples, shadow_rays;
     uint64_t seed;
     const char *estimator;
+    const char *cull;
     const char *backend;
     const char *element;
     const char *format;

@@ -43,6 +43,7 @@ typedef struct ff_options {
     rad_estimator_id estimator;
     ff_format format;
     int threads; /* 0 = cores / ranks on this node */
+    int cull;    /* 1 = skip shadow rays that cannot hit anything (default) */
     int quiet;
     int help, version;
 } ff_options;
@@ -69,6 +70,8 @@ static void print_help(void)
            "      --backend B          auto | cpu | cuda (default: auto)\n"
            "      --element T          f64 | f32 matrix element type (default: f64)\n"
            "      --format F           native | paper (paper: int32 N + N*N float64 only)\n"
+           "      --cull C             all | none: skip shadow rays where nothing can lie between\n"
+           "                           the two patches (default: all; the matrix is the same)\n"
            "      --threads T          CPU threads per rank (default: cores / ranks per node)\n"
            "      --stats FILE.json    write counts and phase times (per rank and total)\n"
            "  -q, --quiet              only errors on stderr\n"
@@ -94,7 +97,7 @@ bad:
 static rad_status parse_options(int argc, char **argv, ff_options *o)
 {
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
-           O_VERSION, O_ESTIMATOR };
+           O_VERSION, O_ESTIMATOR, O_CULL };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -103,10 +106,11 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         {"format", required_argument, 0, O_FORMAT},   {"threads", required_argument, 0, O_THREADS},
         {"stats", required_argument, 0, O_STATS},     {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'},                {"version", no_argument, 0, O_VERSION},
-        {"estimator", required_argument, 0, O_ESTIMATOR},
+        {"estimator", required_argument, 0, O_ESTIMATOR}, {"cull", required_argument, 0, O_CULL},
         {0, 0, 0, 0}};
     *o = (ff_options){.output = "formfactors", .backend = "auto", .samples = 512, .shadow_rays = 32, .seed = 1,
-                      .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_AUTO, .format = FF_FORMAT_NATIVE};
+                      .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_AUTO, .format = FF_FORMAT_NATIVE,
+                      .cull = 1};
     uint64_t v = 0;
     rad_status st = RAD_OK;
     int c;
@@ -140,6 +144,11 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
             if (!strcmp(optarg, "auto")) o->estimator = RAD_ESTIMATOR_AUTO;
             else if (!strcmp(optarg, "mc")) o->estimator = RAD_ESTIMATOR_MC;
             else { rad_error("--estimator: expected auto or mc, got '%s'", optarg); st = RAD_ERR_USAGE; }
+            break;
+        case O_CULL:
+            if (!strcmp(optarg, "all")) o->cull = 1;
+            else if (!strcmp(optarg, "none")) o->cull = 0;
+            else { rad_error("--cull: expected all or none, got '%s'", optarg); st = RAD_ERR_USAGE; }
             break;
         case O_FORMAT:
             if (!strcmp(optarg, "native")) o->format = FF_FORMAT_NATIVE;
@@ -253,13 +262,15 @@ static rad_status setup(ff_run *run)
     run->row_begin = calloc((size_t)ranks + 1, sizeof *run->row_begin);
     if (st == RAD_OK && !run->row_begin) st = RAD_ERR_NOMEM;
     double eps = ff_plane_eps(&run->mesh);
+    int convex = run->opt.cull && ff_scene_is_convex_enclosure(&run->scene, eps);
     if (st == RAD_OK) st = ff_partition_rows(run->patches, n, eps, ranks, run->row_begin);
     run->stats.threads = default_threads(run);
     if (st == RAD_OK) {
         ff_setup su = {.patches = run->patches, .patch_count = n, .triangles = run->triangles,
                        .triangle_face = run->triangle_face, .triangle_count = run->triangle_count,
                        .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
-                       .estimator = run->opt.estimator, .plane_eps = eps, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
+                       .estimator = run->opt.estimator, .cull = run->opt.cull, .scene_convex = convex,
+                       .cull_margin = (float)(1e4 * eps), .plane_eps = eps, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
                        .progress = ff_comm_rank(run->comm) == 0 ? report_progress : NULL, .progress_user = run};
         st = run->backend->create(&su, &run->backend_state);
     }
@@ -338,6 +349,7 @@ static rad_status write_stats(ff_run *run, int gpus)
                             .subdiv_only = run->opt.subdiv_only, .samples = run->opt.samples,
                             .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
                             .estimator = run->opt.estimator == RAD_ESTIMATOR_AUTO ? "auto" : "mc",
+                            .cull = run->opt.cull ? "all" : "none",
                             .backend = run->backend->name,
                             .element = run->opt.element == RAD_ELEMENT_F32 ? "f32" : "f64",
                             .format = run->opt.format == FF_FORMAT_PAPER ? "paper" : "native",

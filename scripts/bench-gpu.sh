@@ -33,5 +33,15 @@ if [ "${RANKS2:-0}" = 1 ]; then   # two GPUs of one host, one rank each
   cmp /tmp/ff_g1 /tmp/ff_g2 && echo "1 vs 2 GPUs: identical bytes" || echo "1 vs 2 GPUs: DIFFER"
   grep -E "time \(s" "$out"/n47104_gpu?rank.log
 fi
+if [ "${CULL:-0}" = 1 ]; then   # occlusion culling on and off (issue 7)
+  for case in "closed_box --subdiv 4" "cornell_box --subdiv 3" "cornell_sphere --subdiv 3" "cluttered_room --subdiv 2" "cornell_sphere --subdiv 5 --element f32"; do
+    set -- $case; name=cull_$1_$3
+    for c in all none; do
+      "$ff" scenes/$1.obj "${@:2}" --backend cuda --cull $c -q -o /tmp/ff_$c --stats "$out/${name}_$c.json"
+      echo "$name cull=$c: $(grep -o '"form_factors": [0-9.]*' "$out/${name}_$c.json" | head -1) $(grep -o '"rays": [0-9]*, "rays_occluded": [0-9]*, "pairs_open_scene": [0-9]*, "pairs_open_box": [0-9]*, "rays_saved": [0-9]*' "$out/${name}_$c.json" | head -1)"
+    done
+    cmp /tmp/ff_all /tmp/ff_none && echo "$name: identical with and without culling" || echo "$name: DIFFER"
+  done
+fi
 rm -f /tmp/ff_*
 tar czf /tmp/bench.tgz -C "$out" . && find "$out" -type f -delete && mv /tmp/bench.tgz "$out/"

@@ -73,7 +73,9 @@ static double *compute_estimator(const ff_backend *backend, const fixture *fx, u
     uint32_t n = (uint32_t)fx->mesh.patch_count;
     ff_setup su = {.patches = fx->patches, .patch_count = n, .triangles = fx->triangles,
                    .triangle_face = fx->triangle_face, .triangle_count = fx->triangle_count, .samples = samples,
-                   .shadow_rays = rays, .seed = seed, .estimator = estimator, .plane_eps = ff_plane_eps(&fx->mesh), .threads = 2};
+                   .shadow_rays = rays, .seed = seed, .estimator = estimator, .plane_eps = ff_plane_eps(&fx->mesh), .threads = 2,
+                   .cull = 1, .scene_convex = ff_scene_is_convex_enclosure(&fx->scene, ff_plane_eps(&fx->mesh)),
+                   .cull_margin = (float)(1e4 * ff_plane_eps(&fx->mesh))};
     void *state = NULL;
     double *f = malloc(sizeof(double) * n * n);
     ff_counters local = {0};

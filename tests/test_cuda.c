@@ -48,6 +48,7 @@ static void compare(const char *path, int subdiv, rad_estimator_id estimator)
     RAD_CHECK(bad == 0);
     RAD_CHECK(cc.pairs == gc.pairs && cc.pairs_culled == gc.pairs_culled);
     RAD_CHECK(cc.samples == gc.samples && cc.rays == gc.rays && cc.pairs_near == gc.pairs_near);
+    RAD_CHECK(cc.pairs_open_box == gc.pairs_open_box && cc.rays_saved == gc.rays_saved);
     free(cpu);
     free(gpu);
     fixture_free(&fx);

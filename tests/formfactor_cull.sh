@@ -1,0 +1,28 @@
+#!/bin/sh
+# Occlusion culling changes nothing but the work: byte-identical matrices
+# with --cull all and --cull none, and the counts add up
+# (rays without culling = rays with culling + rays saved).
+#   formfactor_cull.sh FORMFACTOR SCENES_DIR WORKDIR
+set -eu
+ff=$1 scenes=$2 dir=$3
+mkdir -p "$dir" && cd "$dir"
+export OMP_NUM_THREADS=2
+field() { grep -o "\"$2\": [0-9]*" "$1" | head -1 | sed 's/.*: //'; }
+for case in closed_box:1 cornell_box:2 cornell_sphere:2 cluttered_room:1; do
+  scene=${case%%:*} subdiv=${case##*:}
+  for c in all none; do
+    "$ff" "$scenes/$scene.obj" --subdiv "$subdiv" --samples 64 --cull $c -q -o "$scene.$c" --stats "$scene.$c.json"
+  done
+  cmp "$scene.all" "$scene.none" || { echo "FAIL: $scene differs with culling"; exit 1; }
+  rays_all=$(field "$scene.all.json" rays) saved=$(field "$scene.all.json" rays_saved)
+  rays_none=$(field "$scene.none.json" rays)
+  [ "$rays_none" -eq $((rays_all + saved)) ] || { echo "FAIL: $scene: $rays_none != $rays_all + $saved"; exit 1; }
+  [ "$(field "$scene.none.json" rays_saved)" -eq 0 ] || { echo "FAIL: $scene: --cull none saved rays"; exit 1; }
+  echo "$scene: identical; $saved of $rays_none shadow rays culled"
+done
+# A single convex room needs no shadow ray at all.
+[ "$(field closed_box.all.json rays)" -eq 0 ] || { echo "FAIL: closed box traced rays"; exit 1; }
+[ "$(field closed_box.all.json pairs_open_scene)" -gt 0 ] || { echo "FAIL: closed box not seen as convex"; exit 1; }
+# The Cornell box is not convex (its blocks), but some pairs have nothing between them.
+[ "$(field cornell_box.all.json pairs_open_scene)" -eq 0 ] || { echo "FAIL: Cornell box taken for convex"; exit 1; }
+[ "$(field cornell_box.all.json pairs_open_box)" -gt 0 ] || { echo "FAIL: no pair culled in the Cornell box"; exit 1; }

@@ -1,0 +1,90 @@
+/* fuzz_ffile.c - the form-factor file reader (rad_ff_open, rad_ff_read_rows).
+ *
+ * Each input is read twice: as it is, and with its checksums repaired.
+ * Random bytes almost never carry a valid header checksum, so the first
+ * pass exercises the magic/version/size/checksum checks; the second
+ * recomputes every checksum (header, tables, row checksums and their
+ * digest, from the N, V and element type the header claims) so that the
+ * fuzzer reaches the checks of sizes, offsets and values behind them.
+ *
+ * What the reader accepts must be self-consistent: the mesh as the header
+ * says, patch records valid, every row readable (a row may still fail its
+ * checksum in the first pass - then it must be refused, not crash).
+ */
+#include "fuzz_common.h" /* first: it defines _GNU_SOURCE */
+
+#include <math.h>
+
+#include "rad_bytes.h"
+#include "rad_ffile.h"
+#include "rad_hash.h"
+
+/* Rows are read in one call when N is at most this, else in blocks (the
+ * file size bounds N anyway: each row is stored in full). */
+#define FUZZ_ROWS_AT_ONCE 64
+
+static void read_back(const char *path)
+{
+    rad_ff_file *ff = NULL;
+    if (rad_ff_open(path, &ff) != RAD_OK) {
+        FUZZ_REQUIRE(ff == NULL);
+        return;
+    }
+    const rad_ff_info *info = rad_ff_file_info(ff);
+    const rad_mesh *mesh = rad_ff_file_mesh(ff);
+    uint64_t n = info->patch_count;
+    FUZZ_REQUIRE(n > 0 && mesh->patch_count == n && mesh->vertex_count == info->vertex_count);
+    FUZZ_REQUIRE(info->element_type == RAD_ELEMENT_F32 || info->element_type == RAD_ELEMENT_F64);
+    for (size_t i = 0; i < mesh->patch_count; i++) {
+        const rad_patch *p = &mesh->patches[i];
+        FUZZ_REQUIRE(p->vertex_count == 3 || p->vertex_count == 4);
+        for (uint32_t k = 0; k < p->vertex_count; k++) FUZZ_REQUIRE(p->v[k] < mesh->vertex_count);
+        FUZZ_REQUIRE(p->area > 0 && isfinite(p->area));
+    }
+    uint64_t block = n < FUZZ_ROWS_AT_ONCE ? n : FUZZ_ROWS_AT_ONCE;
+    double *rows = malloc(block * n * sizeof *rows);
+    for (uint64_t r = 0; rows && r < n; r += block) {
+        uint64_t count = n - r < block ? n - r : block;
+        if (rad_ff_read_rows(ff, r, count, rows) != RAD_OK) break;
+    }
+    double dummy;
+    FUZZ_REQUIRE(rad_ff_read_rows(ff, n, 1, &dummy) != RAD_OK); /* past the end */
+    free(rows);
+    rad_ff_close(ff);
+}
+
+/* Recomputes every checksum in place where the claimed layout fits in the
+ * input; returns 0 when the header is too short or the sizes do not fit. */
+static int repair(uint8_t *b, size_t size)
+{
+    if (size < RAD_FF_HEADER_BYTES) return 0;
+    rad_ff_info info = {.patch_count = rad_get_u64(b + 16), .vertex_count = rad_get_u64(b + 24),
+                        .element_type = rad_get_u32(b + 32)};
+    if (info.patch_count == 0 || info.patch_count > size || info.vertex_count > size) return 0;
+    rad_ff_layout l = rad_ff_layout_of(&info);
+    if (l.file_bytes > size) return 0;
+    uint64_t n = info.patch_count;
+    for (uint64_t i = 0; i < n; i++)
+        rad_put_u64(b + l.row_checksum_offset + 8 * i,
+                    rad_ff_row_checksum(b + l.matrix_offset + i * l.row_bytes, l.row_bytes));
+    rad_put_u64(b + 112, rad_hash64(RAD_HASH_SEED, b + RAD_FF_HEADER_BYTES, l.matrix_offset - RAD_FF_HEADER_BYTES));
+    rad_put_u64(b + 120, rad_hash64(RAD_HASH_SEED, b + l.row_checksum_offset, n * 8));
+    rad_put_u64(b + 248, rad_hash64(RAD_HASH_SEED, b, 248));
+    return 1;
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    static int ready;
+    if (!ready) {
+        fuzz_quiet_logger();
+        ready = 1;
+    }
+    read_back(fuzz_memfd_write(data, size));
+    uint8_t *copy = malloc(size ? size : 1);
+    if (!copy) return 0;
+    memcpy(copy, data, size);
+    if (repair(copy, size)) read_back(fuzz_memfd_write(copy, size));
+    free(copy);
+    return 0;
+}
