@@ -246,8 +246,8 @@ static void visibility_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32
             struct RTCRay ray;
             ray.org_x = p[0], ray.org_y = p[1], ray.org_z = p[2];
             ray.dir_x = p[3] - p[0], ray.dir_y = p[4] - p[1], ray.dir_z = p[5] - p[2];
-            ray.tnear = 0.0f;
-            ray.tfar = 1.0f;
+            ray.tnear = FF_RAY_T_MIN; /* ff_bvh.h: the GPU tests the same span */
+            ray.tfar = FF_RAY_T_MAX;
             ray.time = 0.0f;
             ray.mask = ~0u;
             ray.id = 0;

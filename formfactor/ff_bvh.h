@@ -64,7 +64,16 @@ void ff_bvh_free(ff_bvh *bvh);
 
 #define FF_BVH_STACK 64 /* > depth of Embree's builder (maxDepth 32 + leaves) */
 
-/* Does the segment o + t d, t in [0, 1], hit a triangle in [0, 1] whose face
+/* A shadow segment x -> y is tested over t in [FF_RAY_T_MIN, FF_RAY_T_MAX]
+ * of o + t (y - x), on CPU (Embree) and GPU alike: hits within 1e-4 of the
+ * segment's length from either end are ignored. Those are the faces that
+ * meet the source or target face at an edge, touched only because the end
+ * points were rounded to float; counting them darkened pairs at corners
+ * at random. */
+#define FF_RAY_T_MIN 1e-4f
+#define FF_RAY_T_MAX (1.0f - 1e-4f)
+
+/* Does the segment o + t d, t in [FF_RAY_T_MIN, FF_RAY_T_MAX], hit a triangle whose face
  * is neither skip_a nor skip_b? Moller-Trumbore in float. */
 static inline RAD_HD int ff_bvh_hit_tri(const ff_bvh_tri *t, const float o[3], const float d[3])
 {
@@ -83,13 +92,13 @@ static inline RAD_HD int ff_bvh_hit_tri(const ff_bvh_tri *t, const float o[3], c
     float v = (d[0] * qx + d[1] * qy + d[2] * qz) * inv;
     if (v < 0.0f || u + v > 1.0f) return 0;
     float tt = (t->e2[0] * qx + t->e2[1] * qy + t->e2[2] * qz) * inv;
-    return tt >= 0.0f && tt <= 1.0f;
+    return tt >= FF_RAY_T_MIN && tt <= FF_RAY_T_MAX;
 }
 
 /* Entry distance of the segment into a box, or a miss (returns 0). */
 static inline RAD_HD int ff_bvh_hit_box(const float lo[3], const float hi[3], const float o[3], const float inv_d[3])
 {
-    float tmin = 0.0f, tmax = 1.0f;
+    float tmin = FF_RAY_T_MIN, tmax = FF_RAY_T_MAX;
     for (int a = 0; a < 3; a++) {
         float t0 = (lo[a] - o[a]) * inv_d[a], t1 = (hi[a] - o[a]) * inv_d[a];
         float near_t = t0 < t1 ? t0 : t1, far_t = t0 < t1 ? t1 : t0;
@@ -163,24 +172,27 @@ static inline RAD_HD int ff_tri_behind(const float v[3][3], const rad_ff_patch *
     return 1;
 }
 
+static inline RAD_HD int ff_tri_in_shaft(const ff_bvh_tri *t, const float lo[3], const float hi[3],
+                                         const rad_ff_patch *pi, const rad_ff_patch *pj, int use_planes)
+{
+    if (t->face == pi->face || t->face == pj->face) return 0;
+    float v[3][3], tlo[3], thi[3];
+    for (int a = 0; a < 3; a++) {
+        v[0][a] = t->v0[a];
+        v[1][a] = t->v0[a] + t->e1[a];
+        v[2][a] = t->v0[a] + t->e2[a];
+        tlo[a] = fminf(v[0][a], fminf(v[1][a], v[2][a]));
+        thi[a] = fmaxf(v[0][a], fmaxf(v[1][a], v[2][a]));
+    }
+    return ff_bvh_box_overlaps(tlo, thi, lo, hi) && !(use_planes && (ff_tri_behind(v, pi) || ff_tri_behind(v, pj)));
+}
+
 static inline RAD_HD int ff_bvh_leaf_in_shaft(const ff_bvh_tri *tris, int32_t ref, uint32_t count, const float lo[3],
                                               const float hi[3], const rad_ff_patch *pi, const rad_ff_patch *pj,
                                               int use_planes)
 {
-    for (uint32_t k = 0; k < count; k++) {
-        const ff_bvh_tri *t = &tris[~ref + (int32_t)k];
-        if (t->face == pi->face || t->face == pj->face) continue;
-        float v[3][3], tlo[3], thi[3];
-        for (int a = 0; a < 3; a++) {
-            v[0][a] = t->v0[a];
-            v[1][a] = t->v0[a] + t->e1[a];
-            v[2][a] = t->v0[a] + t->e2[a];
-            tlo[a] = fminf(v[0][a], fminf(v[1][a], v[2][a]));
-            thi[a] = fmaxf(v[0][a], fmaxf(v[1][a], v[2][a]));
-        }
-        if (ff_bvh_box_overlaps(tlo, thi, lo, hi) && !(use_planes && (ff_tri_behind(v, pi) || ff_tri_behind(v, pj))))
-            return 1;
-    }
+    for (uint32_t k = 0; k < count; k++)
+        if (ff_tri_in_shaft(&tris[~ref + (int32_t)k], lo, hi, pi, pj, use_planes)) return 1;
     return 0;
 }
 
@@ -194,9 +206,8 @@ static inline RAD_HD int ff_patch_in_front(const rad_ff_patch *a, const rad_ff_p
 
 static inline RAD_HD int ff_bvh_shaft_may_occlude(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
                                                   uint32_t root_count, const float lo[3], const float hi[3],
-                                                  const rad_ff_patch *pi, const rad_ff_patch *pj)
+                                                  const rad_ff_patch *pi, const rad_ff_patch *pj, int use_planes)
 {
-    int use_planes = ff_patch_in_front(pi, pj) && ff_patch_in_front(pj, pi);
     if (root < 0) return root_count ? ff_bvh_leaf_in_shaft(tris, root, root_count, lo, hi, pi, pj, use_planes) : 0;
     int32_t stack[FF_BVH_STACK];
     int top = 0;
@@ -220,15 +231,14 @@ static inline RAD_HD int ff_bvh_shaft_may_occlude(const ff_bvh_node *nodes, cons
     return 0;
 }
 
-/* Must pair (pi, pj) trace its shadow rays? Not if no other triangle meets
- * the box around both patches, grown by `margin` (float rounding of the
- * rays' end points). */
-static inline RAD_HD int ff_pair_may_be_occluded(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
-                                                 uint32_t root_count, const rad_ff_patch *pi, const rad_ff_patch *pj,
-                                                 float margin)
+/* The box around both patches, grown by `margin` (float rounding of the
+ * rays' end points), and whether the plane test applies to the pair. */
+static inline RAD_HD int ff_pair_shaft(const rad_ff_patch *pi, const rad_ff_patch *pj, float margin, float lo[3],
+                                       float hi[3])
 {
-    float lo[3] = {(float)pi->p[0].x, (float)pi->p[0].y, (float)pi->p[0].z};
-    float hi[3] = {lo[0], lo[1], lo[2]};
+    lo[0] = hi[0] = (float)pi->p[0].x;
+    lo[1] = hi[1] = (float)pi->p[0].y;
+    lo[2] = hi[2] = (float)pi->p[0].z;
     for (int side = 0; side < 2; side++) {
         const rad_ff_patch *q = side ? pj : pi;
         for (uint32_t k = 0; k < q->vertex_count; k++) {
@@ -243,7 +253,19 @@ static inline RAD_HD int ff_pair_may_be_occluded(const ff_bvh_node *nodes, const
         lo[a] -= margin;
         hi[a] += margin;
     }
-    return ff_bvh_shaft_may_occlude(nodes, tris, root, root_count, lo, hi, pi, pj);
+    return ff_patch_in_front(pi, pj) && ff_patch_in_front(pj, pi);
+}
+
+/* Must pair (pi, pj) trace its shadow rays? Not if no triangle is in its
+ * shaft (see ff_tri_in_shaft). Any way of visiting the triangles gives the
+ * same answer: this BVH walk, or the GPU's warp-wide scan. */
+static inline RAD_HD int ff_pair_may_be_occluded(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
+                                                 uint32_t root_count, const rad_ff_patch *pi, const rad_ff_patch *pj,
+                                                 float margin)
+{
+    float lo[3], hi[3];
+    int use_planes = ff_pair_shaft(pi, pj, margin, lo, hi);
+    return ff_bvh_shaft_may_occlude(nodes, tris, root, root_count, lo, hi, pi, pj, use_planes);
 }
 
 #endif

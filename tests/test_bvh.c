@@ -116,8 +116,8 @@ static void compare_with_embree(const char *path, int subdiv)
         ctx.face = face;
         ctx.a = patches[i].face;
         ctx.b = patches[j].face;
-        struct RTCRay ray = {.org_x = o[0], .org_y = o[1], .org_z = o[2], .tnear = 0, .dir_x = d[0],
-                             .dir_y = d[1], .dir_z = d[2], .tfar = 1, .mask = ~0u};
+        struct RTCRay ray = {.org_x = o[0], .org_y = o[1], .org_z = o[2], .tnear = FF_RAY_T_MIN, .dir_x = d[0],
+                             .dir_y = d[1], .dir_z = d[2], .tfar = FF_RAY_T_MAX, .mask = ~0u};
         rtcOccluded1(es, &ctx.base, &ray);
         int theirs = ray.tfar < 0;
         blocked += theirs;
