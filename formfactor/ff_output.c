@@ -24,6 +24,7 @@ struct ff_output {
     uint64_t *row_checksums; /* this rank's rows, in order */
     uint64_t checksum_count, checksum_cap;
     void *convert; /* one write's rows in the stored element type */
+    uint64_t convert_bytes; /* its size: grown to the largest write seen */
 };
 
 /* A run stopped by a signal (mpirun terminating the other ranks after one
@@ -72,7 +73,10 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
 {
     rad_status status = RAD_OK;
     ff_output *o = calloc(1, sizeof *o);
-    if (!o) status = RAD_ERR_NOMEM;
+    if (!o) {
+        rad_error("%s: out of memory", path);
+        status = RAD_ERR_NOMEM;
+    }
     if (status == RAD_OK) {
         o->comm = comm;
         o->format = format;
@@ -83,10 +87,14 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
         if (ff_comm_rank(comm) == 0) status = rad_fs_temp_path(path, o->temp, sizeof o->temp);
         if (status == RAD_OK && ff_comm_rank(comm) == 0 && format == FF_FORMAT_NATIVE)
             status = rad_ff_prologue_encode(&o->info, mesh, &o->prologue, &o->prologue_size);
-        uint64_t rows = ff_output_max_rows(o);
-        if (rows > o->info.patch_count) rows = o->info.patch_count;
-        o->convert = malloc(rows * o->layout.row_bytes + 1);
-        if (!o->convert) status = RAD_ERR_NOMEM;
+        /* Sized by the first write (ff_output_write_rows), not by the
+         * largest write allowed: that could be 256 MiB more than needed. */
+        o->convert = malloc(RAD_FF_ALIGN);
+        o->convert_bytes = RAD_FF_ALIGN;
+        if (!o->convert) {
+            rad_error("%s: out of memory", path);
+            status = RAD_ERR_NOMEM;
+        }
     }
     status = ff_comm_agree(comm, status);
     if (status == RAD_OK) {
@@ -133,6 +141,18 @@ rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_c
         } else {
             o->row_checksums = grown;
             o->checksum_cap = cap;
+        }
+    }
+    if ((uint64_t)row_count * rb > o->convert_bytes) {
+        void *grown = realloc(o->convert, (size_t)row_count * rb);
+        if (!grown) {
+            rad_error("out of memory for %u rows of output (%llu bytes)", row_count,
+                      (unsigned long long)row_count * rb);
+            status = RAD_ERR_NOMEM;
+            row_count = 0;
+        } else {
+            o->convert = grown;
+            o->convert_bytes = (uint64_t)row_count * rb;
         }
     }
     for (uint32_t r = 0; r < row_count; r++) {

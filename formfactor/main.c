@@ -11,9 +11,11 @@
 #include <getopt.h>
 #include <sched.h>
 #include <inttypes.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include "ff_backend.h"
@@ -225,12 +227,74 @@ static int default_threads(const ff_run *run)
     return t > 0 ? (int)t : 1;
 }
 
+/* Largest N: the paper format stores N as int32, the mesh indexes patches
+ * with uint32 (RAD_NO_VERTEX taken), the reader accepts up to 2^31. */
+#define FF_MAX_PATCHES ((uint64_t)INT32_MAX)
+
+/* "1.23 GiB": bytes as double, since refused sizes overflow 64 bits. */
+static const char *format_bytes(double bytes, char *out, size_t size)
+{
+    static const char *const units[] = {"bytes", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB", "ZiB"};
+    int u = 0;
+    while (bytes >= 1024 && u < 7) bytes /= 1024, u++;
+    snprintf(out, size, u ? "%.3g %s" : "%.0f %s", bytes, units[u]);
+    return out;
+}
+
+/* Rank 0, before the mesh is built: a run whose patch count exceeds the
+ * format, whose file would not fit in the free space of the output's file
+ * system, or whose memory per rank would exceed this node's memory per
+ * rank is refused with the numbers instead of being attempted. */
+static rad_status check_limits(const ff_run *run)
+{
+    rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
+    uint64_t n = rad_mesh_count_patches(&run->scene, &mo);
+    double dn = (double)n;
+    double element = run->opt.format == FF_FORMAT_PAPER || run->opt.element == RAD_ELEMENT_F64 ? 8 : 4;
+    /* File: header, vertex and patch tables, matrix, row checksums. */
+    double file_bytes = RAD_FF_HEADER_BYTES + dn * (sizeof(rad_patch) + 24 + 8) + dn * dn * element;
+    /* Per rank: mesh and its vertex bound, kernel patches, the prologue
+     * (rank 0), checksums, and a round of rows (compute_and_write) as
+     * double plus its stored copy. */
+    double round_rows = fmax(16, fmin(dn, (double)FF_ROUND_BYTES / (8 * fmax(dn, 1))));
+    double memory = dn * (2 * sizeof(rad_patch) + 2 * 24 + sizeof(rad_ff_patch) + 16) + round_rows * dn * (8 + element);
+    char why[4200] = "", have[32];
+    if (n > FF_MAX_PATCHES)
+        snprintf(why, sizeof why, "more than the format's limit of %" PRIu64 " patches", FF_MAX_PATCHES);
+    char dir[4096];
+    const char *slash = strrchr(run->opt.output, '/');
+    if (slash)
+        snprintf(dir, sizeof dir, "%.*s", slash == run->opt.output ? 1 : (int)(slash - run->opt.output), run->opt.output);
+    else
+        snprintf(dir, sizeof dir, ".");
+    struct statvfs fs; /* no answer: opening the output fails later and says why */
+    double free_bytes = statvfs(dir, &fs) == 0 ? (double)fs.f_bavail * (double)fs.f_frsize : INFINITY;
+    if (!why[0] && file_bytes > free_bytes)
+        snprintf(why, sizeof why, "%s has %s free", dir, format_bytes(free_bytes, have, sizeof have));
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    int node_ranks = ff_comm_node_size(run->comm) > 0 ? ff_comm_node_size(run->comm) : 1;
+    double per_rank = pages > 0 && page > 0 ? (double)pages * (double)page / node_ranks : INFINITY;
+    if (!why[0] && memory > per_rank)
+        snprintf(why, sizeof why, "this node has %s per rank (%d rank(s) on it)",
+                 format_bytes(per_rank, have, sizeof have), node_ranks);
+    if (why[0]) {
+        char need[32], mem[32];
+        rad_error("--subdiv %d: %" PRIu64 " patches: %s would need %s (N^2 x %.0f bytes) and each rank about %s "
+                  "of memory, but %s; refused",
+                  run->opt.subdiv, n, run->opt.output, format_bytes(file_bytes, need, sizeof need), element,
+                  format_bytes(memory, mem, sizeof mem), why);
+        return RAD_ERR_NOMEM;
+    }
+    return RAD_OK;
+}
+
 static rad_status load(ff_run *run)
 {
     double t0 = ff_comm_time();
     rad_status st = run->opt.scene_path ? rad_scene_load_file(run->opt.scene_path, NULL, &run->scene)
                                         : rad_scene_load_default(&run->scene);
     double t1 = ff_comm_time();
+    if (st == RAD_OK && ff_comm_rank(run->comm) == 0) st = check_limits(run);
     if (st == RAD_OK) {
         rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
         st = rad_mesh_build(&run->scene, &mo, &run->mesh);

@@ -47,8 +47,10 @@ static void compare(const char *path, int subdiv, rad_estimator_id estimator)
     RAD_CHECK(loose <= nonzero / 200);
     RAD_CHECK(bad == 0);
     RAD_CHECK(cc.pairs == gc.pairs && cc.pairs_culled == gc.pairs_culled);
-    RAD_CHECK(cc.samples == gc.samples && cc.rays == gc.rays && cc.pairs_near == gc.pairs_near);
-    RAD_CHECK(cc.pairs_open_box == gc.pairs_open_box && cc.rays_saved == gc.rays_saved);
+    RAD_CHECK(cc.samples == gc.samples && cc.pairs_near == gc.pairs_near);
+    /* The GPU applies only the convex-scene culling rule; the CPU also the
+     * per-pair shaft rule. Same rays in all, and the same matrix. */
+    RAD_CHECK(cc.rays + cc.rays_saved == gc.rays + gc.rays_saved && cc.pairs_open_scene == gc.pairs_open_scene);
     free(cpu);
     free(gpu);
     fixture_free(&fx);
