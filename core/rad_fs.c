@@ -31,6 +31,31 @@ rad_status rad_fs_commit(const char *temp_path, const char *final_path)
 
 void rad_fs_discard(const char *temp_path) { remove(temp_path); }
 
+rad_status rad_fs_create_temp(const char *final_path, char *temp, size_t temp_size, FILE **out_file)
+{
+    rad_status status = rad_fs_temp_path(final_path, temp, temp_size);
+    if (status != RAD_OK) return status;
+    FILE *f = fopen(temp, "w");
+    if (!f) {
+        rad_error("%s: cannot create: %s", temp, strerror(errno));
+        return RAD_ERR_IO;
+    }
+    *out_file = f;
+    return RAD_OK;
+}
+
+rad_status rad_fs_close_commit(FILE *f, const char *temp, const char *final_path)
+{
+    int failed = ferror(f);
+    if (fclose(f) != 0) failed = 1;
+    if (failed) {
+        rad_error("%s: write failed: %s", temp, strerror(errno));
+        rad_fs_discard(temp);
+        return RAD_ERR_IO;
+    }
+    return rad_fs_commit(temp, final_path);
+}
+
 rad_status rad_fs_read_all(const char *path, char **out_data, size_t *out_size)
 {
     rad_status status = RAD_ERR_IO;

@@ -10,6 +10,7 @@
 #define RAD_FS_H
 
 #include <stddef.h>
+#include <stdio.h>
 
 #include "rad_status.h"
 
@@ -19,6 +20,13 @@ rad_status rad_fs_temp_path(const char *final_path, char *out, size_t out_size);
 rad_status rad_fs_commit(const char *temp_path, const char *final_path);
 /* Removes a temporary after a failure (ignores errors). */
 void rad_fs_discard(const char *temp_path);
+/* Text outputs (JSON stats): opens "<final>.tmp-<pid>" for writing; the
+ * temporary's name goes to temp (size temp_size). */
+rad_status rad_fs_create_temp(const char *final_path, char *temp, size_t temp_size, FILE **out_file);
+/* Closes f and renames temp over final_path if every write succeeded;
+ * otherwise removes temp. Logs "temp: write failed: why". */
+rad_status rad_fs_close_commit(FILE *f, const char *temp, const char *final_path);
+
 /* Reads a whole file (for loaders); *out_data is NUL-terminated, free() it. */
 rad_status rad_fs_read_all(const char *path, char **out_data, size_t *out_size);
 

@@ -72,13 +72,9 @@ static void write_string(FILE *f, const char *s)
 rad_status ff_stats_write_json(const char *path, const ff_run_info *run, const ff_rank_stats *ranks)
 {
     char temp[4096];
-    rad_status status = rad_fs_temp_path(path, temp, sizeof temp);
+    FILE *f = NULL;
+    rad_status status = rad_fs_create_temp(path, temp, sizeof temp, &f);
     if (status != RAD_OK) return status;
-    FILE *f = fopen(temp, "w");
-    if (!f) {
-        rad_error("%s: cannot create: %s", temp, strerror(errno));
-        return RAD_ERR_IO;
-    }
     ff_rank_stats all = overall(run, ranks);
     /* Throughput over compute time (kernel + shadow rays; the GPU kernel on
      * CUDA), not over the whole run, which includes start-up and I/O. */
@@ -113,14 +109,7 @@ rad_status ff_stats_write_json(const char *path, const ff_run_info *run, const f
         fprintf(f, "}%s\n", r + 1 < run->ranks ? "," : "");
     }
     fprintf(f, "  ]\n}\n");
-    int ok = !ferror(f);
-    if (fclose(f) != 0) ok = 0;
-    if (!ok) {
-        rad_error("%s: write failed", temp);
-        rad_fs_discard(temp);
-        return RAD_ERR_IO;
-    }
-    return rad_fs_commit(temp, path);
+    return rad_fs_close_commit(f, temp, path);
 }
 
 void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)

@@ -88,20 +88,9 @@ static void put_stats(FILE *f, const solve_stats *s)
 rad_status solve_stats_write(const char *path, const solve_stats *stats)
 {
     char temp[4096];
-    rad_status status = rad_fs_temp_path(path, temp, sizeof temp);
+    FILE *f = NULL;
+    rad_status status = rad_fs_create_temp(path, temp, sizeof temp, &f);
     if (status != RAD_OK) return status;
-    FILE *f = fopen(temp, "w");
-    if (!f) {
-        rad_error("%s: cannot create: %s", temp, strerror(errno));
-        return RAD_ERR_IO;
-    }
     put_stats(f, stats);
-    int failed = ferror(f);
-    if (fclose(f) != 0) failed = 1;
-    if (failed) {
-        rad_error("%s: write failed: %s", temp, strerror(errno));
-        rad_fs_discard(temp);
-        return RAD_ERR_IO;
-    }
-    return rad_fs_commit(temp, path);
+    return rad_fs_close_commit(f, temp, path);
 }
