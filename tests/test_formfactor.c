@@ -72,6 +72,38 @@ static void check_blocked(void)
     fixture_free(&fx);
 }
 
+/* Closure and reciprocity of a matrix of a closed scene. */
+typedef struct closure {
+    double mean_row;    /* area-weighted mean row sum */
+    double worst_row;   /* max |row sum - 1| */
+    double reciprocity; /* max |A_i F_ij - A_j F_ji| / max A_i F_ij */
+    int negative;       /* entries < 0 */
+} closure;
+
+static closure measure_closure(const fixture *fx, const double *f)
+{
+    uint32_t n = (uint32_t)fx->mesh.patch_count;
+    closure c = {0, 0, 0, 0};
+    double area = 0, largest = 0, recip = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        double row = 0, ai = fx->mesh.patches[i].area;
+        for (uint32_t j = 0; j < n; j++) {
+            double fij = f[(size_t)i * n + j];
+            row += fij;
+            c.negative += fij < 0;
+            largest = fmax(largest, ai * fij);
+            recip = fmax(recip, fabs(ai * fij - fx->mesh.patches[j].area * f[(size_t)j * n + i]));
+        }
+        RAD_CHECK(f[(size_t)i * n + i] == 0);
+        c.worst_row = fmax(c.worst_row, fabs(row - 1));
+        c.mean_row += ai * row;
+        area += ai;
+    }
+    c.mean_row /= area;
+    c.reciprocity = recip / largest;
+    return c;
+}
+
 static void check_closed_box(void)
 {
     fixture fx;
@@ -82,28 +114,13 @@ static void check_closed_box(void)
     double *f = compute(&fx, 16384, 32, 1, &c);
     RAD_CHECK(f != NULL);
     if (!f) return;
-    double weighted = 0, area = 0, worst_row = 0, worst_recip = 0, largest = 0;
-    int negative = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        double row = 0, ai = fx.mesh.patches[i].area;
-        for (uint32_t j = 0; j < n; j++) {
-            double aj = fx.mesh.patches[j].area;
-            row += f[i * n + j];
-            negative += f[i * n + j] < 0;
-            largest = fmax(largest, ai * f[i * n + j]);
-            worst_recip = fmax(worst_recip, fabs(ai * f[i * n + j] - aj * f[j * n + i]));
-        }
-        weighted += ai * row;
-        area += ai;
-        worst_row = fmax(worst_row, fabs(row - 1));
-        RAD_CHECK(f[i * n + i] == 0);
-    }
+    closure m = measure_closure(&fx, f);
     fprintf(stderr, "closed box, 24 patches, K=16384: mean row sum %.5f, worst row |sum-1| %.4f, reciprocity %.2e\n",
-            weighted / area, worst_row, worst_recip / largest);
-    RAD_CHECK(negative == 0);
-    RAD_CHECK_NEAR(weighted / area, 1.0, 0.01);
-    RAD_CHECK(worst_row < 0.10);
-    RAD_CHECK(worst_recip <= 1e-12 * largest);
+            m.mean_row, m.worst_row, m.reciprocity);
+    RAD_CHECK(m.negative == 0);
+    RAD_CHECK_NEAR(m.mean_row, 1.0, 0.01);
+    RAD_CHECK(m.worst_row < 0.10);
+    RAD_CHECK(m.reciprocity <= 1e-12);
     /* A convex room occludes nothing: culling casts no ray at all. */
     RAD_CHECK(c.rays == 0 && c.rays_saved > 0 && c.pairs_open_scene > 0);
     /* Coplanar patches (same wall) never exchange light and cost no samples. */
@@ -120,28 +137,16 @@ static void check_near_closed_box(void)
 {
     fixture fx;
     RAD_CHECK(fixture_load(&fx, NULL, RAD_SCENES "/closed_box.obj", 2));
-    uint32_t n = (uint32_t)fx.mesh.patch_count;
     ff_counters c = {0};
     double *f = compute_estimator(&ff_backend_cpu, &fx, 512, 32, 1, RAD_ESTIMATOR_AUTO, &c);
     RAD_CHECK(f != NULL);
     if (!f) return;
-    double worst = 0, weighted = 0, area = 0, recip = 0, largest = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        double row = 0, ai = fx.mesh.patches[i].area;
-        for (uint32_t j = 0; j < n; j++) {
-            row += f[i * n + j];
-            largest = fmax(largest, ai * f[i * n + j]);
-            recip = fmax(recip, fabs(ai * f[i * n + j] - fx.mesh.patches[j].area * f[j * n + i]));
-        }
-        worst = fmax(worst, fabs(row - 1));
-        weighted += ai * row;
-        area += ai;
-    }
-    fprintf(stderr, "closed box, 96 patches, auto at K=512: worst row |sum-1| %.4f, mean %.5f, %llu near pairs\n", worst,
-            weighted / area, (unsigned long long)c.pairs_near);
-    RAD_CHECK(worst < 0.06);
-    RAD_CHECK_NEAR(weighted / area, 1.0, 0.01);
-    RAD_CHECK(recip <= 1e-12 * largest);
+    closure m = measure_closure(&fx, f);
+    fprintf(stderr, "closed box, 96 patches, auto at K=512: worst row |sum-1| %.4f, mean %.5f, %llu near pairs\n",
+            m.worst_row, m.mean_row, (unsigned long long)c.pairs_near);
+    RAD_CHECK(m.worst_row < 0.06);
+    RAD_CHECK_NEAR(m.mean_row, 1.0, 0.01);
+    RAD_CHECK(m.reciprocity <= 1e-12 && m.negative == 0);
     RAD_CHECK(c.pairs_near > 0 && c.pairs_near < c.pairs - c.pairs_culled);
     free(f);
     fixture_free(&fx);
