@@ -60,9 +60,9 @@ typedef struct ff_counters {
     uint64_t samples;        /* point pairs evaluated */
     uint64_t rays;           /* shadow rays traced */
     uint64_t rays_occluded;  /* of those, blocked */
-    double kernel_seconds;   /* time sampling points and evaluating the kernel
-                                (CUDA: the whole kernel, shadow rays included) */
-    double visibility_seconds; /* time tracing shadow rays (CPU backend) */
+    double kernel_seconds;   /* time sampling points and evaluating the kernel */
+    double visibility_seconds; /* time tracing shadow rays (CUDA: the kernels' time split by
+                                  the warps' clock cycles spent on each part) */
     double memory_seconds;   /* CUDA: device allocation and transfers */
 } ff_counters;
 
