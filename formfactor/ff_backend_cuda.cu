@@ -293,6 +293,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     rad_status status = RAD_OK;
     size_t need = (size_t)row_count * su->patch_count;
     unsigned long long counts[C_COUNT] = {0};
+    double ray_share = 0.0;
     float kernel_ms = 0;
     uint32_t pair_counts[2] = {0, 0};
     cuda_params p;
@@ -372,7 +373,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     counters->pairs_open_box += counts[C_OPEN_BOX];
     counters->rays_saved += counts[C_SAVED];
     /* Kernel time split by where the warps spent their cycles. */
-    double ray_share = counts[C_CYCLES] ? (double)counts[C_RAY_CYCLES] / (double)counts[C_CYCLES] : 0.0;
+    ray_share = counts[C_CYCLES] ? (double)counts[C_RAY_CYCLES] / (double)counts[C_CYCLES] : 0.0;
     counters->kernel_seconds += kernel_ms * 1e-3 * (1.0 - ray_share);
     counters->visibility_seconds += kernel_ms * 1e-3 * ray_share;
     if (su->progress) su->progress(su->progress_user, row_count);
