@@ -38,7 +38,7 @@ if [ "${CULL:-0}" = 1 ]; then   # occlusion culling on and off (issue 7)
     set -- $case; name=cull_$1_$3
     for c in all none; do
       "$ff" scenes/$1.obj "${@:2}" --backend cuda --cull $c -q -o /tmp/ff_$c --stats "$out/${name}_$c.json"
-      echo "$name cull=$c: $(grep -o '"form_factors": [0-9.]*' "$out/${name}_$c.json" | head -1) $(grep -o '"rays": [0-9]*, "rays_occluded": [0-9]*, "pairs_open_scene": [0-9]*, "pairs_open_box": [0-9]*, "rays_saved": [0-9]*' "$out/${name}_$c.json" | head -1)"
+      echo "$name cull=$c: $(grep -o '"form_factors": [0-9.]*, "visibility": [0-9.]*' "$out/${name}_$c.json" | head -1) $(grep -o '"rays": [0-9]*, "rays_occluded": [0-9]*, "pairs_open_scene": [0-9]*, "pairs_open_box": [0-9]*, "rays_saved": [0-9]*' "$out/${name}_$c.json" | head -1)"
     done
     cmp /tmp/ff_all /tmp/ff_none && echo "$name: identical with and without culling" || echo "$name: DIFFER"
   done
