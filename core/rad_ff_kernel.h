@@ -41,8 +41,9 @@
 
 typedef enum rad_estimator_id {
     RAD_ESTIMATOR_MC = 1,  /* uniform area-sampled point pairs, kernel-weighted visibility */
-    RAD_ESTIMATOR_AUTO = 2 /* MC for far pairs, the near-field contour estimator for near ones
-                              (rad_ff_kernel.h) */
+    RAD_ESTIMATOR_AUTO = 2, /* MC for far pairs, the near-field contour estimator for near ones
+                               (rad_ff_kernel.h) */
+    RAD_ESTIMATOR_QMC = 3   /* point pairs from a randomly shifted Halton sequence, everywhere */
 } rad_estimator_id;
 
 /* A patch as the estimators need it: flat, no pointers. */
@@ -94,6 +95,57 @@ static inline RAD_HD void rad_ff_sample_pair(const rad_ff_patch *pi, const rad_f
     double ub1 = rad_u01(r.v[2]), ub2 = rad_u01(r.v[3]);
     *x = rad_ff_sample_point(pi, lower ? ua1 : ub1, lower ? ua2 : ub2);
     *y = rad_ff_sample_point(pj, lower ? ub1 : ua1, lower ? ub2 : ua2);
+}
+
+/* Radical inverse of k in a small prime base: the k-th Halton coordinate. */
+static inline RAD_HD double rad_radical_inverse(uint32_t k, uint32_t base)
+{
+    double inv = 1.0 / base, f = inv, r = 0.0;
+    while (k > 0) {
+        r += (double)(k % base) * f;
+        k /= base;
+        f *= inv;
+    }
+    return r;
+}
+
+/* x mod 1 for x in [0, 2). */
+static inline RAD_HD double rad_wrap01(double x) { return x >= 1.0 ? x - 1.0 : x; }
+
+/* Sample k of pair (i, j) from the 4-D Halton sequence (bases 2, 3 for the
+ * lower-numbered patch, 5, 7 for the other), shifted by a random vector
+ * drawn once per unordered pair (Cranley-Patterson rotation): every point
+ * is still uniform, so the estimate stays unbiased, while the points of one
+ * pair spread evenly, so the error falls faster than 1/sqrt(K) for smooth
+ * integrands. Keyed like the MC points, so rows i and j share them. */
+static inline RAD_HD void rad_ff_sample_pair_qmc(const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j,
+                                                uint32_t k, uint64_t seed, rad_vec3 *x, rad_vec3 *y)
+{
+    rad_u32x4 ctr;
+    ctr.v[0] = i < j ? i : j;
+    ctr.v[1] = i < j ? j : i;
+    ctr.v[2] = 0xFFFFFFFFu; /* a counter no MC sample uses */
+    ctr.v[3] = 1;
+    rad_u32x4 r = rad_philox4x32(ctr, (uint32_t)seed, (uint32_t)(seed >> 32));
+    uint32_t index = k + 1; /* index 0 is the all-zero point */
+    double ua1 = rad_wrap01(rad_radical_inverse(index, 2) + rad_u01(r.v[0]));
+    double ua2 = rad_wrap01(rad_radical_inverse(index, 3) + rad_u01(r.v[1]));
+    double ub1 = rad_wrap01(rad_radical_inverse(index, 5) + rad_u01(r.v[2]));
+    double ub2 = rad_wrap01(rad_radical_inverse(index, 7) + rad_u01(r.v[3]));
+    int lower = i < j;
+    *x = rad_ff_sample_point(pi, lower ? ua1 : ub1, lower ? ua2 : ub2);
+    *y = rad_ff_sample_point(pj, lower ? ub1 : ua1, lower ? ub2 : ua2);
+}
+
+/* The point pair of sample k for the estimator's sequence. */
+static inline RAD_HD void rad_ff_pair_points(uint32_t estimator, const rad_ff_patch *pi, const rad_ff_patch *pj,
+                                             uint32_t i, uint32_t j, uint32_t k, uint64_t seed, rad_vec3 *x,
+                                             rad_vec3 *y)
+{
+    if (estimator == RAD_ESTIMATOR_QMC)
+        rad_ff_sample_pair_qmc(pi, pj, i, j, k, seed, x, y);
+    else
+        rad_ff_sample_pair(pi, pj, i, j, k, seed, x, y);
 }
 
 /* G(x, y) = cos_i cos_j / (pi r^2), zero for back-facing directions. */

@@ -141,12 +141,12 @@ static void cpu_destroy(void *state)
  * plain loop over independent samples (the shared kernel is branch-free);
  * the caller sums g in order, so the result does not depend on how the
  * compiler schedules it. */
-static void kernel_samples(const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j, uint32_t count,
-                           uint64_t seed, double *restrict g)
+static void kernel_samples(uint32_t estimator, const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j,
+                           uint32_t count, uint64_t seed, double *restrict g)
 {
     for (uint32_t k = 0; k < count; k++) {
         rad_vec3 x, y;
-        rad_ff_sample_pair(pi, pj, i, j, k, seed, &x, &y);
+        rad_ff_pair_points(estimator, pi, pj, i, j, k, seed, &x, &y);
         g[k] = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
     }
 }
@@ -184,14 +184,17 @@ static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j
         if (near)
             near_samples(pi, pj, i, j, K, su->seed, sc->g);
         else
-            kernel_samples(pi, pj, i, j, K, su->seed, sc->g);
+            kernel_samples(su->estimator, pi, pj, i, j, K, su->seed, sc->g);
         double sum = 0;
         for (uint32_t k = 0; k < K; k++) sum += sc->g[k];
         /* The first R point pairs carry shadow rays: keep them and their weights. */
         uint32_t rays = R < K ? R : K;
         for (uint32_t k = 0; k < rays; k++) {
             rad_vec3 x, y;
-            rad_ff_sample_pair(pi, pj, i, j, k, su->seed, &x, &y);
+            if (near)
+                rad_ff_sample_pair(pi, pj, i, j, k, su->seed, &x, &y);
+            else
+                rad_ff_pair_points(su->estimator, pi, pj, i, j, k, su->seed, &x, &y);
             if (i > j) { /* trace from the lower-numbered patch: rows i and j test one segment */
                 rad_vec3 t = x;
                 x = y;

@@ -145,7 +145,7 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
             if (NEAR) {
                 g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
             } else {
-                rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
+                rad_ff_pair_points(p.estimator, pi, pj, i, j, k, p.seed, &x, &y);
                 g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
             }
             sum += g;
@@ -179,7 +179,7 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
                     if (NEAR) {
                         g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
                     } else {
-                        rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
+                        rad_ff_pair_points(p.estimator, pi, pj, i, j, k, p.seed, &x, &y);
                         g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
                     }
                 }

@@ -66,9 +66,10 @@ static void print_help(void)
            "      --shadow-rays R      of those, pairs that carry a shadow ray (default: 32;\n"
            "                           0 = no occlusion)\n"
            "      --seed N             random seed (default: 1); same seed, same bytes\n"
-           "      --estimator E        auto | mc (default: auto: pairs closer than twice their\n"
-           "                           radii use the contour-integral near-field estimator with\n"
-           "                           K/8 samples; mc: point pairs everywhere, as the paper)\n"
+           "      --estimator E        auto | mc | qmc (default: auto: pairs closer than twice\n"
+           "                           their radii use the contour-integral near-field estimator\n"
+           "                           with K/8 samples; mc: random point pairs everywhere, as\n"
+           "                           the paper; qmc: shifted-Halton point pairs everywhere)\n"
            "      --backend B          auto | cpu | cuda (default: auto)\n"
            "      --element T          f64 | f32 matrix element type (default: f64)\n"
            "      --format F           native | paper (paper: int32 N + N*N float64 only)\n"
@@ -145,7 +146,8 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         case O_ESTIMATOR:
             if (!strcmp(optarg, "auto")) o->estimator = RAD_ESTIMATOR_AUTO;
             else if (!strcmp(optarg, "mc")) o->estimator = RAD_ESTIMATOR_MC;
-            else { rad_error("--estimator: expected auto or mc, got '%s'", optarg); st = RAD_ERR_USAGE; }
+            else if (!strcmp(optarg, "qmc")) o->estimator = RAD_ESTIMATOR_QMC;
+            else { rad_error("--estimator: expected auto, mc or qmc, got '%s'", optarg); st = RAD_ERR_USAGE; }
             break;
         case O_CULL:
             if (!strcmp(optarg, "all")) o->cull = 1;
@@ -412,7 +414,9 @@ static rad_status write_stats(ff_run *run, int gpus)
                             .patch_count = (uint32_t)run->mesh.patch_count, .subdiv = run->opt.subdiv,
                             .subdiv_only = run->opt.subdiv_only, .samples = run->opt.samples,
                             .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
-                            .estimator = run->opt.estimator == RAD_ESTIMATOR_AUTO ? "auto" : "mc",
+                            .estimator = run->opt.estimator == RAD_ESTIMATOR_AUTO  ? "auto"
+                                         : run->opt.estimator == RAD_ESTIMATOR_QMC ? "qmc"
+                                                                                   : "mc",
                             .cull = run->opt.cull ? "all" : "none",
                             .backend = run->backend->name,
                             .element = run->opt.element == RAD_ELEMENT_F32 ? "f32" : "f64",
