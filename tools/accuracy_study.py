@@ -123,7 +123,7 @@ def write_markdown(rows):
               "  corner, every object standing on a floor - point pairs sample a 1/r^2 singularity and",
               "  their error barely falls with K (perpendicular: `mc` and `qmc` lines). `auto` integrates",
               "  the near pairs' inner integral in closed form: on the closed box it reaches at equal",
-              "  time an error 5-10x below `mc`, and the gap grows with K.",
+              "  time an error 3-8x below `mc`, and the gap grows with K.",
               "- **`qmc` for scenes without touching patches** (isolated objects, far pairs only): the",
               "  same unbiased point pairs, spread evenly; the error falls faster than 1/sqrt(K), so at",
               "  equal time it is about 2x below `mc` once K >= 256, though each sample costs more.",
