@@ -16,10 +16,10 @@
  * to 1 +- 30% at 512 pairs, occasionally 2. Near pairs (centres closer than
  * RAD_FF_NEAR_FACTOR times the sum of their radii) therefore use the
  * near-field estimator: the inner integral over one patch in closed form
- * (Lambert's contour integral, rad_ff_point_polygon), averaged over K/8
- * points of the other, symmetrically from both sides:
+ * (Lambert's contour integral, rad_ff_point_polygon), averaged over K/4
+ * points of the smaller patch s:
  *
- *     A_i F_ij ~= (1/K') sum_k (A_a F(x_k -> P_b) + A_b F(y_k -> P_a)) / 2,
+ *     A_i F_ij = A_j F_ji ~= (A_s / K') sum_k F(x_k -> P_other),
  *
  * bounded and smooth, so K' = K / RAD_FF_NEAR_DIVISOR samples suffice and
  * the pair costs about what K plain samples cost. Shadow rays then weigh
@@ -174,7 +174,7 @@ static inline RAD_HD int rad_ff_pair_facing(const rad_ff_patch *pi, const rad_ff
 
 /* Near-field rule and sample budget (see the top of this file). */
 #define RAD_FF_NEAR_FACTOR 2.0
-#define RAD_FF_NEAR_DIVISOR 8u
+#define RAD_FF_NEAR_DIVISOR 4u
 #define RAD_FF_NEAR_MIN_SAMPLES 16u
 
 static inline RAD_HD int rad_ff_pair_near(const rad_ff_patch *a, const rad_ff_patch *b)
@@ -219,16 +219,21 @@ static inline RAD_HD double rad_ff_point_polygon(rad_vec3 x, rad_vec3 n, const r
     return fabs(sum) / (2.0 * RAD_PI);
 }
 
-/* Near-field sample k of pair (i, j): the symmetric term
- * (A_i F(x -> P_j) + A_j F(y -> P_i)) / 2, the same number from row i and
- * from row j; x on i and y on j are the sample's point pair. */
+/* Near-field sample k of pair (i, j): A_s F(x_k -> P_o), the form factor
+ * from a point x_k of the smaller patch s (the lower-numbered one on a tie)
+ * to the whole other patch o, times A_s - an estimate of A_i F_ij = A_j F_ji
+ * that rows i and j compute alike. From the smaller patch because there the
+ * point factor is smooth and bounded: from the larger one it peaks where the
+ * patches meet (a thin strip beside a tall wall: a sliver of the wall sees
+ * the strip at all), and a handful of samples misses the peak. x on i and
+ * y on j are the sample's point pair (for its shadow ray). */
 static inline RAD_HD double rad_ff_near_sample(const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j,
                                                uint32_t k, uint64_t seed, rad_vec3 *x, rad_vec3 *y)
 {
     rad_ff_sample_pair(pi, pj, i, j, k, seed, x, y);
-    double from_i = pi->area * rad_ff_point_polygon(*x, pi->normal, pj);
-    double from_j = pj->area * rad_ff_point_polygon(*y, pj->normal, pi);
-    return 0.5 * (from_i + from_j); /* commutative: rows i and j get the same bits */
+    int from_i = pi->area < pj->area || (pi->area == pj->area && i < j);
+    return from_i ? pi->area * rad_ff_point_polygon(*x, pi->normal, pj)
+                  : pj->area * rad_ff_point_polygon(*y, pj->normal, pi);
 }
 
 #endif

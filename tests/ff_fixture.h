@@ -93,7 +93,7 @@ static double *compute_estimator(const ff_backend *backend, const fixture *fx, u
 }
 
 /* The plain point-pair estimator (the paper's, corrected). */
-static double *compute_with(const ff_backend *backend, const fixture *fx, uint32_t samples, uint32_t rays,
+static inline double *compute_with(const ff_backend *backend, const fixture *fx, uint32_t samples, uint32_t rays,
                             uint64_t seed, ff_counters *counters)
 {
     return compute_estimator(backend, fx, samples, rays, seed, RAD_ESTIMATOR_MC, counters);
