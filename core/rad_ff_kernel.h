@@ -16,10 +16,11 @@
  * to 1 +- 30% at 512 pairs, occasionally 2. Near pairs (centres closer than
  * RAD_FF_NEAR_FACTOR times the sum of their radii) therefore use the
  * near-field estimator: the inner integral over one patch in closed form
- * (Lambert's contour integral, rad_ff_point_polygon), averaged over K/4
- * points of the smaller patch s:
+ * (Lambert's contour integral, rad_ff_point_polygon), from both sides,
+ * weighted towards the smaller patch, over K/8 point pairs (see
+ * rad_ff_near_sample):
  *
- *     A_i F_ij = A_j F_ji ~= (A_s / K') sum_k F(x_k -> P_other),
+ *     A_i F_ij = A_j F_ji ~= (1/K') sum_k A_i A_j / (A_i + A_j) (F(x_k -> P_j) + F(y_k -> P_i)),
  *
  * bounded and smooth, so K' = K / RAD_FF_NEAR_DIVISOR samples suffice and
  * the pair costs about what K plain samples cost. Shadow rays then weigh
@@ -174,7 +175,7 @@ static inline RAD_HD int rad_ff_pair_facing(const rad_ff_patch *pi, const rad_ff
 
 /* Near-field rule and sample budget (see the top of this file). */
 #define RAD_FF_NEAR_FACTOR 2.0
-#define RAD_FF_NEAR_DIVISOR 4u
+#define RAD_FF_NEAR_DIVISOR 8u
 #define RAD_FF_NEAR_MIN_SAMPLES 16u
 
 static inline RAD_HD int rad_ff_pair_near(const rad_ff_patch *a, const rad_ff_patch *b)
@@ -219,21 +220,25 @@ static inline RAD_HD double rad_ff_point_polygon(rad_vec3 x, rad_vec3 n, const r
     return fabs(sum) / (2.0 * RAD_PI);
 }
 
-/* Near-field sample k of pair (i, j): A_s F(x_k -> P_o), the form factor
- * from a point x_k of the smaller patch s (the lower-numbered one on a tie)
- * to the whole other patch o, times A_s - an estimate of A_i F_ij = A_j F_ji
- * that rows i and j compute alike. From the smaller patch because there the
- * point factor is smooth and bounded: from the larger one it peaks where the
- * patches meet (a thin strip beside a tall wall: a sliver of the wall sees
- * the strip at all), and a handful of samples misses the peak. x on i and
- * y on j are the sample's point pair (for its shadow ray). */
+/* Near-field sample k of pair (i, j): an estimate of A_i F_ij = A_j F_ji
+ * from the point factors of both sides, weighted towards the smaller patch:
+ *
+ *     S_k = A_i A_j / (A_i + A_j) * (F(x_k -> P_j) + F(y_k -> P_i))
+ *
+ * (unbiased: the two expectations are F_ij and F_ji = A_i F_ij / A_j).
+ * Equal areas give the plain two-sided average, which cancels much of each
+ * side's variance; very unequal ones lean on the smaller patch, where the
+ * point factor is smooth - from the larger one it peaks where the patches
+ * meet (a thin strip beside a tall wall), and that side's term then weighs
+ * A_small / (A_i + A_j) of its already small share. Symmetric in (i, j), so
+ * rows i and j get the same bits. x on i and y on j are the sample's point
+ * pair (for its shadow ray). */
 static inline RAD_HD double rad_ff_near_sample(const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j,
                                                uint32_t k, uint64_t seed, rad_vec3 *x, rad_vec3 *y)
 {
     rad_ff_sample_pair(pi, pj, i, j, k, seed, x, y);
-    int from_i = pi->area < pj->area || (pi->area == pj->area && i < j);
-    return from_i ? pi->area * rad_ff_point_polygon(*x, pi->normal, pj)
-                  : pj->area * rad_ff_point_polygon(*y, pj->normal, pi);
+    double weight = pi->area * pj->area / (pi->area + pj->area);
+    return weight * (rad_ff_point_polygon(*x, pi->normal, pj) + rad_ff_point_polygon(*y, pj->normal, pi));
 }
 
 #endif

@@ -68,7 +68,7 @@ static void print_help(void)
            "      --seed N             random seed (default: 1); same seed, same bytes\n"
            "      --estimator E        auto | mc | qmc (default: auto: pairs closer than twice\n"
            "                           their radii use the contour-integral near-field estimator\n"
-           "                           with K/4 samples; mc: random point pairs everywhere, as\n"
+           "                           with K/8 samples; mc: random point pairs everywhere, as\n"
            "                           the paper; qmc: shifted-Halton point pairs everywhere)\n"
            "      --backend B          auto | cpu | cuda (default: auto)\n"
            "      --element T          f64 | f32 matrix element type (default: f64)\n"
