@@ -107,7 +107,9 @@ rad_status ff_bvh_build(const float *triangles, const uint32_t *triangle_face, u
     /* A binary tree over T leaves of >= 1 triangle has < T inner nodes. */
     bvh.nodes = malloc(sizeof *bvh.nodes * (triangle_count ? triangle_count : 1));
     bvh.tris = malloc(sizeof *bvh.tris * (triangle_count ? triangle_count : 1));
-    prims = malloc(sizeof *prims * (triangle_count ? triangle_count : 1));
+    /* RTCBuildPrimitive is a 32-byte aligned type: malloc's 16 is not enough. */
+    size_t prim_bytes = sizeof *prims * (triangle_count ? triangle_count : 1);
+    prims = aligned_alloc(32, (prim_bytes + 31) / 32 * 32);
     if (!bvh.nodes || !bvh.tris || !prims) {
         rad_error("out of memory for a BVH over %u triangles", triangle_count);
         status = RAD_ERR_NOMEM;
