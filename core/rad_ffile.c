@@ -43,6 +43,10 @@ enum {
 
 /* Largest N the format allows: patch indices are uint32 in the mesh. */
 #define RAD_FF_MAX_PATCHES (UINT64_C(1) << 31)
+/* Largest matrix a reader believes in (1 EiB, more than any file system
+ * holds). It also keeps the layout's arithmetic far from 64-bit overflow:
+ * at N = 2^31, N^2 float64 would be 2^65 bytes and wrap around. */
+#define RAD_FF_MAX_MATRIX_BYTES (UINT64_C(1) << 60)
 
 rad_ff_layout rad_ff_layout_of(const rad_ff_info *info)
 {
@@ -223,6 +227,8 @@ static rad_status validate_patches(const char *path, const rad_mesh *mesh)
             why = "area is not positive and finite";
         else if (!(fabs(nlen - 1) < 1e-6))
             why = "normal is not a unit vector";
+        else if (!isfinite(p->centroid.x) || !isfinite(p->centroid.y) || !isfinite(p->centroid.z))
+            why = "centroid is not finite"; /* else solve would write a radiosity file render refuses */
         for (uint32_t k = 0; !why && k < p->vertex_count; k++)
             if (p->v[k] >= mesh->vertex_count) why = "vertex index out of range";
         for (int c = 0; !why && c < 3; c++) {
@@ -291,6 +297,13 @@ static rad_status check_header(const char *path, const unsigned char *h, uint64_
         info->vertex_count > 4 * RAD_FF_MAX_PATCHES) {
         rad_error("%s: implausible sizes (N = %llu, %llu vertices)", path, (unsigned long long)info->patch_count,
                   (unsigned long long)info->vertex_count);
+        return RAD_ERR_FORMAT;
+    }
+    uint64_t element_bytes = info->element_type == RAD_ELEMENT_F32 ? 4 : 8;
+    if (info->patch_count * info->patch_count > RAD_FF_MAX_MATRIX_BYTES / element_bytes) {
+        rad_error("%s: implausible sizes (N = %llu: the matrix alone would be %.3g bytes)", path,
+                  (unsigned long long)info->patch_count,
+                  (double)info->patch_count * (double)info->patch_count * (double)element_bytes);
         return RAD_ERR_FORMAT;
     }
     *layout = rad_ff_layout_of(info);

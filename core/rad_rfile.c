@@ -296,7 +296,8 @@ static rad_status check_patch(const char *path, size_t i, const rad_patch *p, si
     double nlen = rad_v3_length(p->normal);
     if (!(isfinite(p->area) && p->area > 0) || !(fabs(nlen - 1) <= RF_NORMAL_TOLERANCE) ||
         !isfinite(rad_v3_length(p->centroid))) {
-        rad_error("%s: patch %zu: bad geometry (area %g, normal length %g)", path, i, p->area, nlen);
+        rad_error("%s: patch %zu: bad geometry (area %g, normal length %g, centroid %g %g %g)", path, i, p->area,
+                  nlen, p->centroid.x, p->centroid.y, p->centroid.z);
         return RAD_ERR_INVALID;
     }
     for (int c = 0; c < 3; c++) {

@@ -48,7 +48,38 @@ std::vector<unsigned char> quantize_8bit(const float *rgb, size_t count)
     return bytes;
 }
 
-// Opens, writes and closes `temp`; returns RAD_OK or a logged status.
+// Reads `temp` back. OpenImageIO's PNG writer does not report a failed
+// write: on a full disk it gave a 0-byte file and success, which would then
+// have been renamed over a good image. So a written file is trusted only
+// once it decodes to the size written and, for PNG, to the very bytes
+// written (`png_bytes`; NULL for EXR, whose decoding is checked).
+rad_status verify_temp(const char *path, const char *temp, int width, int height, const unsigned char *png_bytes)
+{
+    using namespace OIIO;
+    std::unique_ptr<ImageInput> in = ImageInput::open(temp);
+    if (!in) {
+        rad_error("%s: the written file does not read back (disk full?): %s", path, OIIO::geterror().c_str());
+        return RAD_ERR_IO;
+    }
+    const ImageSpec &spec = in->spec();
+    bool ok = spec.width == width && spec.height == height && spec.nchannels == 3;
+    const size_t row_values = 3 * static_cast<size_t>(width);
+    std::vector<unsigned char> row(row_values * (png_bytes ? 1 : 2));
+    for (int y = 0; ok && y < height; y++) {
+        ok = in->read_scanline(y, 0, png_bytes ? TypeDesc::UINT8 : TypeDesc::HALF, row.data());
+        if (ok && png_bytes) ok = std::memcmp(row.data(), png_bytes + row_values * static_cast<size_t>(y), row_values) == 0;
+    }
+    std::string why = ok ? std::string() : in->geterror();
+    in->close();
+    if (!ok) {
+        rad_error("%s: the written file does not read back as written (disk full?)%s%s", path, why.empty() ? "" : ": ",
+                  why.c_str());
+        return RAD_ERR_IO;
+    }
+    return RAD_OK;
+}
+
+// Opens, writes, closes and verifies `temp`; returns RAD_OK or a logged status.
 rad_status write_temp(const char *path, const char *temp, render_image_format format, const float *rgb, int width,
                       int height, const render_image_attr *attrs, size_t attr_count)
 {
@@ -71,8 +102,9 @@ rad_status write_temp(const char *path, const char *temp, render_image_format fo
     }
     const size_t count = 3 * static_cast<size_t>(width) * static_cast<size_t>(height);
     bool ok;
+    std::vector<unsigned char> bytes;
     if (png) {
-        std::vector<unsigned char> bytes = quantize_8bit(rgb, count);
+        bytes = quantize_8bit(rgb, count);
         ok = out->write_image(TypeDesc::UINT8, bytes.data());
     } else {
         ok = out->write_image(TypeDesc::FLOAT, rgb);
@@ -86,7 +118,7 @@ rad_status write_temp(const char *path, const char *temp, render_image_format fo
         rad_error("%s: cannot write: %s", path, why.empty() ? "unknown OpenImageIO error" : why.c_str());
         return RAD_ERR_IO;
     }
-    return RAD_OK;
+    return verify_temp(path, temp, width, height, png ? bytes.data() : nullptr);
 }
 
 } // namespace

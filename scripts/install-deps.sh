@@ -2,8 +2,11 @@
 # Installs the Debian packages radiosity builds and tests with (bookworm).
 # Runs apt-get only for what is missing; uses sudo when not root.
 set -euo pipefail
+# clang and libclang-rt-14-dev: libFuzzer and its sanitizer runtimes for the
+# fuzz smoke run of scripts/test.sh (docs/reliability.md).
 packages=(build-essential cmake pkg-config libopenmpi-dev openmpi-bin libembree-dev
-          libopenimageio-dev openimageio-tools python3-numpy python3-matplotlib)
+          libopenimageio-dev openimageio-tools python3-numpy python3-matplotlib
+          clang libclang-rt-14-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

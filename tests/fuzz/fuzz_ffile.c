@@ -40,7 +40,17 @@ static void read_back(const char *path)
         FUZZ_REQUIRE(p->vertex_count == 3 || p->vertex_count == 4);
         for (uint32_t k = 0; k < p->vertex_count; k++) FUZZ_REQUIRE(p->v[k] < mesh->vertex_count);
         FUZZ_REQUIRE(p->area > 0 && isfinite(p->area));
+        /* What solve copies into the radiosity file must pass render's
+         * reader (rad_rf_read's patch checks), or solve would write a file
+         * that render refuses. */
+        FUZZ_REQUIRE(fabs(rad_v3_length(p->normal) - 1) <= 1e-6);
+        FUZZ_REQUIRE(isfinite(rad_v3_length(p->centroid)));
+        for (int c = 0; c < 3; c++) {
+            FUZZ_REQUIRE(p->rho[c] >= 0 && p->rho[c] < 1);
+            FUZZ_REQUIRE(p->emission[c] >= 0 && isfinite(p->emission[c]));
+        }
     }
+    for (size_t i = 0; i < 3 * mesh->vertex_count; i++) FUZZ_REQUIRE(isfinite(mesh->positions[i]));
     uint64_t block = n < FUZZ_ROWS_AT_ONCE ? n : FUZZ_ROWS_AT_ONCE;
     double *rows = malloc(block * n * sizeof *rows);
     for (uint64_t r = 0; rows && r < n; r += block) {

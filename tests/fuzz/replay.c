@@ -94,7 +94,7 @@ int main(int argc, char **argv)
             snprintf(names[count++], len, "%s/%s", argv[a], e->d_name);
         }
         closedir(dir);
-        qsort(names, count, sizeof *names, by_name);
+        if (count) qsort(names, count, sizeof *names, by_name);
         for (size_t i = 0; i < count; i++) {
             if (stat(names[i], &st) == 0 && S_ISREG(st.st_mode)) {
                 failures += run_file(names[i]);
