@@ -117,9 +117,12 @@ static rad_status cpu_create(const ff_setup *setup, void **out_state)
     }
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE) {
         rad_error("embree: building the occluder BVH failed");
+        /* The scene and device are deliberately not released: after a failed
+         * commit (seen: pthread_create failing under `ulimit -v`), releasing
+         * them makes TBB abort the process ("wait() was not called on the
+         * structured_task_group"), which would turn a clean error into a
+         * crash. The caller exits on this error; the OS reclaims them. */
         ff_bvh_free(&s->bvh);
-        rtcReleaseScene(s->scene);
-        rtcReleaseDevice(s->device);
         free(s);
         return RAD_ERR_BACKEND;
     }
