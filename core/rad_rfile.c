@@ -283,7 +283,27 @@ static rad_status check_header(const char *path, const unsigned char *b, size_t 
     return RAD_OK;
 }
 
-static rad_status check_patch(const char *path, size_t i, const rad_patch *p, size_t vertex_count)
+/* The area centroid of a planar convex patch lies inside it, so inside
+ * the bounding box of its vertices up to rounding. The same test is in
+ * rad_ffile.c, so that solve never writes a file this reader refuses. */
+static int centroid_inside(const rad_patch *p, const double *positions)
+{
+    const double c[3] = {p->centroid.x, p->centroid.y, p->centroid.z};
+    for (int a = 0; a < 3; a++) {
+        double lo = INFINITY, hi = -INFINITY;
+        for (uint32_t k = 0; k < p->vertex_count; k++) {
+            double x = positions[3 * (size_t)p->v[k] + a];
+            lo = fmin(lo, x), hi = fmax(hi, x);
+        }
+        double slack = 1e-9 * fmax(hi - lo, fmax(fabs(lo), fabs(hi)));
+        if (!(c[a] >= lo - slack && c[a] <= hi + slack)) return 0;
+    }
+    return 1;
+}
+
+/* `positions` (finite, checked before) are the mesh's vertices. */
+static rad_status check_patch(const char *path, size_t i, const rad_patch *p, const double *positions,
+                              size_t vertex_count)
 {
     int ok = (p->vertex_count == 3 || p->vertex_count == 4);
     for (uint32_t k = 0; ok && k < p->vertex_count; k++) ok = p->v[k] < vertex_count;
@@ -295,7 +315,7 @@ static rad_status check_patch(const char *path, size_t i, const rad_patch *p, si
     }
     double nlen = rad_v3_length(p->normal);
     if (!(isfinite(p->area) && p->area > 0) || !(fabs(nlen - 1) <= RF_NORMAL_TOLERANCE) ||
-        !isfinite(rad_v3_length(p->centroid))) {
+        !centroid_inside(p, positions)) {
         rad_error("%s: patch %zu: bad geometry (area %g, normal length %g, centroid %g %g %g)", path, i, p->area,
                   nlen, p->centroid.x, p->centroid.y, p->centroid.z);
         return RAD_ERR_INVALID;
@@ -322,7 +342,7 @@ static rad_status decode_body(const char *path, const unsigned char *b, const rf
     }
     for (size_t i = 0; i < mesh->patch_count; i++) {
         decode_patch(b + l->patch_offset + RAD_RF_PATCH_BYTES * i, &mesh->patches[i]);
-        rad_status status = check_patch(path, i, &mesh->patches[i], mesh->vertex_count);
+        rad_status status = check_patch(path, i, &mesh->patches[i], mesh->positions, mesh->vertex_count);
         if (status != RAD_OK) return status;
     }
     for (size_t i = 0; i < 3 * mesh->patch_count; i++) {

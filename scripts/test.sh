@@ -47,7 +47,9 @@ if [[ " $passes " == *" fuzz "* ]]; then
     cmake --build "$fuzz" -j"$jobs" --target fuzz_scene fuzz_ffile fuzz_rfile
     # Fresh corpora each time (seeds from this build), one target at a time.
     rm -rf "$fuzz/fuzz-work"
-    tests/fuzz/run_fuzz.sh "$fuzz" "${RAD_FUZZ_SECONDS:-20}" "$build"
+    # Repeatable: a fixed number of executions from a fixed seed (at most
+    # RAD_FUZZ_SECONDS each); long runs without it: docs/reliability.md.
+    RAD_FUZZ_RUNS=${RAD_FUZZ_RUNS:-100000} tests/fuzz/run_fuzz.sh "$fuzz" "${RAD_FUZZ_SECONDS:-60}" "$build"
   else
     echo "test.sh: fuzz smoke run skipped (needs clang and the normal build)"
   fi

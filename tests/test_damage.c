@@ -9,8 +9,8 @@
  * Both formats: a file from the future (version 2, checksums valid) is
  * refused as such; sizes whose layout would overflow 64 bits or need
  * absurd memory are refused before any allocation, even with valid
- * checksums; a NaN centroid (which render's reader refuses) is refused
- * by the form-factor reader already. (test_ffile does truncations and
+ * checksums; a centroid outside its patch (which render's reader
+ * refuses) is refused by the form-factor reader already. (test_ffile does truncations and
  * flips for the form-factor file.)
  */
 #define _FILE_OFFSET_BITS 64
@@ -240,31 +240,36 @@ static void test_form_factor_header_limits(void)
     rad_log_set_sink(NULL, NULL);
 }
 
-/* Found by fuzz_ffile's invariant: the form-factor reader accepted a NaN
- * centroid (valid checksums), solve copied it into the radiosity file and
- * render refused that. The first reader must refuse it. */
-static void test_form_factor_nan_centroid(void)
+/* Found by fuzz_ffile's invariants: the form-factor reader accepted a NaN
+ * centroid, then (once NaN was refused) a centroid of 1e165 - both with
+ * valid checksums; solve copied them into the radiosity file and render's
+ * reader refused that. A centroid must lie inside its patch. */
+static void test_form_factor_bad_centroid(void)
 {
-    rad_patch patches[3];
-    rad_mesh mesh;
-    small_mesh(patches, &mesh);
-    patches[1].centroid.y = NAN;
-    rad_ff_info info = {.patch_count = 3, .vertex_count = 5, .element_type = RAD_ELEMENT_F32,
-                        .estimator = RAD_ESTIMATOR_MC, .samples = 8, .shadow_rays = 0, .seed = 1};
-    const double matrix[9] = {0};
-    const char *path = "test_damage.nan.ff";
-    RAD_CHECK(rad_ff_write_serial(path, &info, &mesh, matrix) == RAD_OK);
-    capture_quietly();
-    RAD_CHECK(ff_open_status(path) == RAD_ERR_FORMAT);
-    RAD_CHECK(rad_test_log_contains("patch 1: centroid is not finite"));
-    rad_log_set_sink(NULL, NULL);
-    remove(path);
+    static const double bad[] = {NAN, 1e165, -0.5, INFINITY};
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        rad_patch patches[3];
+        rad_mesh mesh;
+        small_mesh(patches, &mesh);
+        if (k % 2) patches[1].centroid.z = bad[k];
+        else patches[1].centroid.y = bad[k];
+        rad_ff_info info = {.patch_count = 3, .vertex_count = 5, .element_type = RAD_ELEMENT_F32,
+                            .estimator = RAD_ESTIMATOR_MC, .samples = 8, .shadow_rays = 0, .seed = 1};
+        const double matrix[9] = {0};
+        const char *path = "test_damage.centroid.ff";
+        RAD_CHECK(rad_ff_write_serial(path, &info, &mesh, matrix) == RAD_OK);
+        capture_quietly();
+        RAD_CHECK(ff_open_status(path) == RAD_ERR_FORMAT);
+        RAD_CHECK(rad_test_log_contains("patch 1: centroid is not inside the patch"));
+        rad_log_set_sink(NULL, NULL);
+        remove(path);
+    }
 }
 
 int main(void)
 {
     test_radiosity_damage();
     test_form_factor_header_limits();
-    test_form_factor_nan_centroid();
+    test_form_factor_bad_centroid();
     return rad_test_finish();
 }

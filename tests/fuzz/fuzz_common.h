@@ -19,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "rad_log.h"
@@ -59,6 +60,39 @@ static inline const char *fuzz_memfd_write(const uint8_t *data, size_t size)
         done += (size_t)n;
     }
     return path;
+}
+
+/* "DIR/name" in a directory of this process under /dev/shm (or /tmp):
+ * for writers, which write through a temporary name and a rename. At
+ * most FUZZ_SCRATCH_FILES names; removed with the directory at exit. */
+#define FUZZ_SCRATCH_FILES 4
+static char fuzz_scratch_dir[64], fuzz_scratch_names[FUZZ_SCRATCH_FILES][128];
+
+static void fuzz_scratch_remove(void)
+{
+    for (int i = 0; i < FUZZ_SCRATCH_FILES; i++)
+        if (fuzz_scratch_names[i][0]) remove(fuzz_scratch_names[i]);
+    rmdir(fuzz_scratch_dir);
+}
+
+static inline const char *fuzz_scratch_path(const char *name)
+{
+    if (!fuzz_scratch_dir[0]) {
+        snprintf(fuzz_scratch_dir, sizeof fuzz_scratch_dir, "%s/rad_fuzz.XXXXXX",
+                 access("/dev/shm", W_OK) == 0 ? "/dev/shm" : "/tmp");
+        if (!mkdtemp(fuzz_scratch_dir)) {
+            perror("mkdtemp");
+            abort();
+        }
+        atexit(fuzz_scratch_remove);
+    }
+    char path[128];
+    snprintf(path, sizeof path, "%s/%s", fuzz_scratch_dir, name);
+    for (int i = 0; i < FUZZ_SCRATCH_FILES; i++) {
+        if (!fuzz_scratch_names[i][0]) memcpy(fuzz_scratch_names[i], path, sizeof path);
+        if (strcmp(fuzz_scratch_names[i], path) == 0) return fuzz_scratch_names[i];
+    }
+    abort(); /* more names than FUZZ_SCRATCH_FILES: a bug in the target */
 }
 
 /* A check that must hold for whatever a reader accepted: a violation is a

@@ -15,7 +15,9 @@
 
 #include <math.h>
 
+#include "rad_ffile.h"
 #include "rad_mesh.h"
+#include "rad_rfile.h"
 #include "rad_scene.h"
 
 typedef struct chunks {
@@ -59,9 +61,35 @@ static void check_patches(const rad_mesh *mesh)
         for (uint32_t k = 0; k < p->vertex_count; k++) FUZZ_REQUIRE(p->v[k] < mesh->vertex_count);
         FUZZ_REQUIRE(p->area > 0 && isfinite(p->area));
         FUZZ_REQUIRE(fabs(rad_v3_length(p->normal) - 1) < 1e-6);
-        FUZZ_REQUIRE(isfinite(rad_v3_length(p->centroid)));
+        FUZZ_REQUIRE(isfinite(p->centroid.x) && isfinite(p->centroid.y) && isfinite(p->centroid.z));
     }
     for (size_t i = 0; i < 3 * mesh->vertex_count; i++) FUZZ_REQUIRE(isfinite(mesh->positions[i]));
+}
+
+/* What formfactor and solve would write from this mesh, their readers must
+ * accept (small meshes only: the matrix is N^2). */
+#define FUZZ_ROUND_TRIP_PATCHES 64
+static void check_round_trip(const rad_mesh *mesh)
+{
+    size_t n = mesh->patch_count;
+    if (n > FUZZ_ROUND_TRIP_PATCHES) return;
+    double *zeros = calloc(n * n > 3 * n ? n * n : 3 * n, sizeof *zeros);
+    if (!zeros) return;
+    rad_ff_info info = {.patch_count = n, .vertex_count = mesh->vertex_count, .element_type = RAD_ELEMENT_F32,
+                        .estimator = RAD_ESTIMATOR_MC, .samples = 1};
+    const char *ff_path = fuzz_scratch_path("scene.ff");
+    FUZZ_REQUIRE(rad_ff_write_serial(ff_path, &info, mesh, zeros) == RAD_OK);
+    rad_ff_file *ff = NULL;
+    FUZZ_REQUIRE(rad_ff_open(ff_path, &ff) == RAD_OK);
+    rad_ff_close(ff);
+    rad_radiosity solved = {.mesh = *mesh, .radiosity = zeros, .channel_count = 3, .method = RAD_SOLVE_JACOBI,
+                            .tolerance = 1e-10};
+    const char *rad_path = fuzz_scratch_path("scene.rad");
+    FUZZ_REQUIRE(rad_rf_write(rad_path, &solved) == RAD_OK);
+    rad_radiosity back;
+    FUZZ_REQUIRE(rad_rf_read(rad_path, &back) == RAD_OK);
+    rad_radiosity_free(&back);
+    free(zeros);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -96,6 +124,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (rad_mesh_build(&scene, &mo, &mesh) == RAD_OK) {
             FUZZ_REQUIRE(mesh.patch_count == rad_mesh_count_patches(&scene, &mo));
             check_patches(&mesh);
+            check_round_trip(&mesh);
             rad_mesh_free(&mesh);
         }
     }

@@ -7,7 +7,9 @@
 # crash artifacts and logs between runs. Prints, per target, executions and
 # seconds from libFuzzer's final stats, and exits 1 if any target found a
 # crash (the input is in WORK_DIR/artifacts: copy it to
-# tests/fuzz/regressions/TARGET/ once fixed).
+# tests/fuzz/regressions/TARGET/ once fixed). RAD_FUZZ_RUNS=N makes a run
+# repeatable: N executions from seed 1 (CI uses it, so that a new finding
+# shows up in a fuzzing session, not as a random CI failure).
 set -u
 build=$1 seconds=$2 bin=$3
 work=${4:-$build/fuzz-work}
@@ -26,7 +28,7 @@ for t in $targets; do
   # -rss_limit_mb / -malloc_limit_mb: an input that makes a reader allocate
   # more than 2 GiB is a finding too (sizes must be checked against the file).
   "$exe" "$work/corpus/$t" "$work/seeds/$t" "$here/regressions/$t" $dict \
-      -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048 -max_len=8192 \
+      -max_total_time="$seconds" ${RAD_FUZZ_RUNS:+-runs=$RAD_FUZZ_RUNS -seed=1} -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048 -max_len=8192 \
       -print_final_stats=1 -artifact_prefix="$work/artifacts/$t-" > "$log" 2>&1
   rc=$?
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
