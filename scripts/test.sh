@@ -49,7 +49,9 @@ if [[ " $passes " == *" fuzz "* ]]; then
     rm -rf "$fuzz/fuzz-work"
     # Repeatable: a fixed number of executions from a fixed seed (at most
     # RAD_FUZZ_SECONDS each); long runs without it: docs/reliability.md.
-    RAD_FUZZ_RUNS=${RAD_FUZZ_RUNS:-100000} tests/fuzz/run_fuzz.sh "$fuzz" "${RAD_FUZZ_SECONDS:-60}" "$build"
+    # Absolute paths: make_corpus.sh changes directory.
+    RAD_FUZZ_RUNS=${RAD_FUZZ_RUNS:-100000} tests/fuzz/run_fuzz.sh "$(cd "$fuzz" && pwd)" "${RAD_FUZZ_SECONDS:-60}" \
+      "$(cd "$build" && pwd)"
   else
     echo "test.sh: fuzz smoke run skipped (needs clang and the normal build)"
   fi
