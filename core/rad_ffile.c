@@ -213,24 +213,6 @@ struct rad_ff_file {
     unsigned char *row_buffer;
 };
 
-/* The area centroid of a planar convex patch lies inside it, so inside
- * the bounding box of its vertices up to rounding. (A finite centroid far
- * outside, e.g. 1e165, made the radiosity reader refuse what solve wrote.)
- * The same test is in rad_rfile.c. */
-static int centroid_inside(const rad_patch *p, const double *positions)
-{
-    const double c[3] = {p->centroid.x, p->centroid.y, p->centroid.z};
-    for (int a = 0; a < 3; a++) {
-        double lo = INFINITY, hi = -INFINITY;
-        for (uint32_t k = 0; k < p->vertex_count; k++) {
-            double x = positions[3 * (size_t)p->v[k] + a];
-            lo = fmin(lo, x), hi = fmax(hi, x);
-        }
-        double slack = 1e-9 * fmax(hi - lo, fmax(fabs(lo), fabs(hi)));
-        if (!(c[a] >= lo - slack && c[a] <= hi + slack)) return 0;
-    }
-    return 1;
-}
 
 static rad_status validate_patches(const char *path, const rad_mesh *mesh)
 {
@@ -253,7 +235,7 @@ static rad_status validate_patches(const char *path, const rad_mesh *mesh)
             why = "normal is not a unit vector";
         for (uint32_t k = 0; !why && k < p->vertex_count; k++)
             if (p->v[k] >= mesh->vertex_count) why = "vertex index out of range";
-        if (!why && !centroid_inside(p, mesh->positions)) why = "centroid is not inside the patch";
+        if (!why && !rad_patch_centroid_inside(p, mesh->positions)) why = "centroid is not inside the patch";
         for (int c = 0; !why && c < 3; c++) {
             if (!(p->rho[c] >= 0 && p->rho[c] < 1)) why = "reflectance outside [0,1)";
             if (!(p->emission[c] >= 0) || !isfinite(p->emission[c])) why = "emission negative or not finite";

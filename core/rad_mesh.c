@@ -248,3 +248,18 @@ void rad_mesh_free(rad_mesh *mesh)
     free(mesh->positions);
     memset(mesh, 0, sizeof *mesh);
 }
+
+int rad_patch_centroid_inside(const rad_patch *patch, const double *positions)
+{
+    const double c[3] = {patch->centroid.x, patch->centroid.y, patch->centroid.z};
+    for (int a = 0; a < 3; a++) {
+        double lo = INFINITY, hi = -INFINITY;
+        for (uint32_t k = 0; k < patch->vertex_count; k++) {
+            double x = positions[3 * (size_t)patch->v[k] + a];
+            lo = fmin(lo, x), hi = fmax(hi, x);
+        }
+        double slack = 1e-9 * fmax(hi - lo, fmax(fabs(lo), fabs(hi)));
+        if (!(c[a] >= lo - slack && c[a] <= hi + slack)) return 0;
+    }
+    return 1;
+}

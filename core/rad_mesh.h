@@ -69,6 +69,12 @@ void rad_mesh_free(rad_mesh *mesh); /* safe on a zeroed or freed mesh */
  * saturates at UINT64_MAX; 0 for subdiv < 0. */
 uint64_t rad_mesh_count_patches(const rad_scene *scene, const rad_mesh_options *options);
 
+/* Does the patch's centroid lie inside the bounding box of its vertices
+ * (up to 1e-9 relative rounding)? The area centroid of a planar convex patch
+ * always does; both file readers check it, so that solve never writes a
+ * file render refuses (a finite centroid at 1e165 once did). */
+int rad_patch_centroid_inside(const rad_patch *patch, const double *positions);
+
 /* Geometry of one polygon (3 or 4 vertices, planar): area, unit normal (by
  * Newell's method, following the winding) and area centroid. */
 void rad_polygon_geometry(const rad_vec3 *v, int n, double *out_area, rad_vec3 *out_normal, rad_vec3 *out_centroid);

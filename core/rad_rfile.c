@@ -283,23 +283,6 @@ static rad_status check_header(const char *path, const unsigned char *b, size_t 
     return RAD_OK;
 }
 
-/* The area centroid of a planar convex patch lies inside it, so inside
- * the bounding box of its vertices up to rounding. The same test is in
- * rad_ffile.c, so that solve never writes a file this reader refuses. */
-static int centroid_inside(const rad_patch *p, const double *positions)
-{
-    const double c[3] = {p->centroid.x, p->centroid.y, p->centroid.z};
-    for (int a = 0; a < 3; a++) {
-        double lo = INFINITY, hi = -INFINITY;
-        for (uint32_t k = 0; k < p->vertex_count; k++) {
-            double x = positions[3 * (size_t)p->v[k] + a];
-            lo = fmin(lo, x), hi = fmax(hi, x);
-        }
-        double slack = 1e-9 * fmax(hi - lo, fmax(fabs(lo), fabs(hi)));
-        if (!(c[a] >= lo - slack && c[a] <= hi + slack)) return 0;
-    }
-    return 1;
-}
 
 /* `positions` (finite, checked before) are the mesh's vertices. */
 static rad_status check_patch(const char *path, size_t i, const rad_patch *p, const double *positions,
@@ -315,7 +298,7 @@ static rad_status check_patch(const char *path, size_t i, const rad_patch *p, co
     }
     double nlen = rad_v3_length(p->normal);
     if (!(isfinite(p->area) && p->area > 0) || !(fabs(nlen - 1) <= RF_NORMAL_TOLERANCE) ||
-        !centroid_inside(p, positions)) {
+        !rad_patch_centroid_inside(p, positions)) {
         rad_error("%s: patch %zu: bad geometry (area %g, normal length %g, centroid %g %g %g)", path, i, p->area,
                   nlen, p->centroid.x, p->centroid.y, p->centroid.z);
         return RAD_ERR_INVALID;
