@@ -64,6 +64,7 @@ wait_for() {
 mounted=
 cleanup() { for m in $mounted; do umount "$m" 2>/dev/null; done; }
 trap cleanup EXIT
+trap 'exit 1' HUP INT PIPE TERM # so that EXIT's cleanup runs on these too
 mount_tmpfs() {
   mkdir -p "$1"
   mount -t tmpfs -o size="$2" tmpfs "$1" 2>/dev/null || skip "cannot mount a tmpfs here (needs root)"
