@@ -105,4 +105,24 @@ static inline const char *fuzz_scratch_path(const char *name)
         }                                                                               \
     } while (0)
 
+/* The binary readers' entry: the input as it is (magic, version, size and
+ * checksum checks), then a copy whose checksums `repair` recomputed from
+ * what its header claims (so mutations reach the checks behind them). */
+static inline int fuzz_read_as_is_and_repaired(const uint8_t *data, size_t size, void (*read_back)(const char *),
+                                               int (*repair)(uint8_t *, size_t))
+{
+    static int ready;
+    if (!ready) {
+        fuzz_quiet_logger();
+        ready = 1;
+    }
+    read_back(fuzz_memfd_write(data, size));
+    uint8_t *copy = malloc(size ? size : 1);
+    if (!copy) return 0;
+    memcpy(copy, data, size);
+    if (repair(copy, size)) read_back(fuzz_memfd_write(copy, size));
+    free(copy);
+    return 0;
+}
+
 #endif

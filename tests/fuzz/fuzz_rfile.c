@@ -48,16 +48,5 @@ static int repair(uint8_t *b, size_t size)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    static int ready;
-    if (!ready) {
-        fuzz_quiet_logger();
-        ready = 1;
-    }
-    read_back(fuzz_memfd_write(data, size));
-    uint8_t *copy = malloc(size ? size : 1);
-    if (!copy) return 0;
-    memcpy(copy, data, size);
-    if (repair(copy, size)) read_back(fuzz_memfd_write(copy, size));
-    free(copy);
-    return 0;
+    return fuzz_read_as_is_and_repaired(data, size, read_back, repair);
 }
