@@ -173,6 +173,42 @@ static inline RAD_HD int rad_ff_pair_facing(const rad_ff_patch *pi, const rad_ff
     return front_i && front_j;
 }
 
+/* What the backends return for a pair: the coupling c_ij = F_ij / A_j
+ * = F_ji / A_i (the mean of G over the point pairs, times the visible
+ * fraction), symmetric in (i, j) to the bit because every sum and product
+ * behind it is. The driver turns it into F_ij = c_ij * A_j, so entries
+ * (i, j) and (j, i) get identical bits whether both rows compute the pair
+ * or one row computes it and the other copies it (--reciprocity). */
+static inline RAD_HD double rad_ff_coupling_far(double kernel_sum, uint32_t samples)
+{
+    return kernel_sum / samples;
+}
+
+/* The near-field terms estimate A_i F_ij; divided by A_i A_j they give c_ij. */
+static inline RAD_HD double rad_ff_coupling_near(double term_sum, uint32_t samples, const rad_ff_patch *a,
+                                                 const rad_ff_patch *b)
+{
+    return term_sum / samples / (a->area * b->area);
+}
+
+/* Which row computes the unordered pair {i, j} when each pair is computed
+ * once: the lower-numbered row when i + j is odd, the higher one when it
+ * is even (row i itself for i == j). Every row then computes about half
+ * of its entries, spread evenly over all columns, so the contiguous row
+ * blocks of the ranks stay balanced without a triangular split. */
+static inline RAD_HD int rad_ff_row_computes(uint32_t i, uint32_t j)
+{
+    uint32_t lower = i < j ? i : j, upper = i < j ? j : i;
+    return ((i ^ j) & 1u) ? i == lower : i == upper;
+}
+
+/* How many entries of row i (of n) rad_ff_row_computes assigns to row i:
+ * itself, the columns above it of the other parity, those below of the same. */
+static inline RAD_HD uint64_t rad_ff_row_computes_count(uint32_t i, uint32_t n)
+{
+    return 1u + (uint64_t)((n - i) / 2) + (uint64_t)(i / 2);
+}
+
 /* Near-field rule and sample budget (see the top of this file). */
 #define RAD_FF_NEAR_FACTOR 2.0
 #define RAD_FF_NEAR_DIVISOR 8u

@@ -41,6 +41,10 @@ typedef struct ff_setup {
     int cull;
     int scene_convex;
     float cull_margin;           /* scene units */
+    /* Compute only the entries rad_ff_row_computes assigns to their row
+     * (each unordered pair once); the others are set to 0 and filled in by
+     * the driver from the other row (ff_rows.h). */
+    int pairs_once;
     int threads;                 /* CPU threads (>= 1) */
     int device;                  /* GPU index for the CUDA backend (rank mod GPUs) */
     /* Called now and then from one thread with the rows finished so far in
@@ -51,7 +55,8 @@ typedef struct ff_setup {
 
 /* What a backend did; summed over calls, ranks and threads. */
 typedef struct ff_counters {
-    uint64_t pairs;          /* ordered pairs (i, j) considered */
+    uint64_t pairs;          /* ordered pairs (i, j) computed (with pairs_once: about half) */
+    uint64_t pairs_mirrored; /* entries copied from the other row's (reciprocity; driver) */
     uint64_t pairs_culled;   /* of those, zero without sampling (facing test) */
     uint64_t pairs_near;     /* of those, computed by the near-field estimator */
     uint64_t pairs_open_scene; /* facing pairs without rays: the scene is a convex enclosure */
@@ -69,7 +74,9 @@ typedef struct ff_counters {
 typedef struct ff_backend {
     const char *name;
     rad_status (*create)(const ff_setup *setup, void **out_state);
-    /* Rows [row_begin, row_begin + row_count) into out (row_count * N doubles). */
+    /* Rows [row_begin, row_begin + row_count) into out (row_count * N
+     * doubles), as couplings c_ij = F_ij / A_j (rad_ff_coupling_far; the
+     * driver scales them into form factors with ff_rows_scale). */
     rad_status (*compute_rows)(void *state, uint32_t row_begin, uint32_t row_count, double *out,
                                ff_counters *counters);
     void (*destroy)(void *state);

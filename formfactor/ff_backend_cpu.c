@@ -164,7 +164,7 @@ static void near_samples(const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_
     }
 }
 
-/* Pass 1 for columns [j0, j1) of row i: unoccluded F, and the point pairs
+/* Pass 1 for columns [j0, j1) of row i: unoccluded couplings, and the point pairs
  * and weights of the samples that carry shadow rays. */
 static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j1, double *row, cpu_scratch *sc,
                          ff_counters *c)
@@ -176,6 +176,10 @@ static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j
         uint32_t b = j - j0;
         sc->unoccluded[b] = 0;
         sc->ray_count[b] = 0;
+        if (su->pairs_once && !rad_ff_row_computes(i, j)) {
+            row[j] = 0; /* row j computes this pair */
+            continue;
+        }
         c->pairs++;
         if (j == i || !rad_ff_pair_facing(pi, pj, su->plane_eps)) {
             c->pairs_culled++;
@@ -211,12 +215,12 @@ static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j
         sc->ray_count[b] = rays;
         c->samples += K;
         c->pairs_near += (uint64_t)near;
-        sc->unoccluded[b] = near ? sum / K / pi->area : sum * pj->area / K;
+        sc->unoccluded[b] = near ? rad_ff_coupling_near(sum, K, pi, pj) : rad_ff_coupling_far(sum, K);
         row[j] = sc->unoccluded[b];
     }
 }
 
-/* Pass 2: scale each unoccluded F by its kernel-weighted visible fraction. */
+/* Pass 2: scale each unoccluded coupling by its kernel-weighted visible fraction. */
 static void visibility_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32_t j1, double *row,
                              const cpu_scratch *sc, ff_counters *c)
 {

@@ -41,7 +41,7 @@ struct cuda_params {
     uint32_t samples, rays;
     uint64_t seed;
     uint32_t estimator;
-    int cull, scene_convex;
+    int cull, scene_convex, pairs_once;
     float cull_margin;
     double eps;
     uint32_t row_begin, row_count;
@@ -109,7 +109,9 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t
     if (t >= (uint64_t)p.row_count * p.n) return;
     uint32_t j = (uint32_t)(t % p.n), i = p.row_begin + (uint32_t)(t / p.n);
     const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
-    if (i == j || !rad_ff_pair_facing(pi, pj, p.eps))
+    if (p.pairs_once && !rad_ff_row_computes(i, j))
+        p.out[t] = 0.0; /* row j computes this pair: no warp here */
+    else if (i == j || !rad_ff_pair_facing(pi, pj, p.eps))
         p.out[t] = 0.0;
     else if (p.estimator == RAD_ESTIMATOR_AUTO && rad_ff_pair_near(pi, pj))
         pairs[capacity - 1 - atomicAdd(&counts[1], 1u)] = (uint32_t)t;
@@ -156,7 +158,7 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
             }
         }
         sum = warp_sum(sum);
-        double value = NEAR ? sum / samples / pi->area : sum * pj->area / samples;
+        double value = NEAR ? rad_ff_coupling_near(sum, samples, pi, pj) : rad_ff_coupling_far(sum, samples);
         /* Culling on the GPU: only the convex-enclosure rule. The per-pair
          * shaft test of the CPU backend costs a warp about what its 32
          * rays cost (measured: 5-7 % slower overall), so the GPU traces
@@ -296,6 +298,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     double ray_share = 0.0;
     float kernel_ms = 0;
     uint32_t pair_counts[2] = {0, 0};
+    uint64_t computed = 0; /* pairs this call computes */
     cuda_params p;
     double t_mem = now_seconds();
     if (need == 0) return RAD_OK;
@@ -327,6 +330,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     p.estimator = su->estimator;
     p.cull = su->cull;
     p.scene_convex = su->scene_convex;
+    p.pairs_once = su->pairs_once;
     p.cull_margin = su->cull_margin;
     p.eps = su->plane_eps;
     p.row_begin = row_begin;
@@ -363,8 +367,13 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     CUDA_TRY(cudaMemcpy(out, s->d_out, sizeof(double) * need, cudaMemcpyDeviceToHost));
     CUDA_TRY(cudaMemcpy(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost));
     counters->memory_seconds += now_seconds() - t_mem;
-    counters->pairs += need;
-    counters->pairs_culled += need - pair_counts[0] - pair_counts[1];
+    computed = need;
+    if (su->pairs_once) {
+        computed = 0;
+        for (uint32_t r = 0; r < row_count; r++) computed += rad_ff_row_computes_count(row_begin + r, su->patch_count);
+    }
+    counters->pairs += computed;
+    counters->pairs_culled += computed - pair_counts[0] - pair_counts[1];
     counters->samples += counts[C_SAMPLES];
     counters->rays += counts[C_RAYS];
     counters->rays_occluded += counts[C_OCCLUDED];

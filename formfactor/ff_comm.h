@@ -38,6 +38,12 @@ void ff_comm_gather(ff_comm *comm, const void *data, size_t bytes, void *out, in
 /* Collective: variable-sized blocks of uint64 gathered on root in rank order. */
 void ff_comm_gather_u64v(ff_comm *comm, const uint64_t *data, uint64_t count, uint64_t *out, int root);
 
+/* Point to point, both at once: `send_count` doubles to rank `dest` and
+ * `recv_count` doubles from rank `source` (each at most FF_COMM_MAX_DOUBLES). */
+#define FF_COMM_MAX_DOUBLES ((size_t)1 << 27)
+rad_status ff_comm_sendrecv(ff_comm *comm, int dest, const double *send, size_t send_count, int source, double *recv,
+                            size_t recv_count);
+
 /* Collective open (create, write-only) of `path` on every rank. */
 rad_status ff_comm_file_open(ff_comm *comm, const char *path, ff_comm_file **out_file);
 /* Collective write: each rank its own (offset, bytes); bytes may be 0. */

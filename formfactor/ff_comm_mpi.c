@@ -84,6 +84,20 @@ uint64_t ff_comm_max_u64(ff_comm *comm, uint64_t value)
     return out;
 }
 
+rad_status ff_comm_sendrecv(ff_comm *comm, int dest, const double *send, size_t send_count, int source, double *recv,
+                            size_t recv_count)
+{
+    (void)comm;
+    if (send_count > FF_COMM_MAX_DOUBLES || recv_count > FF_COMM_MAX_DOUBLES) return RAD_ERR_INVALID;
+    int code = MPI_Sendrecv(send, (int)send_count, MPI_DOUBLE, dest, 7, recv, (int)recv_count, MPI_DOUBLE, source, 7,
+                            MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    if (code != MPI_SUCCESS) {
+        log_mpi_error("exchanging mirrored form factors", "MPI_Sendrecv", code);
+        return RAD_ERR_BACKEND;
+    }
+    return RAD_OK;
+}
+
 void ff_comm_broadcast(ff_comm *comm, void *data, size_t bytes, int root)
 {
     (void)comm;

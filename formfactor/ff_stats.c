@@ -17,9 +17,10 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
         const ff_rank_stats *s = &ranks[r];
 #define FF_MAX(field) all.field = s->field > all.field ? s->field : all.field
         FF_MAX(load); FF_MAX(subdivide); FF_MAX(setup); FF_MAX(form_factors);
-        FF_MAX(visibility); FF_MAX(io); FF_MAX(total); FF_MAX(gpu_memory);
+        FF_MAX(visibility); FF_MAX(io); FF_MAX(total); FF_MAX(gpu_memory); FF_MAX(mirror);
 #undef FF_MAX
         all.counters.pairs += s->counters.pairs;
+        all.counters.pairs_mirrored += s->counters.pairs_mirrored;
         all.counters.pairs_culled += s->counters.pairs_culled;
         all.counters.pairs_near += s->counters.pairs_near;
         all.counters.pairs_open_scene += s->counters.pairs_open_scene;
@@ -41,17 +42,17 @@ static void write_times(FILE *f, const ff_rank_stats *s)
 {
     fprintf(f,
             "{\"load\": %.6f, \"subdivide\": %.6f, \"setup\": %.6f, \"form_factors\": %.6f, "
-            "\"visibility\": %.6f, \"gpu_memory\": %.6f, \"io\": %.6f, \"total\": %.6f}",
-            s->load, s->subdivide, s->setup, s->form_factors, s->visibility, s->gpu_memory, s->io, s->total);
+            "\"visibility\": %.6f, \"gpu_memory\": %.6f, \"mirror\": %.6f, \"io\": %.6f, \"total\": %.6f}",
+            s->load, s->subdivide, s->setup, s->form_factors, s->visibility, s->gpu_memory, s->mirror, s->io, s->total);
 }
 
 static void write_counters(FILE *f, const ff_counters *c)
 {
     fprintf(f,
-            "\"pairs\": %llu, \"pairs_culled\": %llu, \"pairs_near\": %llu, \"samples\": %llu, \"rays\": %llu, "
+            "\"pairs\": %llu, \"pairs_mirrored\": %llu, \"pairs_culled\": %llu, \"pairs_near\": %llu, \"samples\": %llu, \"rays\": %llu, "
             "\"rays_occluded\": %llu, \"pairs_open_scene\": %llu, \"pairs_open_box\": %llu, \"rays_saved\": %llu",
-            (unsigned long long)c->pairs, (unsigned long long)c->pairs_culled, (unsigned long long)c->pairs_near,
-            (unsigned long long)c->samples,
+            (unsigned long long)c->pairs, (unsigned long long)c->pairs_mirrored, (unsigned long long)c->pairs_culled,
+            (unsigned long long)c->pairs_near, (unsigned long long)c->samples,
             (unsigned long long)c->rays, (unsigned long long)c->rays_occluded, (unsigned long long)c->pairs_open_scene,
             (unsigned long long)c->pairs_open_box, (unsigned long long)c->rays_saved);
 }
@@ -86,7 +87,8 @@ rad_status ff_stats_write_json(const char *path, const ff_run_info *run, const f
     if (run->subdiv_only) write_string(f, run->subdiv_only); else fputs("null", f);
     fprintf(f, ",\n  \"samples_per_pair\": %u,\n  \"shadow_rays_per_pair\": %u,\n  \"seed\": %llu,\n",
             run->samples, run->shadow_rays, (unsigned long long)run->seed);
-    fprintf(f, "  \"estimator\": \"%s\",\n  \"cull\": \"%s\",\n", run->estimator, run->cull);
+    fprintf(f, "  \"estimator\": \"%s\",\n  \"cull\": \"%s\",\n  \"reciprocity\": \"%s\",\n", run->estimator, run->cull,
+            run->reciprocity);
     fprintf(f, "  \"backend\": \"%s\",\n  \"element\": \"%s\",\n  \"format\": \"%s\",\n  \"output\": ", run->backend,
             run->element, run->format);
     write_string(f, run->output);
@@ -116,9 +118,10 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
 {
     ff_rank_stats all = overall(run, ranks);
     const ff_counters *c = &all.counters;
-    rad_info("%u patches, %llu pairs (%llu culled, %llu near-field), %llu samples, %llu shadow rays (%.1f%% occluded), %d rank(s)",
+    rad_info("%u patches, %llu pairs computed (%llu culled, %llu near-field), %llu entries copied by reciprocity, "
+             "%llu samples, %llu shadow rays (%.1f%% occluded), %d rank(s)",
              run->patch_count, (unsigned long long)c->pairs, (unsigned long long)c->pairs_culled,
-             (unsigned long long)c->pairs_near,
+             (unsigned long long)c->pairs_near, (unsigned long long)c->pairs_mirrored,
              (unsigned long long)c->samples, (unsigned long long)c->rays,
              c->rays ? 100.0 * c->rays_occluded / c->rays : 0.0, run->ranks);
     if (c->rays + c->rays_saved > 0)

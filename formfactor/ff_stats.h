@@ -14,6 +14,7 @@ typedef struct ff_rank_stats {
     int32_t threads;
     uint32_t row_begin, row_end;
     double load, subdivide, setup, form_factors, visibility, io, total;
+    double mirror;     /* --reciprocity on: copying entries between rows and ranks */
     double gpu_memory; /* CUDA: allocation + transfers (form_factors is then the GPU kernel) */
     ff_counters counters;
     double row_sum_min, row_sum_max, row_sum_total; /* over this rank's rows */
@@ -29,6 +30,7 @@ typedef struct ff_run_info {
     uint64_t seed;
     const char *estimator;
     const char *cull;
+    const char *reciprocity; /* "on" (each pair once) or "off" (both entries computed) */
     const char *backend;
     const char *element;
     const char *format;

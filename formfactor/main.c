@@ -22,6 +22,7 @@
 #include "ff_comm.h"
 #include "ff_cuda.h"
 #include "ff_output.h"
+#include "ff_rows.h"
 #include "ff_setup.h"
 #include "ff_stats.h"
 #include "rad_ffile.h"
@@ -31,6 +32,11 @@
 
 #define FF_VERSION "0.1.0"
 #define FF_ROUND_BYTES ((uint64_t)96 << 20) /* rows computed between collective writes */
+
+/* --reciprocity: compute each unordered pair once and copy the other entry
+ * (which needs the rank's rows in memory), or compute both (rows stream
+ * through a round buffer); the bytes are the same. */
+typedef enum ff_reciprocity { FF_RECIPROCITY_AUTO, FF_RECIPROCITY_ON, FF_RECIPROCITY_OFF } ff_reciprocity;
 
 typedef struct ff_options {
     const char *scene_path; /* NULL = built-in Cornell box */
@@ -46,6 +52,7 @@ typedef struct ff_options {
     ff_format format;
     int threads; /* 0 = cores / ranks on this node */
     int cull;    /* 1 = skip shadow rays that cannot hit anything (default) */
+    ff_reciprocity reciprocity;
     int quiet;
     int help, version;
 } ff_options;
@@ -75,6 +82,11 @@ static void print_help(void)
            "      --format F           native | paper (paper: int32 N + N*N float64 only)\n"
            "      --cull C             all | none: skip shadow rays where nothing can lie between\n"
            "                           the two patches (default: all; the matrix is the same)\n"
+           "      --reciprocity M      auto | on | off: on computes each unordered pair once and\n"
+           "                           copies the other entry (A_i F_ij = A_j F_ji), holding the\n"
+           "                           rank's rows in memory; off computes both and streams rows;\n"
+           "                           auto: on when the rows take at most a quarter of this\n"
+           "                           node's memory per rank (default). Same bytes either way.\n"
            "      --threads T          CPU threads per rank (default: cores / ranks per node)\n"
            "      --stats FILE.json    write counts and phase times (per rank and total)\n"
            "  -q, --quiet              only errors on stderr\n"
@@ -100,7 +112,7 @@ bad:
 static rad_status parse_options(int argc, char **argv, ff_options *o)
 {
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
-           O_VERSION, O_ESTIMATOR, O_CULL };
+           O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -110,6 +122,7 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         {"stats", required_argument, 0, O_STATS},     {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'},                {"version", no_argument, 0, O_VERSION},
         {"estimator", required_argument, 0, O_ESTIMATOR}, {"cull", required_argument, 0, O_CULL},
+        {"reciprocity", required_argument, 0, O_RECIPROCITY},
         {0, 0, 0, 0}};
     *o = (ff_options){.output = "formfactors", .backend = "auto", .samples = 512, .shadow_rays = 32, .seed = 1,
                       .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_AUTO, .format = FF_FORMAT_NATIVE,
@@ -153,6 +166,12 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
             if (!strcmp(optarg, "all")) o->cull = 1;
             else if (!strcmp(optarg, "none")) o->cull = 0;
             else { rad_error("--cull: expected all or none, got '%s'", optarg); st = RAD_ERR_USAGE; }
+            break;
+        case O_RECIPROCITY:
+            if (!strcmp(optarg, "auto")) o->reciprocity = FF_RECIPROCITY_AUTO;
+            else if (!strcmp(optarg, "on")) o->reciprocity = FF_RECIPROCITY_ON;
+            else if (!strcmp(optarg, "off")) o->reciprocity = FF_RECIPROCITY_OFF;
+            else { rad_error("--reciprocity: expected auto, on or off, got '%s'", optarg); st = RAD_ERR_USAGE; }
             break;
         case O_FORMAT:
             if (!strcmp(optarg, "native")) o->format = FF_FORMAT_NATIVE;
@@ -198,6 +217,7 @@ typedef struct ff_run {
     uint32_t *row_begin; /* ranks + 1 */
     const ff_backend *backend;
     void *backend_state;
+    int pairs_once; /* --reciprocity as decided for this run (same on every rank) */
     ff_rank_stats stats;
     double start, last_progress;
     uint32_t progress_base, progress_total;
@@ -243,6 +263,14 @@ static const char *format_bytes(double bytes, char *out, size_t size)
     return out;
 }
 
+/* Physical memory of this node divided among the ranks on it (bytes). */
+static double memory_per_rank(const ff_run *run)
+{
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    int node_ranks = ff_comm_node_size(run->comm) > 0 ? ff_comm_node_size(run->comm) : 1;
+    return pages > 0 && page > 0 ? (double)pages * (double)page / node_ranks : INFINITY;
+}
+
 /* Rank 0, before the mesh is built: a run whose patch count exceeds the
  * format, whose file would not fit in the free space of the output's file
  * system, or whose memory per rank would exceed this node's memory per
@@ -273,9 +301,8 @@ static rad_status check_limits(const ff_run *run)
     double free_bytes = statvfs(dir, &fs) == 0 ? (double)fs.f_bavail * (double)fs.f_frsize : INFINITY;
     if (!why[0] && file_bytes > free_bytes)
         snprintf(why, sizeof why, "%s has %s free", dir, format_bytes(free_bytes, have, sizeof have));
-    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    double per_rank = memory_per_rank(run);
     int node_ranks = ff_comm_node_size(run->comm) > 0 ? ff_comm_node_size(run->comm) : 1;
-    double per_rank = pages > 0 && page > 0 ? (double)pages * (double)page / node_ranks : INFINITY;
     if (!why[0] && memory > per_rank)
         snprintf(why, sizeof why, "this node has %s per rank (%d rank(s) on it)",
                  format_bytes(per_rank, have, sizeof have), node_ranks);
@@ -330,13 +357,18 @@ static rad_status setup(ff_run *run)
     double eps = ff_plane_eps(&run->mesh);
     int convex = run->opt.cull && ff_scene_is_convex_enclosure(&run->scene, eps);
     if (st == RAD_OK) st = ff_partition_rows(run->patches, n, eps, ranks, run->row_begin);
+    /* Collective, so every rank asks, even one that failed above. */
+    int rank = ff_comm_rank(run->comm);
+    double block_bytes = st == RAD_OK ? (double)(run->row_begin[rank + 1] - run->row_begin[rank]) * n * sizeof(double) : 0;
+    uint64_t too_big = ff_comm_max_u64(run->comm, block_bytes > memory_per_rank(run) / 4);
+    run->pairs_once = run->opt.reciprocity == FF_RECIPROCITY_ON || (run->opt.reciprocity == FF_RECIPROCITY_AUTO && !too_big);
     run->stats.threads = default_threads(run);
     if (st == RAD_OK) {
         ff_setup su = {.patches = run->patches, .patch_count = n, .triangles = run->triangles,
                        .triangle_face = run->triangle_face, .triangle_count = run->triangle_count,
                        .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
                        .estimator = run->opt.estimator, .cull = run->opt.cull, .scene_convex = convex,
-                       .cull_margin = (float)(1e4 * eps), .plane_eps = eps, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
+                       .cull_margin = (float)(1e4 * eps), .plane_eps = eps, .pairs_once = run->pairs_once, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
                        .progress = ff_comm_rank(run->comm) == 0 ? report_progress : NULL, .progress_user = run};
         st = run->backend->create(&su, &run->backend_state);
     }
@@ -344,22 +376,49 @@ static rad_status setup(ff_run *run)
     return st;
 }
 
-/* Computes this rank's rows in rounds and writes each round collectively. */
-static rad_status compute_and_write(ff_run *run, ff_output *out)
+/* Rows per round: about FF_ROUND_BYTES of doubles (at least 16 rows, at
+ * most what one collective write takes): big enough that a GPU launch
+ * fills the device (N = 2944 is one round), small enough that a streamed
+ * run's memory stays O(N), not O(N^2). */
+static uint32_t rows_per_round(const ff_run *run, const ff_output *out)
+{
+    uint64_t by_memory = FF_ROUND_BYTES / (sizeof(double) * run->mesh.patch_count);
+    uint32_t per_round = ff_output_max_rows(out);
+    if (by_memory < 16) by_memory = 16;
+    return per_round > by_memory ? (uint32_t)by_memory : per_round;
+}
+
+/* Row sums of finished rows, for the stats. */
+static void add_row_sums(ff_run *run, const double *rows, uint32_t count)
+{
+    uint32_t n = (uint32_t)run->mesh.patch_count;
+    for (uint32_t r = 0; r < count; r++) {
+        double sum = 0;
+        for (uint32_t j = 0; j < n; j++) sum += rows[(size_t)r * n + j];
+        run->stats.row_sum_total += sum;
+        if (sum < run->stats.row_sum_min) run->stats.row_sum_min = sum;
+        if (sum > run->stats.row_sum_max) run->stats.row_sum_max = sum;
+    }
+}
+
+/* Collective: rows [r0, r0 + count) of this rank from `rows` (count may be 0). */
+static rad_status write_round(ff_run *run, ff_output *out, uint32_t r0, uint32_t count, const double *rows)
+{
+    double t0 = ff_comm_time();
+    rad_status st = ff_output_write_rows(out, r0, count, rows);
+    run->stats.io += ff_comm_time() - t0;
+    return st;
+}
+
+/* --reciprocity off: every entry computed, rows stream through one round
+ * buffer: compute a round, scale, write it collectively, next. */
+static rad_status compute_streamed(ff_run *run, ff_output *out, ff_counters *counters)
 {
     int rank = ff_comm_rank(run->comm);
     uint32_t n = (uint32_t)run->mesh.patch_count;
     uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
-    /* Rounds of about FF_ROUND_BYTES of double rows (at least 16 rows, at
-     * most what one collective write takes): big enough that a GPU launch
-     * fills the device (N = 2944 is one round), small enough that memory
-     * stays O(N), not O(N^2). */
-    uint64_t by_memory = FF_ROUND_BYTES / (sizeof(double) * (uint64_t)n);
-    uint32_t per_round = ff_output_max_rows(out);
-    if (by_memory < 16) by_memory = 16;
-    if (per_round > by_memory) per_round = (uint32_t)by_memory;
-    uint64_t my_rounds = (end - begin + (uint64_t)per_round - 1) / per_round;
-    uint64_t rounds = ff_comm_max_u64(run->comm, my_rounds);
+    uint32_t per_round = rows_per_round(run, out);
+    uint64_t rounds = ff_comm_max_u64(run->comm, (end - begin + (uint64_t)per_round - 1) / per_round);
     double *rows = run->backend->alloc_rows(run->backend_state, (size_t)per_round * n);
     rad_status st = ff_comm_agree(run->comm, rows ? RAD_OK : RAD_ERR_NOMEM);
     if (st != RAD_OK) {
@@ -367,36 +426,88 @@ static rad_status compute_and_write(ff_run *run, ff_output *out)
         run->backend->free_rows(run->backend_state, rows);
         return st;
     }
-    run->stats.row_begin = begin;
-    run->stats.row_end = end;
-    run->stats.row_sum_min = end > begin ? 1e300 : 0;
-    run->progress_total = end - begin;
-    ff_counters counters = {0};
     for (uint64_t round = 0; round < rounds; round++) {
         uint32_t r0 = begin + (uint32_t)(round * per_round);
         uint32_t count = r0 < end ? (end - r0 < per_round ? end - r0 : per_round) : 0;
         if (st == RAD_OK && count > 0) {
             run->progress_base = r0 - begin;
-            st = run->backend->compute_rows(run->backend_state, r0, count, rows, &counters);
+            st = run->backend->compute_rows(run->backend_state, r0, count, rows, counters);
         }
-        for (uint32_t r = 0; st == RAD_OK && r < count; r++) {
-            double sum = 0;
-            for (uint32_t j = 0; j < n; j++) sum += rows[(size_t)r * n + j];
-            run->stats.row_sum_total += sum;
-            if (sum < run->stats.row_sum_min) run->stats.row_sum_min = sum;
-            if (sum > run->stats.row_sum_max) run->stats.row_sum_max = sum;
+        if (st == RAD_OK) {
+            ff_rows_scale(run->patches, n, count, rows);
+            add_row_sums(run, rows, count);
         }
-        double t0 = ff_comm_time();
         /* A failed rank still joins the collective write, with no rows. */
-        rad_status w = ff_output_write_rows(out, r0 < end ? r0 : end, st == RAD_OK ? count : 0, rows);
+        rad_status w = write_round(run, out, r0 < end ? r0 : end, st == RAD_OK ? count : 0, rows);
         if (st == RAD_OK) st = w;
-        run->stats.io += ff_comm_time() - t0;
     }
+    run->backend->free_rows(run->backend_state, rows);
+    return st;
+}
+
+/* --reciprocity on: each unordered pair computed once, by the row
+ * rad_ff_row_computes picks; the rank's rows stay in memory until the
+ * entries computed by other rows (here and on other ranks) are copied in,
+ * then they are scaled and written in rounds. */
+static rad_status compute_once(ff_run *run, ff_output *out, ff_counters *counters)
+{
+    int rank = ff_comm_rank(run->comm);
+    uint32_t n = (uint32_t)run->mesh.patch_count;
+    uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
+    uint32_t per_round = rows_per_round(run, out);
+    uint64_t rounds = ff_comm_max_u64(run->comm, (end - begin + (uint64_t)per_round - 1) / per_round);
+    size_t block_count = (size_t)(end - begin) * n;
+    double *block = run->backend->alloc_rows(run->backend_state, block_count ? block_count : 1);
+    rad_status st = ff_comm_agree(run->comm, block ? RAD_OK : RAD_ERR_NOMEM);
+    if (st != RAD_OK) {
+        if (!block) rad_error("out of memory for this rank's %u rows of %u form factors (try --reciprocity off)",
+                              end - begin, n);
+        run->backend->free_rows(run->backend_state, block);
+        return st;
+    }
+    for (uint32_t r0 = begin; st == RAD_OK && r0 < end; r0 += per_round) {
+        run->progress_base = r0 - begin;
+        uint32_t count = end - r0 < per_round ? end - r0 : per_round;
+        st = run->backend->compute_rows(run->backend_state, r0, count, block + (size_t)(r0 - begin) * n, counters);
+    }
+    st = ff_comm_agree(run->comm, st);
+    if (st == RAD_OK) {
+        double t0 = ff_comm_time();
+        counters->pairs_mirrored += ff_rows_mirror_local(n, begin, end, block);
+        st = ff_rows_exchange(run->comm, run->row_begin, n, block, &counters->pairs_mirrored);
+        run->stats.mirror = ff_comm_time() - t0;
+    }
+    if (st == RAD_OK) {
+        ff_rows_scale(run->patches, n, end - begin, block);
+        add_row_sums(run, block, end - begin);
+        /* Every rank joins every collective write, with no rows after a failure. */
+        for (uint64_t round = 0; round < rounds; round++) {
+            uint32_t r0 = begin + (uint32_t)(round * per_round);
+            uint32_t count = r0 < end && st == RAD_OK ? (end - r0 < per_round ? end - r0 : per_round) : 0;
+            r0 = r0 < end ? r0 : end;
+            rad_status w = write_round(run, out, r0, count, block + (size_t)(r0 - begin) * n);
+            if (st == RAD_OK) st = w;
+        }
+    }
+    run->backend->free_rows(run->backend_state, block);
+    return st;
+}
+
+/* Computes this rank's rows and writes them collectively. */
+static rad_status compute_and_write(ff_run *run, ff_output *out)
+{
+    int rank = ff_comm_rank(run->comm);
+    uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
+    run->stats.row_begin = begin;
+    run->stats.row_end = end;
+    run->stats.row_sum_min = end > begin ? 1e300 : 0;
+    run->progress_total = end - begin;
+    ff_counters counters = {0};
+    rad_status st = run->pairs_once ? compute_once(run, out, &counters) : compute_streamed(run, out, &counters);
     run->stats.counters = counters;
     run->stats.form_factors = counters.kernel_seconds;
     run->stats.visibility = counters.visibility_seconds;
     run->stats.gpu_memory = counters.memory_seconds;
-    run->backend->free_rows(run->backend_state, rows);
     return st;
 }
 
@@ -417,7 +528,7 @@ static rad_status write_stats(ff_run *run, int gpus)
                             .estimator = run->opt.estimator == RAD_ESTIMATOR_AUTO  ? "auto"
                                          : run->opt.estimator == RAD_ESTIMATOR_QMC ? "qmc"
                                                                                    : "mc",
-                            .cull = run->opt.cull ? "all" : "none",
+                            .cull = run->opt.cull ? "all" : "none", .reciprocity = run->pairs_once ? "on" : "off",
                             .backend = run->backend->name,
                             .element = run->opt.element == RAD_ELEMENT_F32 ? "f32" : "f64",
                             .format = run->opt.format == FF_FORMAT_PAPER ? "paper" : "native",

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "ff_backend.h"
+#include "ff_rows.h"
 #include "ff_setup.h"
 
 /* Scenes served from memory through the loader's read_file hook. */
@@ -89,6 +90,7 @@ static double *compute_estimator(const ff_backend *backend, const fixture *fx, u
         free(f);
         return NULL;
     }
+    ff_rows_scale(fx->patches, n, n, f); /* couplings -> form factors */
     return f;
 }
 

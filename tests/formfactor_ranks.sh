@@ -22,3 +22,29 @@ size=$(wc -c < paper1)
 [ "$size" -eq $((4 + 8 * n * n)) ] || { echo "FAIL: paper file is $size bytes for N=$n"; exit 1; }
 grep -q '"ranks": 3' ranks3.json || { echo "FAIL: stats do not record 3 ranks"; exit 1; }
 echo "identical bytes for 1, 2, 3 ranks (N=$n)"
+
+# Reciprocity: each unordered pair computed once and copied (on), or both
+# entries computed (off): the same bytes, with 1, 2 and 3 ranks; every
+# entry is computed or copied, and "on" computes N + N(N-1)/2 of them.
+field() { grep -o "\"$2\": [0-9]*" "$1" | head -1 | sed 's/.*: //'; }
+for p in 1 3; do
+  mpirun --oversubscribe -n $p "$ff" $args --reciprocity off -o off$p --stats off$p.json
+  cmp ranks1 off$p || { echo "FAIL: --reciprocity off with $p rank(s) differs"; exit 1; }
+  [ "$(field off$p.json pairs)" -eq $((n * n)) ] && [ "$(field off$p.json pairs_mirrored)" -eq 0 ] ||
+    { echo "FAIL: --reciprocity off: counts"; exit 1; }
+done
+for p in 1 2 3; do
+  mpirun --oversubscribe -n $p "$ff" $args --reciprocity on -o on$p --stats on$p.json
+  cmp ranks1 on$p || { echo "FAIL: --reciprocity on with $p rank(s) differs"; exit 1; }
+  grep -q '"reciprocity": "on"' on$p.json || { echo "FAIL: stats do not record reciprocity on"; exit 1; }
+  computed=$(field on$p.json pairs) mirrored=$(field on$p.json pairs_mirrored)
+  [ $((computed + mirrored)) -eq $((n * n)) ] && [ "$computed" -eq $((n + n * (n - 1) / 2)) ] ||
+    { echo "FAIL: --reciprocity on, $p rank(s): $computed computed + $mirrored copied for N=$n"; exit 1; }
+done
+# More ranks than a tiny scene has rows to spare (some ranks hold one row or none).
+printf 'newmtl g\nKd 0.5 0.5 0.5\n' > tiny.mtl
+printf 'mtllib tiny.mtl\nusemtl g\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nv 0 0 1\nv 0 1 1\nv 1 1 1\nv 1 0 1\nf 5 6 7 8\n' > tiny.obj
+"$ff" tiny.obj --samples 64 -q --reciprocity off -o tiny1
+mpirun --oversubscribe -n 4 "$ff" tiny.obj --samples 64 -q --reciprocity on -o tiny4
+cmp tiny1 tiny4 || { echo "FAIL: 4 ranks on 2 patches differ"; exit 1; }
+echo "identical bytes with --reciprocity on and off"

@@ -170,14 +170,69 @@ static void check_split_invariance(void)
     RAD_CHECK(ff_backend_cpu.compute_rows(state, 0, cut, parts, &c) == RAD_OK);
     RAD_CHECK(ff_backend_cpu.compute_rows(state, cut, n - cut, parts + (size_t)cut * n, &c) == RAD_OK);
     ff_backend_cpu.destroy(state);
+    ff_rows_scale(fx.patches, n, n, parts);
     RAD_CHECK(whole && memcmp(whole, parts, sizeof(double) * n * n) == 0);
     free(whole);
     free(parts);
     fixture_free(&fx);
 }
 
+/* Each unordered pair computed once (pairs_once) and copied to the other
+ * row gives the same bytes as computing both entries; the counts add up. */
+static void check_pairs_once(const char *path, rad_estimator_id estimator)
+{
+    fixture fx;
+    RAD_CHECK(fixture_load(&fx, NULL, path, 1));
+    uint32_t n = (uint32_t)fx.mesh.patch_count;
+    ff_counters both = {0};
+    double *whole = compute_estimator(&ff_backend_cpu, &fx, 64, 8, 5, estimator, &both);
+    ff_setup su = {.patches = fx.patches, .patch_count = n, .triangles = fx.triangles,
+                   .triangle_face = fx.triangle_face, .triangle_count = fx.triangle_count, .samples = 64,
+                   .shadow_rays = 8, .seed = 5, .estimator = estimator, .plane_eps = ff_plane_eps(&fx.mesh),
+                   .cull = 1, .scene_convex = ff_scene_is_convex_enclosure(&fx.scene, ff_plane_eps(&fx.mesh)),
+                   .cull_margin = (float)(1e4 * ff_plane_eps(&fx.mesh)), .pairs_once = 1, .threads = 2};
+    void *state = NULL;
+    double *once = malloc(sizeof(double) * n * n);
+    ff_counters c = {0};
+    RAD_CHECK(ff_backend_cpu.create(&su, &state) == RAD_OK);
+    RAD_CHECK(ff_backend_cpu.compute_rows(state, 0, n, once, &c) == RAD_OK);
+    ff_backend_cpu.destroy(state);
+    uint64_t mirrored = ff_rows_mirror_local(n, 0, n, once);
+    ff_rows_scale(fx.patches, n, n, once);
+    RAD_CHECK(whole && memcmp(whole, once, sizeof(double) * n * n) == 0);
+    /* Every entry is computed or copied; N diagonal entries + one of each pair computed. */
+    RAD_CHECK(c.pairs + mirrored == (uint64_t)n * n);
+    RAD_CHECK(c.pairs == (uint64_t)n + (uint64_t)n * (n - 1) / 2);
+    RAD_CHECK(2 * c.samples > both.samples - both.samples / 50 && 2 * c.samples < both.samples + both.samples / 50);
+    RAD_CHECK(2 * (c.rays + c.rays_saved) == both.rays + both.rays_saved);
+    free(whole);
+    free(once);
+    fixture_free(&fx);
+}
+
+/* rad_ff_row_computes: exactly one row of each pair; the count formula. */
+static void check_row_assignment(void)
+{
+    for (uint32_t n = 1; n < 40; n++) {
+        for (uint32_t i = 0; i < n; i++) {
+            uint64_t count = 0;
+            for (uint32_t j = 0; j < n; j++) {
+                count += (uint64_t)rad_ff_row_computes(i, j);
+                if (j != i) RAD_CHECK(rad_ff_row_computes(i, j) + rad_ff_row_computes(j, i) == 1);
+            }
+            RAD_CHECK(rad_ff_row_computes(i, i));
+            RAD_CHECK(count == rad_ff_row_computes_count(i, n));
+            RAD_CHECK(2 * count <= n + 2 && 2 * count + 1 >= n); /* about half of every row */
+        }
+    }
+}
+
 int main(void)
 {
+    check_row_assignment();
+    check_pairs_once(RAD_SCENES "/cornell_box.obj", RAD_ESTIMATOR_AUTO);
+    check_pairs_once(RAD_SCENES "/cornell_box.obj", RAD_ESTIMATOR_MC);
+    check_pairs_once(RAD_SCENES "/cornell_sphere.obj", RAD_ESTIMATOR_QMC);
     check_closed_form("parallel unit squares (mc)", parallel_obj, RAD_ESTIMATOR_MC, 65536, 0.199825, 1.5e-4);
     check_closed_form("perpendicular unit squares (mc)", perpendicular_obj, RAD_ESTIMATOR_MC, 65536, 0.200044, 2e-3);
     /* The near-field estimator (both pairs count as near): K = 512 becomes
