@@ -191,6 +191,76 @@ static inline RAD_HD double rad_ff_coupling_near(double term_sum, uint32_t sampl
     return term_sum / samples / (a->area * b->area);
 }
 
+/* Running sums of one pair's estimate: enough for its value and its
+ * standard error. Sample terms t_k are G(x_k, y_k) for far pairs and the
+ * near-field terms for near ones; the R shadow rays add their term g_r
+ * and visibility V_r in {0, 1}. Every sum is symmetric in (i, j). */
+typedef struct rad_ff_sums {
+    double terms, terms_sq;            /* sum t_k, sum t_k^2 */
+    double ray_terms, ray_seen;        /* sum g_r, sum g_r V_r */
+    double ray_terms_sq, ray_seen_sq;  /* sum g_r^2, sum g_r^2 V_r */
+    uint32_t samples, rays, visible;
+} rad_ff_sums;
+
+/* Coupling c = c_u * V and its standard error from the sums: c_u is the
+ * sample mean (its variance the sample variance / K), V the
+ * kernel-weighted visible fraction sum g V / sum g (a ratio estimator:
+ * variance ~ sum g^2 (V - V^)^2 / (sum g)^2), combined to first order as
+ * independent. Without rays V = 1 exactly. The value's bits are those of
+ * rad_ff_coupling_* times the fraction, whatever is asked of the error. */
+static inline RAD_HD double rad_ff_estimate(const rad_ff_sums *s, int near, const rad_ff_patch *a, const rad_ff_patch *b,
+                                            double *standard_error)
+{
+    double k = (double)s->samples;
+    double c = near ? rad_ff_coupling_near(s->terms, s->samples, a, b) : rad_ff_coupling_far(s->terms, s->samples);
+    double scale = near ? 1.0 / (a->area * b->area) : 1.0;
+    double var_c = 0.0;
+    if (s->samples > 1) {
+        double spread = s->terms_sq - s->terms * s->terms / k; /* sum (t - mean)^2 */
+        var_c = (spread > 0.0 ? spread : 0.0) / (k * (k - 1.0)) * scale * scale;
+    } else {
+        var_c = c * c; /* one sample says nothing of its error: as large as the value */
+    }
+    double fraction = 1.0, var_v = 0.0;
+    if (s->rays > 0 && s->ray_terms > 0.0) {
+        fraction = s->ray_seen / s->ray_terms;
+        double hidden = s->ray_terms_sq - s->ray_seen_sq; /* sum g^2 (1 - V) */
+        double spread = s->ray_seen_sq * (1.0 - fraction) * (1.0 - fraction) + hidden * fraction * fraction;
+        var_v = spread / (s->ray_terms * s->ray_terms);
+    } else if (s->rays > 0) { /* no kept sample has weight (all grazing): the plain fraction */
+        fraction = (double)s->visible / s->rays;
+        var_v = fraction * (1.0 - fraction) / s->rays;
+    }
+    if (standard_error) *standard_error = sqrt(fraction * fraction * var_c + c * c * var_v);
+    return c * fraction;
+}
+
+/* --target-error: has the pair's estimate reached it? The larger of its
+ * two entries' errors (F_ij = c A_j, F_ji = c A_i) decides, so rows i and
+ * j stop at the same sample count. */
+static inline RAD_HD int rad_ff_error_reached(double coupling_error, const rad_ff_patch *a, const rad_ff_patch *b,
+                                              double target)
+{
+    double area = a->area > b->area ? a->area : b->area;
+    return !(coupling_error * area > target);
+}
+
+/* --target-error schedule: the next batch takes the pair from s->samples
+ * to twice that (samples_to), and its shadow rays in the same proportion
+ * to the first batch's (rays_to); none once the pair holds `factor` times
+ * its first batch (0 is returned). */
+static inline RAD_HD int rad_ff_next_batch(const rad_ff_sums *s, uint32_t first_samples, uint32_t first_rays,
+                                           uint32_t factor, uint32_t *samples_to, uint32_t *rays_to)
+{
+    uint64_t cap = (uint64_t)first_samples * factor;
+    if (s->samples >= cap) return 0;
+    uint64_t to = 2 * (uint64_t)s->samples < cap ? 2 * (uint64_t)s->samples : cap;
+    uint64_t rays = (uint64_t)first_rays * to / first_samples;
+    *samples_to = (uint32_t)to;
+    *rays_to = (uint32_t)(rays < to ? rays : to);
+    return 1;
+}
+
 /* Which row computes the unordered pair {i, j} when each pair is computed
  * once: the lower-numbered row when i + j is odd, the higher one when it
  * is even (row i itself for i == j). Every row then computes about half

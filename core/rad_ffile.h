@@ -58,6 +58,7 @@ typedef struct rad_ff_info {
 } rad_ff_info;
 
 #define RAD_FF_FLAG_PARTIAL_SUBDIV 1u /* only one group was subdivided */
+#define RAD_FF_FLAG_STANDARD_ERRORS 2u /* the matrix holds standard errors of F (--errors), not F */
 
 /* Byte offsets of each section, derived from N, V and the element type. */
 typedef struct rad_ff_layout {

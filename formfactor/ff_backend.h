@@ -32,6 +32,12 @@ typedef struct ff_setup {
     uint32_t shadow_rays;        /* R <= K of them carry a shadow ray; 0 = no occlusion */
     uint64_t seed;
     uint32_t estimator;          /* rad_estimator_id: MC, or AUTO (near pairs by contour integral) */
+    /* --target-error: a pair whose standard error (rad_ff_error_reached)
+     * exceeds target_error takes another batch as large as all before it
+     * (samples and shadow rays double) until it does not, or until it has
+     * max_samples samples. 0 = one batch of `samples`. */
+    double target_error;
+    uint32_t max_samples;
     double plane_eps;            /* rad_ff_pair_facing tolerance, scene units */
     /* Occlusion culling (docs/architecture.md): with cull set, a pair casts
      * no shadow rays when nothing can lie between its patches - the whole
@@ -63,6 +69,8 @@ typedef struct ff_counters {
     uint64_t pairs_open_box;   /* facing pairs without rays: nothing else meets their box */
     uint64_t rays_saved;     /* shadow rays those pairs would have cast */
     uint64_t samples;        /* point pairs evaluated */
+    uint64_t pairs_refined;  /* pairs that took more than one batch (--target-error) */
+    uint64_t pairs_capped;   /* of those, stopped by max_samples above the target */
     uint64_t rays;           /* shadow rays traced */
     uint64_t rays_occluded;  /* of those, blocked */
     double kernel_seconds;   /* time sampling points and evaluating the kernel */
@@ -76,8 +84,9 @@ typedef struct ff_backend {
     rad_status (*create)(const ff_setup *setup, void **out_state);
     /* Rows [row_begin, row_begin + row_count) into out (row_count * N
      * doubles), as couplings c_ij = F_ij / A_j (rad_ff_coupling_far; the
-     * driver scales them into form factors with ff_rows_scale). */
-    rad_status (*compute_rows)(void *state, uint32_t row_begin, uint32_t row_count, double *out,
+     * driver scales them into form factors with ff_rows_scale), and, when
+     * `errors` is not NULL, their standard errors (rad_ff_estimate) into it. */
+    rad_status (*compute_rows)(void *state, uint32_t row_begin, uint32_t row_count, double *out, double *errors,
                                ff_counters *counters);
     void (*destroy)(void *state);
     /* The buffer compute_rows writes into (count doubles), allocated where

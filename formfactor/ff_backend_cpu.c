@@ -8,7 +8,9 @@
  *      pairs and their G are kept in the thread's scratch;
  *   2. visibility: one rtcOccluded1 per kept point pair, with the source
  *      and target faces excluded by a context filter (no self-intersection,
- *      whatever the angle), then F = F_unoccluded * sum(G V) / sum(G).
+ *      whatever the angle), then the estimate c = c_unoccluded *
+ *      sum(G V) / sum(G) and its standard error (rad_ff_estimate);
+ *   3. with --target-error, more batches for pairs still above the target.
  */
 #define _POSIX_C_SOURCE 200809L
 #include <embree3/rtcore.h>
@@ -37,9 +39,11 @@ typedef struct cpu_state {
 typedef struct cpu_scratch {
     float *rays;     /* FF_CPU_BLOCK * R * 6: x then y */
     double *kernel;  /* FF_CPU_BLOCK * R */
-    double *unoccluded; /* FF_CPU_BLOCK */
+    rad_ff_sums *sums;  /* FF_CPU_BLOCK: each column's running sums */
     double *g;       /* samples: one pair's kernel values */
-    uint32_t *ray_count; /* FF_CPU_BLOCK: shadow rays of each column's pair */
+    uint32_t *ray_count; /* FF_CPU_BLOCK: shadow rays of each column's first batch */
+    uint8_t *active;  /* FF_CPU_BLOCK: 0 = not computed here or zero, 1 = far pair, 2 = near pair */
+    uint8_t *traced;  /* FF_CPU_BLOCK: its shadow rays are cast (not culled) */
 } cpu_scratch;
 
 /* The context handed to Embree's filter: which faces a ray must ignore. */
@@ -140,32 +144,88 @@ static void cpu_destroy(void *state)
     free(s);
 }
 
-/* Kernel values of samples [0, count) of pair (i, j) into g. Written as a
- * plain loop over independent samples (the shared kernel is branch-free);
- * the caller sums g in order, so the result does not depend on how the
- * compiler schedules it. */
-static void kernel_samples(uint32_t estimator, const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j,
-                           uint32_t count, uint64_t seed, double *restrict g)
+/* Terms of samples [k0, k1) of pair (i, j) into g: kernel values for far
+ * pairs, near-field terms (A_i F_ij contributions, rad_ff_near_sample)
+ * for near ones. A plain loop over independent samples (the shared kernel
+ * is branch-free); the caller sums g in order, so the result does not
+ * depend on how the compiler schedules it. */
+static void sample_terms(uint32_t estimator, int near, const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i,
+                         uint32_t j, uint32_t k0, uint32_t k1, uint64_t seed, double *restrict g)
 {
-    for (uint32_t k = 0; k < count; k++) {
-        rad_vec3 x, y;
-        rad_ff_pair_points(estimator, pi, pj, i, j, k, seed, &x, &y);
-        g[k] = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+    if (near) {
+        for (uint32_t k = k0; k < k1; k++) {
+            rad_vec3 x, y;
+            g[k - k0] = rad_ff_near_sample(pi, pj, i, j, k, seed, &x, &y);
+        }
+    } else {
+        for (uint32_t k = k0; k < k1; k++) {
+            rad_vec3 x, y;
+            rad_ff_pair_points(estimator, pi, pj, i, j, k, seed, &x, &y);
+            g[k - k0] = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+        }
     }
 }
 
-/* Near-field terms (A_i F_ij contributions, rad_ff_near_sample) into g. */
-static void near_samples(const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j, uint32_t count,
-                         uint64_t seed, double *restrict g)
+static void add_terms(rad_ff_sums *sums, const double *g, uint32_t count)
 {
     for (uint32_t k = 0; k < count; k++) {
-        rad_vec3 x, y;
-        g[k] = rad_ff_near_sample(pi, pj, i, j, k, seed, &x, &y);
+        sums->terms += g[k];
+        sums->terms_sq += g[k] * g[k];
     }
+    sums->samples += count;
 }
 
-/* Pass 1 for columns [j0, j1) of row i: unoccluded couplings, and the point pairs
- * and weights of the samples that carry shadow rays. */
+/* The segment of sample k, from the lower-numbered patch's point (rows i
+ * and j test one segment), as float ray data: origin, then end point. */
+static void ray_segment(const ff_setup *su, int near, uint32_t i, uint32_t j, uint32_t k, float ray[6])
+{
+    const rad_ff_patch *pi = &su->patches[i], *pj = &su->patches[j];
+    rad_vec3 x, y;
+    if (near)
+        rad_ff_sample_pair(pi, pj, i, j, k, su->seed, &x, &y);
+    else
+        rad_ff_pair_points(su->estimator, pi, pj, i, j, k, su->seed, &x, &y);
+    if (i > j) {
+        rad_vec3 t = x;
+        x = y;
+        y = t;
+    }
+    ray[0] = (float)x.x, ray[1] = (float)x.y, ray[2] = (float)x.z;
+    ray[3] = (float)y.x, ray[4] = (float)y.y, ray[5] = (float)y.z;
+}
+
+/* One shadow ray over t in [FF_RAY_T_MIN, FF_RAY_T_MAX] of the segment:
+ * 1 if nothing but the pair's own faces (the context filter) is hit. */
+static int segment_visible(RTCScene scene, occlusion_context *ctx, const float p[6])
+{
+    struct RTCRay ray;
+    ray.org_x = p[0], ray.org_y = p[1], ray.org_z = p[2];
+    ray.dir_x = p[3] - p[0], ray.dir_y = p[4] - p[1], ray.dir_z = p[5] - p[2];
+    ray.tnear = FF_RAY_T_MIN; /* ff_bvh.h: the GPU tests the same span */
+    ray.tfar = FF_RAY_T_MAX;
+    ray.time = 0.0f;
+    ray.mask = ~0u;
+    ray.id = 0;
+    ray.flags = 0;
+    rtcOccluded1(scene, &ctx->base, &ray);
+    return ray.tfar >= 0.0f; /* Embree sets tfar = -inf on a hit */
+}
+
+static void add_ray(rad_ff_sums *sums, double g, int visible)
+{
+    sums->ray_terms += g;
+    sums->ray_terms_sq += g * g;
+    if (visible) {
+        sums->ray_seen += g;
+        sums->ray_seen_sq += g * g;
+    }
+    sums->visible += (uint32_t)visible;
+    sums->rays++;
+}
+
+/* Pass 1 for columns [j0, j1) of row i: the first batch of samples of
+ * every pair row i computes, and the point pairs and terms of those that
+ * carry shadow rays. Columns it does not compute are 0 and inactive. */
 static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j1, double *row, cpu_scratch *sc,
                          ff_counters *c)
 {
@@ -174,111 +234,151 @@ static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j
     for (uint32_t j = j0; j < j1; j++) {
         const rad_ff_patch *pj = &su->patches[j];
         uint32_t b = j - j0;
-        sc->unoccluded[b] = 0;
+        sc->sums[b] = (rad_ff_sums){0};
+        sc->active[b] = 0;
         sc->ray_count[b] = 0;
-        if (su->pairs_once && !rad_ff_row_computes(i, j)) {
-            row[j] = 0; /* row j computes this pair */
-            continue;
-        }
+        row[j] = 0;
+        if (su->pairs_once && !rad_ff_row_computes(i, j)) continue; /* row j computes this pair */
         c->pairs++;
         if (j == i || !rad_ff_pair_facing(pi, pj, su->plane_eps)) {
             c->pairs_culled++;
-            row[j] = 0;
             continue;
         }
         int near = su->estimator == RAD_ESTIMATOR_AUTO && rad_ff_pair_near(pi, pj);
         uint32_t K = near ? rad_ff_near_samples(su->samples) : su->samples;
-        if (near)
-            near_samples(pi, pj, i, j, K, su->seed, sc->g);
-        else
-            kernel_samples(su->estimator, pi, pj, i, j, K, su->seed, sc->g);
-        double sum = 0;
-        for (uint32_t k = 0; k < K; k++) sum += sc->g[k];
+        sample_terms(su->estimator, near, pi, pj, i, j, 0, K, su->seed, sc->g);
+        add_terms(&sc->sums[b], sc->g, K);
         /* The first R point pairs carry shadow rays: keep them and their weights. */
         uint32_t rays = R < K ? R : K;
         for (uint32_t k = 0; k < rays; k++) {
-            rad_vec3 x, y;
-            if (near)
-                rad_ff_sample_pair(pi, pj, i, j, k, su->seed, &x, &y);
-            else
-                rad_ff_pair_points(su->estimator, pi, pj, i, j, k, su->seed, &x, &y);
-            if (i > j) { /* trace from the lower-numbered patch: rows i and j test one segment */
-                rad_vec3 t = x;
-                x = y;
-                y = t;
-            }
-            float *ray = sc->rays + ((size_t)b * R + k) * 6;
-            ray[0] = (float)x.x, ray[1] = (float)x.y, ray[2] = (float)x.z;
-            ray[3] = (float)y.x, ray[4] = (float)y.y, ray[5] = (float)y.z;
+            ray_segment(su, near, i, j, k, sc->rays + ((size_t)b * R + k) * 6);
             sc->kernel[(size_t)b * R + k] = sc->g[k];
         }
         sc->ray_count[b] = rays;
+        sc->active[b] = near ? 2 : 1;
         c->samples += K;
         c->pairs_near += (uint64_t)near;
-        sc->unoccluded[b] = near ? rad_ff_coupling_near(sum, K, pi, pj) : rad_ff_coupling_far(sum, K);
-        row[j] = sc->unoccluded[b];
     }
 }
 
-/* Pass 2: scale each unoccluded coupling by its kernel-weighted visible fraction. */
-static void visibility_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32_t j1, double *row,
-                             const cpu_scratch *sc, ff_counters *c)
+/* Does pair (i, j) need shadow rays at all? Not where culling shows that
+ * nothing can lie between the patches (their fraction is exactly 1). */
+static int pair_needs_rays(const cpu_state *s, uint32_t i, uint32_t j, uint32_t rays, ff_counters *c)
+{
+    const ff_setup *su = &s->setup;
+    if (!su->cull) return 1;
+    if (su->scene_convex) {
+        c->pairs_open_scene++;
+        c->rays_saved += rays;
+        return 0;
+    }
+    if (!ff_pair_may_be_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &su->patches[i],
+                                 &su->patches[j], su->cull_margin)) {
+        c->pairs_open_box++;
+        c->rays_saved += rays;
+        return 0;
+    }
+    return 1;
+}
+
+static void init_context(const cpu_state *s, occlusion_context *ctx, uint32_t i, uint32_t j)
+{
+    rtcInitIntersectContext(&ctx->base);
+    ctx->base.filter = skip_own_faces;
+    ctx->triangle_face = s->setup.triangle_face;
+    ctx->skip_a = s->setup.patches[i].face;
+    ctx->skip_b = s->setup.patches[j].face;
+}
+
+/* Pass 2: the kept shadow rays of each pair, then its estimate (and error). */
+static void visibility_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32_t j1, double *row, double *errors,
+                             cpu_scratch *sc, ff_counters *c)
 {
     const ff_setup *su = &s->setup;
     uint32_t R = su->shadow_rays;
-    occlusion_context ctx;
-    rtcInitIntersectContext(&ctx.base);
-    ctx.base.filter = skip_own_faces;
-    ctx.triangle_face = su->triangle_face;
-    ctx.skip_a = su->patches[i].face;
     for (uint32_t j = j0; j < j1; j++) {
         uint32_t b = j - j0;
-        if (!(sc->unoccluded[b] > 0) || sc->ray_count[b] == 0) continue;
-        ctx.skip_b = su->patches[j].face;
+        if (!sc->active[b]) {
+            if (errors) errors[j] = 0;
+            continue;
+        }
+        rad_ff_sums *sums = &sc->sums[b];
         uint32_t rays = sc->ray_count[b];
-        if (su->cull) { /* rays that cannot hit anything: F stays as it is (their fraction is exactly 1) */
-            if (su->scene_convex) {
-                c->pairs_open_scene++;
-                c->rays_saved += rays;
-                continue;
-            }
-            if (!ff_pair_may_be_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &su->patches[i],
-                                         &su->patches[j], su->cull_margin)) {
-                c->pairs_open_box++;
-                c->rays_saved += rays;
-                continue;
-            }
+        sc->traced[b] = sums->terms > 0 && rays > 0 && pair_needs_rays(s, i, j, rays, c);
+        if (sc->traced[b]) {
+            occlusion_context ctx;
+            init_context(s, &ctx, i, j);
+            for (uint32_t r = 0; r < rays; r++)
+                add_ray(sums, sc->kernel[(size_t)b * R + r],
+                        segment_visible(s->scene, &ctx, sc->rays + ((size_t)b * R + r) * 6));
+            c->rays += rays;
+            c->rays_occluded += rays - sums->visible;
         }
-        double seen = 0, total = 0;
-        uint32_t visible = 0;
-        for (uint32_t r = 0; r < rays; r++) {
-            const float *p = sc->rays + ((size_t)b * R + r) * 6;
-            struct RTCRay ray;
-            ray.org_x = p[0], ray.org_y = p[1], ray.org_z = p[2];
-            ray.dir_x = p[3] - p[0], ray.dir_y = p[4] - p[1], ray.dir_z = p[5] - p[2];
-            ray.tnear = FF_RAY_T_MIN; /* ff_bvh.h: the GPU tests the same span */
-            ray.tfar = FF_RAY_T_MAX;
-            ray.time = 0.0f;
-            ray.mask = ~0u;
-            ray.id = 0;
-            ray.flags = 0;
-            rtcOccluded1(s->scene, &ctx.base, &ray);
-            int is_visible = ray.tfar >= 0.0f; /* Embree sets tfar = -inf on a hit */
-            double g = sc->kernel[(size_t)b * R + r];
-            total += g;
-            seen += is_visible ? g : 0.0;
-            visible += (uint32_t)is_visible;
+        double error = 0;
+        row[j] = rad_ff_estimate(sums, sc->active[b] == 2, &su->patches[i], &su->patches[j], &error);
+        if (errors) errors[j] = error;
+    }
+}
+
+/* Pass 3 (--target-error): more batches for the pairs whose error is still
+ * above the target; each batch doubles the samples and shadow rays. */
+static void refine_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32_t j1, double *row, double *errors,
+                         cpu_scratch *sc, ff_counters *c)
+{
+    const ff_setup *su = &s->setup;
+    uint32_t factor = su->max_samples / su->samples;
+    for (uint32_t j = j0; j < j1; j++) {
+        uint32_t b = j - j0;
+        if (!sc->active[b]) continue;
+        int near = sc->active[b] == 2;
+        const rad_ff_patch *pi = &su->patches[i], *pj = &su->patches[j];
+        rad_ff_sums *sums = &sc->sums[b];
+        uint32_t first = sums->samples, first_rays = sc->ray_count[b];
+        double error = 0;
+        double value = rad_ff_estimate(sums, near, pi, pj, &error);
+        uint32_t to = 0, rays_to = 0, planned = first_rays; /* rays a culled pair would have cast */
+        int refined = 0;
+        while (!rad_ff_error_reached(error, pi, pj, su->target_error) &&
+               rad_ff_next_batch(sums, first, first_rays, factor, &to, &rays_to)) {
+            double t0 = now_seconds();
+            for (uint32_t k0 = sums->samples; k0 < to; k0 += su->samples) { /* g holds `samples` terms */
+                uint32_t k1 = to - k0 < su->samples ? to : k0 + su->samples;
+                sample_terms(su->estimator, near, pi, pj, i, j, k0, k1, su->seed, sc->g);
+                add_terms(sums, sc->g, k1 - k0);
+                c->samples += k1 - k0;
+            }
+            double t1 = now_seconds();
+            if (sc->traced[b]) {
+                occlusion_context ctx;
+                init_context(s, &ctx, i, j);
+                uint32_t visible_before = sums->visible, rays_before = sums->rays;
+                for (uint32_t r = sums->rays; r < rays_to; r++) {
+                    float ray[6];
+                    double g;
+                    ray_segment(su, near, i, j, r, ray);
+                    sample_terms(su->estimator, near, pi, pj, i, j, r, r + 1, su->seed, &g);
+                    add_ray(sums, g, segment_visible(s->scene, &ctx, ray));
+                }
+                c->rays += sums->rays - rays_before;
+                c->rays_occluded += (sums->rays - rays_before) - (sums->visible - visible_before);
+            } else if (sums->terms > 0 && first_rays > 0) { /* culled: these rays are saved too */
+                c->rays_saved += rays_to - planned;
+                planned = rays_to;
+            }
+            c->kernel_seconds += t1 - t0;
+            c->visibility_seconds += now_seconds() - t1;
+            value = rad_ff_estimate(sums, near, pi, pj, &error);
+            refined = 1;
         }
-        c->rays += rays;
-        c->rays_occluded += rays - visible;
-        /* If no kept sample has weight (all grazing), fall back to the plain fraction. */
-        double fraction = total > 0 ? seen / total : (double)visible / rays;
-        row[j] = sc->unoccluded[b] * fraction;
+        c->pairs_refined += (uint64_t)refined;
+        c->pairs_capped += (uint64_t)!rad_ff_error_reached(error, pi, pj, su->target_error);
+        row[j] = value;
+        if (errors) errors[j] = error;
     }
 }
 
 static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row_count, double *out,
-                                   ff_counters *counters)
+                                   double *errors, ff_counters *counters)
 {
     cpu_state *s = state;
     const ff_setup *su = &s->setup;
@@ -292,27 +392,31 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
         ff_counters c = {0};
         sc.rays = malloc(sizeof(float) * 6 * FF_CPU_BLOCK * (R ? R : 1));
         sc.kernel = malloc(sizeof(double) * FF_CPU_BLOCK * (R ? R : 1));
-        sc.unoccluded = malloc(sizeof(double) * FF_CPU_BLOCK);
+        sc.sums = malloc(sizeof(rad_ff_sums) * FF_CPU_BLOCK);
+        sc.active = malloc(FF_CPU_BLOCK);
+        sc.traced = malloc(FF_CPU_BLOCK);
         sc.g = malloc(sizeof(double) * su->samples);
         sc.ray_count = malloc(sizeof(uint32_t) * FF_CPU_BLOCK);
         int master = 1;
 #ifdef _OPENMP
         master = omp_get_thread_num() == 0;
 #endif
-        if (!sc.rays || !sc.kernel || !sc.unoccluded || !sc.g || !sc.ray_count) failed = 1;
+        if (!sc.rays || !sc.kernel || !sc.sums || !sc.g || !sc.ray_count || !sc.active || !sc.traced) failed = 1;
 #pragma omp for schedule(dynamic, 1)
         for (uint32_t r = 0; r < row_count; r++) {
             if (failed) continue;
             uint32_t i = row_begin + r;
             double *row = out + (size_t)r * n;
+            double *row_errors = errors ? errors + (size_t)r * n : NULL;
             for (uint32_t j0 = 0; j0 < n; j0 += FF_CPU_BLOCK) {
                 uint32_t j1 = j0 + FF_CPU_BLOCK < n ? j0 + FF_CPU_BLOCK : n;
                 double t0 = now_seconds();
                 kernel_block(su, i, j0, j1, row, &sc, &c);
                 double t1 = now_seconds();
-                if (R > 0) visibility_block(s, i, j0, j1, row, &sc, &c);
+                visibility_block(s, i, j0, j1, row, row_errors, &sc, &c);
                 c.kernel_seconds += t1 - t0;
                 c.visibility_seconds += now_seconds() - t1;
+                if (su->target_error > 0) refine_block(s, i, j0, j1, row, row_errors, &sc, &c); /* times itself */
             }
             uint64_t done;
 #pragma omp atomic capture
@@ -328,6 +432,8 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
             counters->pairs_open_box += c.pairs_open_box;
             counters->rays_saved += c.rays_saved;
             counters->samples += c.samples;
+            counters->pairs_refined += c.pairs_refined;
+            counters->pairs_capped += c.pairs_capped;
             counters->rays += c.rays;
             counters->rays_occluded += c.rays_occluded;
             counters->kernel_seconds += c.kernel_seconds / su->threads;
@@ -335,7 +441,9 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
         }
         free(sc.rays);
         free(sc.kernel);
-        free(sc.unoccluded);
+        free(sc.sums);
+        free(sc.active);
+        free(sc.traced);
         free(sc.g);
         free(sc.ray_count);
     }

@@ -29,7 +29,8 @@ enum { FF_CUDA_BLOCK = 256, FF_CUDA_WARPS_PER_BLOCK = FF_CUDA_BLOCK / 32 };
 #ifndef FF_CUDA_MIN_BLOCKS
 #define FF_CUDA_MIN_BLOCKS 3 /* measured on H200: 2 -> 10.8 ms, 3 -> 10.3 ms, 4 -> 10.3 ms (N = 2944) */
 #endif
-enum { C_SAMPLES, C_RAYS, C_OCCLUDED, C_NEAR, C_OPEN_SCENE, C_OPEN_BOX, C_SAVED, C_CYCLES, C_RAY_CYCLES, C_COUNT };
+enum { C_SAMPLES, C_RAYS, C_OCCLUDED, C_NEAR, C_OPEN_SCENE, C_OPEN_BOX, C_SAVED, C_CYCLES, C_RAY_CYCLES, C_REFINED,
+       C_CAPPED, C_COUNT };
 
 struct cuda_params {
     const rad_ff_patch *patches;
@@ -41,11 +42,14 @@ struct cuda_params {
     uint32_t samples, rays;
     uint64_t seed;
     uint32_t estimator;
+    double target_error;
+    uint32_t max_samples;
     int cull, scene_convex, pairs_once;
     float cull_margin;
     double eps;
     uint32_t row_begin, row_count;
     double *out;                   /* row_count * n */
+    double *errors;                /* row_count * n standard errors, or NULL */
     unsigned long long *counters;  /* C_COUNT */
     const uint32_t *pairs;         /* facing pairs: r * n + j, pair_count of them */
     uint32_t pair_count;
@@ -59,6 +63,8 @@ struct cuda_state {
     int32_t root;
     uint32_t root_count;
     double *d_out;
+    double *d_errors;    /* standard errors, allocated on the first call that asks */
+    size_t errors_capacity; /* doubles */
     uint32_t *d_pairs;   /* facing-pair list, out_capacity entries */
     uint32_t *d_pair_counts; /* [0] far pairs, [1] near pairs */
     size_t out_capacity; /* doubles */
@@ -109,6 +115,7 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t
     if (t >= (uint64_t)p.row_count * p.n) return;
     uint32_t j = (uint32_t)(t % p.n), i = p.row_begin + (uint32_t)(t / p.n);
     const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
+    if (p.errors) p.errors[t] = 0.0; /* listed pairs overwrite it */
     if (p.pairs_once && !rad_ff_row_computes(i, j))
         p.out[t] = 0.0; /* row j computes this pair: no warp here */
     else if (i == j || !rad_ff_pair_facing(pi, pj, p.eps))
@@ -117,6 +124,82 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t
         pairs[capacity - 1 - atomicAdd(&counts[1], 1u)] = (uint32_t)t;
     else
         pairs[atomicAdd(&counts[0], 1u)] = (uint32_t)t;
+}
+
+/* Samples [k0, k1) of pair (i, j), spread over the lanes and summed into
+ * *sums (every lane gets the same bits: the xor butterfly adds the same
+ * two numbers on both sides at each step). Lane l keeps sample l (when
+ * k0 == 0) for its first shadow ray. */
+template <bool NEAR>
+__device__ static void warp_samples(const cuda_params &p, const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i,
+                                    uint32_t j, uint32_t k0, uint32_t k1, unsigned lane, rad_ff_sums *sums,
+                                    rad_vec3 *first_x, rad_vec3 *first_y, double *first_g)
+{
+    double sum = 0.0, sum_sq = 0.0;
+    for (uint32_t k = k0 + lane; k < k1; k += 32) {
+        rad_vec3 x, y;
+        double g;
+        if (NEAR) {
+            g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
+        } else {
+            rad_ff_pair_points(p.estimator, pi, pj, i, j, k, p.seed, &x, &y);
+            g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+        }
+        sum += g;
+        sum_sq += g * g;
+        if (k == lane) {
+            *first_x = x;
+            *first_y = y;
+            *first_g = g;
+        }
+    }
+    sums->terms += warp_sum(sum);
+    sums->terms_sq += warp_sum(sum_sq);
+    sums->samples += k1 - k0;
+}
+
+/* Shadow rays of samples [r0, r1), one per lane, through the flat BVH,
+ * traced from the lower-numbered patch as the CPU does. */
+template <bool NEAR>
+__device__ static void warp_rays(const cuda_params &p, const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i,
+                                 uint32_t j, uint32_t r0, uint32_t r1, unsigned lane, rad_ff_sums *sums,
+                                 rad_vec3 first_x, rad_vec3 first_y, double first_g)
+{
+    double seen = 0.0, total = 0.0, seen_sq = 0.0, total_sq = 0.0;
+    unsigned visible = 0;
+    for (uint32_t k = r0 + lane; k < r1; k += 32) {
+        rad_vec3 x = first_x, y = first_y;
+        double g = first_g;
+        if (k != lane) { /* beyond each lane's first sample: recomputed */
+            if (NEAR) {
+                g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
+            } else {
+                rad_ff_pair_points(p.estimator, pi, pj, i, j, k, p.seed, &x, &y);
+                g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+            }
+        }
+        if (i > j) {
+            rad_vec3 tmp = x;
+            x = y;
+            y = tmp;
+        }
+        float o[3] = {(float)x.x, (float)x.y, (float)x.z};
+        float d[3] = {(float)y.x - o[0], (float)y.y - o[1], (float)y.z - o[2]};
+        int blocked = ff_bvh_occluded(p.nodes, p.tris, p.root, p.root_count, o, d, pi->face, pj->face);
+        total += g;
+        total_sq += g * g;
+        if (!blocked) {
+            seen += g;
+            seen_sq += g * g;
+            visible++;
+        }
+    }
+    sums->ray_terms += warp_sum(total);
+    sums->ray_seen += warp_sum(seen);
+    sums->ray_terms_sq += warp_sum(total_sq);
+    sums->ray_seen_sq += warp_sum(seen_sq);
+    sums->visible += warp_sum_u(visible);
+    sums->rays += r1 - r0;
 }
 
 /* Pass 2: one warp per listed pair; NEAR selects the estimator (the same
@@ -131,90 +214,71 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
     unsigned lane = threadIdx.x & 31u;
     if (warp < p.pair_count) {
         long long start = clock64(); /* the split of kernel time into sampling and occlusion */
+        long long ray_cycles = 0;
         uint32_t t = p.pairs[NEAR ? -(int64_t)warp : (int64_t)warp]; /* near list runs backwards */
         uint32_t j = t % p.n, i = p.row_begin + t / p.n;
         const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
         uint32_t samples = NEAR ? rad_ff_near_samples(p.samples) : p.samples;
         uint32_t rays = p.rays < samples ? p.rays : samples;
-        double sum = 0.0;
+        rad_ff_sums sums = {};
         /* Each lane keeps its first sample (k = lane): when R <= 32 that is
          * the one its shadow ray needs, so the ray loop need not redo it. */
         rad_vec3 first_x = {0, 0, 0}, first_y = {0, 0, 0};
         double first_g = 0.0;
-        for (uint32_t k = lane; k < samples; k += 32) {
-            rad_vec3 x, y;
-            double g;
-            if (NEAR) {
-                g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
-            } else {
-                rad_ff_pair_points(p.estimator, pi, pj, i, j, k, p.seed, &x, &y);
-                g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
-            }
-            sum += g;
-            if (k == lane) {
-                first_x = x;
-                first_y = y;
-                first_g = g;
-            }
-        }
-        sum = warp_sum(sum);
-        double value = NEAR ? rad_ff_coupling_near(sum, samples, pi, pj) : rad_ff_coupling_far(sum, samples);
+        warp_samples<NEAR>(p, pi, pj, i, j, 0, samples, lane, &sums, &first_x, &first_y, &first_g);
+        int traced = rays > 0 && sums.terms > 0.0;
         /* Culling on the GPU: only the convex-enclosure rule. The per-pair
          * shaft test of the CPU backend costs a warp about what its 32
          * rays cost (measured: 5-7 % slower overall), so the GPU traces
          * those rays; the matrix is the same either way. */
-        if (rays > 0 && value > 0.0 && p.cull && p.scene_convex) {
+        if (traced && p.cull && p.scene_convex) {
             if (lane == 0) {
                 atomicAdd(&block_counts[C_OPEN_SCENE], 1ull);
                 atomicAdd(&block_counts[C_SAVED], (unsigned long long)rays);
             }
-            rays = 0; /* F stays as it is: the visible fraction is exactly 1 */
+            traced = 0; /* F stays as it is: the visible fraction is exactly 1 */
         }
-        long long rays_start = clock64();
-        if (rays > 0 && value > 0.0) {
-            double seen = 0.0, total = 0.0;
-            unsigned visible = 0;
-            for (uint32_t k = lane; k < rays; k += 32) {
-                rad_vec3 x = first_x, y = first_y;
-                double g = first_g;
-                if (k != lane) { /* R > 32: later ray samples are recomputed */
-                    if (NEAR) {
-                        g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
-                    } else {
-                        rad_ff_pair_points(p.estimator, pi, pj, i, j, k, p.seed, &x, &y);
-                        g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
-                    }
+        if (traced) {
+            long long t0 = clock64();
+            warp_rays<NEAR>(p, pi, pj, i, j, 0, rays, lane, &sums, first_x, first_y, first_g);
+            ray_cycles += clock64() - t0;
+        }
+        double error = 0.0;
+        double value = rad_ff_estimate(&sums, NEAR, pi, pj, &error);
+        if (p.target_error > 0.0) { /* --target-error: more batches, as the CPU backend's refine_block */
+            uint32_t to = 0, rays_to = 0, planned = rays, factor = p.max_samples / p.samples;
+            int refined = 0;
+            while (!rad_ff_error_reached(error, pi, pj, p.target_error) &&
+                   rad_ff_next_batch(&sums, samples, rays, factor, &to, &rays_to)) {
+                warp_samples<NEAR>(p, pi, pj, i, j, sums.samples, to, lane, &sums, &first_x, &first_y, &first_g);
+                if (traced) {
+                    long long t0 = clock64();
+                    warp_rays<NEAR>(p, pi, pj, i, j, sums.rays, rays_to, lane, &sums, first_x, first_y, first_g);
+                    ray_cycles += clock64() - t0;
+                } else if (sums.terms > 0.0 && rays > 0 && p.cull && p.scene_convex) {
+                    if (lane == 0) atomicAdd(&block_counts[C_SAVED], (unsigned long long)(rays_to - planned));
+                    planned = rays_to;
                 }
-                if (i > j) { /* trace from the lower-numbered patch, as the CPU does */
-                    rad_vec3 tmp = x;
-                    x = y;
-                    y = tmp;
-                }
-                float o[3] = {(float)x.x, (float)x.y, (float)x.z};
-                float d[3] = {(float)y.x - o[0], (float)y.y - o[1], (float)y.z - o[2]};
-                int blocked = ff_bvh_occluded(p.nodes, p.tris, p.root, p.root_count, o, d, pi->face, pj->face);
-                total += g;
-                if (!blocked) {
-                    seen += g;
-                    visible++;
-                }
+                value = rad_ff_estimate(&sums, NEAR, pi, pj, &error);
+                refined = 1;
             }
-            seen = warp_sum(seen);
-            total = warp_sum(total);
-            visible = warp_sum_u(visible);
-            value *= total > 0.0 ? seen / total : (double)visible / rays;
             if (lane == 0) {
-                atomicAdd(&block_counts[C_RAYS], (unsigned long long)rays);
-                atomicAdd(&block_counts[C_OCCLUDED], (unsigned long long)(rays - visible));
+                if (refined) atomicAdd(&block_counts[C_REFINED], 1ull);
+                if (!rad_ff_error_reached(error, pi, pj, p.target_error)) atomicAdd(&block_counts[C_CAPPED], 1ull);
             }
         }
         if (lane == 0) {
             long long end = clock64();
             atomicAdd(&block_counts[C_CYCLES], (unsigned long long)(end - start));
-            atomicAdd(&block_counts[C_RAY_CYCLES], (unsigned long long)(end - rays_start));
-            atomicAdd(&block_counts[C_SAMPLES], (unsigned long long)samples);
+            atomicAdd(&block_counts[C_RAY_CYCLES], (unsigned long long)ray_cycles);
+            atomicAdd(&block_counts[C_SAMPLES], (unsigned long long)sums.samples);
+            if (traced) {
+                atomicAdd(&block_counts[C_RAYS], (unsigned long long)sums.rays);
+                atomicAdd(&block_counts[C_OCCLUDED], (unsigned long long)(sums.rays - sums.visible));
+            }
             if (NEAR) atomicAdd(&block_counts[C_NEAR], 1ull);
             p.out[t] = value;
+            if (p.errors) p.errors[t] = error;
         }
     }
     __syncthreads();
@@ -239,6 +303,7 @@ static void cuda_destroy(void *state)
     cudaFree(s->d_nodes);
     cudaFree(s->d_tris);
     cudaFree(s->d_out);
+    cudaFree(s->d_errors);
     cudaFree(s->d_pairs);
     cudaFree(s->d_pair_counts);
     cudaFree(s->d_counters);
@@ -288,7 +353,7 @@ done:
 }
 
 static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t row_count, double *out,
-                                    ff_counters *counters)
+                                    double *errors, ff_counters *counters)
 {
     cuda_state *s = (cuda_state *)state;
     const ff_setup *su = &s->setup;
@@ -316,6 +381,13 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
         CUDA_TRY(cudaMalloc(&s->d_pairs, sizeof(uint32_t) * need));
         s->out_capacity = need;
     }
+    if (errors && need > s->errors_capacity) {
+        cudaFree(s->d_errors);
+        s->d_errors = NULL;
+        s->errors_capacity = 0;
+        CUDA_TRY(cudaMalloc(&s->d_errors, sizeof(double) * need));
+        s->errors_capacity = need;
+    }
     CUDA_TRY(cudaMemset(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT));
     CUDA_TRY(cudaMemset(s->d_pair_counts, 0, 2 * sizeof(uint32_t)));
     p.patches = s->d_patches;
@@ -328,6 +400,8 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     p.rays = su->shadow_rays;
     p.seed = su->seed;
     p.estimator = su->estimator;
+    p.target_error = su->target_error;
+    p.max_samples = su->max_samples;
     p.cull = su->cull;
     p.scene_convex = su->scene_convex;
     p.pairs_once = su->pairs_once;
@@ -336,6 +410,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     p.row_begin = row_begin;
     p.row_count = row_count;
     p.out = s->d_out;
+    p.errors = errors ? s->d_errors : NULL;
     p.counters = s->d_counters;
     p.pairs = s->d_pairs;
     p.pair_count = 0;
@@ -365,6 +440,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
 
     t_mem = now_seconds();
     CUDA_TRY(cudaMemcpy(out, s->d_out, sizeof(double) * need, cudaMemcpyDeviceToHost));
+    if (errors) CUDA_TRY(cudaMemcpy(errors, s->d_errors, sizeof(double) * need, cudaMemcpyDeviceToHost));
     CUDA_TRY(cudaMemcpy(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost));
     counters->memory_seconds += now_seconds() - t_mem;
     computed = need;
@@ -375,6 +451,8 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     counters->pairs += computed;
     counters->pairs_culled += computed - pair_counts[0] - pair_counts[1];
     counters->samples += counts[C_SAMPLES];
+    counters->pairs_refined += counts[C_REFINED];
+    counters->pairs_capped += counts[C_CAPPED];
     counters->rays += counts[C_RAYS];
     counters->rays_occluded += counts[C_OCCLUDED];
     counters->pairs_near += counts[C_NEAR];

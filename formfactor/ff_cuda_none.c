@@ -15,9 +15,9 @@ static rad_status none_create(const ff_setup *setup, void **out_state)
 }
 
 static rad_status none_compute_rows(void *state, uint32_t row_begin, uint32_t row_count, double *out,
-                                    ff_counters *counters)
+                                    double *errors, ff_counters *counters)
 {
-    (void)state, (void)row_begin, (void)row_count, (void)out, (void)counters;
+    (void)state, (void)row_begin, (void)row_count, (void)out, (void)errors, (void)counters;
     return RAD_ERR_UNSUPPORTED;
 }
 

@@ -24,6 +24,7 @@ struct ff_output {
     uint64_t *row_checksums; /* this rank's rows, in order */
     uint64_t checksum_count, checksum_cap;
     void *convert; /* one write's rows in the stored element type */
+    int guard_slot; /* guard_temp's slot for the temporary name */
     uint64_t convert_bytes; /* its size: grown to the largest write seen */
 };
 
@@ -35,31 +36,51 @@ struct ff_output {
  * else. SIGKILL cannot be caught: a rank killed that way relies on the
  * others being terminated (mpirun does that). */
 static const int guarded_signals[] = {SIGTERM, SIGINT, SIGHUP};
-static char g_signal_temp[4096];
+/* One slot per file open at once (the matrix and its --errors file). */
+#define FF_GUARD_SLOTS 2
+static char g_signal_temp[FF_GUARD_SLOTS][4096];
+static int g_guarded; /* slots in use */
 static struct sigaction g_previous[sizeof guarded_signals / sizeof guarded_signals[0]];
 
 static void remove_temp_and_die(int sig)
 {
-    unlink(g_signal_temp);
+    for (int k = 0; k < FF_GUARD_SLOTS; k++)
+        if (g_signal_temp[k][0]) unlink(g_signal_temp[k]);
     signal(sig, SIG_DFL);
     raise(sig);
 }
 
-static void guard_temp(const char *temp)
+/* Returns the slot, for unguard_temp. */
+static int guard_temp(const char *temp)
 {
-    snprintf(g_signal_temp, sizeof g_signal_temp, "%s", temp);
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = remove_temp_and_die;
-    sigfillset(&sa.sa_mask);
-    for (size_t k = 0; k < sizeof guarded_signals / sizeof guarded_signals[0]; k++)
-        sigaction(guarded_signals[k], &sa, &g_previous[k]);
+    int slot = 0;
+    while (slot < FF_GUARD_SLOTS - 1 && g_signal_temp[slot][0]) slot++;
+    sigset_t all, old;
+    sigfillset(&all);
+    sigprocmask(SIG_BLOCK, &all, &old); /* the handler never sees half a name */
+    snprintf(g_signal_temp[slot], sizeof g_signal_temp[slot], "%s", temp);
+    sigprocmask(SIG_SETMASK, &old, NULL);
+    if (g_guarded++ == 0) {
+        struct sigaction sa;
+        memset(&sa, 0, sizeof sa);
+        sa.sa_handler = remove_temp_and_die;
+        sigfillset(&sa.sa_mask);
+        for (size_t k = 0; k < sizeof guarded_signals / sizeof guarded_signals[0]; k++)
+            sigaction(guarded_signals[k], &sa, &g_previous[k]);
+    }
+    return slot;
 }
 
-static void unguard_temp(void)
+static void unguard_temp(int slot)
 {
-    for (size_t k = 0; k < sizeof guarded_signals / sizeof guarded_signals[0]; k++)
-        sigaction(guarded_signals[k], &g_previous[k], NULL);
+    sigset_t all, old;
+    sigfillset(&all);
+    sigprocmask(SIG_BLOCK, &all, &old);
+    g_signal_temp[slot][0] = 0;
+    sigprocmask(SIG_SETMASK, &old, NULL);
+    if (--g_guarded == 0)
+        for (size_t k = 0; k < sizeof guarded_signals / sizeof guarded_signals[0]; k++)
+            sigaction(guarded_signals[k], &g_previous[k], NULL);
 }
 
 uint32_t ff_output_max_rows(const ff_output *output)
@@ -99,9 +120,9 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
     status = ff_comm_agree(comm, status);
     if (status == RAD_OK) {
         ff_comm_broadcast(comm, o->temp, sizeof o->temp, 0);
-        guard_temp(o->temp);
+        o->guard_slot = guard_temp(o->temp);
         status = ff_comm_file_open(comm, o->temp, &o->file);
-        if (status != RAD_OK) unguard_temp();
+        if (status != RAD_OK) unguard_temp(o->guard_slot);
     }
     if (status != RAD_OK) {
         if (o) {
@@ -211,7 +232,7 @@ rad_status ff_output_finish(ff_output *o, rad_status status)
             rad_fs_discard(o->temp);
     }
     status = ff_comm_agree(o->comm, status);
-    unguard_temp();
+    unguard_temp(o->guard_slot);
     free(all);
     free(o->prologue);
     free(o->convert);

@@ -27,6 +27,17 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
         all.counters.pairs_open_box += s->counters.pairs_open_box;
         all.counters.rays_saved += s->counters.rays_saved;
         all.counters.samples += s->counters.samples;
+        all.counters.pairs_refined += s->counters.pairs_refined;
+        all.counters.pairs_capped += s->counters.pairs_capped;
+        all.error_sum += s->error_sum;
+        all.error_relative_sum += s->error_relative_sum;
+        all.error_count += s->error_count;
+        if (s->error_max > all.error_max) {
+            all.error_max = s->error_max;
+            all.error_max_row = s->error_max_row;
+            all.error_max_column = s->error_max_column;
+            all.error_max_value = s->error_max_value;
+        }
         all.counters.rays += s->counters.rays;
         all.counters.rays_occluded += s->counters.rays_occluded;
         if (s->row_end > s->row_begin) {
@@ -50,11 +61,13 @@ static void write_counters(FILE *f, const ff_counters *c)
 {
     fprintf(f,
             "\"pairs\": %llu, \"pairs_mirrored\": %llu, \"pairs_culled\": %llu, \"pairs_near\": %llu, \"samples\": %llu, \"rays\": %llu, "
-            "\"rays_occluded\": %llu, \"pairs_open_scene\": %llu, \"pairs_open_box\": %llu, \"rays_saved\": %llu",
+            "\"rays_occluded\": %llu, \"pairs_open_scene\": %llu, \"pairs_open_box\": %llu, \"rays_saved\": %llu, "
+            "\"pairs_refined\": %llu, \"pairs_capped\": %llu",
             (unsigned long long)c->pairs, (unsigned long long)c->pairs_mirrored, (unsigned long long)c->pairs_culled,
             (unsigned long long)c->pairs_near, (unsigned long long)c->samples,
             (unsigned long long)c->rays, (unsigned long long)c->rays_occluded, (unsigned long long)c->pairs_open_scene,
-            (unsigned long long)c->pairs_open_box, (unsigned long long)c->rays_saved);
+            (unsigned long long)c->pairs_open_box, (unsigned long long)c->rays_saved,
+            (unsigned long long)c->pairs_refined, (unsigned long long)c->pairs_capped);
 }
 
 static void write_string(FILE *f, const char *s)
@@ -98,6 +111,12 @@ rad_status ff_stats_write_json(const char *path, const ff_run_info *run, const f
             all.counters.rays / seconds, all.counters.samples / seconds);
     fprintf(f, "  \"row_sum\": {\"min\": %.9g, \"max\": %.9g, \"mean\": %.9g},\n", all.row_sum_min, all.row_sum_max,
             run->patch_count ? all.row_sum_total / run->patch_count : 0.0);
+    fprintf(f, "  \"standard_error\": {\"max\": %.9g, \"mean\": %.9g, \"mean_relative\": %.9g, \"entries\": %llu, "
+               "\"worst\": {\"row\": %u, \"column\": %u, \"F\": %.9g}},\n",
+            all.error_max, all.error_count ? all.error_sum / all.error_count : 0.0,
+            all.error_count ? all.error_relative_sum / all.error_count : 0.0, (unsigned long long)all.error_count,
+            all.error_max_row, all.error_max_column, all.error_max_value);
+    fprintf(f, "  \"target_error\": %.9g,\n  \"max_samples_per_pair\": %u,\n", run->target_error, run->max_samples);
     fprintf(f, "  \"time_seconds\": ");
     write_times(f, &all);
     fprintf(f, ",\n  \"per_rank\": [\n");
@@ -135,4 +154,12 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
              all.load, all.subdivide, all.setup, all.form_factors, all.visibility, all.gpu_memory, all.io, all.total);
     rad_info("row sums: min %.6f  max %.6f  mean %.6f", all.row_sum_min, all.row_sum_max,
              run->patch_count ? all.row_sum_total / run->patch_count : 0.0);
+    rad_info("standard errors of F > 0: mean %.3g (%.2g%% of F), max %.3g at F[%u][%u] = %.3g",
+             all.error_count ? all.error_sum / all.error_count : 0.0,
+             all.error_count ? 100.0 * all.error_relative_sum / all.error_count : 0.0, all.error_max,
+             all.error_max_row, all.error_max_column, all.error_max_value);
+    if (run->target_error > 0)
+        rad_info("--target-error %.3g: %llu pairs took more samples, %llu stopped at %u samples above it",
+                 run->target_error, (unsigned long long)c->pairs_refined, (unsigned long long)c->pairs_capped,
+                 run->max_samples);
 }

@@ -18,6 +18,10 @@ typedef struct ff_rank_stats {
     double gpu_memory; /* CUDA: allocation + transfers (form_factors is then the GPU kernel) */
     ff_counters counters;
     double row_sum_min, row_sum_max, row_sum_total; /* over this rank's rows */
+    /* Standard errors of the entries F_ij > 0 of this rank's rows. */
+    double error_sum, error_relative_sum, error_max, error_max_value;
+    uint64_t error_count;
+    uint32_t error_max_row, error_max_column;
 } ff_rank_stats;
 
 typedef struct ff_run_info {
@@ -31,6 +35,8 @@ typedef struct ff_run_info {
     const char *estimator;
     const char *cull;
     const char *reciprocity; /* "on" (each pair once) or "off" (both entries computed) */
+    double target_error;     /* 0 = none */
+    uint32_t max_samples;
     const char *backend;
     const char *element;
     const char *format;

@@ -42,6 +42,9 @@ typedef struct ff_options {
     const char *scene_path; /* NULL = built-in Cornell box */
     const char *output;     /* "formfactors" */
     const char *stats_path; /* NULL = none */
+    const char *errors_path; /* --errors: standard errors of F as a second file; NULL = none */
+    double target_error;    /* --target-error; 0 = one batch */
+    uint32_t max_samples;   /* --max-samples; 0 = 64 x samples */
     const char *subdiv_only;
     const char *backend;    /* auto | cpu | cuda */
     int subdiv;
@@ -73,6 +76,12 @@ static void print_help(void)
            "      --shadow-rays R      of those, pairs that carry a shadow ray (default: 32;\n"
            "                           0 = no occlusion)\n"
            "      --seed N             random seed (default: 1); same seed, same bytes\n"
+           "      --target-error E     keep sampling each pair (batches that double the samples\n"
+           "                           and shadow rays) until the standard error of F_ij and\n"
+           "                           F_ji is at most E, or --max-samples is reached\n"
+           "      --max-samples M      cap per pair for --target-error (default: 64 x --samples)\n"
+           "      --errors FILE        also write each entry's standard error (float32, same\n"
+           "                           layout as the form factors; docs/formats.md)\n"
            "      --estimator E        auto | mc | qmc (default: auto: pairs closer than twice\n"
            "                           their radii use the contour-integral near-field estimator\n"
            "                           with K/8 samples; mc: random point pairs everywhere, as\n"
@@ -112,7 +121,7 @@ bad:
 static rad_status parse_options(int argc, char **argv, ff_options *o)
 {
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
-           O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY };
+           O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -122,7 +131,8 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         {"stats", required_argument, 0, O_STATS},     {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'},                {"version", no_argument, 0, O_VERSION},
         {"estimator", required_argument, 0, O_ESTIMATOR}, {"cull", required_argument, 0, O_CULL},
-        {"reciprocity", required_argument, 0, O_RECIPROCITY},
+        {"reciprocity", required_argument, 0, O_RECIPROCITY}, {"target-error", required_argument, 0, O_TARGET},
+        {"max-samples", required_argument, 0, O_MAX_SAMPLES}, {"errors", required_argument, 0, O_ERRORS},
         {0, 0, 0, 0}};
     *o = (ff_options){.output = "formfactors", .backend = "auto", .samples = 512, .shadow_rays = 32, .seed = 1,
                       .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_AUTO, .format = FF_FORMAT_NATIVE,
@@ -167,6 +177,17 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
             else if (!strcmp(optarg, "none")) o->cull = 0;
             else { rad_error("--cull: expected all or none, got '%s'", optarg); st = RAD_ERR_USAGE; }
             break;
+        case O_TARGET: {
+            char *end = NULL;
+            o->target_error = optarg && *optarg ? strtod(optarg, &end) : 0;
+            if (!end || *end || !(o->target_error > 0) || !isfinite(o->target_error)) {
+                rad_error("--target-error: expected a positive number, got '%s'", optarg);
+                st = RAD_ERR_USAGE;
+            }
+            break;
+        }
+        case O_MAX_SAMPLES: st = parse_uint("--max-samples", optarg, 1u << 30, &v); o->max_samples = (uint32_t)v; break;
+        case O_ERRORS: o->errors_path = optarg; break;
         case O_RECIPROCITY:
             if (!strcmp(optarg, "auto")) o->reciprocity = FF_RECIPROCITY_AUTO;
             else if (!strcmp(optarg, "on")) o->reciprocity = FF_RECIPROCITY_ON;
@@ -196,6 +217,15 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
     if (o->shadow_rays > o->samples) {
         rad_error("--shadow-rays %u exceeds --samples %u (rays are cast along sample pairs)", o->shadow_rays,
                   o->samples);
+        return RAD_ERR_USAGE;
+    }
+    if (o->max_samples == 0) o->max_samples = o->samples <= (1u << 30) / 64 ? 64 * o->samples : 1u << 30;
+    if (o->max_samples < o->samples) {
+        rad_error("--max-samples %u is below --samples %u", o->max_samples, o->samples);
+        return RAD_ERR_USAGE;
+    }
+    if (o->errors_path && !strcmp(o->errors_path, o->output)) {
+        rad_error("--errors %s: the same file as the output", o->errors_path);
         return RAD_ERR_USAGE;
     }
     if (o->format == FF_FORMAT_PAPER && o->element != RAD_ELEMENT_F64) {
@@ -359,7 +389,7 @@ static rad_status setup(ff_run *run)
     if (st == RAD_OK) st = ff_partition_rows(run->patches, n, eps, ranks, run->row_begin);
     /* Collective, so every rank asks, even one that failed above. */
     int rank = ff_comm_rank(run->comm);
-    double block_bytes = st == RAD_OK ? (double)(run->row_begin[rank + 1] - run->row_begin[rank]) * n * sizeof(double) : 0;
+    double block_bytes = st == RAD_OK ? 2.0 * (run->row_begin[rank + 1] - run->row_begin[rank]) * n * sizeof(double) : 0;
     uint64_t too_big = ff_comm_max_u64(run->comm, block_bytes > memory_per_rank(run) / 4);
     run->pairs_once = run->opt.reciprocity == FF_RECIPROCITY_ON || (run->opt.reciprocity == FF_RECIPROCITY_AUTO && !too_big);
     run->stats.threads = default_threads(run);
@@ -367,7 +397,8 @@ static rad_status setup(ff_run *run)
         ff_setup su = {.patches = run->patches, .patch_count = n, .triangles = run->triangles,
                        .triangle_face = run->triangle_face, .triangle_count = run->triangle_count,
                        .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
-                       .estimator = run->opt.estimator, .cull = run->opt.cull, .scene_convex = convex,
+                       .estimator = run->opt.estimator, .target_error = run->opt.target_error,
+                       .max_samples = run->opt.max_samples, .cull = run->opt.cull, .scene_convex = convex,
                        .cull_margin = (float)(1e4 * eps), .plane_eps = eps, .pairs_once = run->pairs_once, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
                        .progress = ff_comm_rank(run->comm) == 0 ? report_progress : NULL, .progress_user = run};
         st = run->backend->create(&su, &run->backend_state);
@@ -388,42 +419,81 @@ static uint32_t rows_per_round(const ff_run *run, const ff_output *out)
     return per_round > by_memory ? (uint32_t)by_memory : per_round;
 }
 
-/* Row sums of finished rows, for the stats. */
-static void add_row_sums(ff_run *run, const double *rows, uint32_t count)
+/* The files of a run: the matrix, and its standard errors on request. */
+typedef struct ff_files {
+    ff_output *matrix;
+    ff_output *errors; /* NULL without --errors */
+} ff_files;
+
+/* Row sums and standard errors of finished rows [r0, r0 + count), for the stats. */
+static void add_row_stats(ff_run *run, uint32_t r0, uint32_t count, const double *rows, const double *errors)
 {
     uint32_t n = (uint32_t)run->mesh.patch_count;
+    ff_rank_stats *st = &run->stats;
     for (uint32_t r = 0; r < count; r++) {
+        const double *row = rows + (size_t)r * n, *err = errors + (size_t)r * n;
         double sum = 0;
-        for (uint32_t j = 0; j < n; j++) sum += rows[(size_t)r * n + j];
-        run->stats.row_sum_total += sum;
-        if (sum < run->stats.row_sum_min) run->stats.row_sum_min = sum;
-        if (sum > run->stats.row_sum_max) run->stats.row_sum_max = sum;
+        for (uint32_t j = 0; j < n; j++) {
+            sum += row[j];
+            if (!(row[j] > 0)) continue;
+            st->error_sum += err[j];
+            st->error_relative_sum += err[j] / row[j];
+            st->error_count++;
+            if (err[j] > st->error_max) {
+                st->error_max = err[j];
+                st->error_max_row = r0 + r;
+                st->error_max_column = j;
+                st->error_max_value = row[j];
+            }
+        }
+        st->row_sum_total += sum;
+        if (sum < st->row_sum_min) st->row_sum_min = sum;
+        if (sum > st->row_sum_max) st->row_sum_max = sum;
     }
 }
 
-/* Collective: rows [r0, r0 + count) of this rank from `rows` (count may be 0). */
-static rad_status write_round(ff_run *run, ff_output *out, uint32_t r0, uint32_t count, const double *rows)
+/* Collective: rows [r0, r0 + count) of this rank into each file (count may be 0). */
+static rad_status write_round(ff_run *run, const ff_files *files, uint32_t r0, uint32_t count, const double *rows,
+                              const double *errors)
 {
     double t0 = ff_comm_time();
-    rad_status st = ff_output_write_rows(out, r0, count, rows);
+    rad_status st = ff_output_write_rows(files->matrix, r0, count, rows);
+    if (files->errors) {
+        rad_status e = ff_output_write_rows(files->errors, r0, count, errors);
+        if (st == RAD_OK) st = e;
+    }
     run->stats.io += ff_comm_time() - t0;
+    return st;
+}
+
+/* Two row buffers (values and standard errors) of `count` doubles from the
+ * backend; collective: fails on every rank if it fails on one. */
+static rad_status alloc_buffers(ff_run *run, size_t count, double **rows, double **errors)
+{
+    *rows = run->backend->alloc_rows(run->backend_state, count ? count : 1);
+    *errors = run->backend->alloc_rows(run->backend_state, count ? count : 1);
+    rad_status st = ff_comm_agree(run->comm, *rows && *errors ? RAD_OK : RAD_ERR_NOMEM);
+    if (st != RAD_OK) {
+        run->backend->free_rows(run->backend_state, *rows);
+        run->backend->free_rows(run->backend_state, *errors);
+        *rows = *errors = NULL;
+    }
     return st;
 }
 
 /* --reciprocity off: every entry computed, rows stream through one round
  * buffer: compute a round, scale, write it collectively, next. */
-static rad_status compute_streamed(ff_run *run, ff_output *out, ff_counters *counters)
+static rad_status compute_streamed(ff_run *run, const ff_files *files, ff_counters *counters)
 {
     int rank = ff_comm_rank(run->comm);
     uint32_t n = (uint32_t)run->mesh.patch_count;
     uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
-    uint32_t per_round = rows_per_round(run, out);
+    uint32_t per_round = rows_per_round(run, files->matrix);
     uint64_t rounds = ff_comm_max_u64(run->comm, (end - begin + (uint64_t)per_round - 1) / per_round);
-    double *rows = run->backend->alloc_rows(run->backend_state, (size_t)per_round * n);
-    rad_status st = ff_comm_agree(run->comm, rows ? RAD_OK : RAD_ERR_NOMEM);
+    double *rows = NULL, *errors = NULL;
+    rad_status st = alloc_buffers(run, (size_t)per_round * n, &rows, &errors);
     if (st != RAD_OK) {
-        if (!rows) rad_error("out of memory for %u rows of %u form factors", per_round, n);
-        run->backend->free_rows(run->backend_state, rows);
+        rad_error("out of memory for %u rows of %u form factors", per_round, n);
         return st;
     }
     for (uint64_t round = 0; round < rounds; round++) {
@@ -431,70 +501,76 @@ static rad_status compute_streamed(ff_run *run, ff_output *out, ff_counters *cou
         uint32_t count = r0 < end ? (end - r0 < per_round ? end - r0 : per_round) : 0;
         if (st == RAD_OK && count > 0) {
             run->progress_base = r0 - begin;
-            st = run->backend->compute_rows(run->backend_state, r0, count, rows, counters);
+            st = run->backend->compute_rows(run->backend_state, r0, count, rows, errors, counters);
         }
         if (st == RAD_OK) {
             ff_rows_scale(run->patches, n, count, rows);
-            add_row_sums(run, rows, count);
+            ff_rows_scale(run->patches, n, count, errors);
+            add_row_stats(run, r0, count, rows, errors);
         }
         /* A failed rank still joins the collective write, with no rows. */
-        rad_status w = write_round(run, out, r0 < end ? r0 : end, st == RAD_OK ? count : 0, rows);
+        rad_status w = write_round(run, files, r0 < end ? r0 : end, st == RAD_OK ? count : 0, rows, errors);
         if (st == RAD_OK) st = w;
     }
     run->backend->free_rows(run->backend_state, rows);
+    run->backend->free_rows(run->backend_state, errors);
     return st;
 }
 
 /* --reciprocity on: each unordered pair computed once, by the row
- * rad_ff_row_computes picks; the rank's rows stay in memory until the
- * entries computed by other rows (here and on other ranks) are copied in,
- * then they are scaled and written in rounds. */
-static rad_status compute_once(ff_run *run, ff_output *out, ff_counters *counters)
+ * rad_ff_row_computes picks; the rank's rows (and their errors) stay in
+ * memory until the entries computed by other rows (here and on other
+ * ranks) are copied in, then they are scaled and written in rounds. */
+static rad_status compute_once(ff_run *run, const ff_files *files, ff_counters *counters)
 {
     int rank = ff_comm_rank(run->comm);
     uint32_t n = (uint32_t)run->mesh.patch_count;
     uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
-    uint32_t per_round = rows_per_round(run, out);
+    uint32_t per_round = rows_per_round(run, files->matrix);
     uint64_t rounds = ff_comm_max_u64(run->comm, (end - begin + (uint64_t)per_round - 1) / per_round);
-    size_t block_count = (size_t)(end - begin) * n;
-    double *block = run->backend->alloc_rows(run->backend_state, block_count ? block_count : 1);
-    rad_status st = ff_comm_agree(run->comm, block ? RAD_OK : RAD_ERR_NOMEM);
+    double *block = NULL, *errors = NULL;
+    rad_status st = alloc_buffers(run, (size_t)(end - begin) * n, &block, &errors);
     if (st != RAD_OK) {
-        if (!block) rad_error("out of memory for this rank's %u rows of %u form factors (try --reciprocity off)",
-                              end - begin, n);
-        run->backend->free_rows(run->backend_state, block);
+        rad_error("out of memory for this rank's %u rows of %u form factors (try --reciprocity off)", end - begin, n);
         return st;
     }
     for (uint32_t r0 = begin; st == RAD_OK && r0 < end; r0 += per_round) {
         run->progress_base = r0 - begin;
         uint32_t count = end - r0 < per_round ? end - r0 : per_round;
-        st = run->backend->compute_rows(run->backend_state, r0, count, block + (size_t)(r0 - begin) * n, counters);
+        size_t at = (size_t)(r0 - begin) * n;
+        st = run->backend->compute_rows(run->backend_state, r0, count, block + at, errors + at, counters);
     }
     st = ff_comm_agree(run->comm, st);
     if (st == RAD_OK) {
         double t0 = ff_comm_time();
         counters->pairs_mirrored += ff_rows_mirror_local(n, begin, end, block);
+        ff_rows_mirror_local(n, begin, end, errors);
         st = ff_rows_exchange(run->comm, run->row_begin, n, block, &counters->pairs_mirrored);
+        uint64_t again = 0;
+        if (st == RAD_OK) st = ff_rows_exchange(run->comm, run->row_begin, n, errors, &again);
         run->stats.mirror = ff_comm_time() - t0;
     }
     if (st == RAD_OK) {
         ff_rows_scale(run->patches, n, end - begin, block);
-        add_row_sums(run, block, end - begin);
+        ff_rows_scale(run->patches, n, end - begin, errors);
+        add_row_stats(run, begin, end - begin, block, errors);
         /* Every rank joins every collective write, with no rows after a failure. */
         for (uint64_t round = 0; round < rounds; round++) {
             uint32_t r0 = begin + (uint32_t)(round * per_round);
             uint32_t count = r0 < end && st == RAD_OK ? (end - r0 < per_round ? end - r0 : per_round) : 0;
             r0 = r0 < end ? r0 : end;
-            rad_status w = write_round(run, out, r0, count, block + (size_t)(r0 - begin) * n);
+            size_t at = (size_t)(r0 - begin) * n;
+            rad_status w = write_round(run, files, r0, count, block + at, errors + at);
             if (st == RAD_OK) st = w;
         }
     }
     run->backend->free_rows(run->backend_state, block);
+    run->backend->free_rows(run->backend_state, errors);
     return st;
 }
 
 /* Computes this rank's rows and writes them collectively. */
-static rad_status compute_and_write(ff_run *run, ff_output *out)
+static rad_status compute_and_write(ff_run *run, const ff_files *files)
 {
     int rank = ff_comm_rank(run->comm);
     uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
@@ -503,7 +579,7 @@ static rad_status compute_and_write(ff_run *run, ff_output *out)
     run->stats.row_sum_min = end > begin ? 1e300 : 0;
     run->progress_total = end - begin;
     ff_counters counters = {0};
-    rad_status st = run->pairs_once ? compute_once(run, out, &counters) : compute_streamed(run, out, &counters);
+    rad_status st = run->pairs_once ? compute_once(run, files, &counters) : compute_streamed(run, files, &counters);
     run->stats.counters = counters;
     run->stats.form_factors = counters.kernel_seconds;
     run->stats.visibility = counters.visibility_seconds;
@@ -529,6 +605,7 @@ static rad_status write_stats(ff_run *run, int gpus)
                                          : run->opt.estimator == RAD_ESTIMATOR_QMC ? "qmc"
                                                                                    : "mc",
                             .cull = run->opt.cull ? "all" : "none", .reciprocity = run->pairs_once ? "on" : "off",
+                            .target_error = run->opt.target_error, .max_samples = run->opt.max_samples,
                             .backend = run->backend->name,
                             .element = run->opt.element == RAD_ELEMENT_F32 ? "f32" : "f64",
                             .format = run->opt.format == FF_FORMAT_PAPER ? "paper" : "native",
@@ -572,18 +649,27 @@ static rad_status run_formfactor(ff_run *run)
                         .flags = run->opt.subdiv_only ? RAD_FF_FLAG_PARTIAL_SUBDIV : 0};
     snprintf(info.scene_name, sizeof info.scene_name, "%s",
              run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name);
-    ff_output *out = NULL;
+    ff_files files = {0};
     double t0 = ff_comm_time();
-    st = ff_output_open(run->comm, run->opt.output, run->opt.format, &info, &run->mesh, &out);
+    st = ff_output_open(run->comm, run->opt.output, run->opt.format, &info, &run->mesh, &files.matrix);
+    if (st == RAD_OK && run->opt.errors_path) {
+        rad_ff_info error_info = info;
+        error_info.element_type = RAD_ELEMENT_F32;
+        error_info.flags |= RAD_FF_FLAG_STANDARD_ERRORS;
+        st = ff_output_open(run->comm, run->opt.errors_path, FF_FORMAT_NATIVE, &error_info, &run->mesh, &files.errors);
+        if (st != RAD_OK) files.errors = NULL;
+    }
     run->stats.io += ff_comm_time() - t0;
-    if (st != RAD_OK) return st;
-    st = compute_and_write(run, out);
+    if (st == RAD_OK) st = compute_and_write(run, &files);
     t0 = ff_comm_time();
-    st = ff_output_finish(out, st);
+    /* The errors file appears only beside its matrix. */
+    if (files.matrix) st = ff_output_finish(files.matrix, st);
+    if (files.errors) st = ff_output_finish(files.errors, st);
     run->stats.io += ff_comm_time() - t0;
     run->stats.total = ff_comm_time() - run->start;
     if (st != RAD_OK) return st;
-    if (rank == 0) rad_info("wrote %s", run->opt.output);
+    if (rank == 0) rad_info("wrote %s%s%s", run->opt.output, run->opt.errors_path ? " and " : "",
+                            run->opt.errors_path ? run->opt.errors_path : "");
     return write_stats(run, gpus);
 }
 

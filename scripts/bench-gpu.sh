@@ -27,6 +27,24 @@ run n2944_cpu16 $scene --subdiv 3 --backend cpu
 cmp /tmp/ff_n2944_gpu /tmp/ff_n2944_cpu16 >/dev/null && echo "cpu/gpu bytes identical" || echo "cpu/gpu bytes differ (expected: sum order)"
 run n11776_gpu $scene --subdiv 4 --backend cuda --element f32
 [ "${BIG:-1}" = 1 ] && run n47104_gpu $scene --subdiv 5 --backend cuda --element f32
+if [ "${RECIPROCITY:-1}" = 1 ]; then   # each pair once (default) against both entries computed (issue 7)
+  run n2944_gpu_off $scene --subdiv 3 --backend cuda --reciprocity off
+  cmp /tmp/ff_n2944_gpu /tmp/ff_n2944_gpu_off && echo "n2944 gpu: reciprocity on/off identical" || echo "n2944 gpu: reciprocity on/off DIFFER"
+  run n2944_cpu16_off $scene --subdiv 3 --backend cpu --reciprocity off
+  cmp /tmp/ff_n2944_cpu16 /tmp/ff_n2944_cpu16_off && echo "n2944 cpu: reciprocity on/off identical" || echo "n2944 cpu: reciprocity on/off DIFFER"
+  if [ "${BIG:-1}" = 1 ]; then
+    run n47104_gpu_off $scene --subdiv 5 --backend cuda --element f32 --reciprocity off
+    cmp /tmp/ff_n47104_gpu /tmp/ff_n47104_gpu_off && echo "n47104 gpu: reciprocity on/off identical" || echo "n47104 gpu: reciprocity on/off DIFFER"
+  fi
+fi
+if [ "${TARGET:-1}" = 1 ]; then   # standard errors and --target-error (issue 6)
+  run n2944_gpu_errors $scene --subdiv 3 --backend cuda --errors /tmp/ff_n2944_gpu_errors.err
+  for t in 3e-3 1e-3 3e-4; do
+    run n2944_gpu_target$t $scene --subdiv 3 --backend cuda --samples 64 --target-error $t
+    grep -o '"standard_error": {[^}]*}' "$out/n2944_gpu_target$t.json" | sed 's/^/    /'
+  done
+  run n2944_cpu16_target1e-3 $scene --subdiv 3 --backend cpu --samples 64 --target-error 1e-3
+fi
 if [ "${RANKS2:-0}" = 1 ]; then   # two GPUs of one host, one rank each
   mpirun -n 1 "$ff" $scene --subdiv 5 --backend cuda --element f32 -o /tmp/ff_g1 --stats "$out/n47104_gpu1rank.json" > "$out/n47104_gpu1rank.log" 2>&1
   mpirun -n 2 "$ff" $scene --subdiv 5 --backend cuda --element f32 -o /tmp/ff_g2 --stats "$out/n47104_gpu2rank.json" > "$out/n47104_gpu2rank.log" 2>&1

@@ -76,6 +76,12 @@ rad_status solve_stage_run(const solve_options *options)
 
     status = rad_ff_open(input, &s.file);
     if (status != RAD_OK) goto done;
+    if (rad_ff_file_info(s.file)->flags & RAD_FF_FLAG_STANDARD_ERRORS) {
+        rad_error("%s: holds the standard errors of a form-factor matrix (formfactor --errors), not form factors",
+                  input);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
     status = solve_matrix_load(s.file, input, &s.matrix);
     if (status != RAD_OK) goto done;
     double load_seconds = solve_now() - t0;

@@ -67,31 +67,62 @@ static void fixture_free(fixture *fx)
     rad_scene_free(&fx->scene);
 }
 
-/* The whole matrix of a fixture with the CPU backend. */
-static double *compute_estimator(const ff_backend *backend, const fixture *fx, uint32_t samples, uint32_t rays,
-                                 uint64_t seed, rad_estimator_id estimator, ff_counters *counters)
+/* Settings beyond the common ones; zero = the defaults. */
+typedef struct compute_extra {
+    double target_error;
+    uint32_t max_samples; /* 0 = 64 x samples */
+    int pairs_once;       /* each pair by one row, then ff_rows_mirror_local */
+    double **errors;      /* non-NULL: receives the standard errors of F (caller frees) */
+} compute_extra;
+
+/* The whole matrix F of a fixture (caller frees), or NULL on failure. */
+static double *compute_full(const ff_backend *backend, const fixture *fx, uint32_t samples, uint32_t rays,
+                            uint64_t seed, rad_estimator_id estimator, const compute_extra *extra,
+                            ff_counters *counters)
 {
     uint32_t n = (uint32_t)fx->mesh.patch_count;
+    compute_extra none = {0};
+    if (!extra) extra = &none;
     ff_setup su = {.patches = fx->patches, .patch_count = n, .triangles = fx->triangles,
                    .triangle_face = fx->triangle_face, .triangle_count = fx->triangle_count, .samples = samples,
                    .shadow_rays = rays, .seed = seed, .estimator = estimator, .plane_eps = ff_plane_eps(&fx->mesh), .threads = 2,
                    .cull = 1, .scene_convex = ff_scene_is_convex_enclosure(&fx->scene, ff_plane_eps(&fx->mesh)),
-                   .cull_margin = (float)(1e4 * ff_plane_eps(&fx->mesh))};
+                   .cull_margin = (float)(1e4 * ff_plane_eps(&fx->mesh)), .target_error = extra->target_error,
+                   .max_samples = extra->max_samples ? extra->max_samples : 64 * samples,
+                   .pairs_once = extra->pairs_once};
     void *state = NULL;
     double *f = malloc(sizeof(double) * n * n);
+    double *e = extra->errors ? malloc(sizeof(double) * n * n) : NULL;
     ff_counters local = {0};
-    if (backend->create(&su, &state) != RAD_OK) {
+    if (!f || (extra->errors && !e) || backend->create(&su, &state) != RAD_OK) {
         free(f);
+        free(e);
         return NULL;
     }
-    rad_status st = backend->compute_rows(state, 0, n, f, counters ? counters : &local);
+    rad_status st = backend->compute_rows(state, 0, n, f, e, counters ? counters : &local);
     backend->destroy(state);
     if (st != RAD_OK) {
         free(f);
+        free(e);
         return NULL;
     }
+    if (extra->pairs_once) {
+        ff_rows_mirror_local(n, 0, n, f);
+        if (e) ff_rows_mirror_local(n, 0, n, e);
+    }
     ff_rows_scale(fx->patches, n, n, f); /* couplings -> form factors */
+    if (e) {
+        ff_rows_scale(fx->patches, n, n, e);
+        *extra->errors = e;
+    }
     return f;
+}
+
+/* The whole matrix of a fixture, one batch per pair, no errors. */
+static double *compute_estimator(const ff_backend *backend, const fixture *fx, uint32_t samples, uint32_t rays,
+                                 uint64_t seed, rad_estimator_id estimator, ff_counters *counters)
+{
+    return compute_full(backend, fx, samples, rays, seed, estimator, NULL, counters);
 }
 
 /* The plain point-pair estimator (the paper's, corrected). */

@@ -27,3 +27,13 @@ done
 # The Cornell box is not convex (its blocks), but some pairs have nothing between them.
 [ "$(field cornell_box.all.json pairs_open_scene)" -eq 0 ] || { echo "FAIL: Cornell box taken for convex"; exit 1; }
 [ "$(field cornell_box.all.json pairs_open_box)" -gt 0 ] || { echo "FAIL: no pair culled in the Cornell box"; exit 1; }
+# With --target-error the batches a pair takes depend on its error, which
+# culling leaves unchanged too: identical bytes, counts that add up.
+for c in all none; do
+  "$ff" "$scenes/cornell_box.obj" --backend cpu --subdiv 1 --samples 32 --target-error 0.003 --cull $c -q \
+    -o target.$c --errors target.$c.err --stats target.$c.json
+done
+cmp target.all target.none && cmp target.all.err target.none.err || { echo "FAIL: --target-error differs with culling"; exit 1; }
+[ "$(field target.none.json rays)" -eq $(($(field target.all.json rays) + $(field target.all.json rays_saved))) ] ||
+  { echo "FAIL: --target-error: rays do not add up"; exit 1; }
+echo "--target-error: identical with and without culling"

@@ -48,3 +48,12 @@ printf 'mtllib tiny.mtl\nusemtl g\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4
 mpirun --oversubscribe -n 4 "$ff" tiny.obj --samples 64 -q --reciprocity on -o tiny4
 cmp tiny1 tiny4 || { echo "FAIL: 4 ranks on 2 patches differ"; exit 1; }
 echo "identical bytes with --reciprocity on and off"
+
+# --target-error: the same bytes (matrix and --errors file) for 1 rank
+# computing both entries and 3 ranks computing each pair once.
+"$ff" $args --target-error 0.002 --reciprocity off -o target1 --errors target1.err --stats target1.json
+mpirun --oversubscribe -n 3 "$ff" $args --target-error 0.002 --reciprocity on -o target3 --errors target3.err
+cmp target1 target3 && cmp target1.err target3.err || { echo "FAIL: --target-error differs with ranks"; exit 1; }
+[ "$(field target1.json pairs_refined)" -gt 0 ] || { echo "FAIL: --target-error refined no pair"; exit 1; }
+cmp ranks1 target1 >/dev/null 2>&1 && { echo "FAIL: --target-error changed nothing"; exit 1; }
+echo "identical bytes with --target-error"

@@ -13,6 +13,9 @@
  * where atan2/sqrt may differ in the last bit between libm and CUDA).
  * Plus the closed forms on the GPU, as in test_formfactor.c.
  */
+#include <stdlib.h>
+#include <string.h>
+
 #include "ff_cuda.h"
 #include "ff_fixture.h"
 #include "rad_test.h"
@@ -56,6 +59,57 @@ static void compare(const char *path, int subdiv, rad_estimator_id estimator)
     fixture_free(&fx);
 }
 
+/* Counts entries that differ beyond 1e-9 relative (loose) and beyond 25 % (bad). */
+static void count_differences(const double *a, const double *b, uint64_t count, uint64_t *loose, uint64_t *bad)
+{
+    *loose = *bad = 0;
+    for (uint64_t k = 0; k < count; k++) {
+        double diff = fabs(a[k] - b[k]), scale = fmax(fabs(a[k]), fabs(b[k]));
+        if (diff <= 1e-9 * scale) continue;
+        (*loose)++;
+        if (diff > 0.25 * scale) (*bad)++;
+    }
+}
+
+/* Standard errors and --target-error on both backends: the same errors
+ * (to the same tolerances as the values), the same refinement decisions
+ * but for borderline ones; and each pair computed once on the GPU, then
+ * mirrored, gives the GPU's own full matrix to the bit. */
+static void compare_errors(const char *path, int subdiv, rad_estimator_id estimator, double target)
+{
+    fixture fx;
+    RAD_CHECK(fixture_load(&fx, NULL, path, subdiv));
+    uint64_t n = fx.mesh.patch_count, count = n * n;
+    double *ce = NULL, *ge = NULL, *oe = NULL;
+    ff_counters cc = {0}, gc = {0}, oc = {0};
+    compute_extra cx = {.target_error = target, .errors = &ce}, gx = {.target_error = target, .errors = &ge};
+    compute_extra ox = {.target_error = target, .errors = &oe, .pairs_once = 1};
+    double *cpu = compute_full(&ff_backend_cpu, &fx, 128, 16, 2, estimator, &cx, &cc);
+    double *gpu = compute_full(&ff_backend_cuda, &fx, 128, 16, 2, estimator, &gx, &gc);
+    double *once = compute_full(&ff_backend_cuda, &fx, 128, 16, 2, estimator, &ox, &oc);
+    RAD_CHECK(cpu && gpu && once && ce && ge && oe);
+    if (cpu && gpu && once && ce && ge && oe) {
+        uint64_t loose_f, bad_f, loose_e, bad_e;
+        count_differences(cpu, gpu, count, &loose_f, &bad_f);
+        count_differences(ce, ge, count, &loose_e, &bad_e);
+        fprintf(stderr,
+                "%s --subdiv %d, --target-error %g: values differ beyond 1e-9 in %llu (beyond 25%%: %llu), errors in "
+                "%llu (%llu); refined cpu %llu gpu %llu, capped cpu %llu gpu %llu, samples cpu %llu gpu %llu\n",
+                path, subdiv, target, (unsigned long long)loose_f, (unsigned long long)bad_f,
+                (unsigned long long)loose_e, (unsigned long long)bad_e, (unsigned long long)cc.pairs_refined,
+                (unsigned long long)gc.pairs_refined, (unsigned long long)cc.pairs_capped,
+                (unsigned long long)gc.pairs_capped, (unsigned long long)cc.samples, (unsigned long long)gc.samples);
+        RAD_CHECK(loose_f <= count / 200 && bad_f <= count / 2000);
+        RAD_CHECK(loose_e <= count / 100);
+        RAD_CHECK(target == 0 || cc.pairs_refined > 0);
+        RAD_CHECK(llabs((long long)cc.pairs_refined - (long long)gc.pairs_refined) <= (long long)(cc.pairs_refined / 100 + 2));
+        RAD_CHECK(memcmp(gpu, once, sizeof(double) * count) == 0 && memcmp(ge, oe, sizeof(double) * count) == 0);
+        RAD_CHECK(oc.pairs == n + n * (n - 1) / 2);
+    }
+    free(cpu), free(gpu), free(once), free(ce), free(ge), free(oe);
+    fixture_free(&fx);
+}
+
 static void closed_form(const char *name, const char *obj, double exact, double max_se)
 {
     fixture fx;
@@ -90,6 +144,10 @@ int main(void)
     compare(RAD_SCENES "/cornell_box.obj", 2, RAD_ESTIMATOR_AUTO);
     compare(RAD_SCENES "/cornell_sphere.obj", 2, RAD_ESTIMATOR_AUTO);
     compare(RAD_SCENES "/cornell_sphere.obj", 2, RAD_ESTIMATOR_QMC);
+    compare_errors(RAD_SCENES "/cornell_box.obj", 1, RAD_ESTIMATOR_AUTO, 0);
+    compare_errors(RAD_SCENES "/cornell_box.obj", 1, RAD_ESTIMATOR_AUTO, 0.002);
+    compare_errors(RAD_SCENES "/cornell_sphere.obj", 1, RAD_ESTIMATOR_MC, 0.002);
+    compare_errors(RAD_SCENES "/closed_box.obj", 1, RAD_ESTIMATOR_QMC, 0.001);
     closed_form("parallel unit squares", parallel_obj, 0.199825, 1.5e-4);
     closed_form("perpendicular unit squares", perpendicular_obj, 0.200044, 2e-3);
 

@@ -167,8 +167,8 @@ static void check_split_invariance(void)
     ff_counters c = {0};
     RAD_CHECK(ff_backend_cpu.create(&su, &state) == RAD_OK);
     uint32_t cut = n / 3;
-    RAD_CHECK(ff_backend_cpu.compute_rows(state, 0, cut, parts, &c) == RAD_OK);
-    RAD_CHECK(ff_backend_cpu.compute_rows(state, cut, n - cut, parts + (size_t)cut * n, &c) == RAD_OK);
+    RAD_CHECK(ff_backend_cpu.compute_rows(state, 0, cut, parts, NULL, &c) == RAD_OK);
+    RAD_CHECK(ff_backend_cpu.compute_rows(state, cut, n - cut, parts + (size_t)cut * n, NULL, &c) == RAD_OK);
     ff_backend_cpu.destroy(state);
     ff_rows_scale(fx.patches, n, n, parts);
     RAD_CHECK(whole && memcmp(whole, parts, sizeof(double) * n * n) == 0);
@@ -195,7 +195,7 @@ static void check_pairs_once(const char *path, rad_estimator_id estimator)
     double *once = malloc(sizeof(double) * n * n);
     ff_counters c = {0};
     RAD_CHECK(ff_backend_cpu.create(&su, &state) == RAD_OK);
-    RAD_CHECK(ff_backend_cpu.compute_rows(state, 0, n, once, &c) == RAD_OK);
+    RAD_CHECK(ff_backend_cpu.compute_rows(state, 0, n, once, NULL, &c) == RAD_OK);
     ff_backend_cpu.destroy(state);
     uint64_t mirrored = ff_rows_mirror_local(n, 0, n, once);
     ff_rows_scale(fx.patches, n, n, once);
