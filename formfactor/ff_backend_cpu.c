@@ -27,6 +27,12 @@
 #include "rad_log.h"
 
 enum { FF_CPU_BLOCK = 128 };
+/* Shadow rays from which a pair's shaft test includes the hull planes
+ * (ff_pair_may_be_occluded): below it they cost more than the rays they
+ * save (measured, docs/performance.md). Compile-time tunable. */
+#ifndef FF_CPU_HULL_MIN_RAYS
+#define FF_CPU_HULL_MIN_RAYS 128u
+#endif
 
 typedef struct cpu_state {
     ff_setup setup;
@@ -273,7 +279,7 @@ static int pair_needs_rays(const cpu_state *s, uint32_t i, uint32_t j, uint32_t 
         return 0;
     }
     if (!ff_pair_may_be_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &su->patches[i],
-                                 &su->patches[j], su->cull_margin)) {
+                                 &su->patches[j], su->cull_margin, rays >= FF_CPU_HULL_MIN_RAYS)) {
         c->pairs_open_box++;
         c->rays_saved += rays;
         return 0;

@@ -151,49 +151,35 @@ static inline RAD_HD int ff_bvh_occluded(const ff_bvh_node *nodes, const ff_bvh_
 
 /* Could a triangle other than those of the two patches' faces meet a
  * shadow segment between patches pi and pj? Conservative, so "no" is
- * certain and "yes" only possible. A triangle is out of the way if
+ * certain and "yes" only possible. Every segment lies in the shaft, the
+ * convex hull of the two patches (Haines & Wallace's shaft, exact rather
+ * than boxed), and a triangle is out of the way if
+ *  - its bounding box misses the box around both patches, or
+ *  - all three of its vertices lie outside one plane of the hull (farther
+ *    than the margin that covers the rays' float rounding), or
  *  - it lies wholly on or behind the plane of pi or of pj, and each patch
  *    lies wholly on or in front of the other's plane (then every segment
  *    leaves pi's plane at once and meets pj's only at its end; a patch
- *    that straddles the other's plane has segments from behind it), or
- *  - its bounding box misses the box around both patches (which holds
- *    every segment), grown by a margin for the rays' float rounding. */
+ *    that straddles the other's plane has segments from behind it). This
+ *    also drops triangles lying in a patch's plane, which the hull keeps.
+ * BVH nodes are pruned the same way: by the box, and by a hull plane that
+ * has the whole node box outside it. */
+#define FF_SHAFT_PLANES 32 /* hull faces of <= 8 points: <= 12; more triples may share a plane */
+
+typedef struct ff_shaft {
+    float lo[3], hi[3];   /* box around both patches, grown by the margin */
+    int use_planes;       /* each patch on or in front of the other's plane */
+    int plane_count;      /* hull planes; -1 = not built yet (built at the first triangle the box keeps) */
+    double margin, extent;
+    double n[FF_SHAFT_PLANES][3]; /* unit outward normals: inside is n.p <= d */
+    double d[FF_SHAFT_PLANES];    /* offsets, grown by the margin */
+} ff_shaft;
+
 static inline RAD_HD int ff_bvh_box_overlaps(const float a_lo[3], const float a_hi[3], const float b_lo[3],
                                              const float b_hi[3])
 {
     return a_lo[0] <= b_hi[0] && b_lo[0] <= a_hi[0] && a_lo[1] <= b_hi[1] && b_lo[1] <= a_hi[1] &&
            a_lo[2] <= b_hi[2] && b_lo[2] <= a_hi[2];
-}
-
-static inline RAD_HD int ff_tri_behind(const float v[3][3], const rad_ff_patch *q)
-{
-    for (int k = 0; k < 3; k++)
-        if (rad_v3_dot(q->normal, rad_v3_sub(rad_v3(v[k][0], v[k][1], v[k][2]), q->p[0])) > 0.0) return 0;
-    return 1;
-}
-
-static inline RAD_HD int ff_tri_in_shaft(const ff_bvh_tri *t, const float lo[3], const float hi[3],
-                                         const rad_ff_patch *pi, const rad_ff_patch *pj, int use_planes)
-{
-    if (t->face == pi->face || t->face == pj->face) return 0;
-    float v[3][3], tlo[3], thi[3];
-    for (int a = 0; a < 3; a++) {
-        v[0][a] = t->v0[a];
-        v[1][a] = t->v0[a] + t->e1[a];
-        v[2][a] = t->v0[a] + t->e2[a];
-        tlo[a] = fminf(v[0][a], fminf(v[1][a], v[2][a]));
-        thi[a] = fmaxf(v[0][a], fmaxf(v[1][a], v[2][a]));
-    }
-    return ff_bvh_box_overlaps(tlo, thi, lo, hi) && !(use_planes && (ff_tri_behind(v, pi) || ff_tri_behind(v, pj)));
-}
-
-static inline RAD_HD int ff_bvh_leaf_in_shaft(const ff_bvh_tri *tris, int32_t ref, uint32_t count, const float lo[3],
-                                              const float hi[3], const rad_ff_patch *pi, const rad_ff_patch *pj,
-                                              int use_planes)
-{
-    for (uint32_t k = 0; k < count; k++)
-        if (ff_tri_in_shaft(&tris[~ref + (int32_t)k], lo, hi, pi, pj, use_planes)) return 1;
-    return 0;
 }
 
 /* Is every vertex of `a` on or in front of the plane of `b`? */
@@ -204,11 +190,138 @@ static inline RAD_HD int ff_patch_in_front(const rad_ff_patch *a, const rad_ff_p
     return 1;
 }
 
-static inline RAD_HD int ff_bvh_shaft_may_occlude(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
-                                                  uint32_t root_count, const float lo[3], const float hi[3],
-                                                  const rad_ff_patch *pi, const rad_ff_patch *pj, int use_planes)
+/* The planes of the convex hull of points p[0..count): every plane through
+ * three of them that has all the others on one side (within tol). Brute
+ * force over the <= 56 triples of <= 8 points; a plane found twice costs a
+ * test, not correctness; past FF_SHAFT_PLANES the rest are dropped, which
+ * only makes the shaft larger. */
+static inline RAD_HD void ff_shaft_hull(ff_shaft *s, const rad_vec3 *p, int count, double tol, double margin)
 {
-    if (root < 0) return root_count ? ff_bvh_leaf_in_shaft(tris, root, root_count, lo, hi, pi, pj, use_planes) : 0;
+    s->plane_count = 0;
+    for (int a = 0; a < count; a++)
+        for (int b = a + 1; b < count; b++)
+            for (int c = b + 1; c < count; c++) {
+                rad_vec3 n = rad_v3_cross(rad_v3_sub(p[b], p[a]), rad_v3_sub(p[c], p[a]));
+                double len = rad_v3_length(n);
+                if (!(len > tol * tol)) continue; /* (nearly) collinear */
+                n = rad_v3_scale(n, 1.0 / len);
+                double d = rad_v3_dot(n, p[a]);
+                /* Most triples are not faces: the first points on both sides end the test. */
+                int above = 0, below = 0;
+                for (int k = 0; k < count && !(above && below); k++) {
+                    double h = rad_v3_dot(n, p[k]) - d;
+                    above |= h > tol;
+                    below |= h < -tol;
+                }
+                if (above && below) continue;
+                if (above) n = rad_v3_scale(n, -1.0), d = -d; /* outward: the points are below */
+                if (s->plane_count == FF_SHAFT_PLANES) return;
+                s->n[s->plane_count][0] = n.x, s->n[s->plane_count][1] = n.y, s->n[s->plane_count][2] = n.z;
+                s->d[s->plane_count] = d + margin;
+                s->plane_count++;
+            }
+}
+
+/* The shaft of pair (pi, pj); margin in scene units. */
+static inline RAD_HD void ff_shaft_build(const rad_ff_patch *pi, const rad_ff_patch *pj, float margin, ff_shaft *s)
+{
+    rad_vec3 points[8];
+    int count = 0;
+    for (uint32_t k = 0; k < pi->vertex_count; k++) points[count++] = pi->p[k];
+    for (uint32_t k = 0; k < pj->vertex_count; k++) points[count++] = pj->p[k];
+    for (int a = 0; a < 3; a++) s->lo[a] = s->hi[a] = (float)(a == 0 ? points[0].x : a == 1 ? points[0].y : points[0].z);
+    double extent = 0;
+    for (int k = 0; k < count; k++) {
+        float v[3] = {(float)points[k].x, (float)points[k].y, (float)points[k].z};
+        for (int a = 0; a < 3; a++) {
+            s->lo[a] = fminf(s->lo[a], v[a]);
+            s->hi[a] = fmaxf(s->hi[a], v[a]);
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        extent = fmax(extent, (double)s->hi[a] - s->lo[a]);
+        s->lo[a] -= margin;
+        s->hi[a] += margin;
+    }
+    s->use_planes = ff_patch_in_front(pi, pj) && ff_patch_in_front(pj, pi);
+    s->plane_count = -1;
+    s->margin = margin;
+    s->extent = extent;
+}
+
+/* The hull planes, once a triangle inside the box makes them worth it
+ * (building them costs about what a few shadow rays do). */
+static inline RAD_HD void ff_shaft_need_hull(ff_shaft *s, const rad_ff_patch *pi, const rad_ff_patch *pj)
+{
+    if (s->plane_count >= 0) return;
+    rad_vec3 points[8];
+    int count = 0;
+    for (uint32_t k = 0; k < pi->vertex_count; k++) points[count++] = pi->p[k];
+    for (uint32_t k = 0; k < pj->vertex_count; k++) points[count++] = pj->p[k];
+    ff_shaft_hull(s, points, count, 1e-9 * s->extent, s->margin);
+}
+
+static inline RAD_HD int ff_tri_behind(const float v[3][3], const rad_ff_patch *q)
+{
+    for (int k = 0; k < 3; k++)
+        if (rad_v3_dot(q->normal, rad_v3_sub(rad_v3(v[k][0], v[k][1], v[k][2]), q->p[0])) > 0.0) return 0;
+    return 1;
+}
+
+/* Are all the points outside one hull plane? */
+static inline RAD_HD int ff_shaft_separates(const ff_shaft *s, const float (*v)[3], int count)
+{
+    for (int p = 0; p < s->plane_count; p++) {
+        int outside = 1;
+        for (int k = 0; k < count && outside; k++)
+            outside = s->n[p][0] * v[k][0] + s->n[p][1] * v[k][1] + s->n[p][2] * v[k][2] > s->d[p];
+        if (outside) return 1;
+    }
+    return 0;
+}
+
+/* Is a whole box outside one hull plane (its corner nearest the plane is)? */
+static inline RAD_HD int ff_shaft_separates_box(const ff_shaft *s, const float lo[3], const float hi[3])
+{
+    for (int p = 0; p < s->plane_count; p++) {
+        double h = 0;
+        for (int a = 0; a < 3; a++) h += s->n[p][a] * (s->n[p][a] > 0 ? lo[a] : hi[a]);
+        if (h > s->d[p]) return 1;
+    }
+    return 0;
+}
+
+static inline RAD_HD int ff_tri_in_shaft(const ff_bvh_tri *t, ff_shaft *s, const rad_ff_patch *pi,
+                                         const rad_ff_patch *pj)
+{
+    if (t->face == pi->face || t->face == pj->face) return 0;
+    float v[3][3], tlo[3], thi[3];
+    for (int a = 0; a < 3; a++) {
+        v[0][a] = t->v0[a];
+        v[1][a] = t->v0[a] + t->e1[a];
+        v[2][a] = t->v0[a] + t->e2[a];
+        tlo[a] = fminf(v[0][a], fminf(v[1][a], v[2][a]));
+        thi[a] = fmaxf(v[0][a], fmaxf(v[1][a], v[2][a]));
+    }
+    if (!ff_bvh_box_overlaps(tlo, thi, s->lo, s->hi)) return 0;
+    if (s->use_planes && (ff_tri_behind(v, pi) || ff_tri_behind(v, pj))) return 0;
+    ff_shaft_need_hull(s, pi, pj);
+    return !ff_shaft_separates(s, (const float(*)[3])v, 3);
+}
+
+static inline RAD_HD int ff_bvh_leaf_in_shaft(const ff_bvh_tri *tris, int32_t ref, uint32_t count, ff_shaft *s,
+                                              const rad_ff_patch *pi, const rad_ff_patch *pj)
+{
+    for (uint32_t k = 0; k < count; k++)
+        if (ff_tri_in_shaft(&tris[~ref + (int32_t)k], s, pi, pj)) return 1;
+    return 0;
+}
+
+static inline RAD_HD int ff_bvh_shaft_may_occlude(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
+                                                  uint32_t root_count, ff_shaft *s, const rad_ff_patch *pi,
+                                                  const rad_ff_patch *pj)
+{
+    if (root < 0) return root_count ? ff_bvh_leaf_in_shaft(tris, root, root_count, s, pi, pj) : 0;
     int32_t stack[FF_BVH_STACK];
     int top = 0;
     stack[top++] = root;
@@ -218,9 +331,9 @@ static inline RAD_HD int ff_bvh_shaft_may_occlude(const ff_bvh_node *nodes, cons
             const float *clo = c ? n->lo1 : n->lo0, *chi = c ? n->hi1 : n->hi0;
             int32_t child = c ? n->child1 : n->child0;
             uint32_t count = c ? n->count1 : n->count0;
-            if (!ff_bvh_box_overlaps(clo, chi, lo, hi)) continue;
+            if (!ff_bvh_box_overlaps(clo, chi, s->lo, s->hi) || ff_shaft_separates_box(s, clo, chi)) continue;
             if (child < 0) {
-                if (ff_bvh_leaf_in_shaft(tris, child, count, lo, hi, pi, pj, use_planes)) return 1;
+                if (ff_bvh_leaf_in_shaft(tris, child, count, s, pi, pj)) return 1;
             } else if (top < FF_BVH_STACK) {
                 stack[top++] = child;
             } else {
@@ -231,41 +344,20 @@ static inline RAD_HD int ff_bvh_shaft_may_occlude(const ff_bvh_node *nodes, cons
     return 0;
 }
 
-/* The box around both patches, grown by `margin` (float rounding of the
- * rays' end points), and whether the plane test applies to the pair. */
-static inline RAD_HD int ff_pair_shaft(const rad_ff_patch *pi, const rad_ff_patch *pj, float margin, float lo[3],
-                                       float hi[3])
-{
-    lo[0] = hi[0] = (float)pi->p[0].x;
-    lo[1] = hi[1] = (float)pi->p[0].y;
-    lo[2] = hi[2] = (float)pi->p[0].z;
-    for (int side = 0; side < 2; side++) {
-        const rad_ff_patch *q = side ? pj : pi;
-        for (uint32_t k = 0; k < q->vertex_count; k++) {
-            float v[3] = {(float)q->p[k].x, (float)q->p[k].y, (float)q->p[k].z};
-            for (int a = 0; a < 3; a++) {
-                lo[a] = fminf(lo[a], v[a]);
-                hi[a] = fmaxf(hi[a], v[a]);
-            }
-        }
-    }
-    for (int a = 0; a < 3; a++) {
-        lo[a] -= margin;
-        hi[a] += margin;
-    }
-    return ff_patch_in_front(pi, pj) && ff_patch_in_front(pj, pi);
-}
-
 /* Must pair (pi, pj) trace its shadow rays? Not if no triangle is in its
  * shaft (see ff_tri_in_shaft). Any way of visiting the triangles gives the
- * same answer: this BVH walk, or the GPU's warp-wide scan. */
+ * same answer: this BVH walk, or a scan of all triangles. Without `hull`
+ * only the box and the patches' planes are used: the hull planes cost
+ * about what 100 of Embree's shadow rays in these scenes do
+ * (docs/performance.md), so they pay only for pairs with more rays. */
 static inline RAD_HD int ff_pair_may_be_occluded(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
                                                  uint32_t root_count, const rad_ff_patch *pi, const rad_ff_patch *pj,
-                                                 float margin)
+                                                 float margin, int hull)
 {
-    float lo[3], hi[3];
-    int use_planes = ff_pair_shaft(pi, pj, margin, lo, hi);
-    return ff_bvh_shaft_may_occlude(nodes, tris, root, root_count, lo, hi, pi, pj, use_planes);
+    ff_shaft s;
+    ff_shaft_build(pi, pj, margin, &s);
+    if (!hull) s.plane_count = 0; /* built, and empty */
+    return ff_bvh_shaft_may_occlude(nodes, tris, root, root_count, &s, pi, pj);
 }
 
 #endif

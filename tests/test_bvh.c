@@ -96,7 +96,8 @@ static void compare_with_embree(const char *path, int subdiv)
     rtcCommitScene(es);
 
     enum { SEGMENTS = 200000 };
-    int blocked = 0, differ = 0;
+    int blocked = 0, differ = 0, culled = 0, culled_blocked = 0;
+    float margin = (float)(1e4 * ff_plane_eps(&mesh));
     uint32_t n = (uint32_t)mesh.patch_count;
     for (uint32_t s = 0; s < SEGMENTS; s++) {
         rad_u32x4 ctr = {{s, 99, 0, 0}};
@@ -122,9 +123,17 @@ static void compare_with_embree(const char *path, int subdiv)
         int theirs = ray.tfar < 0;
         blocked += theirs;
         differ += ours != theirs;
+        /* The shaft test is conservative: a pair it culls has no blocked segment. */
+        if (!ff_pair_may_be_occluded(bvh.nodes, bvh.tris, bvh.root, bvh.root_count, &patches[i], &patches[j], margin, 1)) {
+            culled++;
+            culled_blocked += theirs;
+        }
     }
-    fprintf(stderr, "%s --subdiv %d: %u triangles, %u nodes; %d of %d segments blocked, %d differ from Embree\n",
-            path, subdiv, tri_count, bvh.node_count, blocked, SEGMENTS, differ);
+    fprintf(stderr,
+            "%s --subdiv %d: %u triangles, %u nodes; %d of %d segments blocked, %d differ from Embree; "
+            "%d between pairs the shaft test culls, %d of them blocked\n",
+            path, subdiv, tri_count, bvh.node_count, blocked, SEGMENTS, differ, culled, culled_blocked);
+    RAD_CHECK(culled > 0 && culled_blocked == 0);
     RAD_CHECK(blocked > SEGMENTS / 100); /* the scenes do occlude */
     RAD_CHECK(differ <= SEGMENTS / 10000);
     rtcReleaseScene(es);
@@ -137,10 +146,34 @@ static void compare_with_embree(const char *path, int subdiv)
     rad_scene_free(&scene);
 }
 
+/* A square on the floor and one on the ceiling, offset: a triangle inside
+ * the box around both but outside their hull does not count; one on the
+ * line between them does. */
+static void check_shaft_hull(void)
+{
+    rad_ff_patch floor_patch = {.p = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}, .normal = {0, 0, 1},
+                                .area = 1, .face = 0, .vertex_count = 4};
+    rad_ff_patch ceiling = {.p = {{2, 0, 1}, {2, 1, 1}, {3, 1, 1}, {3, 0, 1}}, .normal = {0, 0, -1},
+                            .area = 1, .face = 1, .vertex_count = 4};
+    float outside[9] = {0.1f, 0.4f, 0.9f, 0.3f, 0.4f, 0.9f, 0.2f, 0.6f, 0.9f};
+    float inside[9] = {1.4f, 0.4f, 0.5f, 1.6f, 0.4f, 0.5f, 1.5f, 0.6f, 0.5f};
+    uint32_t face = 2;
+    ff_bvh b;
+    RAD_CHECK(ff_bvh_build(outside, &face, 1, &b) == RAD_OK);
+    RAD_CHECK(!ff_pair_may_be_occluded(b.nodes, b.tris, b.root, b.root_count, &floor_patch, &ceiling, 1e-5f, 1));
+    RAD_CHECK(ff_pair_may_be_occluded(b.nodes, b.tris, b.root, b.root_count, &floor_patch, &ceiling, 1e-5f, 0)); /* box only */
+    ff_bvh_free(&b);
+    RAD_CHECK(ff_bvh_build(inside, &face, 1, &b) == RAD_OK);
+    RAD_CHECK(ff_pair_may_be_occluded(b.nodes, b.tris, b.root, b.root_count, &floor_patch, &ceiling, 1e-5f, 1));
+    ff_bvh_free(&b);
+}
+
 int main(void)
 {
+    check_shaft_hull();
     compare_with_embree(RAD_SCENES "/cornell_sphere.obj", 2);
     compare_with_embree(RAD_SCENES "/cornell_box.obj", 1);
+    compare_with_embree(RAD_SCENES "/cluttered_room.obj", 1);
 
     ff_bvh empty;
     RAD_CHECK(ff_bvh_build(NULL, NULL, 0, &empty) == RAD_OK);
