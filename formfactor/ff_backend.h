@@ -38,6 +38,9 @@ typedef struct ff_setup {
      * max_samples samples. 0 = one batch of `samples`. */
     double target_error;
     uint32_t max_samples;
+    /* Standard errors wanted (compute_rows gets an errors buffer): the
+     * GPU kernels then also sum squares, which costs kernel time. */
+    int errors;
     double plane_eps;            /* rad_ff_pair_facing tolerance, scene units */
     /* Occlusion culling (docs/architecture.md): with cull set, a pair casts
      * no shadow rays when nothing can lie between its patches - the whole

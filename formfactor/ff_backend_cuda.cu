@@ -130,7 +130,7 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t
  * *sums (every lane gets the same bits: the xor butterfly adds the same
  * two numbers on both sides at each step). Lane l keeps sample l (when
  * k0 == 0) for its first shadow ray. */
-template <bool NEAR>
+template <bool NEAR, bool ERRORS>
 __device__ static void warp_samples(const cuda_params &p, const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i,
                                     uint32_t j, uint32_t k0, uint32_t k1, unsigned lane, rad_ff_sums *sums,
                                     rad_vec3 *first_x, rad_vec3 *first_y, double *first_g)
@@ -146,7 +146,7 @@ __device__ static void warp_samples(const cuda_params &p, const rad_ff_patch *pi
             g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
         }
         sum += g;
-        sum_sq += g * g;
+        if (ERRORS) sum_sq += g * g;
         if (k == lane) {
             *first_x = x;
             *first_y = y;
@@ -154,13 +154,13 @@ __device__ static void warp_samples(const cuda_params &p, const rad_ff_patch *pi
         }
     }
     sums->terms += warp_sum(sum);
-    sums->terms_sq += warp_sum(sum_sq);
+    if (ERRORS) sums->terms_sq += warp_sum(sum_sq);
     sums->samples += k1 - k0;
 }
 
 /* Shadow rays of samples [r0, r1), one per lane, through the flat BVH,
  * traced from the lower-numbered patch as the CPU does. */
-template <bool NEAR>
+template <bool NEAR, bool ERRORS>
 __device__ static void warp_rays(const cuda_params &p, const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i,
                                  uint32_t j, uint32_t r0, uint32_t r1, unsigned lane, rad_ff_sums *sums,
                                  rad_vec3 first_x, rad_vec3 first_y, double first_g)
@@ -187,24 +187,27 @@ __device__ static void warp_rays(const cuda_params &p, const rad_ff_patch *pi, c
         float d[3] = {(float)y.x - o[0], (float)y.y - o[1], (float)y.z - o[2]};
         int blocked = ff_bvh_occluded(p.nodes, p.tris, p.root, p.root_count, o, d, pi->face, pj->face);
         total += g;
-        total_sq += g * g;
+        if (ERRORS) total_sq += g * g;
         if (!blocked) {
             seen += g;
-            seen_sq += g * g;
+            if (ERRORS) seen_sq += g * g;
             visible++;
         }
     }
     sums->ray_terms += warp_sum(total);
     sums->ray_seen += warp_sum(seen);
-    sums->ray_terms_sq += warp_sum(total_sq);
-    sums->ray_seen_sq += warp_sum(seen_sq);
+    if (ERRORS) {
+        sums->ray_terms_sq += warp_sum(total_sq);
+        sums->ray_seen_sq += warp_sum(seen_sq);
+    }
     sums->visible += warp_sum_u(visible);
     sums->rays += r1 - r0;
 }
 
 /* Pass 2: one warp per listed pair; NEAR selects the estimator (the same
- * choice and sample budget as the CPU backend). */
-template <bool NEAR>
+ * choice and sample budget as the CPU backend); ERRORS adds the sums of
+ * squares behind the standard errors (wanted, or needed by --target-error). */
+template <bool NEAR, bool ERRORS>
 __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_pairs_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
@@ -225,7 +228,7 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
          * the one its shadow ray needs, so the ray loop need not redo it. */
         rad_vec3 first_x = {0, 0, 0}, first_y = {0, 0, 0};
         double first_g = 0.0;
-        warp_samples<NEAR>(p, pi, pj, i, j, 0, samples, lane, &sums, &first_x, &first_y, &first_g);
+        warp_samples<NEAR, ERRORS>(p, pi, pj, i, j, 0, samples, lane, &sums, &first_x, &first_y, &first_g);
         int traced = rays > 0 && sums.terms > 0.0;
         /* Culling on the GPU: only the convex-enclosure rule. The per-pair
          * shaft test of the CPU backend costs a warp about what its 32
@@ -240,20 +243,22 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
         }
         if (traced) {
             long long t0 = clock64();
-            warp_rays<NEAR>(p, pi, pj, i, j, 0, rays, lane, &sums, first_x, first_y, first_g);
+            warp_rays<NEAR, ERRORS>(p, pi, pj, i, j, 0, rays, lane, &sums, first_x, first_y, first_g);
             ray_cycles += clock64() - t0;
         }
         double error = 0.0;
-        double value = rad_ff_estimate(&sums, NEAR, pi, pj, &error);
-        if (p.target_error > 0.0) { /* --target-error: more batches, as the CPU backend's refine_block */
+        double value = rad_ff_estimate(&sums, NEAR, pi, pj, ERRORS ? &error : NULL);
+        if (ERRORS && p.target_error > 0.0) { /* --target-error: more batches, as the CPU backend's refine_block */
             uint32_t to = 0, rays_to = 0, planned = rays, factor = p.max_samples / p.samples;
             int refined = 0;
             while (!rad_ff_error_reached(error, pi, pj, p.target_error) &&
                    rad_ff_next_batch(&sums, samples, rays, factor, &to, &rays_to)) {
-                warp_samples<NEAR>(p, pi, pj, i, j, sums.samples, to, lane, &sums, &first_x, &first_y, &first_g);
+                warp_samples<NEAR, ERRORS>(p, pi, pj, i, j, sums.samples, to, lane, &sums, &first_x, &first_y,
+                                           &first_g);
                 if (traced) {
                     long long t0 = clock64();
-                    warp_rays<NEAR>(p, pi, pj, i, j, sums.rays, rays_to, lane, &sums, first_x, first_y, first_g);
+                    warp_rays<NEAR, ERRORS>(p, pi, pj, i, j, sums.rays, rays_to, lane, &sums, first_x, first_y,
+                                            first_g);
                     ray_cycles += clock64() - t0;
                 } else if (sums.terms > 0.0 && rays > 0 && p.cull && p.scene_convex) {
                     if (lane == 0) atomicAdd(&block_counts[C_SAVED], (unsigned long long)(rays_to - planned));
@@ -364,6 +369,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     float kernel_ms = 0;
     uint32_t pair_counts[2] = {0, 0};
     uint64_t computed = 0; /* pairs this call computes */
+    bool errors_wanted = errors != NULL || su->target_error > 0;
     cuda_params p;
     double t_mem = now_seconds();
     if (need == 0) return RAD_OK;
@@ -424,14 +430,20 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     if (pair_counts[0] > 0) {
         p.pair_count = pair_counts[0];
         uint64_t blocks = ((uint64_t)p.pair_count + FF_CUDA_WARPS_PER_BLOCK - 1) / FF_CUDA_WARPS_PER_BLOCK;
-        ff_pairs_kernel<false><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+        if (errors_wanted)
+            ff_pairs_kernel<false, true><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+        else
+            ff_pairs_kernel<false, false><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
         CUDA_TRY(cudaGetLastError());
     }
     if (pair_counts[1] > 0) {
         p.pair_count = pair_counts[1];
         p.pairs = s->d_pairs + need - 1; /* the near list, read backwards */
         uint64_t blocks = ((uint64_t)p.pair_count + FF_CUDA_WARPS_PER_BLOCK - 1) / FF_CUDA_WARPS_PER_BLOCK;
-        ff_pairs_kernel<true><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+        if (errors_wanted)
+            ff_pairs_kernel<true, true><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+        else
+            ff_pairs_kernel<true, false><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
         CUDA_TRY(cudaGetLastError());
     }
     CUDA_TRY(cudaEventRecord(s->stop));

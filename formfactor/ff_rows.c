@@ -1,5 +1,8 @@
 /* ff_rows.c - couplings to form factors, and the reciprocity mirror (ff_rows.h). */
 #include <stdlib.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "ff_rows.h"
 #include "rad_log.h"
@@ -15,6 +18,73 @@ void ff_rows_scale(const rad_ff_patch *patches, uint32_t n, uint32_t row_count, 
         double *row = rows + (size_t)r * n;
         for (uint32_t j = 0; j < n; j++) row[j] *= patches[j].area;
     }
+}
+
+void ff_rows_summary_merge(ff_rows_summary *into, const ff_rows_summary *from)
+{
+    if (from->rows > 0) {
+        if (into->rows == 0 || from->row_sum_min < into->row_sum_min) into->row_sum_min = from->row_sum_min;
+        if (into->rows == 0 || from->row_sum_max > into->row_sum_max) into->row_sum_max = from->row_sum_max;
+    }
+    into->rows += from->rows;
+    into->row_sum_total += from->row_sum_total;
+    into->error_sum += from->error_sum;
+    into->error_relative_sum += from->error_relative_sum;
+    into->error_count += from->error_count;
+    if (from->error_max > into->error_max) {
+        into->error_max = from->error_max;
+        into->error_max_value = from->error_max_value;
+        into->error_max_row = from->error_max_row;
+        into->error_max_column = from->error_max_column;
+    }
+}
+
+/* One row: scale, sum, and its errors' share of the summary. */
+static void finish_row(const rad_ff_patch *patches, uint32_t n, uint32_t i, double *row, double *err,
+                       ff_rows_summary *s)
+{
+    double sum = 0;
+    for (uint32_t j = 0; j < n; j++) {
+        row[j] *= patches[j].area;
+        sum += row[j];
+    }
+    if (err) {
+        for (uint32_t j = 0; j < n; j++) {
+            err[j] *= patches[j].area;
+            if (!(row[j] > 0)) continue;
+            s->error_sum += err[j];
+            s->error_relative_sum += err[j] / row[j];
+            s->error_count++;
+            if (err[j] > s->error_max) {
+                s->error_max = err[j];
+                s->error_max_value = row[j];
+                s->error_max_row = i;
+                s->error_max_column = j;
+            }
+        }
+    }
+    ff_rows_summary one = {.row_sum_min = sum, .row_sum_max = sum, .row_sum_total = sum, .rows = 1};
+    ff_rows_summary_merge(s, &one);
+}
+
+void ff_rows_finish(const rad_ff_patch *patches, uint32_t n, uint32_t row_begin, uint32_t row_count, double *rows,
+                    double *errors, int threads, ff_rows_summary *summary)
+{
+    enum { MAX_THREADS = 256 };
+    ff_rows_summary part[MAX_THREADS] = {{0}};
+    if (threads < 1) threads = 1;
+    if (threads > MAX_THREADS) threads = MAX_THREADS;
+    /* Static blocks of rows per thread, merged in thread order: the
+     * summary does not depend on timing. */
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (int t = 0; t < threads; t++) {
+        uint32_t r0 = (uint32_t)((uint64_t)row_count * t / threads);
+        uint32_t r1 = (uint32_t)((uint64_t)row_count * (t + 1) / threads);
+        for (uint32_t r = r0; r < r1; r++)
+            finish_row(patches, n, row_begin + r, rows + (size_t)r * n, errors ? errors + (size_t)r * n : NULL,
+                       &part[t]);
+    }
+    for (int t = 0; t < threads; t++) ff_rows_summary_merge(summary, &part[t]);
 }
 
 uint64_t ff_rows_mirror_local(uint32_t n, uint32_t begin, uint32_t end, double *block)

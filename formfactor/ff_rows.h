@@ -26,6 +26,25 @@
 /* F_ij = c_ij * A_j for rows [0, row_count) of `rows` (row_count x n). */
 void ff_rows_scale(const rad_ff_patch *patches, uint32_t n, uint32_t row_count, double *rows);
 
+/* What finished rows hold, for the stats: row sums, and the standard
+ * errors of the entries F_ij > 0 (error_count = 0 when none were computed). */
+typedef struct ff_rows_summary {
+    double row_sum_min, row_sum_max, row_sum_total;
+    uint64_t rows;
+    double error_sum, error_relative_sum, error_max, error_max_value;
+    uint64_t error_count;
+    uint32_t error_max_row, error_max_column;
+} ff_rows_summary;
+
+/* Adds `from` to `into` (either may be empty). */
+void ff_rows_summary_merge(ff_rows_summary *into, const ff_rows_summary *from);
+
+/* Scales rows [row_begin, row_begin + row_count) held in `rows` and, if not
+ * NULL, their standard errors into form factors (ff_rows_scale) and adds
+ * them to *summary; one pass over the memory, `threads` OpenMP threads. */
+void ff_rows_finish(const rad_ff_patch *patches, uint32_t n, uint32_t row_begin, uint32_t row_count, double *rows,
+                    double *errors, int threads, ff_rows_summary *summary);
+
 /* Fills the entries (i, j), i and j both in [begin, end), that row j
  * computed; block row r is matrix row begin + r. Returns how many. */
 uint64_t ff_rows_mirror_local(uint32_t n, uint32_t begin, uint32_t end, double *block);

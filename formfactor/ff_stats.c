@@ -29,22 +29,7 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
         all.counters.samples += s->counters.samples;
         all.counters.pairs_refined += s->counters.pairs_refined;
         all.counters.pairs_capped += s->counters.pairs_capped;
-        all.error_sum += s->error_sum;
-        all.error_relative_sum += s->error_relative_sum;
-        all.error_count += s->error_count;
-        if (s->error_max > all.error_max) {
-            all.error_max = s->error_max;
-            all.error_max_row = s->error_max_row;
-            all.error_max_column = s->error_max_column;
-            all.error_max_value = s->error_max_value;
-        }
-        all.counters.rays += s->counters.rays;
-        all.counters.rays_occluded += s->counters.rays_occluded;
-        if (s->row_end > s->row_begin) {
-            if (s->row_sum_min < all.row_sum_min || all.row_end == all.row_begin) all.row_sum_min = s->row_sum_min;
-            if (s->row_sum_max > all.row_sum_max) all.row_sum_max = s->row_sum_max;
-        }
-        all.row_sum_total += s->row_sum_total;
+        ff_rows_summary_merge(&all.rows, &s->rows);
     }
     return all;
 }
@@ -109,13 +94,18 @@ rad_status ff_stats_write_json(const char *path, const ff_run_info *run, const f
     write_counters(f, &all.counters);
     fprintf(f, ",\n  \"rays_per_second\": %.6g,\n  \"samples_per_second\": %.6g,\n",
             all.counters.rays / seconds, all.counters.samples / seconds);
-    fprintf(f, "  \"row_sum\": {\"min\": %.9g, \"max\": %.9g, \"mean\": %.9g},\n", all.row_sum_min, all.row_sum_max,
-            run->patch_count ? all.row_sum_total / run->patch_count : 0.0);
-    fprintf(f, "  \"standard_error\": {\"max\": %.9g, \"mean\": %.9g, \"mean_relative\": %.9g, \"entries\": %llu, "
-               "\"worst\": {\"row\": %u, \"column\": %u, \"F\": %.9g}},\n",
-            all.error_max, all.error_count ? all.error_sum / all.error_count : 0.0,
-            all.error_count ? all.error_relative_sum / all.error_count : 0.0, (unsigned long long)all.error_count,
-            all.error_max_row, all.error_max_column, all.error_max_value);
+    fprintf(f, "  \"row_sum\": {\"min\": %.9g, \"max\": %.9g, \"mean\": %.9g},\n", all.rows.row_sum_min, all.rows.row_sum_max,
+            run->patch_count ? all.rows.row_sum_total / run->patch_count : 0.0);
+    const ff_rows_summary *e = &all.rows;
+    if (!run->errors)
+        fprintf(f, "  \"standard_error\": null,\n");
+    else
+        fprintf(f,
+                "  \"standard_error\": {\"max\": %.9g, \"mean\": %.9g, \"mean_relative\": %.9g, \"entries\": %llu, "
+                "\"worst\": {\"row\": %u, \"column\": %u, \"F\": %.9g}},\n",
+                e->error_max, e->error_count ? e->error_sum / e->error_count : 0.0,
+                e->error_count ? e->error_relative_sum / e->error_count : 0.0, (unsigned long long)e->error_count,
+                e->error_max_row, e->error_max_column, e->error_max_value);
     fprintf(f, "  \"target_error\": %.9g,\n  \"max_samples_per_pair\": %u,\n", run->target_error, run->max_samples);
     fprintf(f, "  \"time_seconds\": ");
     write_times(f, &all);
@@ -152,12 +142,14 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
     rad_info("time (s, slowest rank): load %.3f  subdivide %.3f  setup %.3f  form factors %.3f  visibility %.3f  "
              "GPU memory %.3f  I/O %.3f  total %.3f",
              all.load, all.subdivide, all.setup, all.form_factors, all.visibility, all.gpu_memory, all.io, all.total);
-    rad_info("row sums: min %.6f  max %.6f  mean %.6f", all.row_sum_min, all.row_sum_max,
-             run->patch_count ? all.row_sum_total / run->patch_count : 0.0);
-    rad_info("standard errors of F > 0: mean %.3g (%.2g%% of F), max %.3g at F[%u][%u] = %.3g",
-             all.error_count ? all.error_sum / all.error_count : 0.0,
-             all.error_count ? 100.0 * all.error_relative_sum / all.error_count : 0.0, all.error_max,
-             all.error_max_row, all.error_max_column, all.error_max_value);
+    rad_info("row sums: min %.6f  max %.6f  mean %.6f", all.rows.row_sum_min, all.rows.row_sum_max,
+             run->patch_count ? all.rows.row_sum_total / run->patch_count : 0.0);
+    const ff_rows_summary *e = &all.rows;
+    if (run->errors)
+        rad_info("standard errors of F > 0: mean %.3g (%.2g%% of F), max %.3g at F[%u][%u] = %.3g",
+                 e->error_count ? e->error_sum / e->error_count : 0.0,
+                 e->error_count ? 100.0 * e->error_relative_sum / e->error_count : 0.0, e->error_max,
+                 e->error_max_row, e->error_max_column, e->error_max_value);
     if (run->target_error > 0)
         rad_info("--target-error %.3g: %llu pairs took more samples, %llu stopped at %u samples above it",
                  run->target_error, (unsigned long long)c->pairs_refined, (unsigned long long)c->pairs_capped,

@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 #include "ff_backend.h"
+#include "ff_rows.h"
 #include "rad_status.h"
 
 /* The paper's phases, wall-clock seconds on one rank. */
@@ -17,11 +18,7 @@ typedef struct ff_rank_stats {
     double mirror;     /* --reciprocity on: copying entries between rows and ranks */
     double gpu_memory; /* CUDA: allocation + transfers (form_factors is then the GPU kernel) */
     ff_counters counters;
-    double row_sum_min, row_sum_max, row_sum_total; /* over this rank's rows */
-    /* Standard errors of the entries F_ij > 0 of this rank's rows. */
-    double error_sum, error_relative_sum, error_max, error_max_value;
-    uint64_t error_count;
-    uint32_t error_max_row, error_max_column;
+    ff_rows_summary rows; /* row sums and standard errors of this rank's rows */
 } ff_rank_stats;
 
 typedef struct ff_run_info {
@@ -36,6 +33,7 @@ typedef struct ff_run_info {
     const char *cull;
     const char *reciprocity; /* "on" (each pair once) or "off" (both entries computed) */
     double target_error;     /* 0 = none */
+    int errors;              /* standard errors were estimated */
     uint32_t max_samples;
     const char *backend;
     const char *element;

@@ -43,6 +43,7 @@ typedef struct ff_options {
     const char *output;     /* "formfactors" */
     const char *stats_path; /* NULL = none */
     const char *errors_path; /* --errors: standard errors of F as a second file; NULL = none */
+    int no_errors;          /* --no-errors: skip them (GPU: about N % less kernel time) */
     double target_error;    /* --target-error; 0 = one batch */
     uint32_t max_samples;   /* --max-samples; 0 = 64 x samples */
     const char *subdiv_only;
@@ -82,6 +83,8 @@ static void print_help(void)
            "      --max-samples M      cap per pair for --target-error (default: 64 x --samples)\n"
            "      --errors FILE        also write each entry's standard error (float32, same\n"
            "                           layout as the form factors; docs/formats.md)\n"
+           "      --no-errors          do not estimate standard errors (no summary in the stats;\n"
+           "                           saves GPU kernel time and host memory)\n"
            "      --estimator E        auto | mc | qmc (default: auto: pairs closer than twice\n"
            "                           their radii use the contour-integral near-field estimator\n"
            "                           with K/8 samples; mc: random point pairs everywhere, as\n"
@@ -121,7 +124,7 @@ bad:
 static rad_status parse_options(int argc, char **argv, ff_options *o)
 {
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
-           O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS };
+           O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -133,6 +136,7 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         {"estimator", required_argument, 0, O_ESTIMATOR}, {"cull", required_argument, 0, O_CULL},
         {"reciprocity", required_argument, 0, O_RECIPROCITY}, {"target-error", required_argument, 0, O_TARGET},
         {"max-samples", required_argument, 0, O_MAX_SAMPLES}, {"errors", required_argument, 0, O_ERRORS},
+        {"no-errors", no_argument, 0, O_NO_ERRORS},
         {0, 0, 0, 0}};
     *o = (ff_options){.output = "formfactors", .backend = "auto", .samples = 512, .shadow_rays = 32, .seed = 1,
                       .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_AUTO, .format = FF_FORMAT_NATIVE,
@@ -188,6 +192,7 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         }
         case O_MAX_SAMPLES: st = parse_uint("--max-samples", optarg, 1u << 30, &v); o->max_samples = (uint32_t)v; break;
         case O_ERRORS: o->errors_path = optarg; break;
+        case O_NO_ERRORS: o->no_errors = 1; break;
         case O_RECIPROCITY:
             if (!strcmp(optarg, "auto")) o->reciprocity = FF_RECIPROCITY_AUTO;
             else if (!strcmp(optarg, "on")) o->reciprocity = FF_RECIPROCITY_ON;
@@ -224,6 +229,10 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         rad_error("--max-samples %u is below --samples %u", o->max_samples, o->samples);
         return RAD_ERR_USAGE;
     }
+    if (o->no_errors && o->errors_path) {
+        rad_error("--no-errors and --errors %s contradict each other", o->errors_path);
+        return RAD_ERR_USAGE;
+    }
     if (o->errors_path && !strcmp(o->errors_path, o->output)) {
         rad_error("--errors %s: the same file as the output", o->errors_path);
         return RAD_ERR_USAGE;
@@ -248,6 +257,7 @@ typedef struct ff_run {
     const ff_backend *backend;
     void *backend_state;
     int pairs_once; /* --reciprocity as decided for this run (same on every rank) */
+    int want_errors; /* standard errors computed (not --no-errors) */
     ff_rank_stats stats;
     double start, last_progress;
     uint32_t progress_base, progress_total;
@@ -389,7 +399,8 @@ static rad_status setup(ff_run *run)
     if (st == RAD_OK) st = ff_partition_rows(run->patches, n, eps, ranks, run->row_begin);
     /* Collective, so every rank asks, even one that failed above. */
     int rank = ff_comm_rank(run->comm);
-    double block_bytes = st == RAD_OK ? 2.0 * (run->row_begin[rank + 1] - run->row_begin[rank]) * n * sizeof(double) : 0;
+    run->want_errors = !run->opt.no_errors;
+    double block_bytes = st == RAD_OK ? (1.0 + run->want_errors) * (run->row_begin[rank + 1] - run->row_begin[rank]) * n * sizeof(double) : 0;
     uint64_t too_big = ff_comm_max_u64(run->comm, block_bytes > memory_per_rank(run) / 4);
     run->pairs_once = run->opt.reciprocity == FF_RECIPROCITY_ON || (run->opt.reciprocity == FF_RECIPROCITY_AUTO && !too_big);
     run->stats.threads = default_threads(run);
@@ -398,7 +409,7 @@ static rad_status setup(ff_run *run)
                        .triangle_face = run->triangle_face, .triangle_count = run->triangle_count,
                        .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
                        .estimator = run->opt.estimator, .target_error = run->opt.target_error,
-                       .max_samples = run->opt.max_samples, .cull = run->opt.cull, .scene_convex = convex,
+                       .max_samples = run->opt.max_samples, .errors = run->want_errors, .cull = run->opt.cull, .scene_convex = convex,
                        .cull_margin = (float)(1e4 * eps), .plane_eps = eps, .pairs_once = run->pairs_once, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
                        .progress = ff_comm_rank(run->comm) == 0 ? report_progress : NULL, .progress_user = run};
         st = run->backend->create(&su, &run->backend_state);
@@ -425,33 +436,6 @@ typedef struct ff_files {
     ff_output *errors; /* NULL without --errors */
 } ff_files;
 
-/* Row sums and standard errors of finished rows [r0, r0 + count), for the stats. */
-static void add_row_stats(ff_run *run, uint32_t r0, uint32_t count, const double *rows, const double *errors)
-{
-    uint32_t n = (uint32_t)run->mesh.patch_count;
-    ff_rank_stats *st = &run->stats;
-    for (uint32_t r = 0; r < count; r++) {
-        const double *row = rows + (size_t)r * n, *err = errors + (size_t)r * n;
-        double sum = 0;
-        for (uint32_t j = 0; j < n; j++) {
-            sum += row[j];
-            if (!(row[j] > 0)) continue;
-            st->error_sum += err[j];
-            st->error_relative_sum += err[j] / row[j];
-            st->error_count++;
-            if (err[j] > st->error_max) {
-                st->error_max = err[j];
-                st->error_max_row = r0 + r;
-                st->error_max_column = j;
-                st->error_max_value = row[j];
-            }
-        }
-        st->row_sum_total += sum;
-        if (sum < st->row_sum_min) st->row_sum_min = sum;
-        if (sum > st->row_sum_max) st->row_sum_max = sum;
-    }
-}
-
 /* Collective: rows [r0, r0 + count) of this rank into each file (count may be 0). */
 static rad_status write_round(ff_run *run, const ff_files *files, uint32_t r0, uint32_t count, const double *rows,
                               const double *errors)
@@ -466,13 +450,14 @@ static rad_status write_round(ff_run *run, const ff_files *files, uint32_t r0, u
     return st;
 }
 
-/* Two row buffers (values and standard errors) of `count` doubles from the
- * backend; collective: fails on every rank if it fails on one. */
+/* Row buffers of `count` doubles from the backend, for the values and (if
+ * wanted) the standard errors; collective: fails on every rank if it fails
+ * on one. */
 static rad_status alloc_buffers(ff_run *run, size_t count, double **rows, double **errors)
 {
     *rows = run->backend->alloc_rows(run->backend_state, count ? count : 1);
-    *errors = run->backend->alloc_rows(run->backend_state, count ? count : 1);
-    rad_status st = ff_comm_agree(run->comm, *rows && *errors ? RAD_OK : RAD_ERR_NOMEM);
+    *errors = run->want_errors ? run->backend->alloc_rows(run->backend_state, count ? count : 1) : NULL;
+    rad_status st = ff_comm_agree(run->comm, *rows && (*errors || !run->want_errors) ? RAD_OK : RAD_ERR_NOMEM);
     if (st != RAD_OK) {
         run->backend->free_rows(run->backend_state, *rows);
         run->backend->free_rows(run->backend_state, *errors);
@@ -501,13 +486,10 @@ static rad_status compute_streamed(ff_run *run, const ff_files *files, ff_counte
         uint32_t count = r0 < end ? (end - r0 < per_round ? end - r0 : per_round) : 0;
         if (st == RAD_OK && count > 0) {
             run->progress_base = r0 - begin;
-            st = run->backend->compute_rows(run->backend_state, r0, count, rows, errors, counters);
+            st = run->backend->compute_rows(run->backend_state, r0, count, rows, run->want_errors ? errors : NULL,
+                                            counters);
         }
-        if (st == RAD_OK) {
-            ff_rows_scale(run->patches, n, count, rows);
-            ff_rows_scale(run->patches, n, count, errors);
-            add_row_stats(run, r0, count, rows, errors);
-        }
+        if (st == RAD_OK) ff_rows_finish(run->patches, n, r0, count, rows, errors, run->stats.threads, &run->stats.rows);
         /* A failed rank still joins the collective write, with no rows. */
         rad_status w = write_round(run, files, r0 < end ? r0 : end, st == RAD_OK ? count : 0, rows, errors);
         if (st == RAD_OK) st = w;
@@ -538,22 +520,24 @@ static rad_status compute_once(ff_run *run, const ff_files *files, ff_counters *
         run->progress_base = r0 - begin;
         uint32_t count = end - r0 < per_round ? end - r0 : per_round;
         size_t at = (size_t)(r0 - begin) * n;
-        st = run->backend->compute_rows(run->backend_state, r0, count, block + at, errors + at, counters);
+        st = run->backend->compute_rows(run->backend_state, r0, count, block + at,
+                                        run->want_errors ? errors + at : NULL, counters);
     }
     st = ff_comm_agree(run->comm, st);
     if (st == RAD_OK) {
         double t0 = ff_comm_time();
         counters->pairs_mirrored += ff_rows_mirror_local(n, begin, end, block);
-        ff_rows_mirror_local(n, begin, end, errors);
         st = ff_rows_exchange(run->comm, run->row_begin, n, block, &counters->pairs_mirrored);
-        uint64_t again = 0;
-        if (st == RAD_OK) st = ff_rows_exchange(run->comm, run->row_begin, n, errors, &again);
+        if (run->want_errors) {
+            uint64_t again = 0;
+            ff_rows_mirror_local(n, begin, end, errors);
+            if (st == RAD_OK) st = ff_rows_exchange(run->comm, run->row_begin, n, errors, &again);
+        }
         run->stats.mirror = ff_comm_time() - t0;
     }
     if (st == RAD_OK) {
-        ff_rows_scale(run->patches, n, end - begin, block);
-        ff_rows_scale(run->patches, n, end - begin, errors);
-        add_row_stats(run, begin, end - begin, block, errors);
+        ff_rows_finish(run->patches, n, begin, end - begin, block, run->want_errors ? errors : NULL,
+                       run->stats.threads, &run->stats.rows);
         /* Every rank joins every collective write, with no rows after a failure. */
         for (uint64_t round = 0; round < rounds; round++) {
             uint32_t r0 = begin + (uint32_t)(round * per_round);
@@ -576,7 +560,6 @@ static rad_status compute_and_write(ff_run *run, const ff_files *files)
     uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
     run->stats.row_begin = begin;
     run->stats.row_end = end;
-    run->stats.row_sum_min = end > begin ? 1e300 : 0;
     run->progress_total = end - begin;
     ff_counters counters = {0};
     rad_status st = run->pairs_once ? compute_once(run, files, &counters) : compute_streamed(run, files, &counters);
@@ -606,6 +589,7 @@ static rad_status write_stats(ff_run *run, int gpus)
                                                                                    : "mc",
                             .cull = run->opt.cull ? "all" : "none", .reciprocity = run->pairs_once ? "on" : "off",
                             .target_error = run->opt.target_error, .max_samples = run->opt.max_samples,
+                            .errors = run->want_errors,
                             .backend = run->backend->name,
                             .element = run->opt.element == RAD_ELEMENT_F32 ? "f32" : "f64",
                             .format = run->opt.format == FF_FORMAT_PAPER ? "paper" : "native",
