@@ -6,8 +6,9 @@
  * A_i F_ij = A_j F_ji. Patches with rho_i = 0 keep B_i = E_i and are left
  * out: search directions are zero there, so their B never changes and
  * their contribution to the other rows stays on the right-hand side.
- * The residual of K·B = b is r_K = diag(A/rho)·r, so the stopping rule on
- * ||r||_inf costs nothing extra. Preconditioner: M_i = K_ii.
+ * The residual of K·B = b is r_K = diag(A/rho)·r, and what patch i gathers
+ * is s_i = B_i + r_i, so the stopping rule (omega, iterate.h) costs nothing
+ * extra. Preconditioner: M_i = K_ii.
  */
 #include <math.h>
 #include <stdio.h>
@@ -64,7 +65,7 @@ typedef struct cg_vectors {
 static void cg_apply(const solve_run *run, const double *p, double *q)
 {
     const size_t n = run->n;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= SOLVE_PARALLEL_MIN_ROWS)
     for (size_t i = 0; i < n; i++) {
         double rho = run->rho[i];
         if (rho == 0) {
@@ -77,7 +78,7 @@ static void cg_apply(const solve_run *run, const double *p, double *q)
 }
 
 /* r_K = diag(A/rho)·(E + diag(rho)·F·B - B) on reflecting rows, then
- * z = r_K / M. Returns ||r||_inf / ||E||_inf of the unscaled residual. */
+ * z = r_K / M. Returns omega(B) of the unscaled residual. */
 static double cg_residual(const solve_run *run, const double *B, cg_vectors *v)
 {
     const size_t n = run->n;
@@ -89,18 +90,20 @@ static double cg_residual(const solve_run *run, const double *B, cg_vectors *v)
             continue;
         }
         const double *row = run->F + i * n;
-        double r = run->E[i] + rho * solve_dot(row, B, 0, n) - B[i];
+        double gathered = run->E[i] + rho * solve_dot(row, B, 0, n);
+        double r = gathered - B[i];
         v->r[i] = run->area[i] / rho * r;
         v->z[i] = v->r[i] / (run->area[i] * (1 / rho - row[i]));
-        if (!(fabs(r) <= rmax)) rmax = fabs(r);
+        double a = solve_patch_residual(r, gathered, run->e_norm);
+        if (!(a <= rmax)) rmax = a;
     }
-    return rmax / run->e_norm;
+    return rmax;
 }
 
 static double cg_dot(const double *a, const double *b, size_t n) { return solve_dot(a, b, 0, n); }
 
-/* One CG update of B, r, z, p; returns the new relative residual (from
- * the recurrence) or NAN when p·Kp <= 0 (K not positive definite). */
+/* One CG update of B, r, z, p; returns the new omega (from the
+ * recurrence) or NAN when p·Kp <= 0 (K not positive definite). */
 static double cg_step(solve_run *run, cg_vectors *v, double *rz)
 {
     const size_t n = run->n;
@@ -113,14 +116,15 @@ static double cg_step(solve_run *run, cg_vectors *v, double *rz)
         run->B[i] += alpha * v->p[i];
         v->r[i] -= alpha * v->q[i];
         v->z[i] = v->r[i] / (run->area[i] * (1 / run->rho[i] - run->F[i * n + i]));
-        double a = fabs(v->r[i] * run->rho[i] / run->area[i]);
+        double r = v->r[i] * run->rho[i] / run->area[i];
+        double a = solve_patch_residual(r, run->B[i] + r, run->e_norm);
         if (!(a <= rmax)) rmax = a;
     }
     double rz_new = cg_dot(v->r, v->z, n);
     double beta = rz_new / *rz;
     for (size_t i = 0; i < n; i++) v->p[i] = v->z[i] + beta * v->p[i];
     *rz = rz_new;
-    return rmax / run->e_norm;
+    return rmax;
 }
 
 rad_status solve_cg(solve_run *run, int *out_stopped, char *why, size_t why_size)

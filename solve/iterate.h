@@ -4,13 +4,14 @@
  * the residual history. Each method (stationary.c: Jacobi, Gauss-Seidel;
  * cg.c: conjugate gradients) advances run->B and reports the residual of
  * every iterate through solve_run_record, which keeps the history, prints
- * progress and decides when to stop. Invariant: history[k] is the relative
- * residual of iterate k, and run->iterations is the index of the iterate in
- * run->B.
+ * progress and decides when to stop. Invariant: history[k] is the scaled
+ * residual omega (solve_patch_residual) of iterate k, and run->iterations
+ * is the index of the iterate in run->B.
  */
 #ifndef SOLVE_ITERATE_H
 #define SOLVE_ITERATE_H
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -52,8 +53,35 @@ typedef enum solve_verdict {
  * go on. */
 solve_verdict solve_run_record(solve_run *run, double residual);
 
-/* ||E + diag(rho)·F·B - B||_inf / ||E||_inf, computed afresh. */
+/* omega of B (see solve_patch_residual), computed afresh. */
 double solve_run_residual(const solve_run *run, const double *B);
+
+/* The stopping rule measures each patch's residual against the smaller of
+ * ||E||_inf and the radiosity it gathers, s_i = E_i + rho_i sum_j F_ij B_j
+ * (= B_i + r_i): omega = max_i |r_i| / min(||E||_inf, s_i) (docs/solve.md,
+ * "Stopping rule"). The ||E|| part keeps the normwise bound of the error;
+ * the s_i part holds a dim patch (a 1e-6 light in a room of its own beside
+ * a 1e6 one) to its own brightness. s_i is floored at
+ * SOLVE_SCALE_FLOOR * ||E||_inf so omega stays finite where s_i <= 0 (CG
+ * iterates may be negative mid-way) - only patches 150 decades dimmer than
+ * the brightest emitter fall back to the normwise rule. */
+#define SOLVE_SCALE_FLOOR 1e-150
+
+/* |r| / min(||E||_inf, s) for one patch: its share of omega. */
+static inline double solve_patch_residual(double r, double gathered, double e_norm)
+{
+    double lowest = SOLVE_SCALE_FLOOR * e_norm;
+    double scale = gathered < e_norm ? gathered : e_norm;
+    return fabs(r) / (scale > lowest ? scale : lowest);
+}
+
+/* Row loops (Jacobi sweeps, CG's K·p) run on OpenMP threads only from this
+ * many rows up. Below it a pass over F costs less than waking the threads:
+ * measured (docs/solve.md, "Threads"), a parallel region costs ~40 us with
+ * OMP_WAIT_POLICY=passive on 16 cores while a serial Jacobi sweep of 216
+ * rows takes ~30 us; from ~300 rows up the threads win. Each row is summed by
+ * one thread either way, so results are the same bit for bit. */
+#define SOLVE_PARALLEL_MIN_ROWS 256
 
 /* sum_{j in [begin, end)} row[j] * x[j], left to right. */
 static inline double solve_dot(const double *row, const double *x, size_t begin, size_t end)

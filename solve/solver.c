@@ -76,10 +76,11 @@ double solve_run_residual(const solve_run *run, const double *B)
     const size_t n = run->n;
     double rmax = 0;
     for (size_t i = 0; i < n; i++) {
-        double r = run->E[i] + run->rho[i] * solve_dot(run->F + i * n, B, 0, n) - B[i];
-        if (!(fabs(r) <= rmax)) rmax = fabs(r); /* keeps NaN */
+        double gathered = run->E[i] + run->rho[i] * solve_dot(run->F + i * n, B, 0, n);
+        double a = solve_patch_residual(gathered - B[i], gathered, run->e_norm);
+        if (!(a <= rmax)) rmax = a; /* keeps NaN */
     }
-    return rmax / run->e_norm;
+    return rmax;
 }
 
 /* Picks the method to start with; CG only if the reciprocity check passes. */

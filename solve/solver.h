@@ -21,10 +21,15 @@
  *                   continues with Gauss-Seidel from where CG stopped.
  *  - auto:          CG when the reciprocity check passes, else Gauss-Seidel.
  * Every method starts from B = E, accumulates in double precision, and stops
- * when the relative residual ||E + diag(rho)·F·B - B||_inf / ||E||_inf of
- * the returned B is <= tolerance (verified with a fresh product at the end),
- * or after max_iterations. Rows are summed in a fixed order, so results do
- * not depend on the number of OpenMP threads.
+ * when the scaled residual of the returned B,
+ *     omega = max_i |r_i| / min(||E||_inf, s_i),
+ *     r = E + diag(rho)·F·B - B,  s_i = E_i + rho_i sum_j F_ij B_j = B_i + r_i,
+ * is <= tolerance (verified with a fresh product at the end), or after
+ * max_iterations. The ||E|| part is the normwise rule (error bound below);
+ * the s_i part holds every patch to its own brightness, so a 1e-6 light in
+ * a room of its own is solved as accurately as a 1e6 one beside it
+ * (docs/solve.md, "Stopping rule"). Rows are summed in a fixed order, so
+ * results do not depend on the number of OpenMP threads.
  */
 #ifndef SOLVE_SOLVER_H
 #define SOLVE_SOLVER_H
@@ -35,7 +40,7 @@
 #include "rad_rfile.h"
 #include "rad_status.h"
 
-/* Default stopping tolerance on the relative residual. The solver's error
+/* Default stopping tolerance on the scaled residual omega. The solver's error
  * in the displayed image is then at most ~1e-4 of the smallest 8-bit step
  * on the Cornell box, so it never decides a pixel's code (docs/solve.md:
  * the bound, and renders at 1e-6 ... 1e-12 compared pixel by pixel). */
@@ -70,7 +75,7 @@ rad_status solve_method_parse(const char *name, solve_method *out_method);
 
 typedef struct solve_params {
     solve_method method;       /* 0 = auto */
-    double tolerance;          /* relative residual; 0 = SOLVE_DEFAULT_TOLERANCE */
+    double tolerance;          /* on omega (above); 0 = SOLVE_DEFAULT_TOLERANCE */
     uint32_t max_iterations;   /* 0 = SOLVE_DEFAULT_MAX_ITERATIONS */
     double progress_seconds;   /* 0 = SOLVE_DEFAULT_PROGRESS_SECONDS; < 0 = never */
     const char *label;         /* names the channel in messages; NULL = "channel" */
@@ -89,13 +94,13 @@ typedef struct solve_report {
     int fell_back;             /* 1 if CG was refused or stopped (fallback_reason) */
     char fallback_reason[192];
     uint32_t iterations;       /* updates that produced B (over all methods) */
-    double residual;           /* verified final relative residual */
+    double residual;           /* verified final omega (>= ||r||_inf / ||E||_inf) */
     int converged;             /* residual <= tolerance */
     double seconds;            /* wall time of the solve */
     double reciprocity;        /* max_i delta_i / m_i (see above); -1 if not measured */
     double error_bound;        /* bound on ||B - B_exact||_inf: residual·||E||/(1 - max rho·rowsum),
                                   +inf when max rho·rowsum >= 1 */
-    double *history;           /* history[k] = relative residual of iterate k,
+    double *history;           /* history[k] = omega of iterate k,
                                   k = 0..iterations (owned) */
     size_t history_count;
 } solve_report;

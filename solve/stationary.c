@@ -1,10 +1,11 @@
 /* stationary.c - Jacobi and Gauss-Seidel sweeps.
  *
  * Both update B_i += r_i / (1 - rho_i F_ii), with the residual
- * r_i = E_i + rho_i sum_j F_ij B_j - B_i; Jacobi takes every B_j from the
- * previous iterate, Gauss-Seidel the newest values. Each sweep also yields
- * the exact residual of the iterate it started from (the same pass over
- * the row), so the stopping test costs no extra product. When that
+ * r_i = s_i - B_i and s_i = E_i + rho_i sum_j F_ij B_j (what patch i
+ * gathers); Jacobi takes every B_j from the previous iterate, Gauss-Seidel
+ * the newest values. Each sweep also yields the exact residual of the
+ * iterate it started from (the same pass over the row), so the stopping
+ * test costs no extra product. When that
  * residual meets the tolerance, the method returns that iterate, not the
  * newer one whose residual is unknown. Rows with rho_i = 0 are B_i = E_i
  * from the start and never change.
@@ -14,12 +15,12 @@
 
 #include "iterate.h"
 
-/* One Jacobi sweep: next = B + r(B) / d; returns ||r(B)||_inf / ||E||_inf. */
+/* One Jacobi sweep: next = B + r(B) / d; returns omega(B) (iterate.h). */
 static double jacobi_sweep(const solve_run *run, const double *B, double *next)
 {
     const size_t n = run->n;
     double rmax = 0;
-#pragma omp parallel for schedule(static) reduction(max : rmax)
+#pragma omp parallel for schedule(static) reduction(max : rmax) if (n >= SOLVE_PARALLEL_MIN_ROWS)
     for (size_t i = 0; i < n; i++) {
         double rho = run->rho[i];
         if (rho == 0) {
@@ -27,12 +28,13 @@ static double jacobi_sweep(const solve_run *run, const double *B, double *next)
             continue;
         }
         const double *row = run->F + i * n;
-        double r = run->E[i] + rho * solve_dot(row, B, 0, n) - B[i];
+        double gathered = run->E[i] + rho * solve_dot(row, B, 0, n);
+        double r = gathered - B[i];
         next[i] = B[i] + r / (1 - rho * row[i]);
-        double a = fabs(r);
+        double a = solve_patch_residual(r, gathered, run->e_norm);
         if (!(a <= rmax)) rmax = a; /* lets NaN through to the caller */
     }
-    return rmax / run->e_norm;
+    return rmax;
 }
 
 rad_status solve_jacobi(solve_run *run)
@@ -50,7 +52,7 @@ rad_status solve_jacobi(solve_run *run)
 }
 
 /* One Gauss-Seidel sweep over B in place; `old` holds the iterate it
- * starts from. Returns ||r(old)||_inf / ||E||_inf. */
+ * starts from. Returns omega(old) (iterate.h). */
 static double gauss_seidel_sweep(const solve_run *run, double *B, const double *old)
 {
     const size_t n = run->n;
@@ -63,13 +65,13 @@ static double gauss_seidel_sweep(const solve_run *run, double *B, const double *
         double lower_new = solve_dot(row, B, 0, i);
         double lower_old = solve_dot(row, old, 0, i);
         double upper = solve_dot(row, B, i, n);
-        double r_old = run->E[i] + rho * (lower_old + upper) - old[i];
+        double gathered_old = run->E[i] + rho * (lower_old + upper);
         double r_now = run->E[i] + rho * (lower_new + upper) - B[i];
         B[i] += r_now / (1 - rho * row[i]);
-        double a = fabs(r_old);
+        double a = solve_patch_residual(gathered_old - old[i], gathered_old, run->e_norm);
         if (!(a <= rmax)) rmax = a;
     }
-    return rmax / run->e_norm;
+    return rmax;
 }
 
 rad_status solve_gauss_seidel(solve_run *run)

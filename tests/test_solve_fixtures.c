@@ -213,6 +213,103 @@ int solve_fx_two_squares(double rho, double emission, solve_fx_scene *out)
     return 1;
 }
 
+int solve_fx_join(const solve_fx_scene *a, const solve_fx_scene *b, double shift_x, solve_fx_scene *out)
+{
+    const size_t na = a->mesh.patch_count, nb = b->mesh.patch_count, n = na + nb;
+    const size_t va = a->mesh.vertex_count, vb = b->mesh.vertex_count;
+    if (!scene_alloc(out, n)) {
+        solve_fx_free(out);
+        return 0;
+    }
+    double *positions = realloc(out->mesh.positions, 3 * (va + vb) * sizeof(double));
+    if (!positions) {
+        solve_fx_free(out);
+        return 0;
+    }
+    out->mesh.positions = positions;
+    out->mesh.vertex_count = va + vb;
+    memcpy(positions, a->mesh.positions, 3 * va * sizeof(double));
+    memcpy(positions + 3 * va, b->mesh.positions, 3 * vb * sizeof(double));
+    for (size_t v = va; v < va + vb; v++) positions[3 * v] += shift_x;
+    memcpy(out->mesh.patches, a->mesh.patches, na * sizeof(rad_patch));
+    memcpy(out->mesh.patches + na, b->mesh.patches, nb * sizeof(rad_patch));
+    for (size_t i = na; i < n; i++) {
+        rad_patch *p = &out->mesh.patches[i];
+        for (int k = 0; k < 4; k++)
+            if (p->v[k] != RAD_NO_VERTEX) p->v[k] += (uint32_t)va;
+        p->centroid.x += shift_x;
+    }
+    for (size_t i = 0; i < na; i++) memcpy(out->F + i * n, a->F + i * na, na * sizeof(double));
+    for (size_t i = 0; i < nb; i++) memcpy(out->F + (na + i) * n + na, b->F + i * nb, nb * sizeof(double));
+    memcpy(out->area, a->area, na * sizeof(double));
+    memcpy(out->area + na, b->area, nb * sizeof(double));
+    finish_row_sums(out);
+    return 1;
+}
+
+void solve_fx_couple(solve_fx_scene *scene, size_t i, size_t j, double area_coupling)
+{
+    size_t n = scene->mesh.patch_count;
+    scene->F[i * n + j] += area_coupling / scene->area[i];
+    scene->F[j * n + i] += area_coupling / scene->area[j];
+    finish_row_sums(scene);
+}
+
+/* Row index of the largest |a[r][col]|, r >= col. */
+static size_t pivot_row(const long double *a, size_t n, size_t col)
+{
+    size_t best = col;
+    for (size_t r = col + 1; r < n; r++)
+        if (fabsl(a[r * n + col]) > fabsl(a[best * n + col])) best = r;
+    return best;
+}
+
+static void swap_rows(long double *a, long double *b, size_t n, size_t r, size_t s)
+{
+    for (size_t k = 0; k < n; k++) {
+        long double t = a[r * n + k];
+        a[r * n + k] = a[s * n + k];
+        a[s * n + k] = t;
+    }
+    long double t = b[r];
+    b[r] = b[s];
+    b[s] = t;
+}
+
+int solve_fx_direct(size_t n, const double *F, const double *rho, const double *rhs, double *out_x)
+{
+    long double *a = malloc(n * n * sizeof(long double)), *b = malloc(n * sizeof(long double));
+    int ok = a && b;
+    for (size_t i = 0; ok && i < n; i++) {
+        for (size_t j = 0; j < n; j++) a[i * n + j] = -(long double)rho[i] * F[i * n + j];
+        a[i * n + i] += 1;
+        b[i] = rhs[i];
+    }
+    for (size_t col = 0; ok && col < n; col++) { /* forward elimination */
+        swap_rows(a, b, n, col, pivot_row(a, n, col));
+        long double pivot = a[col * n + col];
+        if (pivot == 0) {
+            ok = 0;
+            break;
+        }
+        for (size_t r = col + 1; r < n; r++) {
+            long double factor = a[r * n + col] / pivot;
+            if (factor == 0) continue;
+            for (size_t k = col; k < n; k++) a[r * n + k] -= factor * a[col * n + k];
+            b[r] -= factor * b[col];
+        }
+    }
+    for (size_t i = n; ok && i-- > 0;) { /* back substitution */
+        long double sum = b[i];
+        for (size_t k = i + 1; k < n; k++) sum -= a[i * n + k] * b[k];
+        b[i] = sum / a[i * n + i];
+    }
+    for (size_t i = 0; ok && i < n; i++) out_x[i] = (double)b[i];
+    free(a);
+    free(b);
+    return ok;
+}
+
 void solve_fx_set_uniform(solve_fx_scene *scene, double rho, double emission)
 {
     for (size_t i = 0; i < scene->mesh.patch_count; i++)

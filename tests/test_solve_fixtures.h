@@ -11,6 +11,9 @@
  *  - solve_fx_sphere: flat patches of a UV sphere seen from inside, with the
  *    sphere's exact F_ij = A_j / A_total (including i = j).
  *  - solve_fx_two_squares: unit squares facing each other at distance 1.
+ *  - solve_fx_join: two scenes as one (two rooms; F block diagonal), and
+ *    solve_fx_couple to let two of their patches exchange a little light.
+ *  - solve_fx_direct: the reference answer, a dense direct solve.
  */
 #ifndef TEST_SOLVE_FIXTURES_H
 #define TEST_SOLVE_FIXTURES_H
@@ -45,6 +48,21 @@ int solve_fx_box(const solve_fx_box_spec *spec, solve_fx_scene *out);
 int solve_fx_sphere(int bands, int segments, double rho, double emission, solve_fx_scene *out);
 int solve_fx_two_squares(double rho, double emission, solve_fx_scene *out);
 void solve_fx_free(solve_fx_scene *scene);
+
+/* Scene a followed by scene b (b's geometry moved by shift_x along x, so
+ * the rooms do not overlap): patches of a, then of b; F block diagonal.
+ * Returns 0 when out of memory. */
+int solve_fx_join(const solve_fx_scene *a, const solve_fx_scene *b, double shift_x, solve_fx_scene *out);
+
+/* Lets patches i and j exchange light: A_i F_ij = A_j F_ji = area_coupling
+ * (reciprocal), added to whatever they had; row sums are updated. */
+void solve_fx_couple(solve_fx_scene *scene, size_t i, size_t j, double area_coupling);
+
+/* The reference solve: x with (I - diag(rho)·F)·x = rhs, by Gaussian
+ * elimination with partial pivoting, every operation in long double (64-bit
+ * mantissa on x86-64, ~11 bits more than double). Returns 0 if a pivot is
+ * zero or memory runs out. Deliberately simple and separate from solve/. */
+int solve_fx_direct(size_t n, const double *F, const double *rho, const double *rhs, double *out_x);
 
 /* Uniform rho and E (all channels) on every patch of a scene. */
 void solve_fx_set_uniform(solve_fx_scene *scene, double rho, double emission);
