@@ -1,0 +1,126 @@
+#!/usr/bin/env python3
+"""Read a scanline OpenEXR file into a numpy array, with numpy and zlib only.
+
+    python3 tools/exrread.py image.exr          # prints size, channels, min/mean/max
+    from exrread import read_exr                # -> float32 array (height, width, channels)
+
+Enough for what `render` writes (RGB half float, ZIP compression) and for
+the other simple cases: scanline images (not tiled, not deep, one part),
+HALF / FLOAT / UINT channels without subsampling, compression NONE, RLE,
+ZIPS or ZIP. Anything else raises ValueError; tools/accuracy_study.py then
+falls back to `oiiotool --dumpdata`. Channels come back in file order,
+which EXR keeps sorted by name (B, G, R); read_exr(..., names=True) also
+returns the names.
+"""
+import struct
+import sys
+import zlib
+
+import numpy as np
+
+_PIXEL = {0: np.dtype("<u4"), 1: np.dtype("<f2"), 2: np.dtype("<f4")}
+_LINES_PER_CHUNK = {0: 1, 1: 1, 2: 1, 3: 16}   # NONE, RLE, ZIPS, ZIP
+
+
+def _cstring(buf, pos):
+    end = buf.index(b"\0", pos)
+    return buf[pos:end].decode("latin-1"), end + 1
+
+
+def _header(buf):
+    if buf[:4] != b"\x76\x2f\x31\x01":
+        raise ValueError("not an OpenEXR file")
+    flags = struct.unpack_from("<I", buf, 4)[0]
+    if flags & 0x200 or flags & 0x800 or flags & 0x1000:
+        raise ValueError("tiled, deep or multi-part EXR: not supported here")
+    pos, attrs = 8, {}
+    while buf[pos] != 0:
+        name, pos = _cstring(buf, pos)
+        kind, pos = _cstring(buf, pos)
+        size = struct.unpack_from("<i", buf, pos)[0]
+        pos += 4
+        attrs[name] = (kind, buf[pos:pos + size])
+        pos += size
+    return attrs, pos + 1
+
+
+def _channels(raw):
+    out, pos = [], 0
+    while raw[pos] != 0:
+        name, pos = _cstring(raw, pos)
+        ptype, _linear, xs, ys = struct.unpack_from("<iB3xii", raw, pos)
+        pos += 16
+        if ptype not in _PIXEL or xs != 1 or ys != 1:
+            raise ValueError(f"channel {name}: pixel type {ptype}, sampling {xs}x{ys} not supported")
+        out.append((name, _PIXEL[ptype]))
+    return out
+
+
+def _undo_predictor_and_interleave(data):
+    t = np.frombuffer(data, dtype=np.uint8)
+    t = np.cumsum(t.astype(np.int64) - 128, dtype=np.int64)   # t[i] = t[i-1] + d[i] - 128
+    t = ((t + 128) & 0xFF).astype(np.uint8)                   # first byte is stored as is
+    out = np.empty_like(t)
+    half = (len(t) + 1) // 2
+    out[0::2] = t[:half]
+    out[1::2] = t[half:]
+    return out.tobytes()
+
+
+def _rle_decode(data, expected):
+    out, pos = bytearray(), 0
+    while pos < len(data) and len(out) < expected:
+        count = struct.unpack_from("<b", data, pos)[0]
+        pos += 1
+        if count < 0:
+            out += data[pos:pos - count]
+            pos -= count
+        else:
+            out += data[pos:pos + 1] * (count + 1)
+            pos += 1
+    return bytes(out)
+
+
+def read_exr(path, names=False):
+    with open(path, "rb") as f:
+        buf = f.read()
+    attrs, pos = _header(buf)
+    channels = _channels(attrs["channels"][1])
+    compression = attrs["compression"][1][0]
+    if compression not in _LINES_PER_CHUNK:
+        raise ValueError(f"compression {compression} not supported here")
+    x0, y0, x1, y1 = struct.unpack("<iiii", attrs["dataWindow"][1])
+    width, height = x1 - x0 + 1, y1 - y0 + 1
+    per_chunk = _LINES_PER_CHUNK[compression]
+    chunks = (height + per_chunk - 1) // per_chunk
+    offsets = struct.unpack_from(f"<{chunks}Q", buf, pos)
+    image = np.zeros((height, width, len(channels)), dtype=np.float32)
+    for offset in offsets:
+        y, size = struct.unpack_from("<ii", buf, offset)
+        data = buf[offset + 8:offset + 8 + size]
+        lines = min(per_chunk, y1 - y + 1)
+        expected = lines * width * sum(dt.itemsize for _, dt in channels)
+        if size < expected:       # stored raw when compressing did not help
+            if compression in (2, 3):
+                data = _undo_predictor_and_interleave(zlib.decompress(data))
+            elif compression == 1:
+                data = _undo_predictor_and_interleave(_rle_decode(data, expected))
+        if len(data) != expected:
+            raise ValueError(f"{path}: chunk at line {y} has {len(data)} bytes, expected {expected}")
+        p = 0
+        for line in range(lines):
+            for c, (_, dt) in enumerate(channels):
+                n = width * dt.itemsize
+                image[y - y0 + line, :, c] = np.frombuffer(data[p:p + n], dtype=dt)
+                p += n
+    if names:
+        return image, [name for name, _ in channels]
+    return image
+
+
+if __name__ == "__main__":
+    img, chans = read_exr(sys.argv[1], names=True)
+    print(f"{img.shape[1]} x {img.shape[0]}, channels {','.join(chans)}")
+    for c, name in enumerate(chans):
+        v = img[:, :, c]
+        print(f"  {name}: min {v.min():.6g} mean {v.mean():.6g} max {v.max():.6g}")
