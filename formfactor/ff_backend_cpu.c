@@ -182,8 +182,12 @@ static void add_terms(rad_ff_sums *sums, const double *g, uint32_t count)
 }
 
 /* The segment of sample k, from the lower-numbered patch's point (rows i
- * and j test one segment), as float ray data: origin, then end point. */
-static void ray_segment(const ff_setup *su, int near, uint32_t i, uint32_t j, uint32_t k, float ray[6])
+ * and j test one segment), as float ray data: origin, then end point; and
+ * its weight in the visible fraction, the point kernel G(x, y). (Near
+ * pairs too: the visible fraction is the G-weighted mean of V over point
+ * pairs, whatever estimates the unoccluded part; weighing a segment by its
+ * sample's near-field term instead would not estimate it.) */
+static double ray_segment(const ff_setup *su, int near, uint32_t i, uint32_t j, uint32_t k, float ray[6])
 {
     const rad_ff_patch *pi = &su->patches[i], *pj = &su->patches[j];
     rad_vec3 x, y;
@@ -191,6 +195,7 @@ static void ray_segment(const ff_setup *su, int near, uint32_t i, uint32_t j, ui
         rad_ff_sample_pair(pi, pj, i, j, k, su->seed, &x, &y);
     else
         rad_ff_pair_points(su->estimator, pi, pj, i, j, k, su->seed, &x, &y);
+    double g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
     if (i > j) {
         rad_vec3 t = x;
         x = y;
@@ -198,6 +203,7 @@ static void ray_segment(const ff_setup *su, int near, uint32_t i, uint32_t j, ui
     }
     ray[0] = (float)x.x, ray[1] = (float)x.y, ray[2] = (float)x.z;
     ray[3] = (float)y.x, ray[4] = (float)y.y, ray[5] = (float)y.z;
+    return g;
 }
 
 /* One shadow ray over t in [FF_RAY_T_MIN, FF_RAY_T_MAX] of the segment:
@@ -257,8 +263,7 @@ static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j
         /* The first R point pairs carry shadow rays: keep them and their weights. */
         uint32_t rays = R < K ? R : K;
         for (uint32_t k = 0; k < rays; k++) {
-            ray_segment(su, near, i, j, k, sc->rays + ((size_t)b * R + k) * 6);
-            sc->kernel[(size_t)b * R + k] = sc->g[k];
+            sc->kernel[(size_t)b * R + k] = ray_segment(su, near, i, j, k, sc->rays + ((size_t)b * R + k) * 6);
         }
         sc->ray_count[b] = rays;
         sc->active[b] = near ? 2 : 1;
@@ -360,9 +365,7 @@ static void refine_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32_t j
                 uint32_t visible_before = sums->visible, rays_before = sums->rays;
                 for (uint32_t r = sums->rays; r < rays_to; r++) {
                     float ray[6];
-                    double g;
-                    ray_segment(su, near, i, j, r, ray);
-                    sample_terms(su->estimator, near, pi, pj, i, j, r, r + 1, su->seed, &g);
+                    double g = ray_segment(su, near, i, j, r, ray);
                     add_ray(sums, g, segment_visible(s->scene, &ctx, ray));
                 }
                 c->rays += sums->rays - rays_before;

@@ -171,13 +171,15 @@ __device__ static void warp_rays(const cuda_params &p, const rad_ff_patch *pi, c
         rad_vec3 x = first_x, y = first_y;
         double g = first_g;
         if (k != lane) { /* beyond each lane's first sample: recomputed */
-            if (NEAR) {
-                g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
-            } else {
+            if (NEAR)
+                rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
+            else
                 rad_ff_pair_points(p.estimator, pi, pj, i, j, k, p.seed, &x, &y);
-                g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
-            }
+            g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+        } else if (NEAR) {
+            g = rad_ff_point_kernel(x, pi->normal, y, pj->normal); /* the cached g is the near-field term */
         }
+        /* The segment's weight is G(x, y) for near pairs too (see ray_segment in ff_backend_cpu.c). */
         if (i > j) {
             rad_vec3 tmp = x;
             x = y;

@@ -87,9 +87,13 @@ void ff_rows_finish(const rad_ff_patch *patches, uint32_t n, uint32_t row_begin,
     for (int t = 0; t < threads; t++) ff_rows_summary_merge(summary, &part[t]);
 }
 
-uint64_t ff_rows_mirror_local(uint32_t n, uint32_t begin, uint32_t end, double *block)
+uint64_t ff_rows_mirror_local(uint32_t n, uint32_t begin, uint32_t end, double *block, int threads)
 {
     uint64_t mirrored = 0;
+    /* Tile row ti handles the pairs whose lower index lies in it: every
+     * pair by exactly one iteration, so the iterations never touch the same
+     * entry and run in parallel. */
+#pragma omp parallel for num_threads(threads > 0 ? threads : 1) schedule(dynamic, 1) reduction(+ : mirrored)
     for (uint32_t ti = begin; ti < end; ti += FF_ROWS_TILE) {
         uint32_t ti_end = end - ti < FF_ROWS_TILE ? end : ti + FF_ROWS_TILE;
         for (uint32_t tj = ti; tj < end; tj += FF_ROWS_TILE) {

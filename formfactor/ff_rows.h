@@ -46,8 +46,9 @@ void ff_rows_finish(const rad_ff_patch *patches, uint32_t n, uint32_t row_begin,
                     double *errors, int threads, ff_rows_summary *summary);
 
 /* Fills the entries (i, j), i and j both in [begin, end), that row j
- * computed; block row r is matrix row begin + r. Returns how many. */
-uint64_t ff_rows_mirror_local(uint32_t n, uint32_t begin, uint32_t end, double *block);
+ * computed; block row r is matrix row begin + r. Returns how many.
+ * `threads` OpenMP threads. */
+uint64_t ff_rows_mirror_local(uint32_t n, uint32_t begin, uint32_t end, double *block, int threads);
 
 /* Collective: fills the entries of this rank's rows that rows of other
  * ranks computed, exchanging them pairwise in pieces of at most

@@ -453,14 +453,36 @@ static rad_status write_round(ff_run *run, const ff_files *files, uint32_t r0, u
 /* Row buffers of `count` doubles from the backend, for the values and (if
  * wanted) the standard errors; collective: fails on every rank if it fails
  * on one. */
+/* Buffers up to this size come from the backend (page-locked for CUDA, so
+ * results stream back by DMA); larger ones - a whole rank's rows with
+ * --reciprocity on - from malloc: page-locking 17 GB took longer than the
+ * slower copies into pageable memory it saves (measured, performance.md). */
+#define FF_BACKEND_BUFFER_MAX ((size_t)1 << 30)
+
+static double *alloc_buffer(ff_run *run, size_t count)
+{
+    if (count == 0) count = 1;
+    return count * sizeof(double) <= FF_BACKEND_BUFFER_MAX ? run->backend->alloc_rows(run->backend_state, count)
+                                                           : malloc(count * sizeof(double));
+}
+
+static void free_buffer(ff_run *run, size_t count, double *buffer)
+{
+    if (count == 0) count = 1;
+    if (count * sizeof(double) <= FF_BACKEND_BUFFER_MAX)
+        run->backend->free_rows(run->backend_state, buffer);
+    else
+        free(buffer);
+}
+
 static rad_status alloc_buffers(ff_run *run, size_t count, double **rows, double **errors)
 {
-    *rows = run->backend->alloc_rows(run->backend_state, count ? count : 1);
-    *errors = run->want_errors ? run->backend->alloc_rows(run->backend_state, count ? count : 1) : NULL;
+    *rows = alloc_buffer(run, count);
+    *errors = run->want_errors ? alloc_buffer(run, count) : NULL;
     rad_status st = ff_comm_agree(run->comm, *rows && (*errors || !run->want_errors) ? RAD_OK : RAD_ERR_NOMEM);
     if (st != RAD_OK) {
-        run->backend->free_rows(run->backend_state, *rows);
-        run->backend->free_rows(run->backend_state, *errors);
+        if (*rows) free_buffer(run, count, *rows);
+        if (*errors) free_buffer(run, count, *errors);
         *rows = *errors = NULL;
     }
     return st;
@@ -494,8 +516,8 @@ static rad_status compute_streamed(ff_run *run, const ff_files *files, ff_counte
         rad_status w = write_round(run, files, r0 < end ? r0 : end, st == RAD_OK ? count : 0, rows, errors);
         if (st == RAD_OK) st = w;
     }
-    run->backend->free_rows(run->backend_state, rows);
-    run->backend->free_rows(run->backend_state, errors);
+    free_buffer(run, (size_t)per_round * n, rows);
+    if (errors) free_buffer(run, (size_t)per_round * n, errors);
     return st;
 }
 
@@ -526,11 +548,11 @@ static rad_status compute_once(ff_run *run, const ff_files *files, ff_counters *
     st = ff_comm_agree(run->comm, st);
     if (st == RAD_OK) {
         double t0 = ff_comm_time();
-        counters->pairs_mirrored += ff_rows_mirror_local(n, begin, end, block);
+        counters->pairs_mirrored += ff_rows_mirror_local(n, begin, end, block, run->stats.threads);
         st = ff_rows_exchange(run->comm, run->row_begin, n, block, &counters->pairs_mirrored);
         if (run->want_errors) {
             uint64_t again = 0;
-            ff_rows_mirror_local(n, begin, end, errors);
+            ff_rows_mirror_local(n, begin, end, errors, run->stats.threads);
             if (st == RAD_OK) st = ff_rows_exchange(run->comm, run->row_begin, n, errors, &again);
         }
         run->stats.mirror = ff_comm_time() - t0;
@@ -548,8 +570,8 @@ static rad_status compute_once(ff_run *run, const ff_files *files, ff_counters *
             if (st == RAD_OK) st = w;
         }
     }
-    run->backend->free_rows(run->backend_state, block);
-    run->backend->free_rows(run->backend_state, errors);
+    free_buffer(run, (size_t)(end - begin) * n, block);
+    if (errors) free_buffer(run, (size_t)(end - begin) * n, errors);
     return st;
 }
 

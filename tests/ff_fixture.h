@@ -107,8 +107,8 @@ static double *compute_full(const ff_backend *backend, const fixture *fx, uint32
         return NULL;
     }
     if (extra->pairs_once) {
-        ff_rows_mirror_local(n, 0, n, f);
-        if (e) ff_rows_mirror_local(n, 0, n, e);
+        ff_rows_mirror_local(n, 0, n, f, 2);
+        if (e) ff_rows_mirror_local(n, 0, n, e, 2);
     }
     ff_rows_scale(fx->patches, n, n, f); /* couplings -> form factors */
     if (e) {
