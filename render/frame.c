@@ -17,18 +17,19 @@ render_frame_options render_frame_options_resolve(const render_frame_options *op
     if (r.width == 0) r.width = RENDER_DEFAULT_WIDTH;
     if (r.height == 0) r.height = RENDER_DEFAULT_HEIGHT;
     if (r.spp == 0) r.spp = RENDER_DEFAULT_SPP;
+    if (r.channels == 0) r.channels = 3;
     return r;
 }
 
 /* World position -> clip space (x, y scaled by the lens, w = depth). */
-static render_vertex to_clip(const render_view *view, const double *p, const double *rgb)
+static render_vertex to_clip(const render_view *view, const double *p, const double *corner, int channels)
 {
     rad_vec3 d = rad_v3_sub(rad_v3(p[0], p[1], p[2]), view->eye);
     render_vertex v;
     v.x = rad_v3_dot(d, view->right) / view->tan_half_x;
     v.y = rad_v3_dot(d, view->up) / view->tan_half_y;
     v.w = rad_v3_dot(d, view->forward);
-    for (int c = 0; c < 3; c++) v.color[c] = (float)rgb[c];
+    for (int c = 0; c < 3; c++) v.color[c] = c < channels ? (float)corner[c] : 0.0f;
     return v;
 }
 
@@ -42,16 +43,21 @@ rad_status render_frame_draw(const rad_mesh *mesh, const double *radiosity, cons
     render_view view;
     status = render_view_init(camera, (double)opt.width / (double)opt.height, &view);
     if (status != RAD_OK) goto done;
+    if (opt.channels != 1 && opt.channels != 3) {
+        rad_error("%d channels per pixel (expected 1 or 3)", opt.channels);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
 
-    size_t n = mesh->patch_count;
-    corners = malloc((n ? n : 1) * 12 * sizeof *corners);
+    size_t n = mesh->patch_count, nc = (size_t)opt.channels;
+    corners = malloc((n ? n : 1) * 4 * nc * sizeof *corners);
     verts = malloc((n ? n : 1) * 6 * sizeof *verts); /* at most two triangles per patch */
     if (!corners || !verts) {
         rad_error("out of memory for %zu patches", n);
         status = RAD_ERR_NOMEM;
         goto done;
     }
-    status = render_shade_corners(mesh, radiosity, opt.shading, corners);
+    status = render_shade_corners(mesh, radiosity, opt.channels, opt.shading, corners);
     if (status != RAD_OK) goto done;
 
     size_t tri_count = 0;
@@ -64,7 +70,8 @@ rad_status render_frame_draw(const rad_mesh *mesh, const double *radiosity, cons
             goto done;
         }
         for (uint32_t k = 0; k < patch->vertex_count; k++) {
-            c[k] = to_clip(&view, &mesh->positions[3 * (size_t)patch->v[k]], &corners[(4 * p + k) * 3]);
+            c[k] = to_clip(&view, &mesh->positions[3 * (size_t)patch->v[k]], &corners[(4 * p + k) * nc],
+                           opt.channels);
             far_w = fmax(far_w, c[k].w);
         }
         verts[3 * tri_count + 0] = c[0];
@@ -79,7 +86,7 @@ rad_status render_frame_draw(const rad_mesh *mesh, const double *radiosity, cons
         }
     }
     render_raster_options ropt = {opt.width, opt.height, opt.spp, 1,
-                                  far_w > 0.0 ? RENDER_NEAR_FRACTION * far_w : 1.0};
+                                  far_w > 0.0 ? RENDER_NEAR_FRACTION * far_w : 1.0, opt.channels};
     status = render_raster_draw(&ropt, verts, tri_count, out_rgb);
 done:
     free(corners);

@@ -1,7 +1,7 @@
 /* frame.h - draws a radiosity solution from a camera into a linear image.
  *
  * Usage:
- *     render_frame_options opt = {.width = 512, .height = 512};  // zero = defaults
+ *     render_frame_options opt = {.width = 512, .height = 512};  // zero = defaults (RGB)
  *     float *rgb = malloc(3 * sizeof *rgb * 512 * 512);
  *     render_frame_draw(&mesh, radiosity, &camera, &opt, rgb);
  *
@@ -10,6 +10,11 @@
  * their v0-v2 diagonal; back faces are culled, which is also what lets a
  * camera outside a closed room see in through the near wall (room faces
  * point inwards). Pixel values are radiosity B, linear, per channel.
+ *
+ * With channels = 1 the whole frame is drawn for channel 0 alone (a grey
+ * scene stores its one solved channel in all three): one value per corner,
+ * per sample and per pixel, each computed exactly as channel 0 of the RGB
+ * frame, so the grey picture equals the RGB one's red channel bit for bit.
  */
 #ifndef RENDER_FRAME_H
 #define RENDER_FRAME_H
@@ -26,13 +31,14 @@ typedef struct render_frame_options {
     int width, height;      /* pixels; 0 = RENDER_DEFAULT_WIDTH / RENDER_DEFAULT_HEIGHT */
     int spp;                /* samples per pixel, a square; 0 = RENDER_DEFAULT_SPP (raster.h) */
     render_shading shading; /* default (0) smooth */
+    int channels;           /* values per pixel: 3 (RGB) or 1 (channel 0, grey); 0 = 3 */
 } render_frame_options;
 
 /* Resolves zero fields to their defaults. */
 render_frame_options render_frame_options_resolve(const render_frame_options *options);
 
-/* radiosity: patch_count * 3. out_rgb: width * height * 3 floats (resolved
- * size), rows from the top. */
+/* radiosity: patch_count * 3. out_rgb: width * height * channels floats
+ * (resolved size and channels), interleaved, rows from the top. */
 rad_status render_frame_draw(const rad_mesh *mesh, const double *radiosity, const render_camera *camera,
                              const render_frame_options *options, float *out_rgb);
 

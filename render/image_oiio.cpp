@@ -53,7 +53,8 @@ std::vector<unsigned char> quantize_8bit(const float *rgb, size_t count)
 // have been renamed over a good image. So a written file is trusted only
 // once it decodes to the size written and, for PNG, to the very bytes
 // written (`png_bytes`; NULL for EXR, whose decoding is checked).
-rad_status verify_temp(const char *path, const char *temp, int width, int height, const unsigned char *png_bytes)
+rad_status verify_temp(const char *path, const char *temp, int width, int height, int channels,
+                       const unsigned char *png_bytes)
 {
     using namespace OIIO;
     std::unique_ptr<ImageInput> in = ImageInput::open(temp);
@@ -62,8 +63,8 @@ rad_status verify_temp(const char *path, const char *temp, int width, int height
         return RAD_ERR_IO;
     }
     const ImageSpec &spec = in->spec();
-    bool ok = spec.width == width && spec.height == height && spec.nchannels == 3;
-    const size_t row_values = 3 * static_cast<size_t>(width);
+    bool ok = spec.width == width && spec.height == height && spec.nchannels == channels;
+    const size_t row_values = static_cast<size_t>(channels) * static_cast<size_t>(width);
     std::vector<unsigned char> row(row_values * (png_bytes ? 1 : 2));
     for (int y = 0; ok && y < height; y++) {
         ok = in->read_scanline(y, 0, png_bytes ? TypeDesc::UINT8 : TypeDesc::HALF, row.data());
@@ -80,8 +81,8 @@ rad_status verify_temp(const char *path, const char *temp, int width, int height
 }
 
 // Opens, writes, closes and verifies `temp`; returns RAD_OK or a logged status.
-rad_status write_temp(const char *path, const char *temp, render_image_format format, const float *rgb, int width,
-                      int height, const render_image_attr *attrs, size_t attr_count)
+rad_status write_temp(const char *path, const char *temp, render_image_format format, const float *values, int width,
+                      int height, int channels, const render_image_attr *attrs, size_t attr_count)
 {
     using namespace OIIO;
     const bool png = format == RENDER_IMAGE_PNG;
@@ -90,7 +91,8 @@ rad_status write_temp(const char *path, const char *temp, render_image_format fo
         rad_error("%s: this OpenImageIO cannot write %s: %s", path, png ? "PNG" : "OpenEXR", OIIO::geterror().c_str());
         return RAD_ERR_UNSUPPORTED;
     }
-    ImageSpec spec(width, height, 3, png ? TypeDesc::UINT8 : TypeDesc::HALF);
+    ImageSpec spec(width, height, channels, png ? TypeDesc::UINT8 : TypeDesc::HALF);
+    if (channels == 1) spec.channelnames.assign(1, "Y"); // EXR's name for a grey (luminance) channel
     spec.attribute("Software", kSoftware);
     spec.attribute("DateTime", RENDER_IMAGE_DATETIME);
     spec.attribute("oiio:ColorSpace", png ? "sRGB" : "Linear");
@@ -100,14 +102,14 @@ rad_status write_temp(const char *path, const char *temp, render_image_format fo
         rad_error("%s: cannot write: %s", path, out->geterror().c_str());
         return RAD_ERR_IO;
     }
-    const size_t count = 3 * static_cast<size_t>(width) * static_cast<size_t>(height);
+    const size_t count = static_cast<size_t>(channels) * static_cast<size_t>(width) * static_cast<size_t>(height);
     bool ok;
     std::vector<unsigned char> bytes;
     if (png) {
-        bytes = quantize_8bit(rgb, count);
+        bytes = quantize_8bit(values, count);
         ok = out->write_image(TypeDesc::UINT8, bytes.data());
     } else {
-        ok = out->write_image(TypeDesc::FLOAT, rgb);
+        ok = out->write_image(TypeDesc::FLOAT, values);
     }
     std::string why = ok ? std::string() : out->geterror();
     if (!out->close() && ok) {
@@ -118,7 +120,7 @@ rad_status write_temp(const char *path, const char *temp, render_image_format fo
         rad_error("%s: cannot write: %s", path, why.empty() ? "unknown OpenImageIO error" : why.c_str());
         return RAD_ERR_IO;
     }
-    return verify_temp(path, temp, width, height, png ? bytes.data() : nullptr);
+    return verify_temp(path, temp, width, height, channels, png ? bytes.data() : nullptr);
 }
 
 } // namespace
@@ -130,7 +132,7 @@ extern "C" render_image_format render_image_format_of(const char *path)
     return RENDER_IMAGE_UNKNOWN;
 }
 
-extern "C" rad_status render_image_write(const char *path, const float *rgb, int width, int height,
+extern "C" rad_status render_image_write(const char *path, const float *values, int width, int height, int channels,
                                          const render_image_attr *attrs, size_t attr_count)
 {
     rad_status status = RAD_OK;
@@ -147,11 +149,16 @@ extern "C" rad_status render_image_write(const char *path, const float *rgb, int
         status = RAD_ERR_INVALID;
         goto done;
     }
+    if (channels != 1 && channels != 3) {
+        rad_error("%s: %d channels (expected 1 or 3)", path, channels);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
     status = rad_fs_temp_path(path, temp, sizeof temp);
     if (status != RAD_OK) goto done;
     temp_named = true;
     try {
-        status = write_temp(path, temp, format, rgb, width, height, attrs, attr_count);
+        status = write_temp(path, temp, format, values, width, height, channels, attrs, attr_count);
     } catch (const std::bad_alloc &) {
         rad_error("%s: out of memory writing the image", path);
         status = RAD_ERR_NOMEM;
@@ -169,7 +176,7 @@ done:
 
 namespace {
 
-rad_status read_impl(const char *path, float **out_rgb, int *out_width, int *out_height)
+rad_status read_impl(const char *path, float **out_values, int *out_width, int *out_height, int *out_channels)
 {
     using namespace OIIO;
     std::unique_ptr<ImageInput> in = ImageInput::open(path);
@@ -178,37 +185,41 @@ rad_status read_impl(const char *path, float **out_rgb, int *out_width, int *out
         return RAD_ERR_IO;
     }
     const ImageSpec &spec = in->spec();
-    if (spec.nchannels < 3 || spec.width < 1 || spec.height < 1) {
-        rad_error("%s: not an RGB image (%d channels, %dx%d)", path, spec.nchannels, spec.width, spec.height);
+    if (spec.nchannels < 1 || spec.width < 1 || spec.height < 1) {
+        rad_error("%s: not an image (%d channels, %dx%d)", path, spec.nchannels, spec.width, spec.height);
         in->close();
         return RAD_ERR_FORMAT;
     }
-    const size_t count = 3 * static_cast<size_t>(spec.width) * static_cast<size_t>(spec.height);
-    float *rgb = static_cast<float *>(std::malloc(count * sizeof *rgb));
-    if (!rgb) {
+    const int channels = spec.nchannels < 3 ? 1 : 3;
+    const size_t count = static_cast<size_t>(channels) * static_cast<size_t>(spec.width) *
+                         static_cast<size_t>(spec.height);
+    float *values = static_cast<float *>(std::malloc(count * sizeof *values));
+    if (!values) {
         rad_error("%s: out of memory reading the image", path);
         in->close();
         return RAD_ERR_NOMEM;
     }
-    if (!in->read_image(0, 0, 0, 3, TypeDesc::FLOAT, rgb)) {
+    if (!in->read_image(0, 0, 0, channels, TypeDesc::FLOAT, values)) {
         rad_error("%s: cannot read pixels: %s", path, in->geterror().c_str());
-        std::free(rgb);
+        std::free(values);
         in->close();
         return RAD_ERR_IO;
     }
     *out_width = spec.width;
     *out_height = spec.height;
-    *out_rgb = rgb;
+    *out_channels = channels;
+    *out_values = values;
     in->close();
     return RAD_OK;
 }
 
 } // namespace
 
-extern "C" rad_status render_image_read(const char *path, float **out_rgb, int *out_width, int *out_height)
+extern "C" rad_status render_image_read(const char *path, float **out_values, int *out_width, int *out_height,
+                                        int *out_channels)
 {
     try {
-        return read_impl(path, out_rgb, out_width, out_height);
+        return read_impl(path, out_values, out_width, out_height, out_channels);
     } catch (const std::exception &e) {
         rad_error("%s: cannot read: %s", path, e.what());
         return RAD_ERR_IO;
@@ -233,6 +244,43 @@ extern "C" rad_status render_image_read_attr(const char *path, const char *name,
             std::strncpy(out, value.c_str(), size - 1);
             out[size - 1] = 0;
         }
+        return RAD_OK;
+    } catch (const std::exception &e) {
+        rad_error("%s: cannot read: %s", path, e.what());
+        return RAD_ERR_IO;
+    }
+}
+
+namespace {
+
+void copy_truncated(const std::string &value, char *out, size_t size)
+{
+    if (size > 0) {
+        std::strncpy(out, value.c_str(), size - 1);
+        out[size - 1] = 0;
+    }
+}
+
+} // namespace
+
+extern "C" rad_status render_image_read_layout(const char *path, char *names, size_t names_size, char *type,
+                                               size_t type_size)
+{
+    try {
+        std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(path);
+        if (!in) {
+            rad_error("%s: cannot read: %s", path, OIIO::geterror().c_str());
+            return RAD_ERR_IO;
+        }
+        const OIIO::ImageSpec &spec = in->spec();
+        std::string joined;
+        for (int c = 0; c < spec.nchannels; c++) {
+            if (c) joined += ',';
+            joined += spec.channel_name(c);
+        }
+        copy_truncated(joined, names, names_size);
+        copy_truncated(spec.format.c_str(), type, type_size);
+        in->close();
         return RAD_OK;
     } catch (const std::exception &e) {
         rad_error("%s: cannot read: %s", path, e.what());

@@ -32,6 +32,12 @@ static const char usage_text[] =
     "  RADIOSITY            radiosity file to draw (default: " RENDER_DEFAULT_INPUT ")\n"
     "  -o, --output FILE    image to write; .png (8-bit sRGB) or .exr (linear half)\n"
     "                       (default: " RENDER_DEFAULT_OUTPUT ")\n"
+    "  --channels MODE      auto (default): one grey channel when the radiosity file\n"
+    "                       says the scene was solved as grey (channel count 1), RGB\n"
+    "                       otherwise; rgb: always R, G, B (grey scenes: R = G = B);\n"
+    "                       grey: always one channel (8-bit grey PNG, EXR channel Y);\n"
+    "                       a colour scene is then drawn from its Rec. 709 luminance\n"
+    "                       Y = 0.2126 R + 0.7152 G + 0.0722 B (linear B, per patch)\n"
     "  --width N            image width in pixels (default: 512)\n"
     "  --height N           image height in pixels (default: 512)\n"
     "  --spp N              samples per pixel, a square: 1, 4, 9, 16, ... 256 (default: 16)\n"
@@ -48,7 +54,14 @@ static const char usage_text[] =
     "  -q, --quiet          report errors only\n"
     "  -h, --help           show this help\n"
     "\n"
-    "PNG: sRGB(clamp(B * scale)); EXR: radiosity B per channel, unscaled.\n";
+    "PNG: sRGB(clamp(B * scale)); EXR: radiosity B per channel, unscaled.\n"
+    "Exit status: 0 success, 2 usage error (a bad option or value), 1 anything else.\n";
+
+typedef enum render_channels_mode {
+    RENDER_CHANNELS_AUTO = 0, /* what the radiosity file says */
+    RENDER_CHANNELS_RGB = 1,
+    RENDER_CHANNELS_GREY = 2
+} render_channels_mode;
 
 typedef struct render_cli {
     const char *input, *output, *camera_path;
@@ -59,6 +72,7 @@ typedef struct render_cli {
     double exposure;
     int auto_exposure;
     int quiet, help;
+    render_channels_mode channels;
 } render_cli;
 
 static rad_status parse_int(const char *opt, const char *text, int lo, int hi, int *out)
@@ -129,8 +143,9 @@ static int match_value(int argc, char **argv, int *io_index, const char *name, c
 static rad_status parse_args(int argc, char **argv, render_cli *cli)
 {
     rad_status status = RAD_OK;
-    const render_cli defaults = {RENDER_DEFAULT_INPUT, RENDER_DEFAULT_OUTPUT, NULL, {0, 0, 0, RENDER_SHADING_SMOOTH},
-                                 0, 0, 0, 0, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0.0, 0.0, 1, 0, 0};
+    const render_cli defaults = {RENDER_DEFAULT_INPUT, RENDER_DEFAULT_OUTPUT, NULL, {0, 0, 0, RENDER_SHADING_SMOOTH, 0},
+                                 0, 0, 0, 0, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0.0, 0.0, 1, 0, 0,
+                                 RENDER_CHANNELS_AUTO};
     int have_input = 0;
     *cli = defaults;
     for (int i = 1; i < argc && status == RAD_OK; i++) {
@@ -178,6 +193,17 @@ static rad_status parse_args(int argc, char **argv, render_cli *cli)
                 rad_error("--shading: '%s' is not smooth or flat", v);
                 status = RAD_ERR_USAGE;
             }
+        } else if (match_value(argc, argv, &i, "--channels", NULL, &v, &status)) {
+            if (v && strcmp(v, "auto") == 0) {
+                cli->channels = RENDER_CHANNELS_AUTO;
+            } else if (v && strcmp(v, "rgb") == 0) {
+                cli->channels = RENDER_CHANNELS_RGB;
+            } else if (v && strcmp(v, "grey") == 0) {
+                cli->channels = RENDER_CHANNELS_GREY;
+            } else if (v) {
+                rad_error("--channels: '%s' is not auto, rgb or grey", v);
+                status = RAD_ERR_USAGE;
+            }
         } else if (arg[0] == '-' && arg[1] != 0) {
             rad_error("unknown option '%s' (see --help)", arg);
             status = RAD_ERR_USAGE;
@@ -223,6 +249,7 @@ static rad_status run(const render_cli *cli)
     rad_status status = RAD_OK;
     rad_radiosity rf;
     float *rgb = NULL;
+    double *luminance = NULL;
     memset(&rf, 0, sizeof rf);
     double t0 = seconds_now();
     render_image_format format = render_image_format_of(cli->output);
@@ -232,7 +259,7 @@ static rad_status run(const render_cli *cli)
         goto done;
     }
     render_frame_options frame = render_frame_options_resolve(&cli->frame);
-    status = render_raster_check(&(render_raster_options){frame.width, frame.height, frame.spp, 1, 1.0}, NULL);
+    status = render_raster_check(&(render_raster_options){frame.width, frame.height, frame.spp, 1, 1.0, 0}, NULL);
     if (status != RAD_OK) {
         status = RAD_ERR_USAGE;
         goto done;
@@ -252,21 +279,47 @@ static rad_status run(const render_cli *cli)
     render_camera_format(&camera, camera_text, sizeof camera_text);
     rad_info("%s: %zu patches; %s", cli->input, rf.mesh.patch_count, camera_text);
 
+    /* Channels: a grey scene (solved once) is drawn once, as one channel,
+     * unless RGB is asked for; a colour scene asked to be grey is drawn from
+     * its luminance, stored as a grey scene's file stores its one channel. */
+    const double *radiosity = rf.radiosity;
+    const char *channels_name = "rgb";
+    frame.channels = 3;
+    if (cli->channels == RENDER_CHANNELS_GREY || (cli->channels == RENDER_CHANNELS_AUTO && rf.channel_count == 1)) {
+        frame.channels = 1;
+        channels_name = "grey";
+        if (rf.channel_count != 1) {
+            luminance = malloc(3 * rf.mesh.patch_count * sizeof *luminance);
+            if (!luminance) {
+                rad_error("out of memory for %zu patches", rf.mesh.patch_count);
+                status = RAD_ERR_NOMEM;
+                goto done;
+            }
+            render_luminance_radiosity(rf.radiosity, rf.mesh.patch_count, luminance);
+            radiosity = luminance;
+            channels_name = "luminance";
+        }
+    }
+    const char *drawing = frame.channels == 3 ? "R, G, B"
+                          : luminance         ? "one channel, Rec. 709 luminance (--channels grey)"
+                                              : "one grey channel";
+    rad_info("%s: %s scene; drawing %s", cli->input, rf.channel_count == 1 ? "grey (solved once)" : "colour", drawing);
+
     size_t pixels = (size_t)frame.width * (size_t)frame.height;
-    rgb = malloc(3 * pixels * sizeof *rgb);
+    rgb = malloc((size_t)frame.channels * pixels * sizeof *rgb);
     if (!rgb) {
         rad_error("out of memory for a %dx%d image", frame.width, frame.height);
         status = RAD_ERR_NOMEM;
         goto done;
     }
     double t_draw = seconds_now();
-    status = render_frame_draw(&rf.mesh, rf.radiosity, &camera, &frame, rgb);
+    status = render_frame_draw(&rf.mesh, radiosity, &camera, &frame, rgb);
     if (status != RAD_OK) goto done;
     t_draw = seconds_now() - t_draw;
 
     double scale = pow(2.0, cli->exposure);
-    if (cli->auto_exposure) scale *= render_tonemap_auto_scale(&rf.mesh, rf.radiosity);
-    if (format == RENDER_IMAGE_PNG) render_tonemap_apply(rgb, pixels, scale);
+    if (cli->auto_exposure) scale *= render_tonemap_auto_scale(&rf.mesh, radiosity);
+    if (format == RENDER_IMAGE_PNG) render_tonemap_apply(rgb, pixels, frame.channels, scale);
 
     char fingerprint[32], scale_text[32], spp_text[16];
     snprintf(fingerprint, sizeof fingerprint, "%016" PRIx64, rf.scene_fingerprint);
@@ -279,16 +332,22 @@ static rad_status run(const render_cli *cli)
         {"rad:shading", frame.shading == RENDER_SHADING_FLAT ? "flat" : "smooth"},
         {"rad:spp", spp_text},
         {"rad:display_scale", scale_text},
-        {"rad:values", format == RENDER_IMAGE_PNG ? "sRGB(clamp(B * rad:display_scale))"
-                                                  : "radiosity B per channel, linear, unscaled"},
+        {"rad:channels", channels_name},
+        {"rad:values", format == RENDER_IMAGE_PNG
+                           ? (luminance ? "sRGB(clamp(Y * rad:display_scale)), Y = 0.2126 B_r + 0.7152 B_g + 0.0722 B_b"
+                                        : "sRGB(clamp(B * rad:display_scale))")
+                           : (luminance ? "Y = 0.2126 B_r + 0.7152 B_g + 0.0722 B_b, linear, unscaled"
+                                        : "radiosity B per channel, linear, unscaled")},
     };
-    status = render_image_write(cli->output, rgb, frame.width, frame.height, attrs, sizeof attrs / sizeof attrs[0]);
+    status = render_image_write(cli->output, rgb, frame.width, frame.height, frame.channels, attrs,
+                                sizeof attrs / sizeof attrs[0]);
     if (status != RAD_OK) goto done;
-    rad_info("wrote %s: %dx%d, %d spp, %s shading, scale %.4g; draw %.3f s, total %.3f s", cli->output, frame.width,
-             frame.height, frame.spp, frame.shading == RENDER_SHADING_FLAT ? "flat" : "smooth", scale, t_draw,
-             seconds_now() - t0);
+    rad_info("wrote %s: %dx%d, %s, %d spp, %s shading, scale %.4g; draw %.3f s, total %.3f s", cli->output,
+             frame.width, frame.height, channels_name, frame.spp,
+             frame.shading == RENDER_SHADING_FLAT ? "flat" : "smooth", scale, t_draw, seconds_now() - t0);
 done:
     free(rgb);
+    free(luminance);
     rad_radiosity_free(&rf);
     return status;
 }

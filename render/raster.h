@@ -2,7 +2,8 @@
  *
  * Usage:
  *     render_raster_options opt = {.width = 512, .height = 512, .spp = 16,
- *                                  .cull_backfaces = 1, .near_w = 1e-3};
+ *                                  .cull_backfaces = 1, .near_w = 1e-3,
+ *                                  .channels = 3};
  *     float *rgb = malloc(512 * 512 * 3 * sizeof *rgb);
  *     render_raster_draw(&opt, vertices, tri_count, rgb);
  *
@@ -24,7 +25,10 @@
  *    screen (their front, counter-clockwise side faces away) are dropped.
  *  - Depth: z-buffer on 1/w (exact in screen space); a sample keeps the
  *    first triangle, in input order, among equally near ones.
- *  - Colour: linear RGB interpolated perspective-correctly.
+ *  - Colour: `channels` linear values (3: RGB; 1: grey, from color[0])
+ *    interpolated perspective-correctly. Grey does the per-sample and
+ *    per-pixel work for one value only; the one channel gets exactly the
+ *    arithmetic, and so the bits, of channel 0 of an RGB draw.
  *  - Resolve: box filter, the mean of a pixel's samples; uncovered samples
  *    are black.
  * The image is drawn in horizontal bands, in parallel with OpenMP when the
@@ -45,7 +49,7 @@
 
 typedef struct render_vertex {
     double x, y, w;  /* clip space; see above */
-    float color[3];  /* linear RGB */
+    float color[3];  /* linear RGB; only color[0] when drawing one channel */
 } render_vertex;
 
 typedef struct render_raster_options {
@@ -53,14 +57,15 @@ typedef struct render_raster_options {
     int spp;            /* samples per pixel, a square (1, 4, 9, 16, ...); 0 = RENDER_DEFAULT_SPP */
     int cull_backfaces; /* nonzero: draw only triangles counter-clockwise on screen */
     double near_w;      /* near clipping distance, > 0 */
+    int channels;       /* values per pixel: 3 (RGB) or 1 (grey: color[0]); 0 = 3 */
 } render_raster_options;
 
 /* Checks the options (RAD_ERR_INVALID with a message); *out_n (may be NULL)
  * receives sqrt(spp). */
 rad_status render_raster_check(const render_raster_options *options, int *out_n);
 
-/* Draws tri_count triangles into out_rgb: width * height * 3 floats, linear
- * RGB, rows from the top. */
+/* Draws tri_count triangles into out_rgb: width * height * channels floats,
+ * linear, interleaved (RGB or grey), rows from the top. */
 rad_status render_raster_draw(const render_raster_options *options, const render_vertex *vertices, size_t tri_count,
                               float *out_rgb);
 

@@ -71,12 +71,17 @@ done:
     return status;
 }
 
-rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, render_shading shading,
-                                double *out_corner_rgb)
+rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, int channels, render_shading shading,
+                                double *out_corners)
 {
     rad_status status = RAD_OK;
     vertex_patches adj = {NULL, NULL};
-    memset(out_corner_rgb, 0, mesh->patch_count * 12 * sizeof *out_corner_rgb);
+    const size_t nc = (size_t)channels;
+    if (channels != 1 && channels != 3) {
+        rad_error("%d colour channels (expected 1 or 3)", channels);
+        return RAD_ERR_INVALID;
+    }
+    memset(out_corners, 0, mesh->patch_count * 4 * nc * sizeof *out_corners);
     for (size_t p = 0; p < mesh->patch_count; p++) {
         if (mesh->patches[p].vertex_count < 3 || mesh->patches[p].vertex_count > 4) {
             rad_error("patch %zu has %u vertices (expected 3 or 4)", p, mesh->patches[p].vertex_count);
@@ -87,7 +92,7 @@ rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, r
     if (shading == RENDER_SHADING_FLAT) {
         for (size_t p = 0; p < mesh->patch_count; p++)
             for (uint32_t k = 0; k < mesh->patches[p].vertex_count; k++)
-                memcpy(&out_corner_rgb[(4 * p + k) * 3], &radiosity[3 * p], 3 * sizeof *radiosity);
+                memcpy(&out_corners[(4 * p + k) * nc], &radiosity[3 * p], nc * sizeof *radiosity);
         goto done;
     }
     status = build_vertex_patches(mesh, &adj);
@@ -103,10 +108,10 @@ rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, r
                 if (q != p && !same_surface(patch, &mesh->patches[q], crease_cos)) continue;
                 double a = mesh->patches[q].area;
                 area += a;
-                for (int c = 0; c < 3; c++) sum[c] += a * radiosity[3 * (size_t)q + c];
+                for (size_t c = 0; c < nc; c++) sum[c] += a * radiosity[3 * (size_t)q + c];
             }
-            double *dst = &out_corner_rgb[(4 * p + k) * 3];
-            for (int c = 0; c < 3; c++) dst[c] = area > 0.0 ? sum[c] / area : radiosity[3 * p + c];
+            double *dst = &out_corners[(4 * p + k) * nc];
+            for (size_t c = 0; c < nc; c++) dst[c] = area > 0.0 ? sum[c] / area : radiosity[3 * p + c];
         }
     }
 done:

@@ -10,6 +10,10 @@
  * (Gouraud). Emitters show their radiosity B = E + reflected, like any patch.
  *
  * Flat shading gives every corner the patch's own radiosity.
+ *
+ * Channels: 3 gives RGB corners; 1 gives channel 0 (B_r) alone, for grey
+ * scenes, whose files store the one solved channel in all three (and for
+ * luminance, which render stores the same way: tonemap.h).
  */
 #ifndef RENDER_SHADE_H
 #define RENDER_SHADE_H
@@ -25,12 +29,14 @@ typedef enum render_shading {
     RENDER_SHADING_FLAT = 1
 } render_shading;
 
-/* radiosity: patch_count * 3 (RGB per patch). out_corner_rgb: the caller's
- * buffer of patch_count * 4 * 3 doubles, corner k of patch p at
- * (4 * p + k) * 3; corner 3 of a triangle is left 0. Fails only for lack of
- * memory (RAD_ERR_NOMEM) or patches that are not triangles or quads or
- * have vertex indices out of range (RAD_ERR_INVALID). */
-rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, render_shading shading,
-                                double *out_corner_rgb);
+/* radiosity: patch_count * 3 (RGB per patch, as in the radiosity file).
+ * channels: 3 or 1 (channel 0 only). out_corners: the caller's buffer of
+ * patch_count * 4 * channels doubles, corner k of patch p at
+ * (4 * p + k) * channels; corner 3 of a triangle is left 0. Fails only for
+ * lack of memory (RAD_ERR_NOMEM), patches that are not triangles or quads
+ * or have vertex indices out of range, or a channel count other than 1 or 3
+ * (RAD_ERR_INVALID). */
+rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, int channels, render_shading shading,
+                                double *out_corners);
 
 #endif

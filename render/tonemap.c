@@ -15,6 +15,14 @@ static int compare_lum(const void *a, const void *b)
 
 double render_luminance(const double rgb[3]) { return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]; }
 
+void render_luminance_radiosity(const double *radiosity, size_t patch_count, double *out)
+{
+    for (size_t p = 0; p < patch_count; p++) {
+        double y = render_luminance(&radiosity[3 * p]);
+        out[3 * p] = out[3 * p + 1] = out[3 * p + 2] = y;
+    }
+}
+
 double render_tonemap_auto_scale(const rad_mesh *mesh, const double *radiosity)
 {
     double scale = 1.0;
@@ -53,7 +61,8 @@ double render_srgb_encode(double linear)
     return x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055;
 }
 
-void render_tonemap_apply(float *rgb, size_t pixel_count, double scale)
+void render_tonemap_apply(float *values, size_t pixel_count, int channels, double scale)
 {
-    for (size_t i = 0; i < 3 * pixel_count; i++) rgb[i] = (float)render_srgb_encode(rgb[i] * scale);
+    size_t count = (size_t)(channels == 1 ? 1 : 3) * pixel_count;
+    for (size_t i = 0; i < count; i++) values[i] = (float)render_srgb_encode(values[i] * scale);
 }

@@ -16,6 +16,11 @@
  * radiosity look: surfaces keep their colours and only the light, far
  * brighter than any surface, saturates to white.
  *
+ * A grey scene's file stores its one channel in all three, so the brightest
+ * channel is that channel. A colour scene drawn grey (render --channels
+ * grey) is drawn from its Rec. 709 luminance Y per patch, stored the same
+ * way (render_luminance_radiosity), so the key is then Y's percentile.
+ *
  * The sRGB OETF (IEC 61966-2-1): 12.92 x for x <= 0.0031308, else
  * 1.055 x^(1/2.4) - 0.055. OpenImageIO's float -> uint8 conversion does not
  * apply it; image.h quantizes the encoded values with round-to-nearest.
@@ -34,14 +39,19 @@
  * non-emitting surface. radiosity: patch_count * 3. */
 double render_tonemap_auto_scale(const rad_mesh *mesh, const double *radiosity);
 
-/* Rec. 709 luminance of linear RGB. */
+/* Rec. 709 luminance of linear RGB: 0.2126 R + 0.7152 G + 0.0722 B. */
 double render_luminance(const double rgb[3]);
+
+/* out[3 * p + c] = render_luminance(&radiosity[3 * p]) for every patch p and
+ * c = 0, 1, 2: a colour solution turned into a grey one, laid out as a grey
+ * scene's file stores it. out may not alias radiosity. */
+void render_luminance_radiosity(const double *radiosity, size_t patch_count, double *out);
 
 /* sRGB OETF of a linear value; input clamped to [0, 1]. */
 double render_srgb_encode(double linear);
 
-/* In place over pixel_count RGB pixels: multiply by scale, clamp to
- * [0, 1], sRGB-encode. */
-void render_tonemap_apply(float *rgb, size_t pixel_count, double scale);
+/* In place over pixel_count pixels of `channels` values each (3: RGB,
+ * 1: grey): multiply by scale, clamp to [0, 1], sRGB-encode. */
+void render_tonemap_apply(float *values, size_t pixel_count, int channels, double scale);
 
 #endif

@@ -4,12 +4,23 @@
  *   test_render                        unit tests
  *   test_render check-cornell IMAGE    checks a Cornell box picture taken
  *                                      with the default (measured) camera
+ *   test_render check-grey GREY RGB    GREY (a grey scene drawn with
+ *                                      --channels auto) is one channel equal
+ *                                      to RGB's (--channels rgb) red channel
+ *   test_render check-luminance Y RGB  Y (an EXR of a colour scene drawn with
+ *                                      --channels grey) is RGB's luminance
+ *   test_render check-layout IMAGE NAMES TYPE
+ *                                      channel names ("R,G,B") and pixel type
+ *   test_render cli RENDER RADIOSITY DIR
+ *                                      render's --channels option: help text,
+ *                                      bad values (exit 2, message, no file)
  */
 #define _POSIX_C_SOURCE 200809L
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "camera.h"
@@ -87,7 +98,7 @@ static void test_fill_rule_watertight(int spp)
             }
         }
     }
-    render_raster_options opt = {width, height, spp, 0, 1e-3};
+    render_raster_options opt = {width, height, spp, 0, 1e-3, 3};
     size_t samples = (size_t)width * n * height * n;
     uint32_t *counts = malloc(samples * sizeof *counts);
     RAD_CHECK(counts != NULL);
@@ -108,7 +119,7 @@ static void test_fill_rule_ties(void)
      * The square [-0.75, 0.25]^2 has its edges through sample centres. */
     render_vertex q[6] = {vtx(-0.75, -0.75, 1, 1, 1, 1), vtx(0.25, -0.75, 1, 1, 1, 1), vtx(0.25, 0.25, 1, 1, 1, 1),
                           vtx(-0.75, -0.75, 1, 1, 1, 1), vtx(0.25, 0.25, 1, 1, 1, 1), vtx(-0.75, 0.25, 1, 1, 1, 1)};
-    render_raster_options opt = {4, 4, 1, 1, 1e-3};
+    render_raster_options opt = {4, 4, 1, 1, 1e-3, 3};
     uint32_t counts[16];
     RAD_CHECK(render_raster_coverage(&opt, q, 2, counts) == RAD_OK);
     /* Columns 0..2 lie on or inside the x range; rows 1..3 (y down) the y
@@ -122,7 +133,7 @@ static void test_culling(void)
 {
     render_vertex ccw[3] = {vtx(-1, -1, 1, 1, 1, 1), vtx(1, -1, 1, 1, 1, 1), vtx(0, 1, 1, 1, 1, 1)};
     render_vertex cw[3] = {ccw[0], ccw[2], ccw[1]};
-    render_raster_options opt = {8, 8, 1, 1, 1e-3};
+    render_raster_options opt = {8, 8, 1, 1, 1e-3, 3};
     uint32_t counts[64];
     size_t covered = 0;
     RAD_CHECK(render_raster_coverage(&opt, ccw, 1, counts) == RAD_OK);
@@ -143,7 +154,7 @@ static void test_zbuffer(void)
     memcpy(near_far, far_near + 3, 3 * sizeof *near_far);
     memcpy(near_far + 3, far_near, 3 * sizeof *near_far);
     float rgb[4 * 4 * 3];
-    render_raster_options opt = {4, 4, 4, 1, 1e-3};
+    render_raster_options opt = {4, 4, 4, 1, 1e-3, 3};
     for (int order = 0; order < 2; order++) {
         RAD_CHECK(render_raster_draw(&opt, order ? near_far : far_near, 2, rgb) == RAD_OK);
         for (int p = 0; p < 16; p++) {
@@ -156,7 +167,7 @@ static void test_zbuffer(void)
     render_vertex cross[9] = {vtx(-3, -3, 3, 0, 1, 0),  vtx(3, -3, 3, 0, 1, 0),  vtx(0, 3, 3, 0, 1, 0),
                               vtx(-1, -30, 1, 1, 0, 0), vtx(1, -30, 5, 1, 0, 0), vtx(1, 30, 5, 1, 0, 0),
                               vtx(-1, -30, 1, 1, 0, 0), vtx(1, 30, 5, 1, 0, 0),  vtx(-1, 30, 1, 1, 0, 0)};
-    RAD_CHECK(render_raster_draw(&(render_raster_options){4, 4, 1, 0, 1e-3}, cross, 3, rgb) == RAD_OK);
+    RAD_CHECK(render_raster_draw(&(render_raster_options){4, 4, 1, 0, 1e-3, 3}, cross, 3, rgb) == RAD_OK);
     /* The red quad goes from w = 1 at ndc x = -1 to w = 5 at ndc x = +1:
      * at ndc x = -0.75 its w is below 3 (red wins), at +0.75 above (green). */
     RAD_CHECK(rgb[3 * (4 * 1 + 0) + 0] > 0.5f && rgb[3 * (4 * 1 + 3) + 1] > 0.5f);
@@ -170,14 +181,14 @@ static void test_perspective_and_clipping(void)
      * world-linear colour is (X + 1) / 4 = 0.25 (affine would give 0.5). */
     render_vertex t[3] = {{-1, -2, 1, {0, 0, 0}}, {3, 0, 3, {1, 1, 1}}, {-1, 2, 1, {0, 0, 0}}};
     float rgb[3 * 3 * 3];
-    RAD_CHECK(render_raster_draw(&(render_raster_options){3, 3, 1, 0, 1e-3}, t, 1, rgb) == RAD_OK);
+    RAD_CHECK(render_raster_draw(&(render_raster_options){3, 3, 1, 0, 1e-3, 3}, t, 1, rgb) == RAD_OK);
     RAD_CHECK_NEAR(rgb[3 * 4], 0.25, 1e-6);
     /* A triangle reaching behind the eye is clipped, not mirrored: the part
      * in front still shows, nothing appears where only the hidden part would
      * project. */
     render_vertex behind[3] = {{-1, -1, 1, {1, 1, 1}}, {1, -1, 1, {1, 1, 1}}, {0, 5, -1, {1, 1, 1}}};
     uint32_t counts[9 * 9];
-    RAD_CHECK(render_raster_coverage(&(render_raster_options){9, 9, 1, 0, 1e-3}, behind, 1, counts) == RAD_OK);
+    RAD_CHECK(render_raster_coverage(&(render_raster_options){9, 9, 1, 0, 1e-3, 3}, behind, 1, counts) == RAD_OK);
     RAD_CHECK(counts[9 * 8 + 4] == 1); /* bottom centre: the front part */
     RAD_CHECK(counts[9 * 0 + 4] == 1); /* the clipped part runs up off-screen */
 }
@@ -185,13 +196,56 @@ static void test_perspective_and_clipping(void)
 static void test_raster_options(void)
 {
     rad_test_capture_log();
-    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 3, 1, 1}, NULL) == RAD_ERR_INVALID);
+    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 3, 1, 1, 3}, NULL) == RAD_ERR_INVALID);
     RAD_CHECK(rad_test_log_contains("not a square"));
-    RAD_CHECK(render_raster_check(&(render_raster_options){0, 8, 1, 1, 1}, NULL) == RAD_ERR_INVALID);
-    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 4, 1, 0}, NULL) == RAD_ERR_INVALID);
+    RAD_CHECK(render_raster_check(&(render_raster_options){0, 8, 1, 1, 1, 3}, NULL) == RAD_ERR_INVALID);
+    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 4, 1, 0, 3}, NULL) == RAD_ERR_INVALID);
     int n = 0;
-    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 0, 1, 1}, &n) == RAD_OK && n == 4);
+    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 0, 1, 1, 3}, &n) == RAD_OK && n == 4);
+    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 1, 1, 1, 2}, NULL) == RAD_ERR_INVALID);
+    RAD_CHECK(rad_test_log_contains("2 channels per pixel (expected 1 or 3)"));
+    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 1, 1, 1, 1}, NULL) == RAD_OK);
+    RAD_CHECK(render_raster_check(&(render_raster_options){8, 8, 1, 1, 1, 0}, NULL) == RAD_OK);
     rad_log_set_sink(NULL, NULL);
+}
+
+/* Drawing one channel gives channel 0 of the RGB drawing, bit for bit:
+ * random overlapping and interpenetrating triangles of both windings, some
+ * reaching behind the eye (clipped), with a different value in every
+ * channel, at 1, 4 and 9 spp. Nothing is written past the one-channel
+ * image. */
+static void test_raster_grey(void)
+{
+    enum { W = 29, H = 19, T = 40 };
+    render_vertex tris[3 * T];
+    uint32_t seed = 777u;
+    for (int i = 0; i < 3 * T; i++) {
+        double x = 4.0 * (lcg_next(&seed) / 16777216.0) - 2.0, y = 4.0 * (lcg_next(&seed) / 16777216.0) - 2.0;
+        double w = 3.5 * (lcg_next(&seed) / 16777216.0) - 0.5;
+        float r = 2.0f * (float)(lcg_next(&seed) / 16777216.0), g = 1.0f - r, b = r * r;
+        tris[i] = vtx(x, y, w == 0.0 ? 0.5 : w, r, g, b);
+    }
+    float *rgb = malloc(3 * W * H * sizeof *rgb), *grey = malloc((W * H + 8) * sizeof *grey);
+    RAD_CHECK(rgb && grey);
+    if (!rgb || !grey) goto done;
+    for (int spp = 1; spp <= 9; spp += spp == 1 ? 3 : 5) {
+        for (int i = 0; i < W * H + 8; i++) grey[i] = -7.0f;
+        RAD_CHECK(render_raster_draw(&(render_raster_options){W, H, spp, 0, 1e-3, 3}, tris, T, rgb) == RAD_OK);
+        RAD_CHECK(render_raster_draw(&(render_raster_options){W, H, spp, 0, 1e-3, 1}, tris, T, grey) == RAD_OK);
+        size_t differ = 0, lit = 0, distinct = 0;
+        for (int p = 0; p < W * H; p++) {
+            differ += memcmp(&grey[p], &rgb[3 * p], sizeof *grey) != 0;
+            lit += grey[p] > 0.0f;
+            distinct += rgb[3 * p] != rgb[3 * p + 1];
+        }
+        if (differ) fprintf(stderr, "spp %d: %zu of %d grey pixels differ from the red channel\n", spp, differ, W * H);
+        RAD_CHECK(differ == 0);
+        RAD_CHECK(lit > W * H / 4 && distinct > W * H / 4); /* not vacuous: drawn, and channels differ */
+        for (int i = W * H; i < W * H + 8; i++) RAD_CHECK(grey[i] == -7.0f);
+    }
+done:
+    free(rgb);
+    free(grey);
 }
 
 /* ---- tone map ---- */
@@ -215,10 +269,16 @@ static void test_srgb(void)
     }
     RAD_CHECK(monotone);
     float px[3] = {0.25f, 0.5f, 4.0f};
-    render_tonemap_apply(px, 1, 2.0);
+    render_tonemap_apply(px, 1, 3, 2.0);
     RAD_CHECK_NEAR(px[0], 0.7353570, 1e-6);
     RAD_CHECK_NEAR(px[1], 1.0, 1e-6);
     RAD_CHECK_NEAR(px[2], 1.0, 1e-6);
+    /* One channel: two grey pixels are two values; the third is not touched. */
+    float grey[3] = {0.25f, 0.5f, 0.125f};
+    render_tonemap_apply(grey, 2, 1, 2.0);
+    RAD_CHECK_NEAR(grey[0], 0.7353570, 1e-6);
+    RAD_CHECK_NEAR(grey[1], 1.0, 1e-6);
+    RAD_CHECK(grey[2] == 0.125f);
 }
 
 /* ---- synthetic meshes ---- */
@@ -306,7 +366,7 @@ static void test_shade_creases(void)
     RAD_CHECK(rad_v3_dot(t.mesh.patches[2].normal, rad_v3(1, 0, 0)) > 0.999);
     double b[4 * 3] = {1, 1, 1, 4, 4, 4, 10, 1, 1, 50, 50, 50};
     double corners[4 * 12];
-    RAD_CHECK(render_shade_corners(&t.mesh, b, RENDER_SHADING_SMOOTH, corners) == RAD_OK);
+    RAD_CHECK(render_shade_corners(&t.mesh, b, 3, RENDER_SHADING_SMOOTH, corners) == RAD_OK);
     /* Floor patch 0: corner at x = 0 sees only itself (the wall is a
      * crease); corner at x = 1 averages 1 and 4 by area: (1 + 2*4) / 3. */
     RAD_CHECK_NEAR(corners[(4 * 0 + 0) * 3], 1.0, 1e-12);
@@ -318,9 +378,19 @@ static void test_shade_creases(void)
     RAD_CHECK_NEAR(corners[(4 * 2 + 0) * 3 + 0], 10.0, 1e-12);
     RAD_CHECK_NEAR(corners[(4 * 2 + 0) * 3 + 1], 1.0, 1e-12);
     RAD_CHECK_NEAR(corners[(4 * 3 + 0) * 3], 50.0, 1e-12);
-    RAD_CHECK(render_shade_corners(&t.mesh, b, RENDER_SHADING_FLAT, corners) == RAD_OK);
+    /* One channel: channel 0 of every corner, packed one value per corner. */
+    double grey[4 * 4];
+    RAD_CHECK(render_shade_corners(&t.mesh, b, 1, RENDER_SHADING_SMOOTH, grey) == RAD_OK);
+    for (int c = 0; c < 16; c++) RAD_CHECK(grey[c] == corners[3 * c]);
+    RAD_CHECK(render_shade_corners(&t.mesh, b, 3, RENDER_SHADING_FLAT, corners) == RAD_OK);
     RAD_CHECK_NEAR(corners[(4 * 0 + 1) * 3], 1.0, 1e-12);
     RAD_CHECK_NEAR(corners[(4 * 1 + 0) * 3], 4.0, 1e-12);
+    RAD_CHECK(render_shade_corners(&t.mesh, b, 1, RENDER_SHADING_FLAT, grey) == RAD_OK);
+    for (int c = 0; c < 16; c++) RAD_CHECK(grey[c] == corners[3 * c]);
+    rad_test_capture_log();
+    RAD_CHECK(render_shade_corners(&t.mesh, b, 2, RENDER_SHADING_FLAT, corners) == RAD_ERR_INVALID);
+    RAD_CHECK(rad_test_log_contains("2 colour channels"));
+    rad_log_set_sink(NULL, NULL);
     /* Auto exposure ignores the emitter (50) and uses the brightest
      * channel: by area, {1: 1, 4: 2, 10: 1}; the 95th percentile is 10,
      * the 70th would be 4. */
@@ -462,19 +532,19 @@ static void test_image_files(void)
     float rgb[W * H * 3];
     for (int i = 0; i < W * H * 3; i++) rgb[i] = (float)i / (W * H * 3 - 1) * 1.25f; /* > 1 at the end */
     render_image_attr attrs[] = {{"rad:camera", "eye 1 2 3"}};
-    RAD_CHECK(render_image_write(png, rgb, W, H, attrs, 1) == RAD_OK);
-    RAD_CHECK(render_image_write(exr, rgb, W, H, attrs, 1) == RAD_OK);
-    RAD_CHECK(render_image_write(exr2, rgb, W, H, attrs, 1) == RAD_OK);
+    RAD_CHECK(render_image_write(png, rgb, W, H, 3, attrs, 1) == RAD_OK);
+    RAD_CHECK(render_image_write(exr, rgb, W, H, 3, attrs, 1) == RAD_OK);
+    RAD_CHECK(render_image_write(exr2, rgb, W, H, 3, attrs, 1) == RAD_OK);
     float *back = NULL;
-    int w = 0, h = 0;
-    RAD_CHECK(render_image_read(png, &back, &w, &h) == RAD_OK && w == W && h == H);
+    int w = 0, h = 0, ch = 0;
+    RAD_CHECK(render_image_read(png, &back, &w, &h, &ch) == RAD_OK && w == W && h == H && ch == 3);
     for (int i = 0; back && i < W * H * 3; i++) {
         double want = rgb[i] >= 1.0f ? 255.0 : floor(rgb[i] * 255.0 + 0.5);
         RAD_CHECK_NEAR(back[i] * 255.0, want, 1e-3);
     }
     free(back);
     back = NULL;
-    RAD_CHECK(render_image_read(exr, &back, &w, &h) == RAD_OK && w == W && h == H);
+    RAD_CHECK(render_image_read(exr, &back, &w, &h, &ch) == RAD_OK && w == W && h == H && ch == 3);
     for (int i = 0; back && i < W * H * 3; i++) RAD_CHECK_NEAR(back[i], rgb[i], 1e-3 * rgb[i] + 1e-6);
     free(back);
     char text[64] = "";
@@ -482,6 +552,38 @@ static void test_image_files(void)
     RAD_CHECK(strcmp(text, "eye 1 2 3") == 0);
     RAD_CHECK(render_image_read_attr(png, "rad:camera", text, sizeof text) == RAD_OK);
     RAD_CHECK(strcmp(text, "eye 1 2 3") == 0);
+
+    /* Channel names and pixel types: R, G, B for colour. */
+    char names[64] = "", type[16] = "";
+    RAD_CHECK(render_image_read_layout(png, names, sizeof names, type, sizeof type) == RAD_OK);
+    RAD_CHECK(strcmp(names, "R,G,B") == 0 && strcmp(type, "uint8") == 0);
+    RAD_CHECK(render_image_read_layout(exr, names, sizeof names, type, sizeof type) == RAD_OK);
+    RAD_CHECK(strcmp(names, "R,G,B") == 0 && strcmp(type, "half") == 0);
+
+    /* One channel: an 8-bit grey PNG and an EXR with the one channel Y. */
+    char gpng[256], gexr[256], two[256];
+    snprintf(gpng, sizeof gpng, "%s/g.png", dir);
+    snprintf(gexr, sizeof gexr, "%s/g.exr", dir);
+    snprintf(two, sizeof two, "%s/two.exr", dir);
+    RAD_CHECK(render_image_write(gpng, rgb, W, H, 1, attrs, 1) == RAD_OK); /* the first W * H values */
+    RAD_CHECK(render_image_write(gexr, rgb, W, H, 1, attrs, 1) == RAD_OK);
+    RAD_CHECK(render_image_read_layout(gpng, names, sizeof names, type, sizeof type) == RAD_OK);
+    RAD_CHECK(strchr(names, ',') == NULL && strcmp(type, "uint8") == 0); /* one channel */
+    RAD_CHECK(render_image_read_layout(gexr, names, sizeof names, type, sizeof type) == RAD_OK);
+    RAD_CHECK(strcmp(names, "Y") == 0 && strcmp(type, "half") == 0);
+    RAD_CHECK(render_image_read(gpng, &back, &w, &h, &ch) == RAD_OK && w == W && h == H && ch == 1);
+    for (int i = 0; back && i < W * H; i++) RAD_CHECK_NEAR(back[i] * 255.0, floor(rgb[i] * 255.0 + 0.5), 1e-3);
+    free(back);
+    back = NULL;
+    RAD_CHECK(render_image_read(gexr, &back, &w, &h, &ch) == RAD_OK && w == W && h == H && ch == 1);
+    for (int i = 0; back && i < W * H; i++) RAD_CHECK_NEAR(back[i], rgb[i], 1e-3 * rgb[i] + 1e-6);
+    free(back);
+    back = NULL;
+    rad_test_capture_log();
+    RAD_CHECK(render_image_write(two, rgb, W, H, 2, NULL, 0) == RAD_ERR_INVALID);
+    RAD_CHECK(rad_test_log_contains("2 channels (expected 1 or 3)"));
+    RAD_CHECK(access(two, F_OK) != 0);
+    rad_log_set_sink(NULL, NULL);
 
     /* Identical inputs, identical bytes (fixed DateTime). */
     char *a = NULL, *b = NULL;
@@ -493,10 +595,10 @@ static void test_image_files(void)
 
     /* Failures: clear message, no file under the final name, no temporary. */
     rad_test_capture_log();
-    RAD_CHECK(render_image_write(bad, rgb, W, H, NULL, 0) == RAD_ERR_USAGE);
+    RAD_CHECK(render_image_write(bad, rgb, W, H, 3, NULL, 0) == RAD_ERR_USAGE);
     RAD_CHECK(rad_test_log_contains("unknown image type"));
     RAD_CHECK(access(bad, F_OK) != 0);
-    RAD_CHECK(render_image_write(missing, rgb, W, H, NULL, 0) == RAD_ERR_IO);
+    RAD_CHECK(render_image_write(missing, rgb, W, H, 3, NULL, 0) == RAD_ERR_IO);
     RAD_CHECK(rad_test_log_contains("no/such/dir/a.png: cannot write"));
     RAD_CHECK(access(missing, F_OK) != 0);
     rad_log_set_sink(NULL, NULL);
@@ -609,14 +711,14 @@ static void test_frame_room(void)
     render_camera_default(&t.mesh, 1.0, &cam, NULL);
     enum { W = 96, H = 96 };
     float *rgb = malloc(W * H * 3 * sizeof *rgb), *rgb2 = malloc(W * H * 3 * sizeof *rgb2);
-    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH};
+    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH, 3};
     RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
-    render_tonemap_apply(rgb, W * H, render_tonemap_auto_scale(&t.mesh, b));
+    render_tonemap_apply(rgb, W * H, 3, render_tonemap_auto_scale(&t.mesh, b));
     RAD_CHECK(check_cornell(rgb, W, H) == 0);
     /* Flat shading differs, but not in the big picture. */
     opt.shading = RENDER_SHADING_FLAT;
     RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb2) == RAD_OK);
-    render_tonemap_apply(rgb2, W * H, render_tonemap_auto_scale(&t.mesh, b));
+    render_tonemap_apply(rgb2, W * H, 3, render_tonemap_auto_scale(&t.mesh, b));
     RAD_CHECK(memcmp(rgb, rgb2, W * H * 3 * sizeof *rgb) != 0);
     RAD_CHECK(check_cornell(rgb2, W, H) == 0);
     free(rgb);
@@ -625,21 +727,238 @@ static void test_frame_room(void)
     rad_mesh_free(&t.mesh);
 }
 
+/* A whole frame drawn for one channel is channel 0 of the RGB frame, bit
+ * for bit, before and after the tone map, smooth and flat; drawn from the
+ * patches' luminance it is the RGB frame's luminance (to float rounding). */
+static void test_frame_grey(void)
+{
+    test_mesh t = {{0}, 0, 0};
+    double *b = NULL, *lum = NULL;
+    make_room(&t, &b);
+    render_camera cam;
+    render_camera_default(&t.mesh, 1.0, &cam, NULL);
+    enum { W = 64, H = 48 };
+    float *rgb = malloc(W * H * 3 * sizeof *rgb), *grey = malloc(W * H * sizeof *grey);
+    lum = malloc(3 * t.mesh.patch_count * sizeof *lum);
+    RAD_CHECK(rgb && grey && lum);
+    if (!rgb || !grey || !lum) goto done;
+    double scale = render_tonemap_auto_scale(&t.mesh, b);
+    for (int shading = 0; shading < 2; shading++) {
+        render_frame_options opt = {W, H, 4, shading ? RENDER_SHADING_FLAT : RENDER_SHADING_SMOOTH, 3};
+        RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
+        opt.channels = 1;
+        RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, grey) == RAD_OK);
+        size_t differ = 0, differ_png = 0;
+        for (int p = 0; p < W * H; p++) differ += memcmp(&grey[p], &rgb[3 * p], sizeof *grey) != 0;
+        render_tonemap_apply(rgb, W * H, 3, scale);
+        render_tonemap_apply(grey, W * H, 1, scale);
+        for (int p = 0; p < W * H; p++) differ_png += memcmp(&grey[p], &rgb[3 * p], sizeof *grey) != 0;
+        RAD_CHECK(differ == 0 && differ_png == 0);
+    }
+    /* Luminance: Rec. 709 weights of the linear RGB frame. */
+    render_luminance_radiosity(b, t.mesh.patch_count, lum);
+    RAD_CHECK_NEAR(lum[0], 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2], 1e-15);
+    RAD_CHECK(lum[0] == lum[1] && lum[1] == lum[2]);
+    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH, 3};
+    RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
+    opt.channels = 1;
+    RAD_CHECK(render_frame_draw(&t.mesh, lum, &cam, &opt, grey) == RAD_OK);
+    double worst = 0.0;
+    for (int p = 0; p < W * H; p++) {
+        double want = render_luminance((double[3]){rgb[3 * p], rgb[3 * p + 1], rgb[3 * p + 2]});
+        worst = fmax(worst, fabs(grey[p] - want) / (1e-3 + want));
+    }
+    if (worst > 1e-5) fprintf(stderr, "luminance frame: relative difference %g\n", worst);
+    RAD_CHECK(worst <= 1e-5);
+    rad_test_capture_log();
+    opt.channels = 2;
+    RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_ERR_INVALID);
+    RAD_CHECK(rad_test_log_contains("2 channels per pixel"));
+    rad_log_set_sink(NULL, NULL);
+done:
+    free(rgb);
+    free(grey);
+    free(lum);
+    free(b);
+    rad_mesh_free(&t.mesh);
+}
+
 static int check_cornell_file(const char *path)
 {
     float *rgb = NULL;
-    int w = 0, h = 0;
-    if (render_image_read(path, &rgb, &w, &h) != RAD_OK) return 1;
-    check_cornell(rgb, w, h);
+    int w = 0, h = 0, channels = 0;
+    if (render_image_read(path, &rgb, &w, &h, &channels) != RAD_OK) return 1;
+    RAD_CHECK(channels == 3); /* a colour scene stays RGB */
+    if (channels == 3) check_cornell(rgb, w, h);
     free(rgb);
+    return rad_test_finish();
+}
+
+static int ends_with(const char *s, const char *suffix)
+{
+    size_t n = strlen(s), m = strlen(suffix);
+    return n >= m && strcmp(s + n - m, suffix) == 0;
+}
+
+/* GREY: a grey scene as render writes it by default; RGB: the same with
+ * --channels rgb. GREY has one channel (PNG: 8-bit; EXR: named Y, half),
+ * RGB three equal ones (R, G, B), and GREY's values are RGB's red channel
+ * exactly: the same arithmetic on the same numbers. */
+static int check_grey_files(const char *grey_path, const char *rgb_path)
+{
+    float *grey = NULL, *rgb = NULL;
+    int w = 0, h = 0, c = 0, w3 = 0, h3 = 0, c3 = 0;
+    const int exr = ends_with(grey_path, ".exr");
+    char names[64] = "", type[16] = "";
+    RAD_CHECK(render_image_read_layout(grey_path, names, sizeof names, type, sizeof type) == RAD_OK);
+    RAD_CHECK(strcmp(names, "Y") == 0 || (!exr && strchr(names, ',') == NULL));
+    RAD_CHECK(strcmp(type, exr ? "half" : "uint8") == 0);
+    if (rad_test_failures) fprintf(stderr, "%s: channels '%s', type '%s'\n", grey_path, names, type);
+    RAD_CHECK(render_image_read_layout(rgb_path, names, sizeof names, type, sizeof type) == RAD_OK);
+    RAD_CHECK(strcmp(names, "R,G,B") == 0 && strcmp(type, exr ? "half" : "uint8") == 0);
+    RAD_CHECK(render_image_read(grey_path, &grey, &w, &h, &c) == RAD_OK && c == 1);
+    RAD_CHECK(render_image_read(rgb_path, &rgb, &w3, &h3, &c3) == RAD_OK && c3 == 3);
+    if (grey && rgb && c == 1 && c3 == 3 && w == w3 && h == h3) {
+        size_t n = (size_t)w * h, differ = 0, unequal = 0, lit = 0;
+        float lo = grey[0], hi = grey[0];
+        for (size_t p = 0; p < n; p++) {
+            differ += memcmp(&grey[p], &rgb[3 * p], sizeof *grey) != 0;
+            unequal += rgb[3 * p] != rgb[3 * p + 1] || rgb[3 * p] != rgb[3 * p + 2];
+            lit += grey[p] > 0.0f;
+            lo = grey[p] < lo ? grey[p] : lo;
+            hi = grey[p] > hi ? grey[p] : hi;
+        }
+        if (differ || unequal)
+            fprintf(stderr, "%zu of %zu pixels differ from the red channel; %zu RGB pixels not grey\n", differ, n,
+                    unequal);
+        RAD_CHECK(differ == 0 && unequal == 0);
+        RAD_CHECK(lit > n / 2 && hi > lo); /* a picture, not a blank */
+    } else {
+        RAD_CHECK(w == w3 && h == h3);
+    }
+    free(grey);
+    free(rgb);
+    return rad_test_finish();
+}
+
+/* Y: a colour scene's EXR drawn with --channels grey; RGB: the same drawn
+ * in colour. Y is 0.2126 R + 0.7152 G + 0.0722 B within half-float
+ * rounding (both files are half: 2^-11 relative each). */
+static int check_luminance_files(const char *y_path, const char *rgb_path)
+{
+    float *y = NULL, *rgb = NULL;
+    int w = 0, h = 0, c = 0, w3 = 0, h3 = 0, c3 = 0;
+    char names[64] = "", type[16] = "";
+    RAD_CHECK(render_image_read_layout(y_path, names, sizeof names, type, sizeof type) == RAD_OK);
+    RAD_CHECK(strcmp(names, "Y") == 0);
+    char values[128] = "";
+    RAD_CHECK(render_image_read_attr(y_path, "rad:channels", values, sizeof values) == RAD_OK);
+    RAD_CHECK(strcmp(values, "luminance") == 0);
+    RAD_CHECK(render_image_read(y_path, &y, &w, &h, &c) == RAD_OK && c == 1);
+    RAD_CHECK(render_image_read(rgb_path, &rgb, &w3, &h3, &c3) == RAD_OK && c3 == 3);
+    if (y && rgb && c == 1 && c3 == 3 && w == w3 && h == h3) {
+        size_t n = (size_t)w * h, bad = 0, lit = 0;
+        double worst = 0.0;
+        for (size_t p = 0; p < n; p++) {
+            double want = render_luminance((double[3]){rgb[3 * p], rgb[3 * p + 1], rgb[3 * p + 2]});
+            double rel = fabs(y[p] - want) / (want + 1e-6);
+            worst = fmax(worst, rel);
+            bad += rel > 2e-3;
+            lit += want > 0.0;
+        }
+        /* Not vacuous: in a colour scene Y is not the red channel. */
+        size_t not_red = 0;
+        for (size_t p = 0; p < n; p++) not_red += fabs(y[p] - rgb[3 * p]) > 0.05 * (rgb[3 * p] + 1e-6);
+        fprintf(stderr, "luminance: largest relative difference %.3g; %zu of %zu pixels over 2e-3\n", worst, bad, n);
+        RAD_CHECK(bad == 0 && lit > n / 2 && not_red > n / 10);
+    } else {
+        RAD_CHECK(w == w3 && h == h3);
+    }
+    free(y);
+    free(rgb);
+    return rad_test_finish();
+}
+
+static int check_layout_file(const char *path, const char *want_names, const char *want_type)
+{
+    char names[64] = "", type[16] = "";
+    RAD_CHECK(render_image_read_layout(path, names, sizeof names, type, sizeof type) == RAD_OK);
+    if (strcmp(names, want_names) != 0 || strcmp(type, want_type) != 0)
+        fprintf(stderr, "%s: channels '%s', type '%s'; expected '%s', '%s'\n", path, names, type, want_names,
+                want_type);
+    RAD_CHECK(strcmp(names, want_names) == 0 && strcmp(type, want_type) == 0);
+    return rad_test_finish();
+}
+
+/* Runs `RENDER ARGS > DIR/log.txt 2>&1`; returns the exit status (-1 if it
+ * did not exit) and leaves the output in `log` (freed by the caller). */
+static int run_render(const char *render, const char *args, const char *dir, char **log)
+{
+    char cmd[4096], log_path[1024];
+    snprintf(log_path, sizeof log_path, "%s/log.txt", dir);
+    snprintf(cmd, sizeof cmd, "'%s' %s > '%s' 2>&1", render, args, log_path);
+    int rc = system(cmd);
+    size_t n = 0;
+    *log = NULL;
+    if (rad_fs_read_all(log_path, log, &n) != RAD_OK) *log = NULL;
+    return rc != -1 && WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+/* render's command line for --channels: the help documents it; bad values
+ * are usage errors (exit 2) with a clear message, and write nothing. */
+static int check_cli(const char *render, const char *radiosity, const char *dir)
+{
+    char cmd[2048], out[1024], args[2048];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s' && mkdir -p '%s'", dir, dir);
+    RAD_CHECK(system(cmd) == 0);
+    snprintf(out, sizeof out, "%s/out.png", dir);
+    char *log = NULL;
+    RAD_CHECK(run_render(render, "--help", dir, &log) == 0);
+    RAD_CHECK(log && strstr(log, "--channels MODE") && strstr(log, "auto (default)") && strstr(log, "luminance"));
+    free(log);
+    static const struct {
+        const char *args, *message;
+    } bad[] = {
+        {"--channels foo", "render: error: --channels: 'foo' is not auto, rgb or grey"},
+        {"--channels RGB", "--channels: 'RGB' is not auto, rgb or grey"},
+        {"--channels=", "--channels: '' is not auto, rgb or grey"},
+        {"--channels=3", "--channels: '3' is not auto, rgb or grey"},
+        {"--channels", "--channels needs a value"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        /* The bad option last, so that "--channels" has no value. */
+        snprintf(args, sizeof args, "'%s' -o '%s' %s", radiosity, out, bad[i].args);
+        int rc = run_render(render, args, dir, &log);
+        if (rc != 2 || !log || !strstr(log, bad[i].message))
+            fprintf(stderr, "render %s: exit %d, output: %s\n", args, rc, log ? log : "(none)");
+        RAD_CHECK(rc == 2);
+        RAD_CHECK(log && strstr(log, bad[i].message));
+        RAD_CHECK(access(out, F_OK) != 0);
+        free(log);
+    }
+    /* The good values are accepted (and "=" works too). */
+    static const char *const good[] = {"--channels auto", "--channels=rgb", "--channels grey"};
+    for (size_t i = 0; i < sizeof good / sizeof good[0]; i++) {
+        snprintf(args, sizeof args, "'%s' -q --width 16 --height 16 --spp 1 -o '%s' %s", radiosity, out, good[i]);
+        int rc = run_render(render, args, dir, &log);
+        if (rc != 0) fprintf(stderr, "render %s: exit %d, output: %s\n", args, rc, log ? log : "(none)");
+        RAD_CHECK(rc == 0 && access(out, F_OK) == 0);
+        free(log);
+        remove(out);
+    }
     return rad_test_finish();
 }
 
 int main(int argc, char **argv)
 {
     if (argc == 3 && strcmp(argv[1], "check-cornell") == 0) return check_cornell_file(argv[2]);
+    if (argc == 4 && strcmp(argv[1], "check-grey") == 0) return check_grey_files(argv[2], argv[3]);
+    if (argc == 4 && strcmp(argv[1], "check-luminance") == 0) return check_luminance_files(argv[2], argv[3]);
+    if (argc == 5 && strcmp(argv[1], "check-layout") == 0) return check_layout_file(argv[2], argv[3], argv[4]);
+    if (argc == 5 && strcmp(argv[1], "cli") == 0) return check_cli(argv[2], argv[3], argv[4]);
     if (argc != 1) {
-        fprintf(stderr, "usage: test_render [check-cornell IMAGE]\n");
+        fprintf(stderr, "usage: test_render [check-cornell IMAGE | check-grey GREY RGB | check-luminance Y RGB |\n"
+                        "                    check-layout IMAGE NAMES TYPE | cli RENDER RADIOSITY DIR]\n");
         return 2;
     }
     test_fill_rule_ties();
@@ -650,11 +969,13 @@ int main(int argc, char **argv)
     test_zbuffer();
     test_perspective_and_clipping();
     test_raster_options();
+    test_raster_grey();
     test_srgb();
     test_shade_creases();
     test_camera_parse();
     test_camera_default();
     test_image_files();
     test_frame_room();
+    test_frame_grey();
     return rad_test_finish();
 }
