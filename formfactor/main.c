@@ -32,6 +32,10 @@
 
 #define FF_VERSION "0.1.0"
 #define FF_ROUND_BYTES ((uint64_t)96 << 20) /* rows computed between collective writes */
+/* Buffers up to this size come from the backend (page-locked for CUDA, so
+ * results stream back by DMA); larger ones - a whole rank's rows with
+ * --reciprocity on - from malloc. */
+#define FF_BACKEND_BUFFER_MAX ((size_t)1 << 30)
 
 /* --reciprocity: compute each unordered pair once and copy the other entry
  * (which needs the rank's rows in memory), or compute both (rows stream
@@ -98,7 +102,8 @@ static void print_help(void)
            "                           copies the other entry (A_i F_ij = A_j F_ji), holding the\n"
            "                           rank's rows in memory; off computes both and streams rows;\n"
            "                           auto: on when the rows take at most a quarter of this\n"
-           "                           node's memory per rank (default). Same bytes either way.\n"
+           "                           node's memory per rank, and on the GPU at most 1 GiB\n"
+           "                           (default). Same bytes either way.\n"
            "      --threads T          CPU threads per rank (default: cores / ranks per node)\n"
            "      --stats FILE.json    write counts and phase times (per rank and total)\n"
            "  -q, --quiet              only errors on stderr\n"
@@ -401,7 +406,13 @@ static rad_status setup(ff_run *run)
     int rank = ff_comm_rank(run->comm);
     run->want_errors = !run->opt.no_errors;
     double block_bytes = st == RAD_OK ? (1.0 + run->want_errors) * (run->row_begin[rank + 1] - run->row_begin[rank]) * n * sizeof(double) : 0;
-    uint64_t too_big = ff_comm_max_u64(run->comm, block_bytes > memory_per_rank(run) / 4);
+    /* auto: on where it pays. On the GPU a block beyond the page-locked
+     * limit would come back by pageable copies (N = 47 104: 13.9 s, or 8 s
+     * to page-lock it), more than the 1.4 s of kernels saved, so there the
+     * rows stream (docs/performance.md). */
+    int gpu = run->backend == &ff_backend_cuda;
+    uint64_t too_big = ff_comm_max_u64(run->comm, block_bytes > memory_per_rank(run) / 4 ||
+                                                      (gpu && block_bytes / (1 + run->want_errors) > FF_BACKEND_BUFFER_MAX));
     run->pairs_once = run->opt.reciprocity == FF_RECIPROCITY_ON || (run->opt.reciprocity == FF_RECIPROCITY_AUTO && !too_big);
     run->stats.threads = default_threads(run);
     if (st == RAD_OK) {
@@ -453,11 +464,6 @@ static rad_status write_round(ff_run *run, const ff_files *files, uint32_t r0, u
 /* Row buffers of `count` doubles from the backend, for the values and (if
  * wanted) the standard errors; collective: fails on every rank if it fails
  * on one. */
-/* Buffers up to this size come from the backend (page-locked for CUDA, so
- * results stream back by DMA); larger ones - a whole rank's rows with
- * --reciprocity on - from malloc: page-locking 17 GB took longer than the
- * slower copies into pageable memory it saves (measured, performance.md). */
-#define FF_BACKEND_BUFFER_MAX ((size_t)1 << 30)
 
 static double *alloc_buffer(ff_run *run, size_t count)
 {
