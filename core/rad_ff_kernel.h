@@ -48,7 +48,8 @@ typedef enum rad_estimator_id {
     RAD_ESTIMATOR_MC = 1,  /* uniform area-sampled point pairs, kernel-weighted visibility */
     RAD_ESTIMATOR_AUTO = 2, /* MC for far pairs, the near-field contour estimator for near ones
                                (rad_ff_kernel.h) */
-    RAD_ESTIMATOR_QMC = 3   /* point pairs from a randomly shifted Halton sequence, everywhere */
+    RAD_ESTIMATOR_QMC = 3,  /* point pairs from a randomly shifted Halton sequence, everywhere */
+    RAD_ESTIMATOR_ANALYTIC = 4 /* the near-field contour estimator for every pair */
 } rad_estimator_id;
 
 /* A patch as the estimators need it: flat, no pointers. */
@@ -293,6 +294,13 @@ static inline RAD_HD int rad_ff_pair_near(const rad_ff_patch *a, const rad_ff_pa
     rad_vec3 d = rad_v3_sub(a->centre, b->centre);
     double reach = RAD_FF_NEAR_FACTOR * (a->radius + b->radius);
     return rad_v3_dot(d, d) < reach * reach;
+}
+
+/* Does the pair take the contour (near-field) estimator? `analytic`: every
+ * pair; `auto`: near pairs; `mc`, `qmc`: none. */
+static inline RAD_HD int rad_ff_pair_uses_contour(uint32_t estimator, const rad_ff_patch *a, const rad_ff_patch *b)
+{
+    return estimator == RAD_ESTIMATOR_ANALYTIC || (estimator == RAD_ESTIMATOR_AUTO && rad_ff_pair_near(a, b));
 }
 
 /* Samples a near pair takes when far pairs take `samples`. */

@@ -256,7 +256,7 @@ static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j
             c->pairs_culled++;
             continue;
         }
-        int near = su->estimator == RAD_ESTIMATOR_AUTO && rad_ff_pair_near(pi, pj);
+        int near = rad_ff_pair_uses_contour(su->estimator, pi, pj);
         uint32_t K = near ? rad_ff_near_samples(su->samples) : su->samples;
         sample_terms(su->estimator, near, pi, pj, i, j, 0, K, su->seed, sc->g);
         add_terms(&sc->sums[b], sc->g, K);

@@ -120,7 +120,7 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t
         p.out[t] = 0.0; /* row j computes this pair: no warp here */
     else if (i == j || !rad_ff_pair_facing(pi, pj, p.eps))
         p.out[t] = 0.0;
-    else if (p.estimator == RAD_ESTIMATOR_AUTO && rad_ff_pair_near(pi, pj))
+    else if (rad_ff_pair_uses_contour(p.estimator, pi, pj))
         pairs[capacity - 1 - atomicAdd(&counts[1], 1u)] = (uint32_t)t;
     else
         pairs[atomicAdd(&counts[0], 1u)] = (uint32_t)t;

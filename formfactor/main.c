@@ -89,10 +89,11 @@ static void print_help(void)
            "                           layout as the form factors; docs/formats.md)\n"
            "      --no-errors          do not estimate standard errors (no summary in the stats;\n"
            "                           saves GPU kernel time and host memory)\n"
-           "      --estimator E        auto | mc | qmc (default: auto: pairs closer than twice\n"
-           "                           their radii use the contour-integral near-field estimator\n"
-           "                           with K/8 samples; mc: random point pairs everywhere, as\n"
-           "                           the paper; qmc: shifted-Halton point pairs everywhere)\n"
+           "      --estimator E        auto | mc | qmc | analytic (default: auto: pairs closer\n"
+           "                           than twice their radii use the contour-integral near-field\n"
+           "                           estimator with K/8 samples; mc: random point pairs\n"
+           "                           everywhere, as the paper; qmc: shifted-Halton point pairs\n"
+           "                           everywhere; analytic: the contour estimator for every pair)\n"
            "      --backend B          auto | cpu | cuda (default: auto)\n"
            "      --element T          f64 | f32 matrix element type (default: f64)\n"
            "      --format F           native | paper (paper: int32 N + N*N float64 only)\n"
@@ -179,7 +180,8 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
             if (!strcmp(optarg, "auto")) o->estimator = RAD_ESTIMATOR_AUTO;
             else if (!strcmp(optarg, "mc")) o->estimator = RAD_ESTIMATOR_MC;
             else if (!strcmp(optarg, "qmc")) o->estimator = RAD_ESTIMATOR_QMC;
-            else { rad_error("--estimator: expected auto, mc or qmc, got '%s'", optarg); st = RAD_ERR_USAGE; }
+            else if (!strcmp(optarg, "analytic")) o->estimator = RAD_ESTIMATOR_ANALYTIC;
+            else { rad_error("--estimator: expected auto, mc, qmc or analytic, got '%s'", optarg); st = RAD_ERR_USAGE; }
             break;
         case O_CULL:
             if (!strcmp(optarg, "all")) o->cull = 1;
@@ -614,6 +616,7 @@ static rad_status write_stats(ff_run *run, int gpus)
                             .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
                             .estimator = run->opt.estimator == RAD_ESTIMATOR_AUTO  ? "auto"
                                          : run->opt.estimator == RAD_ESTIMATOR_QMC ? "qmc"
+                                         : run->opt.estimator == RAD_ESTIMATOR_ANALYTIC ? "analytic"
                                                                                    : "mc",
                             .cull = run->opt.cull ? "all" : "none", .reciprocity = run->pairs_once ? "on" : "off",
                             .target_error = run->opt.target_error, .max_samples = run->opt.max_samples,
@@ -644,7 +647,8 @@ static rad_status run_formfactor(ff_run *run)
         if (rank == 0) rad_error("%zu patches: more than this format's 2^31 limit", run->mesh.patch_count);
         return RAD_ERR_NOMEM;
     }
-    int gpus = ff_cuda_device_count();
+    /* Asking CUDA starts its driver (~0.5 s); a CPU run does not need it. */
+    int gpus = strcmp(run->opt.backend, "cpu") ? ff_cuda_device_count() : 0;
     if ((st = ff_comm_agree(run->comm, select_backend(run, gpus))) != RAD_OK) return st;
     if ((st = ff_comm_agree(run->comm, setup(run))) != RAD_OK) return st;
     if (rank == 0)

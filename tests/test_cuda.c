@@ -45,7 +45,7 @@ static void compare(const char *path, int subdiv, rad_estimator_id estimator)
     fprintf(stderr,
             "%s --subdiv %d (%s): N=%u, %llu nonzero; %llu entries differ beyond 1e-9 (borderline rays), %llu beyond 25%%; "
             "largest tight difference %.2e; rays occluded cpu %llu gpu %llu\n",
-            path, subdiv, estimator == RAD_ESTIMATOR_AUTO ? "auto" : estimator == RAD_ESTIMATOR_QMC ? "qmc" : "mc", n, (unsigned long long)nonzero, (unsigned long long)loose, (unsigned long long)bad,
+            path, subdiv, estimator == RAD_ESTIMATOR_AUTO ? "auto" : estimator == RAD_ESTIMATOR_QMC ? "qmc" : estimator == RAD_ESTIMATOR_ANALYTIC ? "analytic" : "mc", n, (unsigned long long)nonzero, (unsigned long long)loose, (unsigned long long)bad,
             worst_tight, (unsigned long long)cc.rays_occluded, (unsigned long long)gc.rays_occluded);
     RAD_CHECK(loose <= nonzero / 200);
     RAD_CHECK(bad == 0);
@@ -144,6 +144,7 @@ int main(void)
     compare(RAD_SCENES "/cornell_box.obj", 2, RAD_ESTIMATOR_AUTO);
     compare(RAD_SCENES "/cornell_sphere.obj", 2, RAD_ESTIMATOR_AUTO);
     compare(RAD_SCENES "/cornell_sphere.obj", 2, RAD_ESTIMATOR_QMC);
+    compare(RAD_SCENES "/cornell_box.obj", 1, RAD_ESTIMATOR_ANALYTIC);
     compare_errors(RAD_SCENES "/cornell_box.obj", 1, RAD_ESTIMATOR_AUTO, 0);
     compare_errors(RAD_SCENES "/cornell_box.obj", 1, RAD_ESTIMATOR_AUTO, 0.002);
     compare_errors(RAD_SCENES "/cornell_sphere.obj", 1, RAD_ESTIMATOR_MC, 0.002);

@@ -77,7 +77,7 @@ ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 from ffread import HEADER, read_formfactors  # noqa: E402
 
-ESTIMATORS = ["mc", "qmc", "auto"]
+ESTIMATORS = ["mc", "qmc", "auto", "analytic"]
 MTL = "newmtl grey\nKd 0.5 0.5 0.5\n"
 PARALLEL = ("mtllib s.mtl\nusemtl grey\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n"
             "v 0 0 1\nv 0 1 1\nv 1 1 1\nv 1 0 1\nf 5 6 7 8\n")
@@ -564,7 +564,7 @@ def aggregate_sphere(runs, backends, cfgs):
 
 # ------------------------------------------------------------------ plots ---
 
-STYLE = {"mc": ("o", "C0"), "qmc": ("s", "C1"), "auto": ("d", "C2")}
+STYLE = {"mc": ("o", "C0"), "qmc": ("s", "C1"), "auto": ("d", "C2"), "analytic": ("^", "C3")}
 LINES = ["-", "--", ":"]
 
 
