@@ -229,7 +229,8 @@ static inline RAD_HD double rad_ff_estimate(const rad_ff_sums *s, int near, cons
     double fraction = 1.0, var_v = 0.0;
     if (s->rays > 0 && s->ray_terms > 0.0) {
         fraction = s->ray_seen / s->ray_terms;
-        double hidden = s->ray_terms_sq - s->ray_seen_sq; /* sum g^2 (1 - V) */
+        double hidden = s->ray_terms_sq - s->ray_seen_sq; /* sum g^2 (1 - V), >= 0 but for rounding */
+        hidden = hidden > 0.0 ? hidden : 0.0;
         double spread = s->ray_seen_sq * (1.0 - fraction) * (1.0 - fraction) + hidden * fraction * fraction;
         var_v = spread / (s->ray_terms * s->ray_terms);
     } else if (s->rays > 0) { /* no kept sample has weight (all grazing): the plain fraction */
@@ -252,12 +253,14 @@ static inline RAD_HD int rad_ff_error_reached(double coupling_error, const rad_f
 
 /* --target-error schedule: the next batch takes the pair from s->samples
  * to twice that (samples_to), and its shadow rays in the same proportion
- * to the first batch's (rays_to); none once the pair holds `factor` times
- * its first batch (0 is returned). */
+ * to the first batch's (rays_to); the pair's cap is its first batch scaled
+ * by max_samples / samples (a near pair's smaller first batch included).
+ * None (0 is returned) once the pair holds its cap. */
 static inline RAD_HD int rad_ff_next_batch(const rad_ff_sums *s, uint32_t first_samples, uint32_t first_rays,
-                                           uint32_t factor, uint32_t *samples_to, uint32_t *rays_to)
+                                           uint32_t samples, uint32_t max_samples, uint32_t *samples_to,
+                                           uint32_t *rays_to)
 {
-    uint64_t cap = (uint64_t)first_samples * factor;
+    uint64_t cap = (uint64_t)first_samples * max_samples / samples;
     if (s->samples >= cap) return 0;
     uint64_t to = 2 * (uint64_t)s->samples < cap ? 2 * (uint64_t)s->samples : cap;
     uint64_t rays = (uint64_t)first_rays * to / first_samples;

@@ -73,7 +73,8 @@ typedef struct ff_counters {
     uint64_t rays_saved;     /* shadow rays those pairs would have cast */
     uint64_t samples;        /* point pairs evaluated */
     uint64_t pairs_refined;  /* pairs that took more than one batch (--target-error) */
-    uint64_t pairs_capped;   /* of those, stopped by max_samples above the target */
+    uint64_t pairs_capped;   /* pairs whose error was still above the target when they
+                                stopped at max_samples (refined or not) */
     uint64_t rays;           /* shadow rays traced */
     uint64_t rays_occluded;  /* of those, blocked */
     double kernel_seconds;   /* time sampling points and evaluating the kernel */

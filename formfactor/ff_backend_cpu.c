@@ -337,7 +337,6 @@ static void refine_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32_t j
                          cpu_scratch *sc, ff_counters *c)
 {
     const ff_setup *su = &s->setup;
-    uint32_t factor = su->max_samples / su->samples;
     for (uint32_t j = j0; j < j1; j++) {
         uint32_t b = j - j0;
         if (!sc->active[b]) continue;
@@ -350,7 +349,7 @@ static void refine_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32_t j
         uint32_t to = 0, rays_to = 0, planned = first_rays; /* rays a culled pair would have cast */
         int refined = 0;
         while (!rad_ff_error_reached(error, pi, pj, su->target_error) &&
-               rad_ff_next_batch(sums, first, first_rays, factor, &to, &rays_to)) {
+               rad_ff_next_batch(sums, first, first_rays, su->samples, su->max_samples, &to, &rays_to)) {
             double t0 = now_seconds();
             for (uint32_t k0 = sums->samples; k0 < to; k0 += su->samples) { /* g holds `samples` terms */
                 uint32_t k1 = to - k0 < su->samples ? to : k0 + su->samples;

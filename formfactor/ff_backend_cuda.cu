@@ -251,10 +251,10 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
         double error = 0.0;
         double value = rad_ff_estimate(&sums, NEAR, pi, pj, ERRORS ? &error : NULL);
         if (ERRORS && p.target_error > 0.0) { /* --target-error: more batches, as the CPU backend's refine_block */
-            uint32_t to = 0, rays_to = 0, planned = rays, factor = p.max_samples / p.samples;
+            uint32_t to = 0, rays_to = 0, planned = rays;
             int refined = 0;
             while (!rad_ff_error_reached(error, pi, pj, p.target_error) &&
-                   rad_ff_next_batch(&sums, samples, rays, factor, &to, &rays_to)) {
+                   rad_ff_next_batch(&sums, samples, rays, p.samples, p.max_samples, &to, &rays_to)) {
                 warp_samples<NEAR, ERRORS>(p, pi, pj, i, j, sums.samples, to, lane, &sums, &first_x, &first_y,
                                            &first_g);
                 if (traced) {

@@ -2,6 +2,7 @@
 #include "ff_output.h"
 
 #include <signal.h>
+#include <sys/stat.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -39,13 +40,17 @@ static const int guarded_signals[] = {SIGTERM, SIGINT, SIGHUP};
 /* One slot per file open at once (the matrix and its --errors file). */
 #define FF_GUARD_SLOTS 2
 static char g_signal_temp[FF_GUARD_SLOTS][4096];
+/* A slot's name counts only while its flag is set: the name is written
+ * before the flag goes up and the flag goes down before the name changes,
+ * so a handler on any thread sees whole names only. */
+static volatile sig_atomic_t g_signal_valid[FF_GUARD_SLOTS];
 static int g_guarded; /* slots in use */
 static struct sigaction g_previous[sizeof guarded_signals / sizeof guarded_signals[0]];
 
 static void remove_temp_and_die(int sig)
 {
     for (int k = 0; k < FF_GUARD_SLOTS; k++)
-        if (g_signal_temp[k][0]) unlink(g_signal_temp[k]);
+        if (g_signal_valid[k]) unlink(g_signal_temp[k]);
     signal(sig, SIG_DFL);
     raise(sig);
 }
@@ -54,12 +59,11 @@ static void remove_temp_and_die(int sig)
 static int guard_temp(const char *temp)
 {
     int slot = 0;
-    while (slot < FF_GUARD_SLOTS - 1 && g_signal_temp[slot][0]) slot++;
-    sigset_t all, old;
-    sigfillset(&all);
-    sigprocmask(SIG_BLOCK, &all, &old); /* the handler never sees half a name */
+    while (slot < FF_GUARD_SLOTS - 1 && g_signal_valid[slot]) slot++;
+    g_signal_valid[slot] = 0;
     snprintf(g_signal_temp[slot], sizeof g_signal_temp[slot], "%s", temp);
-    sigprocmask(SIG_SETMASK, &old, NULL);
+    __atomic_thread_fence(__ATOMIC_SEQ_CST);
+    g_signal_valid[slot] = 1;
     if (g_guarded++ == 0) {
         struct sigaction sa;
         memset(&sa, 0, sizeof sa);
@@ -73,11 +77,8 @@ static int guard_temp(const char *temp)
 
 static void unguard_temp(int slot)
 {
-    sigset_t all, old;
-    sigfillset(&all);
-    sigprocmask(SIG_BLOCK, &all, &old);
-    g_signal_temp[slot][0] = 0;
-    sigprocmask(SIG_SETMASK, &old, NULL);
+    g_signal_valid[slot] = 0;
+    __atomic_thread_fence(__ATOMIC_SEQ_CST);
     if (--g_guarded == 0)
         for (size_t k = 0; k < sizeof guarded_signals / sizeof guarded_signals[0]; k++)
             sigaction(guarded_signals[k], &g_previous[k], NULL);
@@ -105,7 +106,12 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
         if (format == FF_FORMAT_PAPER) o->info.element_type = RAD_ELEMENT_F64;
         o->layout = rad_ff_layout_of(&o->info);
         snprintf(o->path, sizeof o->path, "%s", path);
-        if (ff_comm_rank(comm) == 0) status = rad_fs_temp_path(path, o->temp, sizeof o->temp);
+        struct stat st;
+        if (ff_comm_rank(comm) == 0 && stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
+            rad_error("%s: is a directory", path);
+            status = RAD_ERR_IO;
+        }
+        if (status == RAD_OK && ff_comm_rank(comm) == 0) status = rad_fs_temp_path(path, o->temp, sizeof o->temp);
         if (status == RAD_OK && ff_comm_rank(comm) == 0 && format == FF_FORMAT_NATIVE)
             status = rad_ff_prologue_encode(&o->info, mesh, &o->prologue, &o->prologue_size);
         /* Sized by the first write (ff_output_write_rows), not by the
@@ -206,7 +212,7 @@ static rad_status write_prologue(ff_output *o, const uint64_t *all_checksums)
     return status;
 }
 
-rad_status ff_output_finish(ff_output *o, rad_status status)
+rad_status ff_output_close(ff_output *o, rad_status status)
 {
     int root = ff_comm_rank(o->comm) == 0;
     uint64_t *all = NULL;
@@ -224,8 +230,16 @@ rad_status ff_output_finish(ff_output *o, rad_status status)
         status = ff_comm_agree(o->comm, local);
     }
     rad_status closed = ff_comm_file_close(o->file);
+    o->file = NULL;
     if (status == RAD_OK) status = closed;
-    if (root) {
+    free(all);
+    return ff_comm_agree(o->comm, status);
+}
+
+rad_status ff_output_commit(ff_output *o, rad_status status)
+{
+    status = ff_comm_agree(o->comm, status);
+    if (ff_comm_rank(o->comm) == 0) {
         if (status == RAD_OK)
             status = rad_fs_commit(o->temp, o->path);
         else
@@ -233,10 +247,14 @@ rad_status ff_output_finish(ff_output *o, rad_status status)
     }
     status = ff_comm_agree(o->comm, status);
     unguard_temp(o->guard_slot);
-    free(all);
     free(o->prologue);
     free(o->convert);
     free(o->row_checksums);
     free(o);
     return status;
+}
+
+rad_status ff_output_finish(ff_output *o, rad_status status)
+{
+    return ff_output_commit(o, ff_output_close(o, status));
 }

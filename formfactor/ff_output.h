@@ -33,7 +33,13 @@ uint32_t ff_output_max_rows(const ff_output *output);
 /* Collective: this rank's rows [row_begin, row_begin + row_count) (row_count may be 0). */
 rad_status ff_output_write_rows(ff_output *output, uint32_t row_begin, uint32_t row_count, const double *rows);
 /* Collective: completes (or, if `status` is not RAD_OK on any rank, discards)
- * the file and frees `output`; returns the agreed status. */
+ * the file and frees `output`; returns the agreed status. The same as
+ * ff_output_commit(output, ff_output_close(output, status)). */
 rad_status ff_output_finish(ff_output *output, rad_status status);
+/* The two halves, for several files that must appear together: close
+ * writes the header and closes the file under its temporary name; commit
+ * renames it (or removes it if `status` failed on any rank) and frees it. */
+rad_status ff_output_close(ff_output *output, rad_status status);
+rad_status ff_output_commit(ff_output *output, rad_status status);
 
 #endif

@@ -1,11 +1,23 @@
 #include "ff_setup.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 
 #include "rad_log.h"
 
-rad_status ff_patches_build(const rad_mesh *mesh, rad_ff_patch **out_patches)
+void ff_frame_centre(const rad_mesh *mesh, double centre[3])
+{
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t v = 0; v < mesh->vertex_count; v++)
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fmin(lo[a], mesh->positions[3 * v + a]);
+            hi[a] = fmax(hi[a], mesh->positions[3 * v + a]);
+        }
+    for (int a = 0; a < 3; a++) centre[a] = mesh->vertex_count ? 0.5 * (lo[a] + hi[a]) : 0.0;
+}
+
+rad_status ff_patches_build(const rad_mesh *mesh, const double centre[3], rad_ff_patch **out_patches)
 {
     rad_ff_patch *out = malloc(sizeof *out * (mesh->patch_count ? mesh->patch_count : 1));
     if (!out) {
@@ -17,7 +29,8 @@ rad_status ff_patches_build(const rad_mesh *mesh, rad_ff_patch **out_patches)
         rad_ff_patch *q = &out[i];
         for (uint32_t k = 0; k < 4; k++) {
             uint32_t v = p->v[k < p->vertex_count ? k : 2];
-            q->p[k] = rad_v3(mesh->positions[3 * v], mesh->positions[3 * v + 1], mesh->positions[3 * v + 2]);
+            q->p[k] = rad_v3(mesh->positions[3 * v] - centre[0], mesh->positions[3 * v + 1] - centre[1],
+                             mesh->positions[3 * v + 2] - centre[2]);
         }
         q->normal = p->normal;
         q->centre = rad_v3(0, 0, 0);
@@ -44,8 +57,8 @@ rad_status ff_patches_build(const rad_mesh *mesh, rad_ff_patch **out_patches)
     return RAD_OK;
 }
 
-rad_status ff_occluders_build(const rad_scene *scene, float **out_triangles, uint32_t **out_triangle_face,
-                              uint32_t *out_triangle_count)
+rad_status ff_occluders_build(const rad_scene *scene, const double centre[3], float **out_triangles,
+                              uint32_t **out_triangle_face, uint32_t *out_triangle_count)
 {
     uint32_t count = 0;
     for (size_t f = 0; f < scene->face_count; f++) count += scene->faces[f].vertex_count - 2;
@@ -63,7 +76,8 @@ rad_status ff_occluders_build(const rad_scene *scene, float **out_triangles, uin
         for (uint32_t k = 1; k + 1 < fc->vertex_count; k++, t++) {
             uint32_t corner[3] = {fc->v[0], fc->v[k], fc->v[k + 1]};
             for (int c = 0; c < 3; c++)
-                for (int a = 0; a < 3; a++) tri[9 * t + 3 * c + a] = (float)scene->positions[3 * corner[c] + a];
+                for (int a = 0; a < 3; a++)
+                    tri[9 * t + 3 * c + a] = (float)(scene->positions[3 * corner[c] + a] - centre[a]);
             face[t] = (uint32_t)f;
         }
     }
@@ -105,6 +119,13 @@ double ff_plane_eps(const rad_mesh *mesh)
     double d2 = 0;
     for (int a = 0; a < 3; a++) d2 += mesh->vertex_count ? (hi[a] - lo[a]) * (hi[a] - lo[a]) : 0;
     return 1e-9 * sqrt(d2);
+}
+
+float ff_cull_margin(const rad_mesh *mesh, const double centre[3], double eps)
+{
+    double largest = 0;
+    for (size_t k = 0; k < 3 * mesh->vertex_count; k++) largest = fmax(largest, fabs(mesh->positions[k] - centre[k % 3]));
+    return (float)fmax(1e4 * eps, 8.0 * FLT_EPSILON * largest);
 }
 
 rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps, int ranks, uint32_t *out_begin)

@@ -10,13 +10,22 @@
 #include "rad_scene.h"
 #include "rad_status.h"
 
-/* One rad_ff_patch per mesh patch (caller frees *out_patches). */
-rad_status ff_patches_build(const rad_mesh *mesh, rad_ff_patch **out_patches);
+/* The frame the backends compute in: the scene moved so that the centre
+ * of its bounding box is the origin. Form factors do not depend on where
+ * the scene is, but float shadow rays do: a room 300 m from the origin
+ * has float end points 0.03 mm apart, and rays that graze a face touching
+ * their patch then clip it (a spurious hit; culling, which reasons in
+ * exact geometry, would then change the bytes). Patches and occluders are
+ * built in this frame; the files keep the scene's own coordinates. */
+void ff_frame_centre(const rad_mesh *mesh, double centre[3]);
 
-/* Occluders: every scene face as float triangles (a quad gives two), with
- * the face each came from. Caller frees both arrays. */
-rad_status ff_occluders_build(const rad_scene *scene, float **out_triangles, uint32_t **out_triangle_face,
-                              uint32_t *out_triangle_count);
+/* One rad_ff_patch per mesh patch, moved by -centre (caller frees *out_patches). */
+rad_status ff_patches_build(const rad_mesh *mesh, const double centre[3], rad_ff_patch **out_patches);
+
+/* Occluders: every scene face as float triangles (a quad gives two),
+ * moved by -centre, with the face each came from. Caller frees both arrays. */
+rad_status ff_occluders_build(const rad_scene *scene, const double centre[3], float **out_triangles,
+                              uint32_t **out_triangle_face, uint32_t *out_triangle_count);
 
 /* Is the scene one convex enclosure seen from inside (every vertex on or
  * in front of every face's plane)? Then no face can come between two
@@ -25,6 +34,12 @@ int ff_scene_is_convex_enclosure(const rad_scene *scene, double eps);
 
 /* Tolerance of the facing test: 1e-9 of the scene's bounding-box diagonal. */
 double ff_plane_eps(const rad_mesh *mesh);
+
+/* How far the culling tests grow a pair's shaft (scene units): shadow rays
+ * run between float end points, and float rounding grows with the size of
+ * the coordinates, not of the scene, so: the larger of 1e4 eps and 8 float
+ * ulps of the largest coordinate (a room 1 km from the origin). */
+float ff_cull_margin(const rad_mesh *mesh, const double centre[3], double eps);
 
 /* Splits rows 0..n-1 into `ranks` contiguous blocks of about equal work:
  * row i costs the number of columns facing it, estimated on a fixed,

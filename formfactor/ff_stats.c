@@ -27,6 +27,8 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
         all.counters.pairs_open_box += s->counters.pairs_open_box;
         all.counters.rays_saved += s->counters.rays_saved;
         all.counters.samples += s->counters.samples;
+        all.counters.rays += s->counters.rays;
+        all.counters.rays_occluded += s->counters.rays_occluded;
         all.counters.pairs_refined += s->counters.pairs_refined;
         all.counters.pairs_capped += s->counters.pairs_capped;
         ff_rows_summary_merge(&all.rows, &s->rows);
@@ -151,7 +153,7 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
                  e->error_count ? 100.0 * e->error_relative_sum / e->error_count : 0.0, e->error_max,
                  e->error_max_row, e->error_max_column, e->error_max_value);
     if (run->target_error > 0)
-        rad_info("--target-error %.3g: %llu pairs took more samples, %llu stopped at %u samples above it",
+        rad_info("--target-error %.3g: %llu pairs took more samples; %llu are still above it at the cap of %u samples",
                  run->target_error, (unsigned long long)c->pairs_refined, (unsigned long long)c->pairs_capped,
                  run->max_samples);
 }

@@ -11,6 +11,7 @@
 #include <getopt.h>
 #include <sched.h>
 #include <inttypes.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -127,6 +128,22 @@ bad:
     return RAD_ERR_USAGE;
 }
 
+/* Do two output names name the same file (`m` and `./m`, `d/../m`)? Their
+ * folders are resolved (they must exist to be written into); the last
+ * parts compared as given. */
+static int same_output(const char *a, const char *b)
+{
+    char dirs[2][PATH_MAX], resolved[2][PATH_MAX];
+    const char *names[2] = {a, b}, *base[2];
+    for (int k = 0; k < 2; k++) {
+        const char *slash = strrchr(names[k], '/');
+        base[k] = slash ? slash + 1 : names[k];
+        snprintf(dirs[k], sizeof dirs[k], "%.*s", slash ? (int)(slash - names[k]) + 1 : 1, slash ? names[k] : ".");
+        if (!realpath(dirs[k], resolved[k])) return !strcmp(a, b);
+    }
+    return !strcmp(resolved[0], resolved[1]) && !strcmp(base[0], base[1]);
+}
+
 static rad_status parse_options(int argc, char **argv, ff_options *o)
 {
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
@@ -240,7 +257,7 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         rad_error("--no-errors and --errors %s contradict each other", o->errors_path);
         return RAD_ERR_USAGE;
     }
-    if (o->errors_path && !strcmp(o->errors_path, o->output)) {
+    if (o->errors_path && same_output(o->errors_path, o->output)) {
         rad_error("--errors %s: the same file as the output", o->errors_path);
         return RAD_ERR_USAGE;
     }
@@ -328,13 +345,23 @@ static rad_status check_limits(const ff_run *run)
     uint64_t n = rad_mesh_count_patches(&run->scene, &mo);
     double dn = (double)n;
     double element = run->opt.format == FF_FORMAT_PAPER || run->opt.element == RAD_ELEMENT_F64 ? 8 : 4;
-    /* File: header, vertex and patch tables, matrix, row checksums. */
-    double file_bytes = RAD_FF_HEADER_BYTES + dn * (sizeof(rad_patch) + 24 + 8) + dn * dn * element;
+    /* File: header, vertex and patch tables, matrix, row checksums; and
+     * the --errors file beside it (float32; assumed on the same file
+     * system). */
+    double tables = RAD_FF_HEADER_BYTES + dn * (sizeof(rad_patch) + 24 + 8);
+    double file_bytes = tables + dn * dn * element + (run->opt.errors_path ? tables + dn * dn * 4 : 0);
     /* Per rank: mesh and its vertex bound, kernel patches, the prologue
      * (rank 0), checksums, and a round of rows (compute_and_write) as
-     * double plus its stored copy. */
+     * double plus its stored copy, for the values and (unless
+     * --no-errors) the standard errors; with --reciprocity on, the rank's
+     * whole block of rows instead of a round (auto only picks it when it
+     * fits in a quarter of the memory). */
+    int errors = !run->opt.no_errors;
     double round_rows = fmax(16, fmin(dn, (double)FF_ROUND_BYTES / (8 * fmax(dn, 1))));
-    double memory = dn * (2 * sizeof(rad_patch) + 2 * 24 + sizeof(rad_ff_patch) + 16) + round_rows * dn * (8 + element);
+    if (run->opt.reciprocity == FF_RECIPROCITY_ON)
+        round_rows = fmax(round_rows, ceil(dn / fmax(ff_comm_size(run->comm), 1)));
+    double memory = dn * (2 * sizeof(rad_patch) + 2 * 24 + sizeof(rad_ff_patch) + 16) +
+                    round_rows * dn * ((8 + element) + errors * (8 + 4));
     char why[4200] = "", have[32];
     if (n > FF_MAX_PATCHES)
         snprintf(why, sizeof why, "more than the format's limit of %" PRIu64 " patches", FF_MAX_PATCHES);
@@ -397,8 +424,11 @@ static rad_status setup(ff_run *run)
     double t0 = ff_comm_time();
     int ranks = ff_comm_size(run->comm);
     uint32_t n = (uint32_t)run->mesh.patch_count;
-    rad_status st = ff_patches_build(&run->mesh, &run->patches);
-    if (st == RAD_OK) st = ff_occluders_build(&run->scene, &run->triangles, &run->triangle_face, &run->triangle_count);
+    double centre[3];
+    ff_frame_centre(&run->mesh, centre);
+    rad_status st = ff_patches_build(&run->mesh, centre, &run->patches);
+    if (st == RAD_OK)
+        st = ff_occluders_build(&run->scene, centre, &run->triangles, &run->triangle_face, &run->triangle_count);
     run->row_begin = calloc((size_t)ranks + 1, sizeof *run->row_begin);
     if (st == RAD_OK && !run->row_begin) st = RAD_ERR_NOMEM;
     double eps = ff_plane_eps(&run->mesh);
@@ -423,7 +453,7 @@ static rad_status setup(ff_run *run)
                        .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
                        .estimator = run->opt.estimator, .target_error = run->opt.target_error,
                        .max_samples = run->opt.max_samples, .errors = run->want_errors, .cull = run->opt.cull, .scene_convex = convex,
-                       .cull_margin = (float)(1e4 * eps), .plane_eps = eps, .pairs_once = run->pairs_once, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
+                       .cull_margin = ff_cull_margin(&run->mesh, centre, eps), .plane_eps = eps, .pairs_once = run->pairs_once, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
                        .progress = ff_comm_rank(run->comm) == 0 ? report_progress : NULL, .progress_user = run};
         st = run->backend->create(&su, &run->backend_state);
     }
@@ -550,8 +580,8 @@ static rad_status compute_once(ff_run *run, const ff_files *files, ff_counters *
         run->progress_base = r0 - begin;
         uint32_t count = end - r0 < per_round ? end - r0 : per_round;
         size_t at = (size_t)(r0 - begin) * n;
-        st = run->backend->compute_rows(run->backend_state, r0, count, block + at,
-                                        run->want_errors ? errors + at : NULL, counters);
+        st = run->backend->compute_rows(run->backend_state, r0, count, block + at, errors ? errors + at : NULL,
+                                        counters);
     }
     st = ff_comm_agree(run->comm, st);
     if (st == RAD_OK) {
@@ -574,7 +604,7 @@ static rad_status compute_once(ff_run *run, const ff_files *files, ff_counters *
             uint32_t count = r0 < end && st == RAD_OK ? (end - r0 < per_round ? end - r0 : per_round) : 0;
             r0 = r0 < end ? r0 : end;
             size_t at = (size_t)(r0 - begin) * n;
-            rad_status w = write_round(run, files, r0, count, block + at, errors + at);
+            rad_status w = write_round(run, files, r0, count, block + at, errors ? errors + at : NULL);
             if (st == RAD_OK) st = w;
         }
     }
@@ -678,9 +708,13 @@ static rad_status run_formfactor(ff_run *run)
     run->stats.io += ff_comm_time() - t0;
     if (st == RAD_OK) st = compute_and_write(run, &files);
     t0 = ff_comm_time();
-    /* The errors file appears only beside its matrix. */
-    if (files.matrix) st = ff_output_finish(files.matrix, st);
-    if (files.errors) st = ff_output_finish(files.errors, st);
+    /* Both files are written and closed before either is renamed; the
+     * errors file is renamed first, so a failure there leaves the old
+     * matrix in place too. (Both destinations were checked up front.) */
+    if (files.matrix) st = ff_output_close(files.matrix, st);
+    if (files.errors) st = ff_output_close(files.errors, st);
+    if (files.errors) st = ff_output_commit(files.errors, st);
+    if (files.matrix) st = ff_output_commit(files.matrix, st);
     run->stats.io += ff_comm_time() - t0;
     run->stats.total = ff_comm_time() - run->start;
     if (st != RAD_OK) return st;

@@ -19,4 +19,13 @@ grep -q "contradict" usage.log || { echo "FAIL: usage message: $(cat usage.log)"
 "$ff" --subdiv 1 --samples 64 -q -o m3 --no-errors --stats m3.json
 grep -q '"standard_error": null' m3.json || { echo "FAIL: --no-errors still summarised errors"; exit 1; }
 cmp m m3 || { echo "FAIL: --no-errors changed the matrix"; exit 1; }
-echo "errors file written, refused by solve; --no-errors leaves the matrix unchanged"
+# Two names for one file, or a folder as the errors file: refused before
+# any work, and no matrix is left behind.
+if "$ff" --subdiv 1 -q -o m4 --errors ./m4 2> same.log; then echo "FAIL: same file accepted"; exit 1; fi
+grep -q "same file" same.log || { echo "FAIL: same-file message: $(cat same.log)"; exit 1; }
+mkdir -p errdir
+if "$ff" --subdiv 1 -q -o m5 --errors errdir 2> dir.log; then echo "FAIL: a folder as the errors file"; exit 1; fi
+grep -q "is a directory" dir.log || { echo "FAIL: folder message: $(cat dir.log)"; exit 1; }
+[ ! -e m4 ] && [ ! -e m5 ] || { echo "FAIL: a matrix was left behind by a failed run"; exit 1; }
+ls | grep -q "tmp-" && { echo "FAIL: temporary files left: $(ls | grep tmp-)"; exit 1; }
+echo "errors file written, refused by solve; --no-errors leaves the matrix unchanged; bad names refused"

@@ -45,6 +45,7 @@ typedef struct fixture {
     rad_ff_patch *patches;
     float *triangles;
     uint32_t *triangle_face, triangle_count;
+    double centre[3]; /* the frame (ff_frame_centre) */
 } fixture;
 
 static int fixture_load(fixture *fx, const char *obj_text, const char *path, int subdiv)
@@ -53,9 +54,11 @@ static int fixture_load(fixture *fx, const char *obj_text, const char *path, int
     g_obj = obj_text;
     rad_scene_options so = {.read_file = obj_text ? read_memory : NULL};
     rad_mesh_options mo = {.subdiv = subdiv};
-    return rad_scene_load_file(path, &so, &fx->scene) == RAD_OK && rad_mesh_build(&fx->scene, &mo, &fx->mesh) == RAD_OK &&
-           ff_patches_build(&fx->mesh, &fx->patches) == RAD_OK &&
-           ff_occluders_build(&fx->scene, &fx->triangles, &fx->triangle_face, &fx->triangle_count) == RAD_OK;
+    if (rad_scene_load_file(path, &so, &fx->scene) != RAD_OK || rad_mesh_build(&fx->scene, &mo, &fx->mesh) != RAD_OK)
+        return 0;
+    ff_frame_centre(&fx->mesh, fx->centre);
+    return ff_patches_build(&fx->mesh, fx->centre, &fx->patches) == RAD_OK &&
+           ff_occluders_build(&fx->scene, fx->centre, &fx->triangles, &fx->triangle_face, &fx->triangle_count) == RAD_OK;
 }
 
 static void fixture_free(fixture *fx)
@@ -87,7 +90,7 @@ static double *compute_full(const ff_backend *backend, const fixture *fx, uint32
                    .triangle_face = fx->triangle_face, .triangle_count = fx->triangle_count, .samples = samples,
                    .shadow_rays = rays, .seed = seed, .estimator = estimator, .plane_eps = ff_plane_eps(&fx->mesh), .threads = 2,
                    .cull = 1, .scene_convex = ff_scene_is_convex_enclosure(&fx->scene, ff_plane_eps(&fx->mesh)),
-                   .cull_margin = (float)(1e4 * ff_plane_eps(&fx->mesh)), .target_error = extra->target_error,
+                   .cull_margin = ff_cull_margin(&fx->mesh, fx->centre, ff_plane_eps(&fx->mesh)), .target_error = extra->target_error,
                    .max_samples = extra->max_samples ? extra->max_samples : 64 * samples,
                    .pairs_once = extra->pairs_once};
     void *state = NULL;

@@ -49,6 +49,12 @@ mpirun --oversubscribe -n 4 "$ff" tiny.obj --samples 64 -q --reciprocity on -o t
 cmp tiny1 tiny4 || { echo "FAIL: 4 ranks on 2 patches differ"; exit 1; }
 echo "identical bytes with --reciprocity on and off"
 
+# The stats add up over ranks: the same counts for 1 and 3 ranks.
+for key in pairs pairs_mirrored rays rays_occluded samples; do
+  [ "$(field on1.json $key)" -eq "$(field on3.json $key)" ] ||
+    { echo "FAIL: stats: $key is $(field on1.json $key) with 1 rank, $(field on3.json $key) with 3"; exit 1; }
+done
+
 # --target-error: the same bytes (matrix and --errors file) for 1 rank
 # computing both entries and 3 ranks computing each pair once.
 "$ff" $args --target-error 0.002 --reciprocity off -o target1 --errors target1.err --stats target1.json

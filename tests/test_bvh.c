@@ -69,8 +69,10 @@ static void compare_with_embree(const char *path, int subdiv)
     uint32_t *face = NULL, tri_count = 0;
     RAD_CHECK(rad_scene_load_file(path, NULL, &scene) == RAD_OK);
     RAD_CHECK(rad_mesh_build(&scene, &mo, &mesh) == RAD_OK);
-    RAD_CHECK(ff_patches_build(&mesh, &patches) == RAD_OK);
-    RAD_CHECK(ff_occluders_build(&scene, &tris, &face, &tri_count) == RAD_OK);
+    double centre[3];
+    ff_frame_centre(&mesh, centre);
+    RAD_CHECK(ff_patches_build(&mesh, centre, &patches) == RAD_OK);
+    RAD_CHECK(ff_occluders_build(&scene, centre, &tris, &face, &tri_count) == RAD_OK);
     ff_bvh bvh;
     RAD_CHECK(ff_bvh_build(tris, face, tri_count, &bvh) == RAD_OK);
 
@@ -97,7 +99,7 @@ static void compare_with_embree(const char *path, int subdiv)
 
     enum { SEGMENTS = 200000 };
     int blocked = 0, differ = 0, culled = 0, culled_blocked = 0;
-    float margin = (float)(1e4 * ff_plane_eps(&mesh));
+    float margin = ff_cull_margin(&mesh, centre, ff_plane_eps(&mesh));
     uint32_t n = (uint32_t)mesh.patch_count;
     for (uint32_t s = 0; s < SEGMENTS; s++) {
         rad_u32x4 ctr = {{s, 99, 0, 0}};
