@@ -83,10 +83,24 @@ static void skip_own_faces(const struct RTCFilterFunctionNArguments *args)
     }
 }
 
+/* Embree's error codes in words (rtcore_device.h). */
+static const char *embree_error_name(enum RTCError code)
+{
+    switch (code) {
+    case RTC_ERROR_NONE: return "no error";
+    case RTC_ERROR_INVALID_ARGUMENT: return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION: return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY: return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU: return "unsupported CPU";
+    case RTC_ERROR_CANCELLED: return "cancelled";
+    default: return "unknown error";
+    }
+}
+
 static void embree_error(void *user, enum RTCError code, const char *message)
 {
     (void)user;
-    rad_error("embree: error %d: %s", (int)code, message ? message : "");
+    rad_error("embree: %s (error %d): %s", embree_error_name(code), (int)code, message ? message : "");
 }
 
 static rad_status cpu_create(const ff_setup *setup, void **out_state)
@@ -96,7 +110,8 @@ static rad_status cpu_create(const ff_setup *setup, void **out_state)
     s->setup = *setup;
     s->device = rtcNewDevice(NULL);
     if (!s->device) {
-        rad_error("embree: cannot create a device (error %d)", (int)rtcGetDeviceError(NULL));
+        enum RTCError code = rtcGetDeviceError(NULL);
+        rad_error("embree: cannot create a device: %s (error %d)", embree_error_name(code), (int)code);
         free(s);
         return RAD_ERR_BACKEND;
     }
