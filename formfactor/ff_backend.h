@@ -88,7 +88,7 @@ typedef struct ff_backend {
     rad_status (*create)(const ff_setup *setup, void **out_state);
     /* Rows [row_begin, row_begin + row_count) into out (row_count * N
      * doubles), as couplings c_ij = F_ij / A_j (rad_ff_coupling_far; the
-     * driver scales them into form factors with ff_rows_scale), and, when
+     * driver scales them into form factors with ff_rows_finish), and, when
      * `errors` is not NULL, their standard errors (rad_ff_estimate) into it. */
     rad_status (*compute_rows)(void *state, uint32_t row_begin, uint32_t row_count, double *out, double *errors,
                                ff_counters *counters);

@@ -222,14 +222,21 @@ static inline RAD_HD void ff_shaft_hull(ff_shaft *s, const rad_vec3 *p, int coun
             }
 }
 
+/* The vertices of both patches (at most 8) into points; returns how many. */
+static inline RAD_HD int ff_pair_vertices(const rad_ff_patch *pi, const rad_ff_patch *pj, rad_vec3 points[8])
+{
+    int count = 0;
+    for (uint32_t k = 0; k < pi->vertex_count; k++) points[count++] = pi->p[k];
+    for (uint32_t k = 0; k < pj->vertex_count; k++) points[count++] = pj->p[k];
+    return count;
+}
+
 /* The shaft of pair (pi, pj); margin in scene units. */
 static inline RAD_HD void ff_shaft_build(const rad_ff_patch *pi, const rad_ff_patch *pj, float margin, ff_shaft *s)
 {
     rad_vec3 points[8];
-    int count = 0;
-    for (uint32_t k = 0; k < pi->vertex_count; k++) points[count++] = pi->p[k];
-    for (uint32_t k = 0; k < pj->vertex_count; k++) points[count++] = pj->p[k];
-    for (int a = 0; a < 3; a++) s->lo[a] = s->hi[a] = (float)(a == 0 ? points[0].x : a == 1 ? points[0].y : points[0].z);
+    int count = ff_pair_vertices(pi, pj, points);
+    for (int a = 0; a < 3; a++) s->lo[a] = INFINITY, s->hi[a] = -INFINITY;
     double extent = 0;
     for (int k = 0; k < count; k++) {
         float v[3] = {(float)points[k].x, (float)points[k].y, (float)points[k].z};
@@ -250,14 +257,12 @@ static inline RAD_HD void ff_shaft_build(const rad_ff_patch *pi, const rad_ff_pa
 }
 
 /* The hull planes, once a triangle inside the box makes them worth it
- * (building them costs about what a few shadow rays do). */
+ * (building them costs about what 100 shadow rays do). */
 static inline RAD_HD void ff_shaft_need_hull(ff_shaft *s, const rad_ff_patch *pi, const rad_ff_patch *pj)
 {
     if (s->plane_count >= 0) return;
     rad_vec3 points[8];
-    int count = 0;
-    for (uint32_t k = 0; k < pi->vertex_count; k++) points[count++] = pi->p[k];
-    for (uint32_t k = 0; k < pj->vertex_count; k++) points[count++] = pj->p[k];
+    int count = ff_pair_vertices(pi, pj, points);
     ff_shaft_hull(s, points, count, 1e-9 * s->extent, s->margin);
 }
 

@@ -253,8 +253,3 @@ rad_status ff_output_commit(ff_output *o, rad_status status)
     free(o);
     return status;
 }
-
-rad_status ff_output_finish(ff_output *o, rad_status status)
-{
-    return ff_output_commit(o, ff_output_close(o, status));
-}

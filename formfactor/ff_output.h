@@ -3,7 +3,8 @@
  *     ff_output *out;
  *     ff_output_open(comm, path, FF_FORMAT_NATIVE, &info, &mesh, &out);   // collective
  *     for each round: ff_output_write_rows(out, row0, rows, data);         // collective
- *     status = ff_output_finish(out, status);                              // collective
+ *     status = ff_output_close(out, status);                               // collective
+ *     status = ff_output_commit(out, status);                              // collective
  *
  * Rank 0 picks a temporary name beside `path`; every rank writes its row
  * blocks there with MPI_File_write_at_all at offsets computed from the
@@ -32,13 +33,10 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
 uint32_t ff_output_max_rows(const ff_output *output);
 /* Collective: this rank's rows [row_begin, row_begin + row_count) (row_count may be 0). */
 rad_status ff_output_write_rows(ff_output *output, uint32_t row_begin, uint32_t row_count, const double *rows);
-/* Collective: completes (or, if `status` is not RAD_OK on any rank, discards)
- * the file and frees `output`; returns the agreed status. The same as
- * ff_output_commit(output, ff_output_close(output, status)). */
-rad_status ff_output_finish(ff_output *output, rad_status status);
-/* The two halves, for several files that must appear together: close
- * writes the header and closes the file under its temporary name; commit
- * renames it (or removes it if `status` failed on any rank) and frees it. */
+/* Collective, in two steps so that several files can appear together:
+ * close writes the header and closes the file under its temporary name;
+ * commit renames it to its final name, or removes it if `status` is not
+ * RAD_OK on any rank, and frees `output`. Both return the agreed status. */
 rad_status ff_output_close(ff_output *output, rad_status status);
 rad_status ff_output_commit(ff_output *output, rad_status status);
 

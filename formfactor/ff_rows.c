@@ -12,14 +12,6 @@
 /* Tile edge of the in-block transpose, for the cache. */
 #define FF_ROWS_TILE 64u
 
-void ff_rows_scale(const rad_ff_patch *patches, uint32_t n, uint32_t row_count, double *rows)
-{
-    for (uint32_t r = 0; r < row_count; r++) {
-        double *row = rows + (size_t)r * n;
-        for (uint32_t j = 0; j < n; j++) row[j] *= patches[j].area;
-    }
-}
-
 void ff_rows_summary_merge(ff_rows_summary *into, const ff_rows_summary *from)
 {
     if (from->rows > 0) {
@@ -188,7 +180,7 @@ rad_status ff_rows_exchange(ff_comm *comm, const uint32_t *row_begin, uint32_t n
                     block[(size_t)(in.j - begin) * n + in.i] = recv[k];
             out_left -= send_count;
             in_left -= recv_count;
-            *mirrored += recv_count;
+            if (mirrored) *mirrored += recv_count;
             if (local != RAD_OK) st = local;
         }
         st = ff_comm_agree(comm, st);

@@ -2,14 +2,14 @@
  *
  * Backends return couplings c_ij = F_ij / A_j, symmetric to the bit
  * (rad_ff_kernel.h). With every pair computed by both of its rows, a
- * round of rows only needs ff_rows_scale. With each unordered pair
+ * round of rows only needs ff_rows_finish. With each unordered pair
  * computed once (ff_setup.pairs_once), row i holds the entries that
  * rad_ff_row_computes(i, j) gives it, and the others come from row j:
  *
  *     compute the rank's rows [begin, end) into one block (rows x N)
  *     ff_rows_mirror_local(n, begin, end, block)       pairs inside the block
  *     ff_rows_exchange(comm, row_begin, n, block, ...)  pairs with other ranks
- *     ff_rows_scale(patches, n, end - begin, block)    couplings -> F
+ *     ff_rows_finish(patches, n, begin, ..., block, ...) couplings -> F, stats
  *
  * The copied entry is the very double the other row computed, so the
  * matrix is byte-identical to computing every entry (tested).
@@ -22,9 +22,6 @@
 #include "ff_comm.h"
 #include "rad_ff_kernel.h"
 #include "rad_status.h"
-
-/* F_ij = c_ij * A_j for rows [0, row_count) of `rows` (row_count x n). */
-void ff_rows_scale(const rad_ff_patch *patches, uint32_t n, uint32_t row_count, double *rows);
 
 /* What finished rows hold, for the stats: row sums, and the standard
  * errors of the entries F_ij > 0 (error_count = 0 when none were computed). */
@@ -40,7 +37,7 @@ typedef struct ff_rows_summary {
 void ff_rows_summary_merge(ff_rows_summary *into, const ff_rows_summary *from);
 
 /* Scales rows [row_begin, row_begin + row_count) held in `rows` and, if not
- * NULL, their standard errors into form factors (ff_rows_scale) and adds
+ * NULL, their standard errors into form factors (F_ij = c_ij A_j) and adds
  * them to *summary; one pass over the memory, `threads` OpenMP threads. */
 void ff_rows_finish(const rad_ff_patch *patches, uint32_t n, uint32_t row_begin, uint32_t row_count, double *rows,
                     double *errors, int threads, ff_rows_summary *summary);
@@ -53,7 +50,8 @@ uint64_t ff_rows_mirror_local(uint32_t n, uint32_t begin, uint32_t end, double *
 /* Collective: fills the entries of this rank's rows that rows of other
  * ranks computed, exchanging them pairwise in pieces of at most
  * FF_COMM_MAX_DOUBLES. row_begin has ranks + 1 entries (rank r owns
- * [row_begin[r], row_begin[r + 1])). Adds the entries received to *mirrored. */
+ * [row_begin[r], row_begin[r + 1])). Adds the entries received to
+ * *mirrored (if not NULL). */
 rad_status ff_rows_exchange(ff_comm *comm, const uint32_t *row_begin, uint32_t n, double *block, uint64_t *mirrored);
 
 #endif

@@ -437,14 +437,15 @@ static rad_status setup(ff_run *run)
     /* Collective, so every rank asks, even one that failed above. */
     int rank = ff_comm_rank(run->comm);
     run->want_errors = !run->opt.no_errors;
-    double block_bytes = st == RAD_OK ? (1.0 + run->want_errors) * (run->row_begin[rank + 1] - run->row_begin[rank]) * n * sizeof(double) : 0;
+    double rows_bytes = st == RAD_OK ? (double)(run->row_begin[rank + 1] - run->row_begin[rank]) * n * sizeof(double) : 0;
+    double block_bytes = (1 + run->want_errors) * rows_bytes; /* values and errors */
     /* auto: on where it pays. On the GPU a block beyond the page-locked
      * limit would come back by pageable copies (N = 47 104: 13.9 s, or 8 s
      * to page-lock it), more than the 1.4 s of kernels saved, so there the
      * rows stream (docs/performance.md). */
     int gpu = run->backend == &ff_backend_cuda;
     uint64_t too_big = ff_comm_max_u64(run->comm, block_bytes > memory_per_rank(run) / 4 ||
-                                                      (gpu && block_bytes / (1 + run->want_errors) > FF_BACKEND_BUFFER_MAX));
+                                                      (gpu && rows_bytes > FF_BACKEND_BUFFER_MAX));
     run->pairs_once = run->opt.reciprocity == FF_RECIPROCITY_ON || (run->opt.reciprocity == FF_RECIPROCITY_AUTO && !too_big);
     run->stats.threads = default_threads(run);
     if (st == RAD_OK) {
@@ -473,6 +474,15 @@ static uint32_t rows_per_round(const ff_run *run, const ff_output *out)
     return per_round > by_memory ? (uint32_t)by_memory : per_round;
 }
 
+/* Round `round` of a rank's rows [begin, end): its first row (end once the
+ * rows are used up) and, returned, its row count (0 then). */
+static uint32_t round_rows(uint32_t begin, uint32_t end, uint32_t per_round, uint64_t round, uint32_t *r0)
+{
+    uint64_t first = begin + round * per_round;
+    *r0 = first < end ? (uint32_t)first : end;
+    return end - *r0 < per_round ? end - *r0 : per_round;
+}
+
 /* The files of a run: the matrix, and its standard errors on request. */
 typedef struct ff_files {
     ff_output *matrix;
@@ -493,10 +503,6 @@ static rad_status write_round(ff_run *run, const ff_files *files, uint32_t r0, u
     return st;
 }
 
-/* Row buffers of `count` doubles from the backend, for the values and (if
- * wanted) the standard errors; collective: fails on every rank if it fails
- * on one. */
-
 static double *alloc_buffer(ff_run *run, size_t count)
 {
     if (count == 0) count = 1;
@@ -513,6 +519,8 @@ static void free_buffer(ff_run *run, size_t count, double *buffer)
         free(buffer);
 }
 
+/* Row buffers of `count` doubles, for the values and (if wanted) the
+ * standard errors; collective: fails on every rank if it fails on one. */
 static rad_status alloc_buffers(ff_run *run, size_t count, double **rows, double **errors)
 {
     *rows = alloc_buffer(run, count);
@@ -542,16 +550,14 @@ static rad_status compute_streamed(ff_run *run, const ff_files *files, ff_counte
         return st;
     }
     for (uint64_t round = 0; round < rounds; round++) {
-        uint32_t r0 = begin + (uint32_t)(round * per_round);
-        uint32_t count = r0 < end ? (end - r0 < per_round ? end - r0 : per_round) : 0;
+        uint32_t r0, count = round_rows(begin, end, per_round, round, &r0);
         if (st == RAD_OK && count > 0) {
             run->progress_base = r0 - begin;
-            st = run->backend->compute_rows(run->backend_state, r0, count, rows, run->want_errors ? errors : NULL,
-                                            counters);
+            st = run->backend->compute_rows(run->backend_state, r0, count, rows, errors, counters);
         }
         if (st == RAD_OK) ff_rows_finish(run->patches, n, r0, count, rows, errors, run->stats.threads, &run->stats.rows);
         /* A failed rank still joins the collective write, with no rows. */
-        rad_status w = write_round(run, files, r0 < end ? r0 : end, st == RAD_OK ? count : 0, rows, errors);
+        rad_status w = write_round(run, files, r0, st == RAD_OK ? count : 0, rows, errors);
         if (st == RAD_OK) st = w;
     }
     free_buffer(run, (size_t)per_round * n, rows);
@@ -576,9 +582,9 @@ static rad_status compute_once(ff_run *run, const ff_files *files, ff_counters *
         rad_error("out of memory for this rank's %u rows of %u form factors (try --reciprocity off)", end - begin, n);
         return st;
     }
-    for (uint32_t r0 = begin; st == RAD_OK && r0 < end; r0 += per_round) {
+    uint32_t r0, count;
+    for (uint64_t round = 0; st == RAD_OK && (count = round_rows(begin, end, per_round, round, &r0)) > 0; round++) {
         run->progress_base = r0 - begin;
-        uint32_t count = end - r0 < per_round ? end - r0 : per_round;
         size_t at = (size_t)(r0 - begin) * n;
         st = run->backend->compute_rows(run->backend_state, r0, count, block + at, errors ? errors + at : NULL,
                                         counters);
@@ -588,23 +594,19 @@ static rad_status compute_once(ff_run *run, const ff_files *files, ff_counters *
         double t0 = ff_comm_time();
         counters->pairs_mirrored += ff_rows_mirror_local(n, begin, end, block, run->stats.threads);
         st = ff_rows_exchange(run->comm, run->row_begin, n, block, &counters->pairs_mirrored);
-        if (run->want_errors) {
-            uint64_t again = 0;
+        if (errors) {
             ff_rows_mirror_local(n, begin, end, errors, run->stats.threads);
-            if (st == RAD_OK) st = ff_rows_exchange(run->comm, run->row_begin, n, errors, &again);
+            if (st == RAD_OK) st = ff_rows_exchange(run->comm, run->row_begin, n, errors, NULL);
         }
         run->stats.mirror = ff_comm_time() - t0;
     }
     if (st == RAD_OK) {
-        ff_rows_finish(run->patches, n, begin, end - begin, block, run->want_errors ? errors : NULL,
-                       run->stats.threads, &run->stats.rows);
+        ff_rows_finish(run->patches, n, begin, end - begin, block, errors, run->stats.threads, &run->stats.rows);
         /* Every rank joins every collective write, with no rows after a failure. */
         for (uint64_t round = 0; round < rounds; round++) {
-            uint32_t r0 = begin + (uint32_t)(round * per_round);
-            uint32_t count = r0 < end && st == RAD_OK ? (end - r0 < per_round ? end - r0 : per_round) : 0;
-            r0 = r0 < end ? r0 : end;
+            count = round_rows(begin, end, per_round, round, &r0);
             size_t at = (size_t)(r0 - begin) * n;
-            rad_status w = write_round(run, files, r0, count, block + at, errors ? errors + at : NULL);
+            rad_status w = write_round(run, files, r0, st == RAD_OK ? count : 0, block + at, errors ? errors + at : NULL);
             if (st == RAD_OK) st = w;
         }
     }

@@ -70,6 +70,15 @@ static void fixture_free(fixture *fx)
     rad_scene_free(&fx->scene);
 }
 
+/* Backend couplings of all N rows (and their errors, if not NULL) into
+ * form factors, as the driver does (ff_rows_finish). */
+static void to_form_factors(const fixture *fx, double *f, double *errors)
+{
+    uint32_t n = (uint32_t)fx->mesh.patch_count;
+    ff_rows_summary unused = {0};
+    ff_rows_finish(fx->patches, n, 0, n, f, errors, 1, &unused);
+}
+
 /* Settings beyond the common ones; zero = the defaults. */
 typedef struct compute_extra {
     double target_error;
@@ -113,11 +122,8 @@ static double *compute_full(const ff_backend *backend, const fixture *fx, uint32
         ff_rows_mirror_local(n, 0, n, f, 2);
         if (e) ff_rows_mirror_local(n, 0, n, e, 2);
     }
-    ff_rows_scale(fx->patches, n, n, f); /* couplings -> form factors */
-    if (e) {
-        ff_rows_scale(fx->patches, n, n, e);
-        *extra->errors = e;
-    }
+    to_form_factors(fx, f, e);
+    if (e) *extra->errors = e;
     return f;
 }
 

@@ -39,8 +39,7 @@ static int estimate(const fixture *fx, rad_estimator_id estimator, uint32_t samp
         ff_backend_cpu.destroy(state);
     }
     if (ok) {
-        ff_rows_scale(fx->patches, n, n, f);
-        ff_rows_scale(fx->patches, n, n, e);
+        to_form_factors(fx, f, e);
         *f01 = f[1];
         *se01 = e[1];
         RAD_CHECK(isfinite(e[1]) && e[1] >= 0 && e[0] == 0);

@@ -129,27 +129,38 @@ static void check_closed_box(void)
     fixture_free(&fx);
 }
 
+/* The closure of a scene's matrix at the product's default (auto, 512
+ * samples, 32 shadow rays), with its counters and patch count. */
+static int default_closure(const char *path, int subdiv, closure *m, ff_counters *c, size_t *patches)
+{
+    fixture fx;
+    RAD_CHECK(fixture_load(&fx, NULL, path, subdiv));
+    double *f = compute_estimator(&ff_backend_cpu, &fx, 512, 32, 1, RAD_ESTIMATOR_AUTO, c);
+    int ok = f != NULL;
+    RAD_CHECK(ok);
+    if (ok) *m = measure_closure(&fx, f);
+    *patches = fx.mesh.patch_count;
+    free(f);
+    fixture_free(&fx);
+    return ok;
+}
+
 /* The product's default (auto, 512 samples) on the closed box at --subdiv
  * 2: near pairs (shared edges) no longer dominate the error. Every row sums
  * to 1 within 6% (measured 4.1%; plain point pairs at 512: 66%), the area
  * mean within 1%, reciprocity exact, and some pairs took the near path. */
 static void check_near_closed_box(void)
 {
-    fixture fx;
-    RAD_CHECK(fixture_load(&fx, NULL, RAD_SCENES "/closed_box.obj", 2));
+    closure m;
     ff_counters c = {0};
-    double *f = compute_estimator(&ff_backend_cpu, &fx, 512, 32, 1, RAD_ESTIMATOR_AUTO, &c);
-    RAD_CHECK(f != NULL);
-    if (!f) return;
-    closure m = measure_closure(&fx, f);
-    fprintf(stderr, "closed box, 96 patches, auto at K=512: worst row |sum-1| %.4f, mean %.5f, %llu near pairs\n",
+    size_t n;
+    if (!default_closure(RAD_SCENES "/closed_box.obj", 2, &m, &c, &n)) return;
+    fprintf(stderr, "closed box, %zu patches, auto at K=512: worst row |sum-1| %.4f, mean %.5f, %llu near pairs\n", n,
             m.worst_row, m.mean_row, (unsigned long long)c.pairs_near);
     RAD_CHECK(m.worst_row < 0.06);
     RAD_CHECK_NEAR(m.mean_row, 1.0, 0.01);
     RAD_CHECK(m.reciprocity <= 1e-12 && m.negative == 0);
     RAD_CHECK(c.pairs_near > 0 && c.pairs_near < c.pairs - c.pairs_culled);
-    free(f);
-    fixture_free(&fx);
 }
 
 /* The paper's scene is closed (the sphere inside the box): with occlusion,
@@ -161,21 +172,16 @@ static void check_near_closed_box(void)
  * within 10 % of 1 (measured 5.8 %), the area-weighted mean within 1 %. */
 static void check_occluded_closure(void)
 {
-    fixture fx;
-    RAD_CHECK(fixture_load(&fx, NULL, RAD_SCENES "/cornell_sphere.obj", 1));
+    closure m;
     ff_counters c = {0};
-    double *f = compute_estimator(&ff_backend_cpu, &fx, 512, 32, 1, RAD_ESTIMATOR_AUTO, &c);
-    RAD_CHECK(f != NULL);
-    if (!f) return;
-    closure m = measure_closure(&fx, f);
+    size_t n;
+    if (!default_closure(RAD_SCENES "/cornell_sphere.obj", 1, &m, &c, &n)) return;
     fprintf(stderr, "cornell_sphere (closed, occluded), %zu patches, auto 512/32: worst row |sum-1| %.4f, mean %.5f, "
-            "%llu near pairs, %llu rays occluded\n", fx.mesh.patch_count, m.worst_row, m.mean_row,
+            "%llu near pairs, %llu rays occluded\n", n, m.worst_row, m.mean_row,
             (unsigned long long)c.pairs_near, (unsigned long long)c.rays_occluded);
     RAD_CHECK(c.pairs_near > 0 && c.rays_occluded > 0);
     RAD_CHECK(m.worst_row < 0.10);
     RAD_CHECK_NEAR(m.mean_row, 1.0, 0.01);
-    free(f);
-    fixture_free(&fx);
 }
 
 /* Rows computed in any split, any thread count, give identical bytes. */
@@ -196,7 +202,7 @@ static void check_split_invariance(void)
     RAD_CHECK(ff_backend_cpu.compute_rows(state, 0, cut, parts, NULL, &c) == RAD_OK);
     RAD_CHECK(ff_backend_cpu.compute_rows(state, cut, n - cut, parts + (size_t)cut * n, NULL, &c) == RAD_OK);
     ff_backend_cpu.destroy(state);
-    ff_rows_scale(fx.patches, n, n, parts);
+    to_form_factors(&fx, parts, NULL);
     RAD_CHECK(whole && memcmp(whole, parts, sizeof(double) * n * n) == 0);
     free(whole);
     free(parts);
@@ -224,7 +230,7 @@ static void check_pairs_once(const char *path, rad_estimator_id estimator)
     RAD_CHECK(ff_backend_cpu.compute_rows(state, 0, n, once, NULL, &c) == RAD_OK);
     ff_backend_cpu.destroy(state);
     uint64_t mirrored = ff_rows_mirror_local(n, 0, n, once, 2);
-    ff_rows_scale(fx.patches, n, n, once);
+    to_form_factors(&fx, once, NULL);
     RAD_CHECK(whole && memcmp(whole, once, sizeof(double) * n * n) == 0);
     /* Every entry is computed or copied; N diagonal entries + one of each pair computed. */
     RAD_CHECK(c.pairs + mirrored == (uint64_t)n * n);

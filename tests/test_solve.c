@@ -7,7 +7,6 @@
  * new directory under /tmp); the CLI tests in CMakeLists.txt reuse them.
  */
 #define _POSIX_C_SOURCE 200809L
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -465,19 +464,7 @@ static void test_radiosity_file(void)
 
 int main(int argc, char **argv)
 {
-    if (argc > 1) {
-        snprintf(g_dir, sizeof g_dir, "%s", argv[1]);
-        if (mkdir(g_dir, 0777) != 0 && errno != EEXIST) {
-            perror(g_dir);
-            return 1;
-        }
-    } else {
-        snprintf(g_dir, sizeof g_dir, "/tmp/test_solve.XXXXXX");
-        if (!mkdtemp(g_dir)) {
-            perror("mkdtemp");
-            return 1;
-        }
-    }
+    if (!solve_fx_work_dir(argc, argv, "test_solve", g_dir, sizeof g_dir)) return 1;
     rad_log_set_level(RAD_LOG_WARN);
     test_exact_form_factors();
     test_furnace();

@@ -1,10 +1,14 @@
 /* test_solve_fixtures.c - exact synthetic form-factor matrices (see the
  * header). */
+#define _POSIX_C_SOURCE 200809L /* mkdtemp */
 #include "test_solve_fixtures.h"
 
+#include <errno.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 static double coord(rad_vec3 p, int axis) { return axis == 0 ? p.x : axis == 1 ? p.y : p.z; }
 
@@ -340,4 +344,22 @@ rad_status solve_fx_write(const char *path, const solve_fx_scene *scene, rad_ele
     info.scene_fingerprint = 0x5eed;
     strcpy(info.scene_name, "test_solve fixture");
     return rad_ff_write_serial(path, &info, &scene->mesh, scene->F);
+}
+
+int solve_fx_work_dir(int argc, char **argv, const char *name, char *dir, size_t size)
+{
+    if (argc > 1) {
+        snprintf(dir, size, "%s", argv[1]);
+        if (mkdir(dir, 0777) != 0 && errno != EEXIST) {
+            perror(dir);
+            return 0;
+        }
+    } else {
+        snprintf(dir, size, "/tmp/%s.XXXXXX", name);
+        if (!mkdtemp(dir)) {
+            perror("mkdtemp");
+            return 0;
+        }
+    }
+    return 1;
 }

@@ -26,13 +26,11 @@
  * directory under /tmp).
  */
 #define _POSIX_C_SOURCE 200809L
-#include <errno.h>
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "rad_rfile.h"
 #include "rad_test.h"
@@ -404,19 +402,7 @@ static void test_scenes(void)
 
 int main(int argc, char **argv)
 {
-    if (argc > 1) {
-        snprintf(g_dir, sizeof g_dir, "%s", argv[1]);
-        if (mkdir(g_dir, 0777) != 0 && errno != EEXIST) {
-            perror(g_dir);
-            return 1;
-        }
-    } else {
-        snprintf(g_dir, sizeof g_dir, "/tmp/test_solve_hard.XXXXXX");
-        if (!mkdtemp(g_dir)) {
-            perror("mkdtemp");
-            return 1;
-        }
-    }
+    if (!solve_fx_work_dir(argc, argv, "test_solve_hard", g_dir, sizeof g_dir)) return 1;
     rad_log_set_level(RAD_LOG_WARN);
     test_direct_solve();
     test_scenes();

@@ -343,13 +343,20 @@ def aggregate_closed(runs, backends):
                 prim = [r for r in sel if r["backend"] == backends[0]]
                 row = {"case": case, "estimator": est, "K": k, "seeds": len(prim),
                        "rms_error": math.sqrt(np.mean([r["error"] ** 2 for r in prim])), "time": {}}
-                for b in backends:
-                    rb = [r for r in sel if r["backend"] == b]
-                    if rb:
-                        row["time"][b] = {"compute_s": float(np.median([r["compute_s"] for r in rb])),
-                                          "total_s": float(np.median([r["total_s"] for r in rb]))}
+                row["time"] = median_times(sel, backends)
                 rows.append(row)
     return rows
+
+
+def median_times(runs, backends):
+    """Per backend that has runs among `runs`: median compute and total seconds."""
+    times = {}
+    for b in backends:
+        rb = [r for r in runs if r["backend"] == b]
+        if rb:
+            times[b] = {"compute_s": float(np.median([r["compute_s"] for r in rb])),
+                        "total_s": float(np.median([r["total_s"] for r in rb]))}
+    return times
 
 
 # ------------------------------------------------------ leg 2: reference ---
@@ -555,11 +562,7 @@ def aggregate_sphere(runs, backends, cfgs):
                 notes.append(f"{len(unconv)} of {len(prim)} seeds: solve did not converge")
             if notes:
                 row["image_note"] = "; ".join(notes)
-            for b in backends:
-                rb = [r for r in sel if r["backend"] == b]
-                if rb:
-                    row["time"][b] = {"compute_s": float(np.median([r["compute_s"] for r in rb])),
-                                      "total_s": float(np.median([r["total_s"] for r in rb]))}
+            row["time"] = median_times(sel, backends)
             rows.append(row)
     return rows
 
