@@ -96,13 +96,18 @@ kill)
   done
   # Single processes: SIGKILL at several moments; whatever was reached,
   # the old file stays or (run finished first) the new one is whole.
+  "$solve" -q --method jacobi mid.ff -o whole.rad || fail "setup: solve mid.ff"
   for delay in 0.05 0.1 0.2 0.4; do
     cp good.rad out.rad
     "$solve" --method jacobi mid.ff -o out.rad > err.txt 2>&1 &
     pid=$!; sleep $delay; kill -KILL $pid 2>/dev/null; wait $pid; rc=$?
     if [ $rc -eq 0 ]; then
-      "$solve" -q --method jacobi mid.ff -o again.rad && cmp -s out.rad again.rad || fail "solve: finished file differs"
+      cmp -s out.rad whole.rad || fail "solve: finished file differs"
       echo "ok: solve finished within ${delay} s; its file is whole"
+    elif [ $rc -eq 137 ] && cmp -s out.rad whole.rad; then
+      # Killed between the rename and the exit: the new file is whole.
+      expect_untouched "solve, SIGKILL after ${delay} s (after its rename)" out.rad whole.rad
+      echo "ok: solve killed after its rename at ${delay} s; its file is whole"
     else
       [ $rc -eq 137 ] || fail "solve: exit $rc, expected death by SIGKILL: $(cat err.txt)"
       expect_untouched "solve, SIGKILL after ${delay} s" out.rad good.rad
