@@ -21,7 +21,7 @@
 /* Rows of the reciprocity check handled together, for cache reuse. */
 #define CG_TILE 64
 
-double solve_cg_reciprocity(const solve_run *run)
+solve_cg_check solve_cg_check_matrix(const solve_run *run)
 {
     const size_t n = run->n;
     const double *F = run->F, *A = run->area, *rho = run->rho;
@@ -42,19 +42,47 @@ double solve_cg_reciprocity(const solve_run *run)
             }
         }
     }
-    double worst = 0;
+    solve_cg_check c = {.margin = INFINITY};
     for (size_t i = 0; i < n; i++) {
         if (rho[i] == 0) continue;
         double active_sum = 0; /* row sum over reflecting columns */
         const double *row = F + i * n;
         for (size_t j = 0; j < n; j++)
             if (rho[j] != 0) active_sum += row[j];
-        double margin = 1 / rho[i] - active_sum;
-        if (!(margin > 0)) return INFINITY;
-        double ratio = delta[i] / (2 * A[i]) / margin;
-        if (ratio > worst) worst = ratio;
+        double margin = 1 / rho[i] - active_sum, skew = delta[i] / (2 * A[i]);
+        if (margin < c.margin) {
+            c.margin = margin;
+            c.margin_row = i;
+        }
+        if (!(margin > 0)) {
+            c.no_margin_count++;
+        } else if (skew / margin > c.ratio) {
+            c.ratio = skew / margin;
+            c.ratio_row = i;
+            c.ratio_delta = skew;
+            c.ratio_margin = margin;
+        }
     }
-    return worst;
+    return c;
+}
+
+int solve_cg_check_passes(const solve_cg_check *check)
+{
+    return check->no_margin_count == 0 && check->ratio <= SOLVE_CG_RECIPROCITY;
+}
+
+void solve_cg_check_describe(const solve_cg_check *check, char *why, size_t why_size)
+{
+    if (check->no_margin_count)
+        snprintf(why, why_size,
+                 "no diagonal-dominance margin for CG: %zu rows have m_i = 1/rho_i - sum_j F_ij <= 0 (smallest: "
+                 "row %zu, m = %.3g), so K need not be positive definite (see docs/solve.md)",
+                 check->no_margin_count, check->margin_row, check->margin);
+    else
+        snprintf(why, why_size,
+                 "matrix not reciprocal enough for CG: row %zu has delta_i/m_i = %.3g > %.3g (skew part "
+                 "delta_i = %.3g against margin m_i = 1/rho_i - sum_j F_ij = %.3g; see docs/solve.md)",
+                 check->ratio_row, check->ratio, SOLVE_CG_RECIPROCITY, check->ratio_delta, check->ratio_margin);
 }
 
 typedef struct cg_vectors {

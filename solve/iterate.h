@@ -102,8 +102,27 @@ rad_status solve_gauss_seidel(solve_run *run);
  * another method. */
 rad_status solve_cg(solve_run *run, int *out_stopped, char *why, size_t why_size);
 
-/* max_i delta_i / m_i over patches with rho > 0 (see SOLVE_CG_RECIPROCITY
- * in solver.h); +inf if some margin m_i <= 0; 0 if no patch reflects. */
-double solve_cg_reciprocity(const solve_run *run);
+/* The check that decides whether CG may run (SOLVE_CG_RECIPROCITY in
+ * solver.h), over patches with rho > 0:
+ *   delta_i = sum_j |A_i F_ij - A_j F_ji| / (2 A_i)   (skew part of K)
+ *   m_i     = 1/rho_i - sum_j F_ij                     (diagonal-dominance margin)
+ * with sums over reflecting columns. Two different failures: a row with
+ * m_i <= 0 (K need not be positive definite, however reciprocal F is),
+ * and delta_i > SOLVE_CG_RECIPROCITY * m_i (F not reciprocal enough for
+ * the margin it has). */
+typedef struct solve_cg_check {
+    double ratio;             /* max delta_i / m_i over rows with m_i > 0; 0 if none */
+    size_t ratio_row;         /* where, with its delta_i and m_i: */
+    double ratio_delta, ratio_margin;
+    double margin;            /* min m_i; +inf if no patch reflects */
+    size_t margin_row;
+    size_t no_margin_count;   /* rows with m_i <= 0 */
+} solve_cg_check;
+
+solve_cg_check solve_cg_check_matrix(const solve_run *run);
+/* 1 if CG may run. */
+int solve_cg_check_passes(const solve_cg_check *check);
+/* Why CG may not run, in words (the two cases above), into why. */
+void solve_cg_check_describe(const solve_cg_check *check, char *why, size_t why_size);
 
 #endif

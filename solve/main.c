@@ -23,9 +23,17 @@ static const char usage_text[] =
     "                      is <= X min(||E||inf, E_i + rho_i (F B)_i)\n"
     "                      (default: 1e-10; see docs/solve.md)\n"
     "  --max-iter N        iteration limit per channel (default: 100000)\n"
-    "  --stats FILE.json   write iterations, residuals and timings as JSON\n"
+    "  --errors FILE       the standard errors of the form factors (the file\n"
+    "                      formfactor --errors wrote beside them): warn only\n"
+    "                      about rows summing above 1 beyond 3 standard errors\n"
+    "                      (without it: above 1.001)\n"
+    "  --stats FILE.json   write iterations, residuals, energy balance and timings\n"
+    "                      as JSON\n"
     "  -q, --quiet         only warnings and errors on stderr\n"
     "  -h, --help          this text\n"
+    "\n"
+    "Refuses (exit 1, nothing written) a matrix in which some patch has\n"
+    "rho * (row sum of F) >= 1: it would reflect more light than it receives.\n"
     "\n"
     "exit status: 0 solved; 1 bad input or I/O error; 2 bad command line;\n"
     "3 not converged (the output is still written, marked unconverged)\n";
@@ -104,6 +112,8 @@ static rad_status parse_args(int argc, char **argv, cli *out)
             if (status == RAD_OK) status = parse_count(value, &c.options.params.max_iterations);
         } else if (take_value(argc, argv, &i, "--stats", &value, &status)) {
             if (status == RAD_OK) c.options.stats = value;
+        } else if (take_value(argc, argv, &i, "--errors", &value, &status)) {
+            if (status == RAD_OK) c.options.errors = value;
         } else if (arg[0] == '-' && arg[1] != 0) {
             rad_error("unknown option '%s' (see solve --help)", arg);
             status = RAD_ERR_USAGE;

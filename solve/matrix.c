@@ -7,9 +7,17 @@
 #include <string.h>
 
 #include "rad_log.h"
+#include "rad_mesh.h"
 
 /* Rows read per rad_ff_read_rows call: about 8 MiB at a time. */
 #define MATRIX_READ_BYTES (8u << 20)
+
+/* Rows per rad_ff_read_rows call for rows of n doubles (at least 1). */
+static size_t matrix_block_rows(size_t n)
+{
+    size_t block = MATRIX_READ_BYTES / (n * sizeof(double));
+    return block ? block : 1;
+}
 
 /* Checks row i; logs and returns RAD_ERR_INVALID at the first problem. */
 static rad_status check_row(const char *path, size_t i, const double *row, size_t n, double *out_sum)
@@ -67,9 +75,7 @@ rad_status solve_matrix_load(rad_ff_file *file, const char *path, solve_matrix *
     }
     for (size_t i = 0; i < n; i++) m.area[i] = mesh->patches[i].area;
 
-    size_t block = MATRIX_READ_BYTES / (n * sizeof(double));
-    if (block == 0) block = 1;
-    size_t warned_rows = 0, worst_row = 0;
+    size_t block = matrix_block_rows(n);
     for (size_t begin = 0; begin < n; begin += block) {
         size_t count = n - begin < block ? n - begin : block;
         double *rows = m.form_factors + begin * n;
@@ -79,15 +85,8 @@ rad_status solve_matrix_load(rad_ff_file *file, const char *path, solve_matrix *
             size_t i = begin + k;
             status = check_row(path, i, rows + k * n, n, &m.row_sum[i]);
             if (status != RAD_OK) goto done;
-            if (m.row_sum[i] > SOLVE_ROW_SUM_WARN) {
-                if (warned_rows == 0 || m.row_sum[i] > m.row_sum[worst_row]) worst_row = i;
-                warned_rows++;
-            }
         }
     }
-    if (warned_rows)
-        rad_warn("%s: %zu rows sum to more than %g (largest: row %zu, %.6g); solving anyway", path, warned_rows,
-                 SOLVE_ROW_SUM_WARN, worst_row, m.row_sum[worst_row]);
     *out_matrix = m;
     memset(&m, 0, sizeof m);
 done:
@@ -101,7 +100,191 @@ void solve_matrix_free(solve_matrix *matrix)
     free(matrix->form_factors);
     free(matrix->area);
     free(matrix->row_sum);
+    free(matrix->row_error);
     memset(matrix, 0, sizeof *matrix);
+}
+
+/* Why the errors file (info e, mesh em) does not belong to the matrix
+ * (info f, mesh fm); NULL if it does. */
+static const char *errors_mismatch(const rad_ff_info *f, const rad_mesh *fm, const rad_ff_info *e,
+                                   const rad_mesh *em)
+{
+    if (!(e->flags & RAD_FF_FLAG_STANDARD_ERRORS)) return "it holds form factors, not their standard errors";
+    if (e->patch_count != f->patch_count) return "a different patch count";
+    if (e->scene_fingerprint != f->scene_fingerprint || e->subdiv != f->subdiv) return "a different scene";
+    if (e->estimator != f->estimator || e->samples != f->samples || e->shadow_rays != f->shadow_rays ||
+        e->seed != f->seed || (e->flags & ~RAD_FF_FLAG_STANDARD_ERRORS) != f->flags)
+        return "different formfactor settings (estimator, samples, shadow rays, seed)";
+    if (em->vertex_count != fm->vertex_count ||
+        memcmp(em->positions, fm->positions, 3 * fm->vertex_count * sizeof(double)) != 0 ||
+        memcmp(em->patches, fm->patches, fm->patch_count * sizeof(rad_patch)) != 0)
+        return "a different patch table";
+    return NULL;
+}
+
+/* row_error[i] = sqrt(sum_j sigma_ij^2) for every row of `errors`. */
+static rad_status read_row_errors(rad_ff_file *errors, size_t n, double *row_error)
+{
+    size_t block = matrix_block_rows(n);
+    double *rows = malloc(block * n * sizeof(double));
+    if (!rows) return RAD_ERR_NOMEM;
+    rad_status status = RAD_OK;
+    for (size_t begin = 0; begin < n && status == RAD_OK; begin += block) {
+        size_t count = n - begin < block ? n - begin : block;
+        status = rad_ff_read_rows(errors, begin, count, rows);
+        for (size_t k = 0; k < count && status == RAD_OK; k++) {
+            double squares = 0;
+            for (size_t j = 0; j < n; j++) squares += rows[k * n + j] * rows[k * n + j];
+            row_error[begin + k] = sqrt(squares);
+        }
+    }
+    free(rows);
+    return status;
+}
+
+rad_status solve_matrix_load_errors(solve_matrix *matrix, const rad_ff_file *file, const char *path,
+                                    const char *errors_path)
+{
+    rad_ff_file *errors = NULL;
+    double *row_error = NULL;
+    rad_status status = rad_ff_open(errors_path, &errors);
+    if (status != RAD_OK) goto done;
+    const char *why = errors_mismatch(rad_ff_file_info(file), rad_ff_file_mesh(file), rad_ff_file_info(errors),
+                                      rad_ff_file_mesh(errors));
+    if (why) {
+        rad_error("%s: not the standard errors of %s (%s); pass the file that `formfactor --errors` wrote "
+                  "beside it",
+                  errors_path, path, why);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
+    const size_t n = matrix->patch_count;
+    row_error = malloc(n * sizeof(double));
+    status = row_error ? read_row_errors(errors, n, row_error) : RAD_ERR_NOMEM;
+    if (status == RAD_ERR_NOMEM) rad_error("%s: out of memory reading %zu rows", errors_path, n);
+    if (status != RAD_OK) goto done;
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(row_error[i])) {
+            rad_error("%s: row %zu: a standard error is not finite", errors_path, i);
+            status = RAD_ERR_INVALID;
+            goto done;
+        }
+    free(matrix->row_error);
+    matrix->row_error = row_error;
+    row_error = NULL;
+done:
+    free(row_error);
+    rad_ff_close(errors);
+    return status;
+}
+
+/* How far row i sums beyond the rule (> 0: warn). */
+static double row_sum_excess(const solve_matrix *matrix, size_t i)
+{
+    if (!matrix->row_error) return matrix->row_sum[i] - SOLVE_ROW_SUM_WARN;
+    return matrix->row_sum[i] - 1 - (SOLVE_ROW_SUM_SIGMAS * matrix->row_error[i] + SOLVE_ROW_SUM_SLACK);
+}
+
+solve_row_sum_summary solve_matrix_warn_row_sums(const solve_matrix *matrix, const char *path)
+{
+    solve_row_sum_summary s = {.with_errors = matrix->row_error != NULL};
+    size_t worst = 0;
+    double worst_excess = 0;
+    for (size_t i = 0; i < matrix->patch_count; i++) {
+        if (i == 0 || matrix->row_sum[i] > s.max) {
+            s.max = matrix->row_sum[i];
+            s.max_row = i;
+        }
+        double excess = row_sum_excess(matrix, i);
+        if (excess > 0) {
+            if (s.warned == 0 || excess > worst_excess) {
+                worst = i;
+                worst_excess = excess;
+            }
+            s.warned++;
+        }
+    }
+    if (s.warned && s.with_errors) {
+        const double sigma = matrix->row_error[worst];
+        rad_warn("%s: %zu rows sum to more than 1 beyond %g standard errors + %g, where noise alone would put "
+                 "about %.1f of %zu rows (worst: row %zu sums to %.9g, standard error of the sum %.3g): the form "
+                 "factors may be biased there; solving anyway",
+                 path, s.warned, SOLVE_ROW_SUM_SIGMAS, SOLVE_ROW_SUM_SLACK,
+                 SOLVE_ROW_SUM_CHANCE * (double)matrix->patch_count, matrix->patch_count, worst,
+                 matrix->row_sum[worst], sigma);
+    } else if (s.warned) {
+        rad_warn("%s: %zu rows sum to more than %g, which exact form factors do not (largest: row %zu, %.9g); "
+                 "this is Monte Carlo noise (samples, shadow rays) or bias: pass the file of formfactor --errors "
+                 "as --errors to tell which; solving anyway",
+                 path, s.warned, SOLVE_ROW_SUM_WARN, s.max_row, s.max);
+    }
+    return s;
+}
+
+/* Row i's largest reflectance over the channels, and which channel. */
+static double row_rho(const rad_patch *p, int *out_channel)
+{
+    int c = 0;
+    for (int k = 1; k < 3; k++)
+        if (p->rho[k] > p->rho[c]) c = k;
+    *out_channel = c;
+    return p->rho[c];
+}
+
+/* Inserts row i into worst[] (at most SOLVE_WORST_ROWS_SHOWN rows, by
+ * product, largest first). */
+static void keep_worst(size_t *worst, size_t *count, const double *product, size_t i)
+{
+    size_t k;
+    if (*count < SOLVE_WORST_ROWS_SHOWN)
+        k = (*count)++;
+    else if (product[i] > product[worst[SOLVE_WORST_ROWS_SHOWN - 1]])
+        k = SOLVE_WORST_ROWS_SHOWN - 1;
+    else
+        return;
+    for (; k > 0 && product[i] > product[worst[k - 1]]; k--) worst[k] = worst[k - 1];
+    worst[k] = i;
+}
+
+rad_status solve_matrix_check_reflectance(const solve_matrix *matrix, const rad_mesh *mesh, const char *path)
+{
+    static const char *const channel_names[3] = {"red", "green", "blue"};
+    const size_t n = matrix->patch_count;
+    double *product = malloc(n * sizeof(double));
+    if (!product) {
+        rad_error("%s: out of memory for %zu patches", path, n);
+        return RAD_ERR_NOMEM;
+    }
+    size_t worst[SOLVE_WORST_ROWS_SHOWN], shown = 0, failing = 0;
+    for (size_t i = 0; i < n; i++) {
+        int c;
+        product[i] = row_rho(&mesh->patches[i], &c) * matrix->row_sum[i];
+        if (!(product[i] < 1)) {
+            failing++;
+            keep_worst(worst, &shown, product, i);
+        }
+    }
+    if (failing) {
+        char rows[SOLVE_WORST_ROWS_SHOWN * 112] = "";
+        size_t used = 0;
+        for (size_t k = 0; k < shown && used < sizeof rows; k++) {
+            const rad_patch *p = &mesh->patches[worst[k]];
+            int c;
+            double rho = row_rho(p, &c);
+            int grey = p->rho[0] == p->rho[1] && p->rho[0] == p->rho[2];
+            used += (size_t)snprintf(rows + used, sizeof rows - used, "%srow %zu (rho %.6g%s%s, row sum %.9g, "
+                                     "rho * row sum %.9g)", k ? ", " : "", worst[k], rho, grey ? "" : " ",
+                                     grey ? "" : channel_names[c], matrix->row_sum[worst[k]], product[worst[k]]);
+        }
+        rad_error("%s: %zu of %zu rows have rho * row sum >= 1: those patches would reflect at least all the "
+                  "light that reaches them, so no iteration is sure to converge and B would follow the errors of "
+                  "F, not the scene; worst: %s. Lower the reflectance (Kd) of those materials, or recompute the "
+                  "form factors so that rows sum to 1 (formfactor --estimator quadrature, or a smaller "
+                  "--target-error)",
+                  path, failing, n, rows);
+    }
+    free(product);
+    return failing ? RAD_ERR_INVALID : RAD_OK;
 }
 
 solve_system solve_matrix_system(const solve_matrix *matrix)

@@ -1,17 +1,24 @@
 /* matrix.h - the form-factor matrix as solve needs it: read whole from an
- * open form-factor file, converted to double and validated.
+ * open form-factor file, converted to double and validated; optionally the
+ * standard errors of its entries (formfactor --errors); and the two checks
+ * of the matrix against the patch table that come before any iteration.
  *
  * Validation, row by row, stops at the first offending row and names the
  * file, the row and the entry:
  *   - every F_ij finite;
  *   - F_ij >= -SOLVE_NEGATIVE_TOLERANCE (a sign flip of a zero entry in
  *     the last bits is rounding; anything below is an error);
- *   - sum_j F_ij <= SOLVE_ROW_SUM_LIMIT (a closed scene sums to 1; Monte
- *     Carlo noise exceeds it, which gets one warning above
- *     SOLVE_ROW_SUM_WARN). The limit is loose on purpose: with point-pair
- *     sampling (512 pairs) rows of patches at shared edges and corners,
- *     where the kernel is singular, reach 1.3 at --subdiv 3 (measured on
- *     the Cornell box). Above 1.5 a row is not noise but a broken matrix.
+ *   - sum_j F_ij <= SOLVE_ROW_SUM_LIMIT (a closed scene sums to 1). The
+ *     limit is loose on purpose: with point-pair sampling (512 pairs) rows
+ *     of patches at shared edges and corners, where the kernel is singular,
+ *     reach 1.3 at --subdiv 3 (measured on the Cornell box). Above 1.5 a
+ *     row is not noise but a broken matrix.
+ *
+ * Row sums above 1 that the matrix's accuracy does not explain get one
+ * warning (solve_matrix_warn_row_sums; docs/solve.md, "Row sums"). Rows
+ * that reflect at least what they receive, rho_i * sum_j F_ij >= 1 in some
+ * channel, are refused (solve_matrix_check_reflectance): no iteration
+ * converges to a meaningful B there.
  */
 #ifndef SOLVE_MATRIX_H
 #define SOLVE_MATRIX_H
@@ -24,19 +31,67 @@
 
 #define SOLVE_NEGATIVE_TOLERANCE 1e-12
 #define SOLVE_ROW_SUM_LIMIT 1.5
+/* Without an errors file a row is warned about above 1 + 1e-3: more than
+ * exact form factors leave. An exact matrix (analytic fixtures; the
+ * quadrature estimator where nothing occludes) is closed to ~1e-7 and
+ * float32 storage moves a row sum by at most 2^-24 of itself (6e-8), so
+ * 1e-3 never fires on one; 1e-3 is also the excess at which a rho = 0.999
+ * material starts to reflect more than it receives. Monte Carlo noise
+ * (point pairs, shadow rays) exceeds it routinely; only the errors file
+ * tells that noise from bias (docs/solve.md, "Row sums"). */
 #define SOLVE_ROW_SUM_WARN 1.001
+/* With an errors file (sigma_ij per entry), row i is warned about when
+ *   sum_j F_ij - 1 > SOLVE_ROW_SUM_SIGMAS * sqrt(sum_j sigma_ij^2)
+ *                    + SOLVE_ROW_SUM_SLACK,
+ * i.e. beyond three standard errors of its Monte Carlo noise (entries
+ * treated as independent) plus what an exact estimator and float32
+ * storage leave (1e-7 and 6e-8). */
+#define SOLVE_ROW_SUM_SIGMAS 3.0
+#define SOLVE_ROW_SUM_SLACK 1e-6
+/* The share of rows that unbiased Gaussian noise puts beyond 3 standard
+ * errors (one-sided), said in the warning: with thousands of rows a few
+ * are expected. */
+#define SOLVE_ROW_SUM_CHANCE 0.00135
+/* How many of the worst rows a refusal names. */
+#define SOLVE_WORST_ROWS_SHOWN 3
 
 typedef struct solve_matrix {
     size_t patch_count;
     double *form_factors; /* N * N, row-major */
     double *area;         /* N, from the patch table */
     double *row_sum;      /* N */
+    double *row_error;    /* N: sqrt(sum_j sigma_ij^2); NULL until solve_matrix_load_errors */
 } solve_matrix;
 
 /* Reads all N rows of `file` (opened from `path`, used in messages).
  * *out_matrix is set only on success; free with solve_matrix_free. */
 rad_status solve_matrix_load(rad_ff_file *file, const char *path, solve_matrix *out_matrix);
 void solve_matrix_free(solve_matrix *matrix); /* safe on zeroed */
+
+/* Reads the standard-error file `errors_path` (formfactor --errors: flag
+ * RAD_FF_FLAG_STANDARD_ERRORS, float32) into matrix->row_error. It must
+ * belong to `file` (the matrix, opened from `path`): same patch table and
+ * the same header but for element type and that flag. Errors name the
+ * file; on failure matrix->row_error stays NULL. */
+rad_status solve_matrix_load_errors(solve_matrix *matrix, const rad_ff_file *file, const char *path,
+                                    const char *errors_path);
+
+/* What solve_matrix_warn_row_sums found (also for the stats file). */
+typedef struct solve_row_sum_summary {
+    double max;        /* largest row sum */
+    size_t max_row;
+    size_t warned;     /* rows beyond the rule (SOLVE_ROW_SUM_WARN or the errors) */
+    int with_errors;   /* the rule used the errors file */
+} solve_row_sum_summary;
+
+/* Logs one warning when some rows sum to more than 1 beyond what the
+ * matrix's accuracy explains (the rules above); returns the summary. */
+solve_row_sum_summary solve_matrix_warn_row_sums(const solve_matrix *matrix, const char *path);
+
+/* Refuses (RAD_ERR_INVALID, one error naming the row count, the worst
+ * rows with rho, row sum and their product, and the remedy) a matrix
+ * where rho_i^c * sum_j F_ij >= 1 for some row i and channel c. */
+rad_status solve_matrix_check_reflectance(const solve_matrix *matrix, const rad_mesh *mesh, const char *path);
 
 /* The solver's view of the matrix (borrows its arrays). */
 solve_system solve_matrix_system(const solve_matrix *matrix);

@@ -55,7 +55,9 @@ solve_verdict solve_run_record(solve_run *run, double residual)
     run->history[k] = residual;
     run->history_count = k + 1;
     if (!isfinite(residual)) {
-        rad_error("%s: residual is not finite at iteration %zu (is rho * row sum < 1 everywhere?)", run->label, k);
+        rad_error("%s: residual is not finite at iteration %zu (overflow: is some emission near the largest "
+                  "double?)",
+                  run->label, k);
         return SOLVE_FAILED;
     }
     if (run->progress_seconds >= 0) {
@@ -87,11 +89,11 @@ double solve_run_residual(const solve_run *run, const double *B)
 static solve_method choose_method(solve_run *run, solve_method asked, solve_report *rep)
 {
     if (asked != SOLVE_AUTO && asked != SOLVE_CG) return asked;
-    rep->reciprocity = solve_cg_reciprocity(run);
-    if (rep->reciprocity <= SOLVE_CG_RECIPROCITY) return SOLVE_CG;
-    snprintf(rep->fallback_reason, sizeof rep->fallback_reason,
-             "matrix not reciprocal enough for CG (max delta_i/m_i = %.3g > %.3g, see docs/solve.md)",
-             rep->reciprocity, SOLVE_CG_RECIPROCITY);
+    solve_cg_check check = solve_cg_check_matrix(run);
+    rep->reciprocity = check.no_margin_count ? INFINITY : check.ratio;
+    rep->margin = check.margin;
+    if (solve_cg_check_passes(&check)) return SOLVE_CG;
+    solve_cg_check_describe(&check, rep->fallback_reason, sizeof rep->fallback_reason);
     rep->fell_back = 1;
     if (asked == SOLVE_CG)
         rad_warn("%s: %s; using gauss-seidel", run->label, rep->fallback_reason);
@@ -119,12 +121,19 @@ static rad_status run_methods(solve_run *run, solve_method method, solve_report 
     return solve_gauss_seidel(run);
 }
 
-/* max_i rho_i * row_sum_i: ||diag(rho)·F||_inf for F >= 0. */
-static double contraction(const solve_run *run)
+/* max_i rho_i * row_sum_i: ||diag(rho)·F||_inf for F >= 0; *out_row
+ * gets the row. */
+static double contraction(const solve_run *run, size_t *out_row)
 {
     double c = 0;
-    for (size_t i = 0; i < run->n; i++)
-        if (run->rho[i] * run->row_sum[i] > c) c = run->rho[i] * run->row_sum[i];
+    *out_row = 0;
+    for (size_t i = 0; i < run->n; i++) {
+        double ci = run->rho[i] * run->row_sum[i];
+        if (!(ci <= c)) { /* keeps NaN */
+            c = ci;
+            *out_row = i;
+        }
+    }
     return c;
 }
 
@@ -135,6 +144,7 @@ rad_status solve_channel(const solve_system *system, const double *rho, const do
     solve_report rep;
     memset(&rep, 0, sizeof rep);
     rep.reciprocity = -1;
+    rep.margin = NAN;
     const size_t n = system->patch_count;
     solve_run run = {
         .n = n,
@@ -152,6 +162,16 @@ rad_status solve_channel(const solve_system *system, const double *rho, const do
     if (!(run.tolerance < 1) || !isfinite(run.tolerance)) {
         rad_error("%s: tolerance %g must lie in (0, 1)", run.label, run.tolerance);
         status = RAD_ERR_USAGE;
+        goto done;
+    }
+    size_t worst_row;
+    const double c = contraction(&run, &worst_row);
+    if (!(c < 1)) {
+        rad_error("%s: row %zu: rho * row sum = %.9g >= 1: the patch would reflect at least all the light "
+                  "that reaches it, so no iteration is sure to converge (lower rho, or form factors whose rows "
+                  "sum to 1; docs/solve.md)",
+                  run.label, worst_row, c);
+        status = RAD_ERR_INVALID;
         goto done;
     }
     run.start_time = run.last_progress_time = solve_now();
@@ -180,14 +200,15 @@ rad_status solve_channel(const solve_system *system, const double *rho, const do
         if (status != RAD_OK) goto done;
         rep.residual = solve_run_residual(&run, run.B);
         if (!isfinite(rep.residual)) {
-            rad_error("%s: the solution is not finite (is rho * row sum < 1 everywhere?)", run.label);
+            rad_error("%s: the solution is not finite (overflow: is some emission near the largest double?)",
+                      run.label);
             status = RAD_ERR_INVALID;
             goto done;
         }
         run.history[run.iterations] = rep.residual; /* the verified value */
     }
-    double c = contraction(&run);
-    rep.error_bound = c < 1 ? rep.residual * run.e_norm / (1 - c) : INFINITY;
+    rep.error_bound = rep.residual * run.e_norm / (1 - c);
+    rep.balance = solve_balance_compute(system, rho, emission, run.B, run.work);
     rep.iterations = run.iterations;
     rep.converged = rep.residual <= run.tolerance;
     rep.seconds = solve_now() - run.start_time;

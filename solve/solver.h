@@ -89,27 +89,50 @@ typedef struct solve_system {
     const double *row_sum;       /* N row sums of F */
 } solve_system;
 
+/* Where the light of one channel goes (docs/solve.md, "Energy balance").
+ * Powers are area x radiosity. With H_i = sum_j F_ij B_j (what patch i
+ * receives per unit area) and reciprocity (A_i F_ij = A_j F_ji),
+ * emitted = absorbed + escaped holds exactly for the exact B; the
+ * imbalance of a solution is its residual, sum_i A_i r_i, plus the
+ * matrix's reciprocity defect, relative to what is emitted. */
+typedef struct solve_balance {
+    double emitted;   /* sum_i A_i E_i */
+    double absorbed;  /* sum_i A_i (1 - rho_i) H_i */
+    double escaped;   /* sum_j A_j B_j (1 - sum_i F_ji): leaves through openings; < 0 where rows sum above 1 */
+    double imbalance; /* (absorbed + escaped - emitted) / emitted; 0 when nothing emits */
+} solve_balance;
+
+/* The balance of B (n values) for `system`; `scratch` holds n doubles.
+ * Rows are summed in a fixed order, so it does not depend on threads. */
+solve_balance solve_balance_compute(const solve_system *system, const double *rho, const double *emission,
+                                    const double *radiosity, double *scratch);
+
 typedef struct solve_report {
     solve_method method_used;  /* the method that produced B */
     int fell_back;             /* 1 if CG was refused or stopped (fallback_reason) */
-    char fallback_reason[192];
+    char fallback_reason[320];
     uint32_t iterations;       /* updates that produced B (over all methods) */
     double residual;           /* verified final omega (>= ||r||_inf / ||E||_inf) */
     int converged;             /* residual <= tolerance */
     double seconds;            /* wall time of the solve */
-    double reciprocity;        /* max_i delta_i / m_i (see above); -1 if not measured */
-    double error_bound;        /* bound on ||B - B_exact||_inf: residual·||E||/(1 - max rho·rowsum),
-                                  +inf when max rho·rowsum >= 1 */
+    double reciprocity;        /* max_i delta_i / m_i (see above); +inf if some m_i <= 0; -1 if not measured */
+    double margin;             /* min_i m_i over patches with rho > 0 (<= 0: K not diagonally
+                                  dominant there, CG refused); NAN if not measured */
+    double error_bound;        /* bound on ||B - B_exact||_inf: residual·||E||/(1 - max rho·rowsum) */
+    solve_balance balance;     /* of the returned B */
     double *history;           /* history[k] = omega of iterate k,
                                   k = 0..iterations (owned) */
     size_t history_count;
 } solve_report;
 
 /* Solves one channel. rho and emission hold N values (rho in [0, 1),
- * emission >= 0). On RAD_OK and on RAD_ERR_NOT_CONVERGED (iteration limit
- * reached; message logged) out_radiosity (N values) and *out_report are
- * filled, the latter to be released with solve_report_free; on any other
- * status neither is touched. */
+ * emission >= 0). A system where rho_i * row_sum_i >= 1 for some i is
+ * refused before any iteration (RAD_ERR_INVALID, logged; the stage names
+ * the worst rows first, solve_matrix_check_reflectance). On RAD_OK and on
+ * RAD_ERR_NOT_CONVERGED (iteration limit reached; message logged)
+ * out_radiosity (N values) and *out_report are filled, the latter to be
+ * released with solve_report_free; on any other status neither is
+ * touched. */
 rad_status solve_channel(const solve_system *system, const double *rho, const double *emission,
                          const solve_params *params, double *out_radiosity, solve_report *out_report);
 void solve_report_free(solve_report *report); /* safe on zeroed */

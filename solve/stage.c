@@ -61,6 +61,8 @@ static rad_status solve_one(stage_state *s, const char *input, const rad_mesh *m
     const solve_report *r = &s->reports[c];
     rad_info("%s: %s: %s, %u iterations, residual %.3g, %.3f s", input, label, solve_method_name(r->method_used),
              r->iterations, r->residual, r->seconds);
+    rad_info("%s: %s: energy: emitted %.9g, absorbed %.9g, escaped %.9g (imbalance %.2g)", input, label,
+             r->balance.emitted, r->balance.absorbed, r->balance.escaped, r->balance.imbalance);
     return status;
 }
 
@@ -84,9 +86,16 @@ rad_status solve_stage_run(const solve_options *options)
     }
     status = solve_matrix_load(s.file, input, &s.matrix);
     if (status != RAD_OK) goto done;
+    if (options->errors) {
+        status = solve_matrix_load_errors(&s.matrix, s.file, input, options->errors);
+        if (status != RAD_OK) goto done;
+    }
     double load_seconds = solve_now() - t0;
     const rad_mesh *mesh = rad_ff_file_mesh(s.file);
     const size_t n = mesh->patch_count;
+    status = solve_matrix_check_reflectance(&s.matrix, mesh, input);
+    if (status != RAD_OK) goto done;
+    const solve_row_sum_summary row_sums = solve_matrix_warn_row_sums(&s.matrix, input);
     s.rho = malloc(n * sizeof(double));
     s.emission = malloc(n * sizeof(double));
     s.channel_b = malloc(n * sizeof(double));
@@ -129,6 +138,8 @@ rad_status solve_stage_run(const solve_options *options)
         solve_stats st = {
             .input = input,
             .output = output,
+            .errors = options->errors,
+            .row_sums = row_sums,
             .patch_count = n,
             .method = options->params.method,
             .tolerance = out.tolerance,

@@ -2,6 +2,10 @@
  * file (and optionally a stats JSON) out. main.c only parses the command
  * line into solve_options; tests call this directly.
  *
+ * Before solving, the matrix is checked against the patch table: rows
+ * summing above 1 beyond their accuracy get a warning, rows with
+ * rho * row sum >= 1 in any channel are refused (nothing is written).
+ *
  * Grey scenes (rho and E equal in all three channels on every patch) are
  * solved once and stored in all three channels. A channel that does not
  * converge does not stop the others; the radiosity file is still written,
@@ -20,6 +24,8 @@ typedef struct solve_options {
     const char *input;   /* form-factor file; NULL = SOLVE_DEFAULT_INPUT */
     const char *output;  /* radiosity file; NULL = SOLVE_DEFAULT_OUTPUT */
     const char *stats;   /* JSON statistics file; NULL = none */
+    const char *errors;  /* standard errors of the form factors (formfactor --errors); NULL = none:
+                            row sums are then judged by a fixed threshold (matrix.h) */
     solve_params params; /* zero = defaults (solver.h) */
 } solve_options;
 

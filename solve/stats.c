@@ -51,6 +51,17 @@ static void put_channel(FILE *f, const char *name, const solve_report *r)
     put_number(f, r->error_bound);
     fputs(", \"reciprocity\": ", f);
     put_number(f, r->reciprocity >= 0 ? r->reciprocity : NAN);
+    fputs(", \"margin\": ", f);
+    put_number(f, r->margin);
+    fputs(",\n     \"energy\": {\"emitted\": ", f);
+    put_number(f, r->balance.emitted);
+    fputs(", \"absorbed\": ", f);
+    put_number(f, r->balance.absorbed);
+    fputs(", \"escaped\": ", f);
+    put_number(f, r->balance.escaped);
+    fputs(", \"imbalance\": ", f);
+    put_number(f, r->balance.imbalance);
+    fputs("}", f);
     fputs(", \"seconds\": ", f);
     put_number(f, r->seconds);
     fputs(",\n     \"history\": [", f);
@@ -67,6 +78,15 @@ static void put_stats(FILE *f, const solve_stats *s)
     put_string(f, s->input);
     fputs(",\n  \"output\": ", f);
     put_string(f, s->output);
+    fputs(",\n  \"errors\": ", f);
+    if (s->errors)
+        put_string(f, s->errors);
+    else
+        fputs("null", f);
+    fputs(",\n  \"row_sums\": {\"max\": ", f);
+    put_number(f, s->row_sums.max);
+    fprintf(f, ", \"max_row\": %zu, \"warned\": %zu, \"rule\": \"%s\"}", s->row_sums.max_row,
+            s->row_sums.warned, s->row_sums.with_errors ? "errors" : "fixed");
     fprintf(f, ",\n  \"patch_count\": %zu,\n  \"grey\": %s,\n  \"method\": ", s->patch_count,
             s->channel_count == 1 ? "true" : "false");
     put_string(f, solve_method_name(s->method));

@@ -6,12 +6,15 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "matrix.h"
 #include "rad_status.h"
 #include "solver.h"
 
 typedef struct solve_stats {
     const char *input;            /* form-factor file */
     const char *output;           /* radiosity file */
+    const char *errors;           /* standard-error file (--errors); NULL = none */
+    solve_row_sum_summary row_sums;
     size_t patch_count;
     solve_method method;          /* as asked (auto stays auto) */
     double tolerance;

@@ -1,0 +1,32 @@
+/* balance.c - the energy balance of a solution: what is emitted, absorbed
+ * and escapes through openings (docs/solve.md, "Energy balance").
+ *
+ * With H_i = sum_j F_ij B_j, B_i = E_i + rho_i H_i + r_i (r the residual).
+ * Summing A_i B_i and using reciprocity, sum_i A_i H_i =
+ * sum_j B_j sum_i A_j F_ji = sum_j A_j B_j s_j with s_j the row sum of j, so
+ *   emitted = sum A_i B_i - sum A_i rho_i H_i - sum A_i r_i
+ *           = absorbed + escaped - sum A_i r_i,
+ * absorbed = sum A_i (1 - rho_i) H_i, escaped = sum A_j B_j (1 - s_j).
+ */
+#include <stddef.h>
+
+#include "iterate.h"
+#include "solver.h"
+
+solve_balance solve_balance_compute(const solve_system *system, const double *rho, const double *emission,
+                                    const double *radiosity, double *scratch)
+{
+    const size_t n = system->patch_count;
+    double *H = scratch;
+#pragma omp parallel for schedule(static) if (n >= SOLVE_PARALLEL_MIN_ROWS)
+    for (size_t i = 0; i < n; i++) H[i] = solve_dot(system->form_factors + i * n, radiosity, 0, n);
+    solve_balance b = {0};
+    for (size_t i = 0; i < n; i++) {
+        const double A = system->area[i];
+        b.emitted += A * emission[i];
+        b.absorbed += A * (1 - rho[i]) * H[i];
+        b.escaped += A * radiosity[i] * (1 - system->row_sum[i]);
+    }
+    b.imbalance = b.emitted > 0 ? (b.absorbed + b.escaped - b.emitted) / b.emitted : 0;
+    return b;
+}
