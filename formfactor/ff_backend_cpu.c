@@ -1,16 +1,15 @@
-/* ff_backend_cpu.c - the reference backend: the shared kernel on CPU
- * threads (OpenMP) and shadow rays through Embree 3. The only file that
- * includes Embree.
+/* ff_backend_cpu.c - the reference backend: the shared per-pair procedure
+ * (rad_ff_pair.h) on CPU threads (OpenMP), shadow rays through Embree 3.
+ * The only file that includes Embree.
  *
- * A row is computed in column blocks of FF_CPU_BLOCK patches, in two passes
- * so that the paper's "form factor" and "occlusion" times stay separate:
- *   1. kernel: K samples per facing pair, summing G; the first R point
- *      pairs and their G are kept in the thread's scratch;
- *   2. visibility: one rtcOccluded1 per kept point pair, with the source
- *      and target faces excluded by a context filter (no self-intersection,
- *      whatever the angle), then the estimate c = c_unoccluded *
- *      sum(G V) / sum(G) and its standard error (rad_ff_estimate);
- *   3. with --target-error, more batches for pairs still above the target.
+ * Rows are handed to threads one at a time; a row's pairs run in column
+ * order. Each facing pair first goes through culling (the convex-scene
+ * rule and the shaft test of ff_bvh.h); pairs it clears are computed
+ * without a tracer (visible fraction exactly 1), the others with one
+ * rtcOccluded1 per shadow ray, the source and target faces excluded by a
+ * context filter (no self-intersection, whatever the angle). The time in
+ * the tracer is the paper's "occlusion" phase, the rest its "form factor"
+ * phase.
  */
 #define _POSIX_C_SOURCE 200809L
 #include <embree3/rtcore.h>
@@ -26,7 +25,6 @@
 #include "ff_bvh.h"
 #include "rad_log.h"
 
-enum { FF_CPU_BLOCK = 128 };
 /* Shadow rays from which a pair's shaft test includes the hull planes
  * (ff_pair_may_be_occluded): below it they cost more than the rays they
  * save (measured, docs/performance.md). Compile-time tunable. */
@@ -41,30 +39,12 @@ typedef struct cpu_state {
     ff_bvh bvh; /* the flat BVH, for the occlusion-culling box queries */
 } cpu_state;
 
-/* Per-thread scratch for one column block: R point pairs and kernels per column. */
-typedef struct cpu_scratch {
-    float *rays;     /* FF_CPU_BLOCK * R * 6: x then y */
-    double *kernel;  /* FF_CPU_BLOCK * R */
-    rad_ff_sums *sums;  /* FF_CPU_BLOCK: each column's running sums */
-    double *g;       /* samples: one pair's kernel values */
-    uint32_t *ray_count; /* FF_CPU_BLOCK: shadow rays of each column's first batch */
-    uint8_t *active;  /* FF_CPU_BLOCK: 0 = not computed here or zero, 1 = far pair, 2 = near pair */
-    uint8_t *traced;  /* FF_CPU_BLOCK: its shadow rays are cast (not culled) */
-} cpu_scratch;
-
 /* The context handed to Embree's filter: which faces a ray must ignore. */
 typedef struct occlusion_context {
     struct RTCIntersectContext base; /* first member: Embree passes &base */
     const uint32_t *triangle_face;
     uint32_t skip_a, skip_b;
 } occlusion_context;
-
-static double now_seconds(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
 
 /* Embree's RTCHitN_primID accessor is C++ only; RTCHitN is SoA with
  * Ng_x, Ng_y, Ng_z, u, v, primID, ... arrays of N each (rtcore_ray.h). */
@@ -165,239 +145,117 @@ static void cpu_destroy(void *state)
     free(s);
 }
 
-/* Terms of samples [k0, k1) of pair (i, j) into g: kernel values for far
- * pairs, near-field terms (A_i F_ij contributions, rad_ff_near_sample)
- * for near ones. A plain loop over independent samples (the shared kernel
- * is branch-free); the caller sums g in order, so the result does not
- * depend on how the compiler schedules it. */
-static void sample_terms(uint32_t estimator, int near, const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i,
-                         uint32_t j, uint32_t k0, uint32_t k1, uint64_t seed, double *restrict g)
-{
-    if (near) {
-        for (uint32_t k = k0; k < k1; k++) {
-            rad_vec3 x, y;
-            g[k - k0] = rad_ff_near_sample(pi, pj, i, j, k, seed, &x, &y);
-        }
-    } else {
-        for (uint32_t k = k0; k < k1; k++) {
-            rad_vec3 x, y;
-            rad_ff_pair_points(estimator, pi, pj, i, j, k, seed, &x, &y);
-            g[k - k0] = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
-        }
-    }
-}
+/* The tracer the shared per-pair procedure (rad_ff_pair.h) calls. */
+typedef struct cpu_tracer {
+    RTCScene scene;
+    const uint32_t *triangle_face;
+} cpu_tracer;
 
-static void add_terms(rad_ff_sums *sums, const double *g, uint32_t count)
+/* One shadow ray over t in [FF_RAY_T_MIN, FF_RAY_T_MAX] of o + t d: 1 if
+ * something other than faces a and b (the context filter) is hit. */
+static int cpu_occluded(const cpu_tracer *t, const float o[3], const float d[3], uint32_t a, uint32_t b)
 {
-    for (uint32_t k = 0; k < count; k++) {
-        sums->terms += g[k];
-        sums->terms_sq += g[k] * g[k];
-    }
-    sums->samples += count;
-}
-
-/* The segment of sample k, from the lower-numbered patch's point (rows i
- * and j test one segment), as float ray data: origin, then end point; and
- * its weight in the visible fraction, the point kernel G(x, y). (Near
- * pairs too: the visible fraction is the G-weighted mean of V over point
- * pairs, whatever estimates the unoccluded part; weighing a segment by its
- * sample's near-field term instead would not estimate it.) */
-static double ray_segment(const ff_setup *su, int near, uint32_t i, uint32_t j, uint32_t k, float ray[6])
-{
-    const rad_ff_patch *pi = &su->patches[i], *pj = &su->patches[j];
-    rad_vec3 x, y;
-    if (near)
-        rad_ff_sample_pair(pi, pj, i, j, k, su->seed, &x, &y);
-    else
-        rad_ff_pair_points(su->estimator, pi, pj, i, j, k, su->seed, &x, &y);
-    double g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
-    if (i > j) {
-        rad_vec3 t = x;
-        x = y;
-        y = t;
-    }
-    ray[0] = (float)x.x, ray[1] = (float)x.y, ray[2] = (float)x.z;
-    ray[3] = (float)y.x, ray[4] = (float)y.y, ray[5] = (float)y.z;
-    return g;
-}
-
-/* One shadow ray over t in [FF_RAY_T_MIN, FF_RAY_T_MAX] of the segment:
- * 1 if nothing but the pair's own faces (the context filter) is hit. */
-static int segment_visible(RTCScene scene, occlusion_context *ctx, const float p[6])
-{
+    occlusion_context ctx;
+    rtcInitIntersectContext(&ctx.base);
+    ctx.base.filter = skip_own_faces;
+    ctx.triangle_face = t->triangle_face;
+    ctx.skip_a = a;
+    ctx.skip_b = b;
     struct RTCRay ray;
-    ray.org_x = p[0], ray.org_y = p[1], ray.org_z = p[2];
-    ray.dir_x = p[3] - p[0], ray.dir_y = p[4] - p[1], ray.dir_z = p[5] - p[2];
+    ray.org_x = o[0], ray.org_y = o[1], ray.org_z = o[2];
+    ray.dir_x = d[0], ray.dir_y = d[1], ray.dir_z = d[2];
     ray.tnear = FF_RAY_T_MIN; /* ff_bvh.h: the GPU tests the same span */
     ray.tfar = FF_RAY_T_MAX;
     ray.time = 0.0f;
     ray.mask = ~0u;
     ray.id = 0;
     ray.flags = 0;
-    rtcOccluded1(scene, &ctx->base, &ray);
-    return ray.tfar >= 0.0f; /* Embree sets tfar = -inf on a hit */
+    rtcOccluded1(t->scene, &ctx.base, &ray);
+    return !(ray.tfar >= 0.0f); /* Embree sets tfar = -inf on a hit */
 }
 
-static void add_ray(rad_ff_sums *sums, double g, int visible)
+static long long cpu_ticks(void)
 {
-    sums->ray_terms += g;
-    sums->ray_terms_sq += g * g;
-    if (visible) {
-        sums->ray_seen += g;
-        sums->ray_seen_sq += g * g;
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (long long)t.tv_sec * 1000000000ll + t.tv_nsec;
+}
+
+#define RAD_FF_TRACER cpu_tracer
+#define RAD_FF_OCCLUDED(t, o, d, a, b) cpu_occluded(t, o, d, a, b)
+#define RAD_FF_TICKS() cpu_ticks()
+#include "rad_ff_pair.h"
+
+/* Can something block pair (i, j)? Not where culling proves that nothing
+ * can lie between the patches: the scene is one convex enclosure, or no
+ * other triangle meets the pair's shaft. */
+static int pair_needs_rays(const cpu_state *s, uint32_t i, uint32_t j, ff_counters *c)
+{
+    const ff_setup *su = &s->setup;
+    if (su->shadow_rays == 0) return 0;
+    if (!su->cull) return 1;
+    if (su->scene_convex) {
+        c->pairs_open_scene++;
+        return 0;
     }
-    sums->visible += (uint32_t)visible;
-    sums->rays++;
+    if (!ff_pair_may_be_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &su->patches[i],
+                                 &su->patches[j], su->cull_margin, su->shadow_rays >= FF_CPU_HULL_MIN_RAYS)) {
+        c->pairs_open_box++;
+        return 0;
+    }
+    return 1;
 }
 
-/* Pass 1 for columns [j0, j1) of row i: the first batch of samples of
- * every pair row i computes, and the point pairs and terms of those that
- * carry shadow rays. Columns it does not compute are 0 and inactive. */
-static void kernel_block(const ff_setup *su, uint32_t i, uint32_t j0, uint32_t j1, double *row, cpu_scratch *sc,
-                         ff_counters *c)
+/* The run's settings as the per-pair procedure takes them. */
+static rad_ff_pair_params pair_params(const ff_setup *su)
 {
+    rad_ff_pair_params pp = {.estimator = su->estimator,
+                             .samples = su->samples,
+                             .rays = su->shadow_rays,
+                             .max_samples = su->max_samples,
+                             .seed = su->seed,
+                             .target_error = su->target_error,
+                             .quad_rtol = su->quad_rtol,
+                             .quad_atol = su->quad_atol};
+    return pp;
+}
+
+/* Row i, every column: the shared per-pair procedure for each pair the
+ * row computes; zeros elsewhere. */
+static void compute_row(const cpu_state *s, uint32_t i, double *row, double *errors, ff_counters *c)
+{
+    const ff_setup *su = &s->setup;
     const rad_ff_patch *pi = &su->patches[i];
-    uint32_t R = su->shadow_rays;
-    for (uint32_t j = j0; j < j1; j++) {
+    rad_ff_pair_params pp = pair_params(su);
+    cpu_tracer tracer = {s->scene, su->triangle_face};
+    long long t0 = cpu_ticks(), ray_ticks = 0;
+    for (uint32_t j = 0; j < su->patch_count; j++) {
         const rad_ff_patch *pj = &su->patches[j];
-        uint32_t b = j - j0;
-        sc->sums[b] = (rad_ff_sums){0};
-        sc->active[b] = 0;
-        sc->ray_count[b] = 0;
         row[j] = 0;
+        if (errors) errors[j] = 0;
         if (su->pairs_once && !rad_ff_row_computes(i, j)) continue; /* row j computes this pair */
         c->pairs++;
         if (j == i || !rad_ff_pair_facing(pi, pj, su->plane_eps)) {
             c->pairs_culled++;
             continue;
         }
-        int near = rad_ff_pair_uses_contour(su->estimator, pi, pj);
-        uint32_t K = near ? rad_ff_near_samples(su->samples) : su->samples;
-        sample_terms(su->estimator, near, pi, pj, i, j, 0, K, su->seed, sc->g);
-        add_terms(&sc->sums[b], sc->g, K);
-        /* The first R point pairs carry shadow rays: keep them and their weights. */
-        uint32_t rays = R < K ? R : K;
-        for (uint32_t k = 0; k < rays; k++) {
-            sc->kernel[(size_t)b * R + k] = ray_segment(su, near, i, j, k, sc->rays + ((size_t)b * R + k) * 6);
-        }
-        sc->ray_count[b] = rays;
-        sc->active[b] = near ? 2 : 1;
-        c->samples += K;
-        c->pairs_near += (uint64_t)near;
+        int rays = pair_needs_rays(s, i, j, c);
+        rad_ff_pair_result r;
+        rad_ff_pair_compute(&pp, pi, pj, i, j, rays ? &tracer : NULL, &r);
+        row[j] = r.coupling;
+        if (errors) errors[j] = r.error;
+        c->samples += r.samples;
+        c->rays += r.rays;
+        c->rays_occluded += r.rays_blocked;
+        c->rays_saved += r.rays_skipped;
+        c->pairs_near += (uint64_t)r.near;
+        c->pairs_refined += (uint64_t)r.refined;
+        c->pairs_capped += (uint64_t)r.capped;
+        ray_ticks += r.ray_ticks;
     }
-}
-
-/* Does pair (i, j) need shadow rays at all? Not where culling shows that
- * nothing can lie between the patches (their fraction is exactly 1). */
-static int pair_needs_rays(const cpu_state *s, uint32_t i, uint32_t j, uint32_t rays, ff_counters *c)
-{
-    const ff_setup *su = &s->setup;
-    if (!su->cull) return 1;
-    if (su->scene_convex) {
-        c->pairs_open_scene++;
-        c->rays_saved += rays;
-        return 0;
-    }
-    if (!ff_pair_may_be_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &su->patches[i],
-                                 &su->patches[j], su->cull_margin, rays >= FF_CPU_HULL_MIN_RAYS)) {
-        c->pairs_open_box++;
-        c->rays_saved += rays;
-        return 0;
-    }
-    return 1;
-}
-
-static void init_context(const cpu_state *s, occlusion_context *ctx, uint32_t i, uint32_t j)
-{
-    rtcInitIntersectContext(&ctx->base);
-    ctx->base.filter = skip_own_faces;
-    ctx->triangle_face = s->setup.triangle_face;
-    ctx->skip_a = s->setup.patches[i].face;
-    ctx->skip_b = s->setup.patches[j].face;
-}
-
-/* Pass 2: the kept shadow rays of each pair, then its estimate (and error). */
-static void visibility_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32_t j1, double *row, double *errors,
-                             cpu_scratch *sc, ff_counters *c)
-{
-    const ff_setup *su = &s->setup;
-    uint32_t R = su->shadow_rays;
-    for (uint32_t j = j0; j < j1; j++) {
-        uint32_t b = j - j0;
-        if (!sc->active[b]) {
-            if (errors) errors[j] = 0;
-            continue;
-        }
-        rad_ff_sums *sums = &sc->sums[b];
-        uint32_t rays = sc->ray_count[b];
-        sc->traced[b] = sums->terms > 0 && rays > 0 && pair_needs_rays(s, i, j, rays, c);
-        if (sc->traced[b]) {
-            occlusion_context ctx;
-            init_context(s, &ctx, i, j);
-            for (uint32_t r = 0; r < rays; r++)
-                add_ray(sums, sc->kernel[(size_t)b * R + r],
-                        segment_visible(s->scene, &ctx, sc->rays + ((size_t)b * R + r) * 6));
-            c->rays += rays;
-            c->rays_occluded += rays - sums->visible;
-        }
-        double error = 0;
-        row[j] = rad_ff_estimate(sums, sc->active[b] == 2, &su->patches[i], &su->patches[j], &error);
-        if (errors) errors[j] = error;
-    }
-}
-
-/* Pass 3 (--target-error): more batches for the pairs whose error is still
- * above the target; each batch doubles the samples and shadow rays. */
-static void refine_block(const cpu_state *s, uint32_t i, uint32_t j0, uint32_t j1, double *row, double *errors,
-                         cpu_scratch *sc, ff_counters *c)
-{
-    const ff_setup *su = &s->setup;
-    for (uint32_t j = j0; j < j1; j++) {
-        uint32_t b = j - j0;
-        if (!sc->active[b]) continue;
-        int near = sc->active[b] == 2;
-        const rad_ff_patch *pi = &su->patches[i], *pj = &su->patches[j];
-        rad_ff_sums *sums = &sc->sums[b];
-        uint32_t first = sums->samples, first_rays = sc->ray_count[b];
-        double error = 0;
-        double value = rad_ff_estimate(sums, near, pi, pj, &error);
-        uint32_t to = 0, rays_to = 0, planned = first_rays; /* rays a culled pair would have cast */
-        int refined = 0;
-        while (!rad_ff_error_reached(error, pi, pj, su->target_error) &&
-               rad_ff_next_batch(sums, first, first_rays, su->samples, su->max_samples, &to, &rays_to)) {
-            double t0 = now_seconds();
-            for (uint32_t k0 = sums->samples; k0 < to; k0 += su->samples) { /* g holds `samples` terms */
-                uint32_t k1 = to - k0 < su->samples ? to : k0 + su->samples;
-                sample_terms(su->estimator, near, pi, pj, i, j, k0, k1, su->seed, sc->g);
-                add_terms(sums, sc->g, k1 - k0);
-                c->samples += k1 - k0;
-            }
-            double t1 = now_seconds();
-            if (sc->traced[b]) {
-                occlusion_context ctx;
-                init_context(s, &ctx, i, j);
-                uint32_t visible_before = sums->visible, rays_before = sums->rays;
-                for (uint32_t r = sums->rays; r < rays_to; r++) {
-                    float ray[6];
-                    double g = ray_segment(su, near, i, j, r, ray);
-                    add_ray(sums, g, segment_visible(s->scene, &ctx, ray));
-                }
-                c->rays += sums->rays - rays_before;
-                c->rays_occluded += (sums->rays - rays_before) - (sums->visible - visible_before);
-            } else if (sums->terms > 0 && first_rays > 0) { /* culled: these rays are saved too */
-                c->rays_saved += rays_to - planned;
-                planned = rays_to;
-            }
-            c->kernel_seconds += t1 - t0;
-            c->visibility_seconds += now_seconds() - t1;
-            value = rad_ff_estimate(sums, near, pi, pj, &error);
-            refined = 1;
-        }
-        c->pairs_refined += (uint64_t)refined;
-        c->pairs_capped += (uint64_t)!rad_ff_error_reached(error, pi, pj, su->target_error);
-        row[j] = value;
-        if (errors) errors[j] = error;
-    }
+    double total = 1e-9 * (double)(cpu_ticks() - t0), rays_time = 1e-9 * (double)ray_ticks;
+    c->kernel_seconds += total - rays_time;
+    c->visibility_seconds += rays_time;
 }
 
 static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row_count, double *out,
@@ -405,42 +263,19 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
 {
     cpu_state *s = state;
     const ff_setup *su = &s->setup;
-    uint32_t n = su->patch_count, R = su->shadow_rays;
-    int failed = 0;
+    uint32_t n = su->patch_count;
     uint64_t rows_done = 0;
 
-#pragma omp parallel num_threads(su->threads) reduction(+ : failed)
+#pragma omp parallel num_threads(su->threads)
     {
-        cpu_scratch sc;
         ff_counters c = {0};
-        sc.rays = malloc(sizeof(float) * 6 * FF_CPU_BLOCK * (R ? R : 1));
-        sc.kernel = malloc(sizeof(double) * FF_CPU_BLOCK * (R ? R : 1));
-        sc.sums = malloc(sizeof(rad_ff_sums) * FF_CPU_BLOCK);
-        sc.active = malloc(FF_CPU_BLOCK);
-        sc.traced = malloc(FF_CPU_BLOCK);
-        sc.g = malloc(sizeof(double) * su->samples);
-        sc.ray_count = malloc(sizeof(uint32_t) * FF_CPU_BLOCK);
         int master = 1;
 #ifdef _OPENMP
         master = omp_get_thread_num() == 0;
 #endif
-        if (!sc.rays || !sc.kernel || !sc.sums || !sc.g || !sc.ray_count || !sc.active || !sc.traced) failed = 1;
 #pragma omp for schedule(dynamic, 1)
         for (uint32_t r = 0; r < row_count; r++) {
-            if (failed) continue;
-            uint32_t i = row_begin + r;
-            double *row = out + (size_t)r * n;
-            double *row_errors = errors ? errors + (size_t)r * n : NULL;
-            for (uint32_t j0 = 0; j0 < n; j0 += FF_CPU_BLOCK) {
-                uint32_t j1 = j0 + FF_CPU_BLOCK < n ? j0 + FF_CPU_BLOCK : n;
-                double t0 = now_seconds();
-                kernel_block(su, i, j0, j1, row, &sc, &c);
-                double t1 = now_seconds();
-                visibility_block(s, i, j0, j1, row, row_errors, &sc, &c);
-                c.kernel_seconds += t1 - t0;
-                c.visibility_seconds += now_seconds() - t1;
-                if (su->target_error > 0) refine_block(s, i, j0, j1, row, row_errors, &sc, &c); /* times itself */
-            }
+            compute_row(s, row_begin + r, out + (size_t)r * n, errors ? errors + (size_t)r * n : NULL, &c);
             uint64_t done;
 #pragma omp atomic capture
             done = ++rows_done;
@@ -462,17 +297,6 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
             counters->kernel_seconds += c.kernel_seconds / su->threads;
             counters->visibility_seconds += c.visibility_seconds / su->threads;
         }
-        free(sc.rays);
-        free(sc.kernel);
-        free(sc.sums);
-        free(sc.active);
-        free(sc.traced);
-        free(sc.g);
-        free(sc.ray_count);
-    }
-    if (failed) {
-        rad_error("out of memory for the CPU backend's scratch buffers");
-        return RAD_ERR_NOMEM;
     }
     if (rtcGetDeviceError(s->device) != RTC_ERROR_NONE) return RAD_ERR_BACKEND;
     return RAD_OK;

@@ -1,15 +1,16 @@
 /* ff_backend_cuda.cu - the CUDA backend. No MPI here, only CUDA.
  *
- * One warp per patch pair (i, j): the lanes share the K point pairs of the
- * shared kernel (rad_ff_kernel.h, the very code the CPU runs) and reduce
- * them with shuffles; the first R point pairs then carry shadow rays, one
- * per lane, through the flat BVH of ff_bvh.h (any hit, first hit returns).
- * Culled pairs cost one thread one test and one store, no warp.
+ * One thread per patch pair runs the shared per-pair procedure
+ * (rad_ff_pair.h, the very code the CPU backend runs), with shadow rays
+ * through the flat BVH of ff_bvh.h (any hit, first hit returns). A first
+ * kernel lists the pairs that can exchange light, far pairs from the front
+ * of a list and near ones from the back, so that each gets a launch of its
+ * own and warps hold pairs of like cost; culled pairs cost one thread one
+ * test and one store.
  *
  * This file is compiled with --fmad=false so each double operation rounds
- * as on the CPU: the per-sample kernel values are bit-identical to the CPU
- * backend's, and only the order of the final sums (and borderline ray
- * hits, Moller-Trumbore here vs Embree there) differs.
+ * as on the CPU: only atan2, sqrt and sin/cos (a few ulps apart) and
+ * borderline ray hits (Moller-Trumbore here, Embree there) differ.
  */
 #include <cuda_runtime.h>
 #include <stdio.h>
@@ -23,11 +24,39 @@ extern "C" {
 #include "rad_log.h"
 }
 
-enum { FF_CUDA_BLOCK = 256, FF_CUDA_WARPS_PER_BLOCK = FF_CUDA_BLOCK / 32 };
-/* Blocks per SM the pair kernels are compiled for: bounds their registers
+/* The tracer the shared per-pair procedure calls: the flat BVH. */
+struct cuda_tracer {
+    const ff_bvh_node *nodes;
+    const ff_bvh_tri *tris;
+    int32_t root;
+    uint32_t root_count;
+};
+
+static inline RAD_HD int cuda_occluded(const cuda_tracer *t, const float o[3], const float d[3], uint32_t a,
+                                       uint32_t b)
+{
+    return ff_bvh_occluded(t->nodes, t->tris, t->root, t->root_count, o, d, a, b);
+}
+
+static inline RAD_HD long long cuda_ticks(void)
+{
+#if defined(__CUDA_ARCH__)
+    return clock64();
+#else
+    return 0;
+#endif
+}
+
+#define RAD_FF_TRACER cuda_tracer
+#define RAD_FF_OCCLUDED(t, o, d, a, b) cuda_occluded(t, o, d, a, b)
+#define RAD_FF_TICKS() cuda_ticks()
+#include "rad_ff_pair.h"
+
+enum { FF_CUDA_BLOCK = 256 };
+/* Blocks per SM the pair kernel is compiled for: bounds its registers
  * (65536 / (256 * blocks) per thread), trading spills for occupancy. */
 #ifndef FF_CUDA_MIN_BLOCKS
-#define FF_CUDA_MIN_BLOCKS 3 /* measured on H200: 2 -> 10.8 ms, 3 -> 10.3 ms, 4 -> 10.3 ms (N = 2944) */
+#define FF_CUDA_MIN_BLOCKS 2
 #endif
 enum { C_SAMPLES, C_RAYS, C_OCCLUDED, C_NEAR, C_OPEN_SCENE, C_OPEN_BOX, C_SAVED, C_CYCLES, C_RAY_CYCLES, C_REFINED,
        C_CAPPED, C_COUNT };
@@ -35,23 +64,16 @@ enum { C_SAMPLES, C_RAYS, C_OCCLUDED, C_NEAR, C_OPEN_SCENE, C_OPEN_BOX, C_SAVED,
 struct cuda_params {
     const rad_ff_patch *patches;
     uint32_t n;
-    const ff_bvh_node *nodes;
-    const ff_bvh_tri *tris;
-    int32_t root;
-    uint32_t root_count;
-    uint32_t samples, rays;
-    uint64_t seed;
-    uint32_t estimator;
-    double target_error;
-    uint32_t max_samples;
+    cuda_tracer tracer;
+    rad_ff_pair_params pair;       /* the run's settings (rad_ff_pair.h) */
     int cull, scene_convex, pairs_once;
-    float cull_margin;
     double eps;
     uint32_t row_begin, row_count;
     double *out;                   /* row_count * n */
     double *errors;                /* row_count * n standard errors, or NULL */
     unsigned long long *counters;  /* C_COUNT */
     const uint32_t *pairs;         /* facing pairs: r * n + j, pair_count of them */
+    int64_t step;                  /* +1: the far list, read forwards; -1: the near list, backwards */
     uint32_t pair_count;
 };
 
@@ -91,24 +113,17 @@ static rad_status cuda_check(cudaError_t err, const char *what, int line)
         if ((status = cuda_check((call), #call, __LINE__)) != RAD_OK) goto done; \
     } while (0)
 
-__device__ static double warp_sum(double v)
-{
-    for (int offset = 16; offset > 0; offset >>= 1) v += __shfl_xor_sync(0xffffffffu, v, offset);
-    return v;
-}
-
-__device__ static unsigned warp_sum_u(unsigned v)
+__device__ static unsigned long long warp_sum_u64(unsigned long long v)
 {
     for (int offset = 16; offset > 0; offset >>= 1) v += __shfl_xor_sync(0xffffffffu, v, offset);
     return v;
 }
 
 /* Pass 1: thread per pair; zeros for pairs that cannot exchange light; far
- * pairs listed from the front of p.pairs, near pairs (auto estimator) from
- * the back, so each list gets a kernel of its own: the near-field code
- * (clipping, atan2) would otherwise cost every far pair registers and
- * occupancy. Order within a list is irrelevant: a pair's value depends
- * only on (i, j). */
+ * pairs listed from the front of p.pairs, near pairs from the back, so each
+ * list gets a launch of its own: near pairs (adaptive quadrature, contour
+ * terms) take far longer and would hold up the warps of far ones. Order
+ * within a list is irrelevant: a pair's value depends only on (i, j). */
 __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t *counts, uint64_t capacity)
 {
     uint64_t t = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
@@ -117,176 +132,51 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t
     const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
     if (p.errors) p.errors[t] = 0.0; /* listed pairs overwrite it */
     if (p.pairs_once && !rad_ff_row_computes(i, j))
-        p.out[t] = 0.0; /* row j computes this pair: no warp here */
+        p.out[t] = 0.0; /* row j computes this pair: no thread here */
     else if (i == j || !rad_ff_pair_facing(pi, pj, p.eps))
         p.out[t] = 0.0;
-    else if (rad_ff_pair_uses_contour(p.estimator, pi, pj))
+    else if (rad_ff_pair_near(pi, pj))
         pairs[capacity - 1 - atomicAdd(&counts[1], 1u)] = (uint32_t)t;
     else
         pairs[atomicAdd(&counts[0], 1u)] = (uint32_t)t;
 }
 
-/* Samples [k0, k1) of pair (i, j), spread over the lanes and summed into
- * *sums (every lane gets the same bits: the xor butterfly adds the same
- * two numbers on both sides at each step). Lane l keeps sample l (when
- * k0 == 0) for its first shadow ray. */
-template <bool NEAR, bool ERRORS>
-__device__ static void warp_samples(const cuda_params &p, const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i,
-                                    uint32_t j, uint32_t k0, uint32_t k1, unsigned lane, rad_ff_sums *sums,
-                                    rad_vec3 *first_x, rad_vec3 *first_y, double *first_g)
-{
-    double sum = 0.0, sum_sq = 0.0;
-    for (uint32_t k = k0 + lane; k < k1; k += 32) {
-        rad_vec3 x, y;
-        double g;
-        if (NEAR) {
-            g = rad_ff_near_sample(pi, pj, i, j, k, p.seed, &x, &y);
-        } else {
-            rad_ff_pair_points(p.estimator, pi, pj, i, j, k, p.seed, &x, &y);
-            g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
-        }
-        sum += g;
-        if (ERRORS) sum_sq += g * g;
-        if (k == lane) {
-            *first_x = x;
-            *first_y = y;
-            *first_g = g;
-        }
-    }
-    sums->terms += warp_sum(sum);
-    if (ERRORS) sums->terms_sq += warp_sum(sum_sq);
-    sums->samples += k1 - k0;
-}
-
-/* Shadow rays of samples [r0, r1), one per lane, through the flat BVH,
- * traced from the lower-numbered patch as the CPU does. */
-template <bool NEAR, bool ERRORS>
-__device__ static void warp_rays(const cuda_params &p, const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i,
-                                 uint32_t j, uint32_t r0, uint32_t r1, unsigned lane, rad_ff_sums *sums,
-                                 rad_vec3 first_x, rad_vec3 first_y, double first_g)
-{
-    double seen = 0.0, total = 0.0, seen_sq = 0.0, total_sq = 0.0;
-    unsigned visible = 0;
-    for (uint32_t k = r0 + lane; k < r1; k += 32) {
-        rad_vec3 x = first_x, y = first_y;
-        double g = first_g;
-        if (k != lane) { /* beyond each lane's first sample: recomputed */
-            if (NEAR)
-                rad_ff_sample_pair(pi, pj, i, j, k, p.seed, &x, &y);
-            else
-                rad_ff_pair_points(p.estimator, pi, pj, i, j, k, p.seed, &x, &y);
-            g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
-        } else if (NEAR) {
-            g = rad_ff_point_kernel(x, pi->normal, y, pj->normal); /* the cached g is the near-field term */
-        }
-        /* The segment's weight is G(x, y) for near pairs too (see ray_segment in ff_backend_cpu.c). */
-        if (i > j) {
-            rad_vec3 tmp = x;
-            x = y;
-            y = tmp;
-        }
-        float o[3] = {(float)x.x, (float)x.y, (float)x.z};
-        float d[3] = {(float)y.x - o[0], (float)y.y - o[1], (float)y.z - o[2]};
-        int blocked = ff_bvh_occluded(p.nodes, p.tris, p.root, p.root_count, o, d, pi->face, pj->face);
-        total += g;
-        if (ERRORS) total_sq += g * g;
-        if (!blocked) {
-            seen += g;
-            if (ERRORS) seen_sq += g * g;
-            visible++;
-        }
-    }
-    sums->ray_terms += warp_sum(total);
-    sums->ray_seen += warp_sum(seen);
-    if (ERRORS) {
-        sums->ray_terms_sq += warp_sum(total_sq);
-        sums->ray_seen_sq += warp_sum(seen_sq);
-    }
-    sums->visible += warp_sum_u(visible);
-    sums->rays += r1 - r0;
-}
-
-/* Pass 2: one warp per listed pair; NEAR selects the estimator (the same
- * choice and sample budget as the CPU backend); ERRORS adds the sums of
- * squares behind the standard errors (wanted, or needed by --target-error). */
-template <bool NEAR, bool ERRORS>
+/* Pass 2: one thread per listed pair, the shared per-pair procedure.
+ * Culling on the GPU: only the convex-enclosure rule. The per-pair shaft
+ * test of the CPU backend costs about what the rays it saves cost
+ * (measured in session 1); the matrix is the same either way, since a
+ * pair whose rays all pass gets a visible fraction of exactly 1. */
 __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_pairs_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
     if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
     __syncthreads();
-    uint64_t warp = ((uint64_t)blockIdx.x * blockDim.x + threadIdx.x) >> 5;
-    unsigned lane = threadIdx.x & 31u;
-    if (warp < p.pair_count) {
-        long long start = clock64(); /* the split of kernel time into sampling and occlusion */
-        long long ray_cycles = 0;
-        uint32_t t = p.pairs[NEAR ? -(int64_t)warp : (int64_t)warp]; /* near list runs backwards */
+    uint64_t k = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
+    unsigned long long c[C_COUNT] = {0};
+    if (k < p.pair_count) {
+        long long start = clock64();
+        uint32_t t = p.pairs[p.step * (int64_t)k];
         uint32_t j = t % p.n, i = p.row_begin + t / p.n;
-        const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
-        uint32_t samples = NEAR ? rad_ff_near_samples(p.samples) : p.samples;
-        uint32_t rays = p.rays < samples ? p.rays : samples;
-        rad_ff_sums sums = {};
-        /* Each lane keeps its first sample (k = lane): when R <= 32 that is
-         * the one its shadow ray needs, so the ray loop need not redo it. */
-        rad_vec3 first_x = {0, 0, 0}, first_y = {0, 0, 0};
-        double first_g = 0.0;
-        warp_samples<NEAR, ERRORS>(p, pi, pj, i, j, 0, samples, lane, &sums, &first_x, &first_y, &first_g);
-        int traced = rays > 0 && sums.terms > 0.0;
-        /* Culling on the GPU: only the convex-enclosure rule. The per-pair
-         * shaft test of the CPU backend costs a warp about what its 32
-         * rays cost (measured: 5-7 % slower overall), so the GPU traces
-         * those rays; the matrix is the same either way. */
-        if (traced && p.cull && p.scene_convex) {
-            if (lane == 0) {
-                atomicAdd(&block_counts[C_OPEN_SCENE], 1ull);
-                atomicAdd(&block_counts[C_SAVED], (unsigned long long)rays);
-            }
-            traced = 0; /* F stays as it is: the visible fraction is exactly 1 */
-        }
-        if (traced) {
-            long long t0 = clock64();
-            warp_rays<NEAR, ERRORS>(p, pi, pj, i, j, 0, rays, lane, &sums, first_x, first_y, first_g);
-            ray_cycles += clock64() - t0;
-        }
-        double error = 0.0;
-        double value = rad_ff_estimate(&sums, NEAR, pi, pj, ERRORS ? &error : NULL);
-        if (ERRORS && p.target_error > 0.0) { /* --target-error: more batches, as the CPU backend's refine_block */
-            uint32_t to = 0, rays_to = 0, planned = rays;
-            int refined = 0;
-            while (!rad_ff_error_reached(error, pi, pj, p.target_error) &&
-                   rad_ff_next_batch(&sums, samples, rays, p.samples, p.max_samples, &to, &rays_to)) {
-                warp_samples<NEAR, ERRORS>(p, pi, pj, i, j, sums.samples, to, lane, &sums, &first_x, &first_y,
-                                           &first_g);
-                if (traced) {
-                    long long t0 = clock64();
-                    warp_rays<NEAR, ERRORS>(p, pi, pj, i, j, sums.rays, rays_to, lane, &sums, first_x, first_y,
-                                            first_g);
-                    ray_cycles += clock64() - t0;
-                } else if (sums.terms > 0.0 && rays > 0 && p.cull && p.scene_convex) {
-                    if (lane == 0) atomicAdd(&block_counts[C_SAVED], (unsigned long long)(rays_to - planned));
-                    planned = rays_to;
-                }
-                value = rad_ff_estimate(&sums, NEAR, pi, pj, &error);
-                refined = 1;
-            }
-            if (lane == 0) {
-                if (refined) atomicAdd(&block_counts[C_REFINED], 1ull);
-                if (!rad_ff_error_reached(error, pi, pj, p.target_error)) atomicAdd(&block_counts[C_CAPPED], 1ull);
-            }
-        }
-        if (lane == 0) {
-            long long end = clock64();
-            atomicAdd(&block_counts[C_CYCLES], (unsigned long long)(end - start));
-            atomicAdd(&block_counts[C_RAY_CYCLES], (unsigned long long)ray_cycles);
-            atomicAdd(&block_counts[C_SAMPLES], (unsigned long long)sums.samples);
-            if (traced) {
-                atomicAdd(&block_counts[C_RAYS], (unsigned long long)sums.rays);
-                atomicAdd(&block_counts[C_OCCLUDED], (unsigned long long)(sums.rays - sums.visible));
-            }
-            if (NEAR) atomicAdd(&block_counts[C_NEAR], 1ull);
-            p.out[t] = value;
-            if (p.errors) p.errors[t] = error;
-        }
+        int open = p.pair.rays == 0 || (p.cull && p.scene_convex);
+        rad_ff_pair_result r;
+        rad_ff_pair_compute(&p.pair, &p.patches[i], &p.patches[j], i, j, open ? NULL : &p.tracer, &r);
+        p.out[t] = r.coupling;
+        if (p.errors) p.errors[t] = r.error;
+        c[C_SAMPLES] = r.samples;
+        c[C_RAYS] = r.rays;
+        c[C_OCCLUDED] = r.rays_blocked;
+        c[C_NEAR] = (unsigned long long)r.near;
+        c[C_OPEN_SCENE] = (unsigned long long)(p.pair.rays > 0 && p.cull && p.scene_convex);
+        c[C_SAVED] = r.rays_skipped;
+        c[C_REFINED] = (unsigned long long)r.refined;
+        c[C_CAPPED] = (unsigned long long)r.capped;
+        c[C_RAY_CYCLES] = (unsigned long long)r.ray_ticks;
+        c[C_CYCLES] = (unsigned long long)(clock64() - start);
+    }
+    /* Counters: summed over the warp by shuffles, then once per warp. */
+    for (int m = 0; m < C_COUNT; m++) {
+        unsigned long long v = warp_sum_u64(c[m]);
+        if ((threadIdx.x & 31u) == 0 && v) atomicAdd(&block_counts[m], v);
     }
     __syncthreads();
     if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
@@ -371,7 +261,6 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     float kernel_ms = 0;
     uint32_t pair_counts[2] = {0, 0};
     uint64_t computed = 0; /* pairs this call computes */
-    bool errors_wanted = errors != NULL || su->target_error > 0;
     cuda_params p;
     double t_mem = now_seconds();
     if (need == 0) return RAD_OK;
@@ -400,20 +289,21 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     CUDA_TRY(cudaMemset(s->d_pair_counts, 0, 2 * sizeof(uint32_t)));
     p.patches = s->d_patches;
     p.n = su->patch_count;
-    p.nodes = s->d_nodes;
-    p.tris = s->d_tris;
-    p.root = s->root;
-    p.root_count = s->root_count;
-    p.samples = su->samples;
-    p.rays = su->shadow_rays;
-    p.seed = su->seed;
-    p.estimator = su->estimator;
-    p.target_error = su->target_error;
-    p.max_samples = su->max_samples;
+    p.tracer.nodes = s->d_nodes;
+    p.tracer.tris = s->d_tris;
+    p.tracer.root = s->root;
+    p.tracer.root_count = s->root_count;
+    p.pair.estimator = su->estimator;
+    p.pair.samples = su->samples;
+    p.pair.rays = su->shadow_rays;
+    p.pair.max_samples = su->max_samples;
+    p.pair.seed = su->seed;
+    p.pair.target_error = su->target_error;
+    p.pair.quad_rtol = su->quad_rtol;
+    p.pair.quad_atol = su->quad_atol;
     p.cull = su->cull;
     p.scene_convex = su->scene_convex;
     p.pairs_once = su->pairs_once;
-    p.cull_margin = su->cull_margin;
     p.eps = su->plane_eps;
     p.row_begin = row_begin;
     p.row_count = row_count;
@@ -421,6 +311,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     p.errors = errors ? s->d_errors : NULL;
     p.counters = s->d_counters;
     p.pairs = s->d_pairs;
+    p.step = 1;
     p.pair_count = 0;
     counters->memory_seconds += now_seconds() - t_mem;
 
@@ -429,23 +320,13 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
         p, s->d_pairs, s->d_pair_counts, need);
     CUDA_TRY(cudaGetLastError()); /* launch configuration errors */
     CUDA_TRY(cudaMemcpy(pair_counts, s->d_pair_counts, sizeof pair_counts, cudaMemcpyDeviceToHost));
-    if (pair_counts[0] > 0) {
-        p.pair_count = pair_counts[0];
-        uint64_t blocks = ((uint64_t)p.pair_count + FF_CUDA_WARPS_PER_BLOCK - 1) / FF_CUDA_WARPS_PER_BLOCK;
-        if (errors_wanted)
-            ff_pairs_kernel<false, true><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
-        else
-            ff_pairs_kernel<false, false><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
-        CUDA_TRY(cudaGetLastError());
-    }
-    if (pair_counts[1] > 0) {
-        p.pair_count = pair_counts[1];
-        p.pairs = s->d_pairs + need - 1; /* the near list, read backwards */
-        uint64_t blocks = ((uint64_t)p.pair_count + FF_CUDA_WARPS_PER_BLOCK - 1) / FF_CUDA_WARPS_PER_BLOCK;
-        if (errors_wanted)
-            ff_pairs_kernel<true, true><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
-        else
-            ff_pairs_kernel<true, false><<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+    for (int list = 0; list < 2; list++) { /* far pairs, then near ones */
+        if (pair_counts[list] == 0) continue;
+        p.pair_count = pair_counts[list];
+        p.pairs = list == 0 ? s->d_pairs : s->d_pairs + need - 1;
+        p.step = list == 0 ? 1 : -1;
+        uint64_t blocks = ((uint64_t)p.pair_count + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK;
+        ff_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
         CUDA_TRY(cudaGetLastError());
     }
     CUDA_TRY(cudaEventRecord(s->stop));

@@ -26,6 +26,7 @@
 #include "ff_rows.h"
 #include "ff_setup.h"
 #include "ff_stats.h"
+#include "rad_ff_quad.h"
 #include "rad_ffile.h"
 #include "rad_log.h"
 #include "rad_mesh.h"
@@ -58,6 +59,7 @@ typedef struct ff_options {
     uint64_t seed;
     rad_element_type element;
     rad_estimator_id estimator;
+    double quad_rtol, quad_atol; /* --quad-rtol, --quad-atol */
     ff_format format;
     int threads; /* 0 = cores / ranks on this node */
     int cull;    /* 1 = skip shadow rays that cannot hit anything (default) */
@@ -90,11 +92,18 @@ static void print_help(void)
            "                           layout as the form factors; docs/formats.md)\n"
            "      --no-errors          do not estimate standard errors (no summary in the stats;\n"
            "                           saves GPU kernel time and host memory)\n"
-           "      --estimator E        auto | mc | qmc | analytic (default: auto: pairs closer\n"
-           "                           than twice their radii use the contour-integral near-field\n"
-           "                           estimator with K/8 samples; mc: random point pairs\n"
-           "                           everywhere, as the paper; qmc: shifted-Halton point pairs\n"
-           "                           everywhere; analytic: the contour estimator for every pair)\n"
+           "      --estimator E        quadrature | auto | mc | qmc | analytic (default: quadrature:\n"
+           "                           the unoccluded factor by adaptive quadrature to --quad-rtol,\n"
+           "                           and, where something might block the pair, its visible\n"
+           "                           fraction from R stratified shadow rays; the others are\n"
+           "                           Monte Carlo: auto: pairs closer than twice their radii use\n"
+           "                           the contour-integral near-field estimator with K/8 samples;\n"
+           "                           mc: random point pairs everywhere, as the paper; qmc:\n"
+           "                           shifted-Halton point pairs; analytic: the contour estimator\n"
+           "                           for every pair)\n"
+           "      --quad-rtol R        quadrature: relative tolerance of each unoccluded factor\n"
+           "                           (default: 1e-8; its error estimate is conservative)\n"
+           "      --quad-atol A        quadrature: absolute tolerance, in units of F (default: 1e-13)\n"
            "      --backend B          auto | cpu | cuda (default: auto)\n"
            "      --element T          f64 | f32 matrix element type (default: f64)\n"
            "      --format F           native | paper (paper: int32 N + N*N float64 only)\n"
@@ -113,6 +122,19 @@ static void print_help(void)
            "      --version            print the version\n"
            "\n"
            "File layout: docs/formats.md. Estimator: docs/architecture.md.\n");
+}
+
+/* A tolerance: a finite number in (0, 1). */
+static rad_status parse_tolerance(const char *flag, const char *text, double *out)
+{
+    char *end = NULL;
+    double v = text && *text ? strtod(text, &end) : 0;
+    if (!end || *end || !(v > 0) || !(v < 1)) {
+        rad_error("%s: expected a number in (0, 1), got '%s'", flag, text ? text : "");
+        return RAD_ERR_USAGE;
+    }
+    *out = v;
+    return RAD_OK;
 }
 
 static rad_status parse_uint(const char *flag, const char *text, uint64_t max, uint64_t *out)
@@ -147,7 +169,8 @@ static int same_output(const char *a, const char *b)
 static rad_status parse_options(int argc, char **argv, ff_options *o)
 {
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
-           O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS };
+           O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
+           O_QUAD_RTOL, O_QUAD_ATOL };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -159,11 +182,12 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         {"estimator", required_argument, 0, O_ESTIMATOR}, {"cull", required_argument, 0, O_CULL},
         {"reciprocity", required_argument, 0, O_RECIPROCITY}, {"target-error", required_argument, 0, O_TARGET},
         {"max-samples", required_argument, 0, O_MAX_SAMPLES}, {"errors", required_argument, 0, O_ERRORS},
-        {"no-errors", no_argument, 0, O_NO_ERRORS},
+        {"no-errors", no_argument, 0, O_NO_ERRORS}, {"quad-rtol", required_argument, 0, O_QUAD_RTOL},
+        {"quad-atol", required_argument, 0, O_QUAD_ATOL},
         {0, 0, 0, 0}};
     *o = (ff_options){.output = "formfactors", .backend = "auto", .samples = 512, .shadow_rays = 32, .seed = 1,
-                      .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_AUTO, .format = FF_FORMAT_NATIVE,
-                      .cull = 1};
+                      .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE, .format = FF_FORMAT_NATIVE,
+                      .cull = 1, .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL};
     uint64_t v = 0;
     rad_status st = RAD_OK;
     int c;
@@ -194,12 +218,13 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
             else { rad_error("--element: expected f64 or f32, got '%s'", optarg); st = RAD_ERR_USAGE; }
             break;
         case O_ESTIMATOR:
-            if (!strcmp(optarg, "auto")) o->estimator = RAD_ESTIMATOR_AUTO;
-            else if (!strcmp(optarg, "mc")) o->estimator = RAD_ESTIMATOR_MC;
-            else if (!strcmp(optarg, "qmc")) o->estimator = RAD_ESTIMATOR_QMC;
-            else if (!strcmp(optarg, "analytic")) o->estimator = RAD_ESTIMATOR_ANALYTIC;
-            else { rad_error("--estimator: expected auto, mc, qmc or analytic, got '%s'", optarg); st = RAD_ERR_USAGE; }
+            if (!rad_estimator_parse(optarg, &o->estimator)) {
+                rad_error("--estimator: expected quadrature, auto, mc, qmc or analytic, got '%s'", optarg);
+                st = RAD_ERR_USAGE;
+            }
             break;
+        case O_QUAD_RTOL: st = parse_tolerance("--quad-rtol", optarg, &o->quad_rtol); break;
+        case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
         case O_CULL:
             if (!strcmp(optarg, "all")) o->cull = 1;
             else if (!strcmp(optarg, "none")) o->cull = 0;
@@ -243,7 +268,7 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         rad_error("--samples must be at least 1");
         return RAD_ERR_USAGE;
     }
-    if (o->shadow_rays > o->samples) {
+    if (o->shadow_rays > o->samples && o->estimator != RAD_ESTIMATOR_QUADRATURE) {
         rad_error("--shadow-rays %u exceeds --samples %u (rays are cast along sample pairs)", o->shadow_rays,
                   o->samples);
         return RAD_ERR_USAGE;
@@ -452,7 +477,8 @@ static rad_status setup(ff_run *run)
         ff_setup su = {.patches = run->patches, .patch_count = n, .triangles = run->triangles,
                        .triangle_face = run->triangle_face, .triangle_count = run->triangle_count,
                        .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
-                       .estimator = run->opt.estimator, .target_error = run->opt.target_error,
+                       .estimator = run->opt.estimator, .quad_rtol = run->opt.quad_rtol,
+                       .quad_atol = run->opt.quad_atol, .target_error = run->opt.target_error,
                        .max_samples = run->opt.max_samples, .errors = run->want_errors, .cull = run->opt.cull, .scene_convex = convex,
                        .cull_margin = ff_cull_margin(&run->mesh, centre, eps), .plane_eps = eps, .pairs_once = run->pairs_once, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
                        .progress = ff_comm_rank(run->comm) == 0 ? report_progress : NULL, .progress_user = run};
@@ -646,10 +672,7 @@ static rad_status write_stats(ff_run *run, int gpus)
                             .patch_count = (uint32_t)run->mesh.patch_count, .subdiv = run->opt.subdiv,
                             .subdiv_only = run->opt.subdiv_only, .samples = run->opt.samples,
                             .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
-                            .estimator = run->opt.estimator == RAD_ESTIMATOR_AUTO  ? "auto"
-                                         : run->opt.estimator == RAD_ESTIMATOR_QMC ? "qmc"
-                                         : run->opt.estimator == RAD_ESTIMATOR_ANALYTIC ? "analytic"
-                                                                                   : "mc",
+                            .estimator = rad_estimator_name(run->opt.estimator),
                             .cull = run->opt.cull ? "all" : "none", .reciprocity = run->pairs_once ? "on" : "off",
                             .target_error = run->opt.target_error, .max_samples = run->opt.max_samples,
                             .errors = run->want_errors,

@@ -195,9 +195,9 @@ oom)
     done
     [ $oom -gt 0 ] || fail "$label: no limit produced an 'out of memory' message"
   }
-  "$ff" -q --subdiv 4 --samples 1 --shadow-rays 0 -o ref.ff || fail "setup: formfactor ref.ff"
+  "$ff" -q --subdiv 4 --estimator mc --samples 1 --shadow-rays 0 -o ref.ff || fail "setup: formfactor ref.ff"
   sweep "formfactor --subdiv 4" good.ff ref.ff out.ff "200000 400000 500000 1000000" \
-    "$ff" -q --subdiv 4 --samples 1 --shadow-rays 0 -o out.ff
+    "$ff" -q --subdiv 4 --estimator mc --samples 1 --shadow-rays 0 -o out.ff
   "$ff" -q --subdiv 3 --samples 32 --shadow-rays 8 -o mid.ff || fail "setup: formfactor mid.ff"
   "$solve" -q mid.ff -o ref.rad || fail "setup: solve mid.ff"
   sweep "solve (1280 patches)" good.rad ref.rad out.rad "8000 16000 64000" \

@@ -28,12 +28,20 @@ done
 [ "$(field cornell_box.all.json pairs_open_scene)" -eq 0 ] || { echo "FAIL: Cornell box taken for convex"; exit 1; }
 [ "$(field cornell_box.all.json pairs_open_box)" -gt 0 ] || { echo "FAIL: no pair culled in the Cornell box"; exit 1; }
 # With --target-error the batches a pair takes depend on its error, which
-# culling leaves unchanged too: identical bytes, counts that add up.
+# culling leaves unchanged too (Monte Carlo estimator): identical bytes,
+# errors included, and counts that add up.
 for c in all none; do
-  "$ff" "$scenes/cornell_box.obj" --backend cpu --subdiv 1 --samples 32 --target-error 0.003 --cull $c -q \
-    -o target.$c --errors target.$c.err --stats target.$c.json
+  "$ff" "$scenes/cornell_box.obj" --backend cpu --subdiv 1 --samples 32 --target-error 0.003 --estimator auto \
+    --cull $c -q -o target.$c --errors target.$c.err --stats target.$c.json
 done
 cmp target.all target.none && cmp target.all.err target.none.err || { echo "FAIL: --target-error differs with culling"; exit 1; }
+# The quadrature estimator: the same matrix. Its errors differ where
+# culling proves a pair unblocked (exactly 1 visible, error 0) while its
+# traced rays, all unblocked, only bound the hidden part by one ray's share.
+for c in all none; do
+  "$ff" "$scenes/cornell_box.obj" --backend cpu --subdiv 1 --target-error 0.003 --cull $c -q -o quad.$c
+done
+cmp quad.all quad.none || { echo "FAIL: --target-error (quadrature) differs with culling"; exit 1; }
 [ "$(field target.none.json rays)" -eq $(($(field target.all.json rays) + $(field target.all.json rays_saved))) ] ||
   { echo "FAIL: --target-error: rays do not add up"; exit 1; }
 echo "--target-error: identical with and without culling"

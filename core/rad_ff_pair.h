@@ -1,0 +1,253 @@
+/* rad_ff_pair.h - one patch pair from start to finish, for every
+ * estimator: the one per-pair procedure both backends run (host and
+ * device), so the estimators cannot drift between CPU and GPU. The
+ * backends keep only their loops over pairs and their culling.
+ *
+ * The including file supplies the two things that differ:
+ *
+ *     #define RAD_FF_TRACER     my_tracer      (a type; passed by pointer)
+ *     #define RAD_FF_OCCLUDED(tracer, o, d, face_a, face_b)  ...
+ *         1 if the segment o + t d (float[3] each, t in [FF_RAY_T_MIN,
+ *         FF_RAY_T_MAX]) hits an occluder on neither face
+ *     #define RAD_FF_TICKS()    a long long clock (time spent tracing)
+ *     #include "rad_ff_pair.h"
+ *
+ * Estimators (docs/architecture.md):
+ *  - quadrature (the default): G0 by adaptive quadrature
+ *    (rad_ff_quad.h), deterministic and error-controlled; where the
+ *    backend cannot rule out occlusion, times the visible fraction from
+ *    stratified, bounded-weight shadow rays (rad_ff_visibility.h);
+ *  - mc, qmc, auto, analytic: the Monte Carlo point-pair and near-field
+ *    estimators (rad_ff_kernel.h), kept for the study and the paper.
+ */
+#ifndef RAD_FF_PAIR_H
+#define RAD_FF_PAIR_H
+
+#include <stdint.h>
+
+#include "rad_ff_kernel.h"
+#include "rad_ff_quad.h"
+#include "rad_ff_visibility.h"
+
+/* Default refinement of partly hidden pairs (quadrature estimator,
+ * without --target-error): their shadow rays double until the standard
+ * error of both entries is at most RAD_FF_PARTIAL_TARGET, or until they
+ * reach RAD_FF_PARTIAL_RAYS times the first batch. */
+#define RAD_FF_PARTIAL_TARGET 2e-5
+#define RAD_FF_PARTIAL_RAYS 32u
+
+/* What every pair of a run shares. */
+typedef struct rad_ff_pair_params {
+    uint32_t estimator;   /* rad_estimator_id */
+    uint32_t samples;     /* K point pairs (Monte Carlo estimators) */
+    uint32_t rays;        /* R shadow rays of the first batch; 0 = no occlusion */
+    uint32_t max_samples; /* --target-error cap, as a multiple base: samples (and rays) <= first * max / samples */
+    uint64_t seed;
+    double target_error;  /* 0 = one batch */
+    double quad_rtol, quad_atol; /* rad_ff_quad_unoccluded tolerances */
+} rad_ff_pair_params;
+
+/* What one pair gave. */
+typedef struct rad_ff_pair_result {
+    double coupling;       /* c_ij = F_ij / A_j */
+    double error;          /* its standard error (quadrature: bound + standard error of the fraction) */
+    uint32_t samples;      /* point pairs or point factors evaluated */
+    uint32_t rays;         /* shadow rays traced */
+    uint32_t rays_blocked;
+    uint32_t rays_skipped; /* rays the pair would have cast without a tracer (culled) */
+    int near;              /* took the near-field (contour) estimator, or near-pair ray sampling */
+    int refined;           /* took more than one batch */
+    int capped;            /* error above the target (or the quadrature's limit) when it stopped */
+    long long ray_ticks;   /* RAD_FF_TICKS spent tracing */
+} rad_ff_pair_result;
+
+static inline RAD_HD void rad_ff_pair_add_ray(rad_ff_sums *sums, double g, int visible)
+{
+    sums->ray_terms += g;
+    sums->ray_terms_sq += g * g;
+    if (visible) {
+        sums->ray_seen += g;
+        sums->ray_seen_sq += g * g;
+    }
+    sums->visible += (uint32_t)visible;
+    sums->rays++;
+}
+
+/* One shadow segment from a to b (double), traced as float. */
+static inline RAD_HD int rad_ff_pair_visible(const RAD_FF_TRACER *tracer, rad_vec3 a, rad_vec3 b, uint32_t face_a,
+                                             uint32_t face_b)
+{
+    float o[3] = {(float)a.x, (float)a.y, (float)a.z};
+    float d[3] = {(float)b.x - o[0], (float)b.y - o[1], (float)b.z - o[2]};
+    return !(RAD_FF_OCCLUDED(tracer, o, d, face_a, face_b));
+}
+
+/* Monte Carlo terms of samples [k0, k1): G(x, y) (far) or near-field terms. */
+static inline RAD_HD void rad_ff_pair_mc_terms(const rad_ff_pair_params *pp, int near, const rad_ff_patch *pi,
+                                               const rad_ff_patch *pj, uint32_t i, uint32_t j, uint32_t k0,
+                                               uint32_t k1, rad_ff_sums *sums)
+{
+    for (uint32_t k = k0; k < k1; k++) {
+        rad_vec3 x, y;
+        double g;
+        if (near) {
+            g = rad_ff_near_sample(pi, pj, i, j, k, pp->seed, &x, &y);
+        } else {
+            rad_ff_pair_points(pp->estimator, pi, pj, i, j, k, pp->seed, &x, &y);
+            g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+        }
+        sums->terms += g;
+        sums->terms_sq += g * g;
+    }
+    sums->samples += k1 - k0;
+}
+
+/* Monte Carlo shadow rays of samples [r0, r1): the segment between the
+ * sample's points, from the lower-numbered patch, weighted by G(x, y)
+ * (near pairs too: the visible fraction is the G-weighted mean of V). */
+static inline RAD_HD void rad_ff_pair_mc_rays(const rad_ff_pair_params *pp, int near, const rad_ff_patch *pi,
+                                              const rad_ff_patch *pj, uint32_t i, uint32_t j, uint32_t r0,
+                                              uint32_t r1, const RAD_FF_TRACER *tracer, rad_ff_pair_result *out,
+                                              rad_ff_sums *sums)
+{
+    long long t0 = RAD_FF_TICKS();
+    for (uint32_t k = r0; k < r1; k++) {
+        rad_vec3 x, y;
+        if (near)
+            rad_ff_sample_pair(pi, pj, i, j, k, pp->seed, &x, &y);
+        else
+            rad_ff_pair_points(pp->estimator, pi, pj, i, j, k, pp->seed, &x, &y);
+        double g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
+        int visible = i < j ? rad_ff_pair_visible(tracer, x, y, pi->face, pj->face)
+                            : rad_ff_pair_visible(tracer, y, x, pj->face, pi->face);
+        rad_ff_pair_add_ray(sums, g, visible);
+        out->rays++;
+        out->rays_blocked += (uint32_t)!visible;
+    }
+    out->ray_ticks += RAD_FF_TICKS() - t0;
+}
+
+/* The Monte Carlo estimators: K samples, the first R with shadow rays,
+ * then (--target-error) batches doubling both until the error is met. */
+static inline RAD_HD void rad_ff_pair_monte_carlo(const rad_ff_pair_params *pp, const rad_ff_patch *pi,
+                                                  const rad_ff_patch *pj, uint32_t i, uint32_t j,
+                                                  const RAD_FF_TRACER *tracer, rad_ff_pair_result *out)
+{
+    int near = rad_ff_pair_uses_contour(pp->estimator, pi, pj);
+    uint32_t K = near ? rad_ff_near_samples(pp->samples) : pp->samples;
+    uint32_t R = pp->rays < K ? pp->rays : K;
+    rad_ff_sums sums = {0};
+    rad_ff_pair_mc_terms(pp, near, pi, pj, i, j, 0, K, &sums);
+    int traced = tracer && R > 0 && sums.terms > 0.0;
+    if (traced)
+        rad_ff_pair_mc_rays(pp, near, pi, pj, i, j, 0, R, tracer, out, &sums);
+    else if (sums.terms > 0.0)
+        out->rays_skipped += R;
+    double error = 0.0;
+    double value = rad_ff_estimate(&sums, near, pi, pj, &error);
+    if (pp->target_error > 0.0) {
+        uint32_t to = 0, rays_to = 0, planned = R;
+        while (!rad_ff_error_reached(error, pi, pj, pp->target_error) &&
+               rad_ff_next_batch(&sums, K, R, pp->samples, pp->max_samples, &to, &rays_to)) {
+            rad_ff_pair_mc_terms(pp, near, pi, pj, i, j, sums.samples, to, &sums);
+            if (traced) {
+                rad_ff_pair_mc_rays(pp, near, pi, pj, i, j, sums.rays, rays_to, tracer, out, &sums);
+            } else if (sums.terms > 0.0 && R > 0) {
+                out->rays_skipped += rays_to - planned;
+                planned = rays_to;
+            }
+            value = rad_ff_estimate(&sums, near, pi, pj, &error);
+            out->refined = 1;
+        }
+        out->capped = !rad_ff_error_reached(error, pi, pj, pp->target_error);
+    }
+    out->near = near;
+    out->samples = sums.samples;
+    out->coupling = value;
+    out->error = error;
+}
+
+/* The quadrature estimator's shadow rays [r0, r1). */
+static inline RAD_HD void rad_ff_pair_quad_rays(const rad_ff_pair_params *pp, const rad_ff_patch *q,
+                                                const rad_ff_patch *p, uint32_t iq, uint32_t ip, uint32_t strata,
+                                                int near, uint32_t r0, uint32_t r1, const RAD_FF_TRACER *tracer,
+                                                rad_ff_pair_result *out, rad_ff_sums *sums)
+{
+    long long t0 = RAD_FF_TICKS();
+    for (uint32_t r = r0; r < r1; r++) {
+        rad_vec3 y, x;
+        double w = rad_ff_vis_ray(q, p, iq, ip, r, strata, pp->seed, near, &y, &x);
+        if (w > 0.0) {
+            int visible = rad_ff_pair_visible(tracer, y, x, q->face, p->face);
+            rad_ff_pair_add_ray(sums, w, visible);
+            out->rays++;
+            out->rays_blocked += (uint32_t)!visible;
+        } else {
+            sums->rays++;
+        }
+    }
+    out->ray_ticks += RAD_FF_TICKS() - t0;
+}
+
+/* The quadrature estimator: G0 to the quadrature tolerance; with a tracer
+ * (the backend could not rule out occlusion), G = G0 nu^ with the visible
+ * fraction from stratified shadow rays, doubled under --target-error
+ * until the error is met or the rays reach their cap. */
+static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, const rad_ff_patch *pi,
+                                                 const rad_ff_patch *pj, uint32_t i, uint32_t j,
+                                                 const RAD_FF_TRACER *tracer, rad_ff_pair_result *out)
+{
+    int i_is_q = rad_ff_quad_roles(pi, pj, i, j);
+    const rad_ff_patch *q = i_is_q ? pi : pj, *p = i_is_q ? pj : pi;
+    uint32_t iq = i_is_q ? i : j, ip = i_is_q ? j : i;
+    rad_ff_quad_result g0 = rad_ff_quad_unoccluded(q, p, pp->quad_rtol, pp->quad_atol);
+    double scale = 1.0 / (pi->area * pj->area);
+    double nu = 1.0, nu_error = 0.0;
+    uint32_t R = rad_ff_vis_round_rays(pp->rays);
+    int near = rad_ff_pair_near(pi, pj);
+    out->samples = g0.points;
+    out->capped = g0.capped;
+    if (pp->rays > 0 && g0.g > 0.0 && !tracer) out->rays_skipped += R;
+    if (pp->rays > 0 && g0.g > 0.0 && tracer) {
+        uint32_t strata = rad_ff_vis_strata(pp->rays);
+        rad_ff_sums sums = {0};
+        rad_ff_pair_quad_rays(pp, q, p, iq, ip, strata, near, 0, R, tracer, out, &sums);
+        nu = rad_ff_fraction(&sums, &nu_error);
+        /* More rays (doubling) while the error is above the target: the
+         * user's --target-error for every traced pair; by default
+         * RAD_FF_PARTIAL_TARGET, for the pairs their first rays found
+         * partly hidden (0 < nu^ < 1) - the only ones whose fraction is
+         * uncertain beyond its one-ray floor. */
+        double target = pp->target_error > 0.0 ? pp->target_error : RAD_FF_PARTIAL_TARGET;
+        int refine = pp->target_error > 0.0 || (nu > 0.0 && nu < 1.0);
+        uint64_t cap = (uint64_t)R * (pp->target_error > 0.0 ? pp->max_samples / pp->samples : RAD_FF_PARTIAL_RAYS);
+        double area = pi->area > pj->area ? pi->area : pj->area;
+        while (refine && (g0.error + g0.g * nu_error) * scale * area > target && sums.rays < cap) {
+            uint64_t to = 2 * (uint64_t)sums.rays < cap ? 2 * (uint64_t)sums.rays : cap;
+            rad_ff_pair_quad_rays(pp, q, p, iq, ip, strata, near, sums.rays, (uint32_t)to, tracer, out, &sums);
+            nu = rad_ff_fraction(&sums, &nu_error);
+            out->refined = 1;
+        }
+        out->near = near;
+    }
+    out->coupling = g0.g * nu * scale;
+    out->error = (g0.error * nu + g0.g * nu_error) * scale;
+    if (pp->target_error > 0.0)
+        out->capped |= !rad_ff_error_reached(out->error, pi, pj, pp->target_error);
+}
+
+/* Pair (i, j), i != j, facing (rad_ff_pair_facing): its coupling and
+ * error. tracer NULL: the backend proved that nothing blocks the pair. */
+static inline RAD_HD void rad_ff_pair_compute(const rad_ff_pair_params *pp, const rad_ff_patch *pi,
+                                              const rad_ff_patch *pj, uint32_t i, uint32_t j,
+                                              const RAD_FF_TRACER *tracer, rad_ff_pair_result *out)
+{
+    rad_ff_pair_result zero = {0};
+    *out = zero;
+    if (pp->estimator == RAD_ESTIMATOR_QUADRATURE)
+        rad_ff_pair_quadrature(pp, pi, pj, i, j, tracer, out);
+    else
+        rad_ff_pair_monte_carlo(pp, pi, pj, i, j, tracer, out);
+}
+
+#endif
