@@ -44,7 +44,7 @@ typedef struct rad_ff_pair_params {
     uint32_t max_samples; /* --target-error cap, as a multiple base: samples (and rays) <= first * max / samples */
     uint64_t seed;
     double target_error;  /* 0 = one batch */
-    double quad_rtol, quad_atol; /* rad_ff_quad_unoccluded tolerances */
+    double quad_rtol, quad_atol; /* rad_ff_quad_unoccluded tolerances; 0 = RAD_FF_QUAD_RTOL, _ATOL */
 } rad_ff_pair_params;
 
 /* What one pair gave. */
@@ -200,7 +200,9 @@ static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, c
     int i_is_q = rad_ff_quad_roles(pi, pj, i, j);
     const rad_ff_patch *q = i_is_q ? pi : pj, *p = i_is_q ? pj : pi;
     uint32_t iq = i_is_q ? i : j, ip = i_is_q ? j : i;
-    rad_ff_quad_result g0 = rad_ff_quad_unoccluded(q, p, pp->quad_rtol, pp->quad_atol);
+    double rtol = pp->quad_rtol > 0.0 ? pp->quad_rtol : RAD_FF_QUAD_RTOL; /* 0: the defaults */
+    double atol = pp->quad_atol > 0.0 ? pp->quad_atol : RAD_FF_QUAD_ATOL;
+    rad_ff_quad_result g0 = rad_ff_quad_unoccluded(q, p, rtol, atol);
     double scale = 1.0 / (pi->area * pj->area);
     double nu = 1.0, nu_error = 0.0;
     uint32_t R = rad_ff_vis_round_rays(pp->rays);

@@ -10,8 +10,8 @@ build=${BUILD_DIR:-/tmp/build-gpu}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader > "$out/gpu.txt" 2>&1
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CUDA_ARCHITECTURES=${CUDA_ARCH:-90} > "$out/cmake.log" 2>&1 || { tail -30 "$out/cmake.log"; exit 1; }
-cmake --build "$build" -j"$(nproc)" --target formfactor ${TEST_TARGETS:-test_cuda test_bvh test_formfactor test_ffile} > "$out/build.log" 2>&1 || { grep -E "error|Error" "$out/build.log" | head -30; exit 1; }
-ctest --test-dir "$build" -R "${TEST_REGEX:-formfactor_cuda|formfactor_gpu_ranks|bvh|formfactor_cpu|ffile}" --output-on-failure -V > "$out/ctest.log" 2>&1
+cmake --build "$build" -j"$(nproc)" --target formfactor ${TEST_TARGETS:-test_cuda test_bvh test_formfactor test_ffile test_quadrature test_hard_cases} > "$out/build.log" 2>&1 || { grep -E "error|Error" "$out/build.log" | head -30; exit 1; }
+ctest --test-dir "$build" -R "${TEST_REGEX:-formfactor_cuda|formfactor_gpu_ranks|bvh|formfactor_cpu|ffile|formfactor_quadrature|formfactor_hard_cases}" --output-on-failure -V > "$out/ctest.log" 2>&1
 echo "ctest rc=$?"; grep -E "Passed|Failed|Skipped|differ|cuda |F = " "$out/ctest.log" | head -30
 ff="$build/formfactor"; scene=scenes/cornell_sphere.obj
 run() { # name, args...
@@ -24,6 +24,10 @@ run n424_gpu   $scene --subdiv 3 --subdiv-only box --backend cuda
 run n2944_gpu  $scene --subdiv 3 --backend cuda
 run n2944_gpu_norays $scene --subdiv 3 --backend cuda --shadow-rays 0
 run n2944_cpu16 $scene --subdiv 3 --backend cpu
+if [ "${ESTIMATORS:-1}" = 1 ]; then   # the Monte Carlo estimators beside the default (quadrature)
+  for e in mc auto; do run n2944_gpu_$e $scene --subdiv 3 --backend cuda --estimator $e; done
+  run n2944_cpu16_mc $scene --subdiv 3 --backend cpu --estimator mc
+fi
 cmp /tmp/ff_n2944_gpu /tmp/ff_n2944_cpu16 >/dev/null && echo "cpu/gpu bytes identical" || echo "cpu/gpu bytes differ (expected: sum order)"
 [ "${MID:-1}" = 1 ] && run n11776_gpu $scene --subdiv 4 --backend cuda --element f32
 [ "${BIG:-1}" = 1 ] && run n47104_gpu $scene --subdiv 5 --backend cuda --element f32

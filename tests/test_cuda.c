@@ -9,8 +9,10 @@
  *   - at most 0.5 % of the nonzero entries (borderline rays), which must
  *     still agree within 25 % (one ray of 32 weighs ~1/32 on average);
  *   - culled pairs, samples and rays counted identically.
- * Both estimators (mc, and auto with its near-field contour integrals,
- * where atan2/sqrt may differ in the last bit between libm and CUDA).
+ * Every estimator: mc, qmc, auto and analytic (near-field contour
+ * integrals, where atan2/sqrt may differ in the last bit between libm and
+ * CUDA), and quadrature (the same, plus adaptive decisions that may flip
+ * on such a bit: entries within its tolerance, counts within 1 %).
  * Plus the closed forms on the GPU, as in test_formfactor.c.
  */
 #include <stdlib.h>
@@ -45,15 +47,25 @@ static void compare(const char *path, int subdiv, rad_estimator_id estimator)
     fprintf(stderr,
             "%s --subdiv %d (%s): N=%u, %llu nonzero; %llu entries differ beyond 1e-9 (borderline rays), %llu beyond 25%%; "
             "largest tight difference %.2e; rays occluded cpu %llu gpu %llu\n",
-            path, subdiv, estimator == RAD_ESTIMATOR_AUTO ? "auto" : estimator == RAD_ESTIMATOR_QMC ? "qmc" : estimator == RAD_ESTIMATOR_ANALYTIC ? "analytic" : "mc", n, (unsigned long long)nonzero, (unsigned long long)loose, (unsigned long long)bad,
+            path, subdiv, rad_estimator_name(estimator), n, (unsigned long long)nonzero, (unsigned long long)loose, (unsigned long long)bad,
             worst_tight, (unsigned long long)cc.rays_occluded, (unsigned long long)gc.rays_occluded);
     RAD_CHECK(loose <= nonzero / 200);
     RAD_CHECK(bad == 0);
     RAD_CHECK(cc.pairs == gc.pairs && cc.pairs_culled == gc.pairs_culled);
-    RAD_CHECK(cc.samples == gc.samples && cc.pairs_near == gc.pairs_near);
     /* The GPU applies only the convex-scene culling rule; the CPU also the
-     * per-pair shaft rule. Same rays in all, and the same matrix. */
-    RAD_CHECK(cc.rays + cc.rays_saved == gc.rays + gc.rays_saved && cc.pairs_open_scene == gc.pairs_open_scene);
+     * per-pair shaft rule. Same rays in all, and the same matrix. The
+     * quadrature estimator's adaptive decisions (a cell's error against its
+     * share, a pair found partly hidden) may flip on a last-bit or
+     * borderline-ray difference, so its counts agree to 1 %. */
+    if (estimator == RAD_ESTIMATOR_QUADRATURE) {
+        RAD_CHECK(fabs((double)cc.samples - (double)gc.samples) <= 0.01 * (double)cc.samples);
+        RAD_CHECK(fabs((double)(cc.rays + cc.rays_saved) - (double)(gc.rays + gc.rays_saved)) <=
+                  0.01 * (double)(cc.rays + cc.rays_saved));
+    } else {
+        RAD_CHECK(cc.samples == gc.samples && cc.pairs_near == gc.pairs_near);
+        RAD_CHECK(cc.rays + cc.rays_saved == gc.rays + gc.rays_saved);
+    }
+    RAD_CHECK(cc.pairs_open_scene == gc.pairs_open_scene);
     free(cpu);
     free(gpu);
     fixture_free(&fx);
@@ -145,10 +157,14 @@ int main(void)
     compare(RAD_SCENES "/cornell_sphere.obj", 2, RAD_ESTIMATOR_AUTO);
     compare(RAD_SCENES "/cornell_sphere.obj", 2, RAD_ESTIMATOR_QMC);
     compare(RAD_SCENES "/cornell_box.obj", 1, RAD_ESTIMATOR_ANALYTIC);
+    compare(RAD_SCENES "/cornell_box.obj", 2, RAD_ESTIMATOR_QUADRATURE);
+    compare(RAD_SCENES "/cornell_sphere.obj", 2, RAD_ESTIMATOR_QUADRATURE);
+    compare(RAD_SCENES "/closed_box.obj", 3, RAD_ESTIMATOR_QUADRATURE);
     compare_errors(RAD_SCENES "/cornell_box.obj", 1, RAD_ESTIMATOR_AUTO, 0);
     compare_errors(RAD_SCENES "/cornell_box.obj", 1, RAD_ESTIMATOR_AUTO, 0.002);
     compare_errors(RAD_SCENES "/cornell_sphere.obj", 1, RAD_ESTIMATOR_MC, 0.002);
     compare_errors(RAD_SCENES "/closed_box.obj", 1, RAD_ESTIMATOR_QMC, 0.001);
+    compare_errors(RAD_SCENES "/cornell_box.obj", 1, RAD_ESTIMATOR_QUADRATURE, 0.002);
     closed_form("parallel unit squares", parallel_obj, 0.199825, 1.5e-4);
     closed_form("perpendicular unit squares", perpendicular_obj, 0.200044, 2e-3);
 
