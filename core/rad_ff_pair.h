@@ -10,6 +10,8 @@
  *         1 if the segment o + t d (float[3] each, t in [FF_RAY_T_MIN,
  *         FF_RAY_T_MAX]) hits an occluder on neither face
  *     #define RAD_FF_TICKS()    a long long clock (time spent tracing)
+ *     #define RAD_FF_LANE_SUM(x, lanes), RAD_FF_LANE_SUM_U(x, lanes)
+ *         optional: sums over the threads that share a pair (rad_ff_quad.h)
  *     #include "rad_ff_pair.h"
  *
  * Estimators (docs/architecture.md):
@@ -45,6 +47,7 @@ typedef struct rad_ff_pair_params {
     uint64_t seed;
     double target_error;  /* 0 = one batch */
     double quad_rtol, quad_atol; /* rad_ff_quad_unoccluded tolerances; 0 = RAD_FF_QUAD_RTOL, _ATOL */
+    unsigned lane, lanes; /* this thread's share of the pair (rad_ff_quad.h, "Lanes"); 0 of 1 on the CPU */
 } rad_ff_pair_params;
 
 /* What one pair gave. */
@@ -61,16 +64,38 @@ typedef struct rad_ff_pair_result {
     long long ray_ticks;   /* RAD_FF_TICKS spent tracing */
 } rad_ff_pair_result;
 
-static inline RAD_HD void rad_ff_pair_add_ray(rad_ff_sums *sums, double g, int visible)
+/* One thread's share of a batch of shadow rays, added to the pair's sums
+ * over all lanes at the end of the batch (rad_ff_pair_rays_add). */
+typedef struct rad_ff_ray_batch {
+    double terms, terms_sq, seen, seen_sq;
+    uint32_t traced, visible;
+} rad_ff_ray_batch;
+
+static inline RAD_HD void rad_ff_pair_add_ray(rad_ff_ray_batch *b, double g, int visible)
 {
-    sums->ray_terms += g;
-    sums->ray_terms_sq += g * g;
+    b->terms += g;
+    b->terms_sq += g * g;
     if (visible) {
-        sums->ray_seen += g;
-        sums->ray_seen_sq += g * g;
+        b->seen += g;
+        b->seen_sq += g * g;
     }
-    sums->visible += (uint32_t)visible;
-    sums->rays++;
+    b->visible += (uint32_t)visible;
+    b->traced++;
+}
+
+/* The batch of rays [r0, r1) into the pair's sums and counts. */
+static inline RAD_HD void rad_ff_pair_rays_add(const rad_ff_pair_params *pp, const rad_ff_ray_batch *b, uint32_t r0,
+                                               uint32_t r1, rad_ff_sums *sums, rad_ff_pair_result *out)
+{
+    sums->ray_terms += RAD_FF_LANE_SUM(b->terms, pp->lanes);
+    sums->ray_terms_sq += RAD_FF_LANE_SUM(b->terms_sq, pp->lanes);
+    sums->ray_seen += RAD_FF_LANE_SUM(b->seen, pp->lanes);
+    sums->ray_seen_sq += RAD_FF_LANE_SUM(b->seen_sq, pp->lanes);
+    uint32_t traced = RAD_FF_LANE_SUM_U(b->traced, pp->lanes), visible = RAD_FF_LANE_SUM_U(b->visible, pp->lanes);
+    sums->visible += visible;
+    sums->rays += r1 - r0;
+    out->rays += traced;
+    out->rays_blocked += traced - visible;
 }
 
 /* One shadow segment from a to b (double), traced as float. */
@@ -87,7 +112,8 @@ static inline RAD_HD void rad_ff_pair_mc_terms(const rad_ff_pair_params *pp, int
                                                const rad_ff_patch *pj, uint32_t i, uint32_t j, uint32_t k0,
                                                uint32_t k1, rad_ff_sums *sums)
 {
-    for (uint32_t k = k0; k < k1; k++) {
+    double sum = 0.0, sum_sq = 0.0;
+    for (uint32_t k = k0 + pp->lane; k < k1; k += pp->lanes) {
         rad_vec3 x, y;
         double g;
         if (near) {
@@ -96,9 +122,11 @@ static inline RAD_HD void rad_ff_pair_mc_terms(const rad_ff_pair_params *pp, int
             rad_ff_pair_points(pp->estimator, pi, pj, i, j, k, pp->seed, &x, &y);
             g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
         }
-        sums->terms += g;
-        sums->terms_sq += g * g;
+        sum += g;
+        sum_sq += g * g;
     }
+    sums->terms += RAD_FF_LANE_SUM(sum, pp->lanes);
+    sums->terms_sq += RAD_FF_LANE_SUM(sum_sq, pp->lanes);
     sums->samples += k1 - k0;
 }
 
@@ -111,7 +139,8 @@ static inline RAD_HD void rad_ff_pair_mc_rays(const rad_ff_pair_params *pp, int 
                                               rad_ff_sums *sums)
 {
     long long t0 = RAD_FF_TICKS();
-    for (uint32_t k = r0; k < r1; k++) {
+    rad_ff_ray_batch b = {0};
+    for (uint32_t k = r0 + pp->lane; k < r1; k += pp->lanes) {
         rad_vec3 x, y;
         if (near)
             rad_ff_sample_pair(pi, pj, i, j, k, pp->seed, &x, &y);
@@ -120,10 +149,9 @@ static inline RAD_HD void rad_ff_pair_mc_rays(const rad_ff_pair_params *pp, int 
         double g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
         int visible = i < j ? rad_ff_pair_visible(tracer, x, y, pi->face, pj->face)
                             : rad_ff_pair_visible(tracer, y, x, pj->face, pi->face);
-        rad_ff_pair_add_ray(sums, g, visible);
-        out->rays++;
-        out->rays_blocked += (uint32_t)!visible;
+        rad_ff_pair_add_ray(&b, g, visible);
     }
+    rad_ff_pair_rays_add(pp, &b, r0, r1, sums, out);
     out->ray_ticks += RAD_FF_TICKS() - t0;
 }
 
@@ -174,18 +202,13 @@ static inline RAD_HD void rad_ff_pair_quad_rays(const rad_ff_pair_params *pp, co
                                                 rad_ff_pair_result *out, rad_ff_sums *sums)
 {
     long long t0 = RAD_FF_TICKS();
-    for (uint32_t r = r0; r < r1; r++) {
+    rad_ff_ray_batch b = {0};
+    for (uint32_t r = r0 + pp->lane; r < r1; r += pp->lanes) {
         rad_vec3 y, x;
         double w = rad_ff_vis_ray(q, p, iq, ip, r, strata, pp->seed, near, &y, &x);
-        if (w > 0.0) {
-            int visible = rad_ff_pair_visible(tracer, y, x, q->face, p->face);
-            rad_ff_pair_add_ray(sums, w, visible);
-            out->rays++;
-            out->rays_blocked += (uint32_t)!visible;
-        } else {
-            sums->rays++;
-        }
+        if (w > 0.0) rad_ff_pair_add_ray(&b, w, rad_ff_pair_visible(tracer, y, x, q->face, p->face));
     }
+    rad_ff_pair_rays_add(pp, &b, r0, r1, sums, out);
     out->ray_ticks += RAD_FF_TICKS() - t0;
 }
 
@@ -202,7 +225,7 @@ static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, c
     uint32_t iq = i_is_q ? i : j, ip = i_is_q ? j : i;
     double rtol = pp->quad_rtol > 0.0 ? pp->quad_rtol : RAD_FF_QUAD_RTOL; /* 0: the defaults */
     double atol = pp->quad_atol > 0.0 ? pp->quad_atol : RAD_FF_QUAD_ATOL;
-    rad_ff_quad_result g0 = rad_ff_quad_unoccluded(q, p, rtol, atol);
+    rad_ff_quad_result g0 = rad_ff_quad_unoccluded(q, p, rtol, atol, pp->lane, pp->lanes);
     double scale = 1.0 / (pi->area * pj->area);
     double nu = 1.0, nu_error = 0.0;
     uint32_t R = rad_ff_vis_round_rays(pp->rays);
@@ -218,10 +241,11 @@ static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, c
         /* More rays (doubling) while the error is above the target: the
          * user's --target-error for every traced pair; by default
          * RAD_FF_PARTIAL_TARGET, for the pairs their first rays found
-         * partly hidden (0 < nu^ < 1) - the only ones whose fraction is
-         * uncertain beyond its one-ray floor. */
+         * partly hidden (0 < nu^ < 1), or learnt nothing of (no ray with
+         * weight) - the only ones whose fraction is uncertain beyond its
+         * one-ray floor. */
         double target = pp->target_error > 0.0 ? pp->target_error : RAD_FF_PARTIAL_TARGET;
-        int refine = pp->target_error > 0.0 || (nu > 0.0 && nu < 1.0);
+        int refine = pp->target_error > 0.0 || (nu > 0.0 && nu < 1.0) || !(sums.ray_terms > 0.0);
         uint64_t cap = (uint64_t)R * (pp->target_error > 0.0 ? pp->max_samples / pp->samples : RAD_FF_PARTIAL_RAYS);
         double area = pi->area > pj->area ? pi->area : pj->area;
         while (refine && (g0.error + g0.g * nu_error) * scale * area > target && sums.rays < cap) {

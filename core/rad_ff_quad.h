@@ -36,6 +36,15 @@
 #include "rad_ff_kernel.h"
 #include "rad_math.h"
 
+/* Lanes: a group of threads may share one pair (a CUDA warp: each lane
+ * takes every lanes-th quadrature point, and RAD_FF_LANE_SUM gives every
+ * lane the group's total, the same bits on all, so control flow stays
+ * uniform). One thread (the CPU, tests): lane 0 of 1, and the sum of one. */
+#ifndef RAD_FF_LANE_SUM
+#define RAD_FF_LANE_SUM(x, lanes) (x)
+#define RAD_FF_LANE_SUM_U(x, lanes) (x)
+#endif
+
 /* Gauss-Legendre rules of orders 1..12 on [0, 1], weights summing to 1,
  * order n at offset n (n - 1) / 2 (from 40-digit Newton iteration). */
 #define RAD_FF_GL_MAX_ORDER 12
@@ -242,21 +251,19 @@ static inline RAD_HD void rad_ff_grade_ends(const rad_ff_patch *q, const rad_ff_
 /* Tensor Gauss-Legendre over a cell of q, of F(dA_y -> p): order nu
  * along u, nv along v. */
 static inline RAD_HD double rad_ff_cell_rule(const rad_ff_patch *q, const rad_ff_patch *p, const rad_ff_cell *c, int nu,
-                                            int nv, int ends_u, int ends_v)
+                                            int nv, int ends_u, int ends_v, unsigned lane, unsigned lanes)
 {
     double sum = 0.0;
-    for (int a = 0; a < nu; a++) {
+    for (int k = (int)lane; k < nu * nv; k += (int)lanes) {
+        int a = k / nv, b = k % nv;
         double dudt, u = rad_ff_grade(ends_u, c->u0 + c->du * rad_ff_gl_node(nu, a), &dudt);
-        double wu = rad_ff_gl_weight(nu, a) * dudt;
-        double row = 0.0;
-        for (int b = 0; b < nv; b++) {
-            double jac, dvdt, v = rad_ff_grade(ends_v, c->v0 + c->dv * rad_ff_gl_node(nv, b), &dvdt);
-            rad_vec3 y = rad_ff_patch_map(q, u, v, &jac);
-            row += rad_ff_gl_weight(nv, b) * dvdt * jac * rad_ff_point_polygon(y, q->normal, p);
-        }
-        sum += wu * row;
+        double dvdt, v = rad_ff_grade(ends_v, c->v0 + c->dv * rad_ff_gl_node(nv, b), &dvdt);
+        double jac;
+        rad_vec3 y = rad_ff_patch_map(q, u, v, &jac);
+        sum += rad_ff_gl_weight(nu, a) * dudt * rad_ff_gl_weight(nv, b) * dvdt * jac *
+               rad_ff_point_polygon(y, q->normal, p);
     }
-    return sum * c->du * c->dv;
+    return RAD_FF_LANE_SUM(sum, lanes) * c->du * c->dv;
 }
 
 /* Gauss order for a cell from its distance to p against its size: far
@@ -292,9 +299,10 @@ typedef struct rad_ff_quad_result {
 } rad_ff_quad_result;
 
 /* G over q towards p (q the smaller patch, rad_ff_quad_roles), to the
- * tolerance max(rtol |G|, atol A_q). */
+ * tolerance max(rtol |G|, atol A_q); this thread is `lane` of `lanes`. */
 static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patch *q, const rad_ff_patch *p,
-                                                               double rtol, double atol)
+                                                               double rtol, double atol, unsigned lane,
+                                                               unsigned lanes)
 {
     rad_ff_quad_result out;
     out.g = 0.0, out.error = 0.0, out.points = 0, out.cells = 0, out.capped = 0;
@@ -310,7 +318,7 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
         for (int b = halves_v - 1; b >= 0; b--) {
             stack[top] = rad_ff_cell_make(a * (1.0 / halves_u), b * (1.0 / halves_v), 1.0 / halves_u, 1.0 / halves_v, 0);
             int n = rad_ff_cell_order(q, p, &stack[top]);
-            first += rad_ff_cell_rule(q, p, &stack[top], n, n, ends_u, ends_v);
+            first += rad_ff_cell_rule(q, p, &stack[top], n, n, ends_u, ends_v, lane, lanes);
             out.points += (uint32_t)(n * n);
             top++;
         }
@@ -322,7 +330,7 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
     while (top > 0) {
         rad_ff_cell c = stack[--top];
         int n = rad_ff_cell_order(q, p, &c);
-        double coarse = rad_ff_cell_rule(q, p, &c, n, n, ends_u, ends_v), fine = rad_ff_cell_rule(q, p, &c, n + 1, n + 1, ends_u, ends_v);
+        double coarse = rad_ff_cell_rule(q, p, &c, n, n, ends_u, ends_v, lane, lanes), fine = rad_ff_cell_rule(q, p, &c, n + 1, n + 1, ends_u, ends_v, lane, lanes);
         double est = fabs(fine - coarse);
         out.points += (uint32_t)(n * n + (n + 1) * (n + 1));
         out.cells++;
@@ -339,8 +347,8 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
          * along u only, and along v only, tell them apart. Near a shared
          * edge this grades thin cells towards the edge instead of filling
          * its whole length with small squares. */
-        double along_u = fabs(rad_ff_cell_rule(q, p, &c, n + 1, n, ends_u, ends_v) - coarse);
-        double along_v = fabs(rad_ff_cell_rule(q, p, &c, n, n + 1, ends_u, ends_v) - coarse);
+        double along_u = fabs(rad_ff_cell_rule(q, p, &c, n + 1, n, ends_u, ends_v, lane, lanes) - coarse);
+        double along_v = fabs(rad_ff_cell_rule(q, p, &c, n, n + 1, ends_u, ends_v, lane, lanes) - coarse);
         out.points += (uint32_t)(2 * n * (n + 1));
         int split_u = !(along_v > 4.0 * along_u), split_v = !(along_u > 4.0 * along_v);
         int nu = split_u ? 2 : 1, nv = split_v ? 2 : 1;

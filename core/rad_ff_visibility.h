@@ -131,24 +131,37 @@ static inline RAD_HD double rad_ff_vis_ray(const rad_ff_patch *q, const rad_ff_p
 }
 
 /* Visible fraction nu^ = sum w V / sum w from the running sums, and its
- * standard error: the linearised ratio variance, and, when every ray
- * agreed (nu^ = 0 or 1: the formula says 0), one over the rays' effective
- * count (sum w)^2 / sum w^2 instead - as large as one ray's change. */
+ * standard error. The linearised ratio variance alone is too small where
+ * few rays carry the weight (effective count n = (sum w)^2 / sum w^2
+ * small) or all agree (it says 0): the variance is at least that of a
+ * binomial fraction over n rays with one success and one failure added,
+ * nu~ (1 - nu~) / n with nu~ = (n nu^ + 1) / (n + 2), and the ratio term
+ * is taken with the n / (n - 1) of a sample variance. When all rays agree
+ * the error is 2/n, two rays' change: a pair whose true fraction is nu
+ * shows n agreeing rays with probability nu^n ~ exp(-n (1 - nu)), so an
+ * error beyond 6 of these (n (1 - nu) > 12) turns up less than once in
+ * 10^5 pairs (measured: tests/seed_spread). The error is 1/2 when no ray carried
+ * weight (all from points that cannot see p): nothing is known but
+ * nu in [0, 1]. Checked against the spread over 64 seeds (tests). */
 static inline RAD_HD double rad_ff_fraction(const rad_ff_sums *s, double *standard_error)
 {
     if (!(s->ray_terms > 0.0)) {
-        *standard_error = 0.0;
+        *standard_error = 0.5;
         return 1.0;
     }
     double nu = s->ray_seen / s->ray_terms;
     double hidden = s->ray_terms_sq - s->ray_seen_sq;
     hidden = hidden > 0.0 ? hidden : 0.0;
     double spread = s->ray_seen_sq * (1.0 - nu) * (1.0 - nu) + hidden * nu * nu;
-    double var = spread / (s->ray_terms * s->ray_terms);
-    double effective = s->ray_terms * s->ray_terms / s->ray_terms_sq;
-    double floor = 1.0 / (effective * effective);
-    if (s->ray_seen == 0.0 || s->ray_seen == s->ray_terms) var = var > floor ? var : floor;
-    *standard_error = sqrt(var);
+    double n = s->ray_terms * s->ray_terms / s->ray_terms_sq;
+    double var = spread / (s->ray_terms * s->ray_terms) * (n > 1.5 ? n / (n - 1.0) : 3.0);
+    if (s->ray_seen == 0.0 || s->ray_seen == s->ray_terms) {
+        *standard_error = 2.0 / n;
+        return nu;
+    }
+    double smooth = (n * nu + 1.0) / (n + 2.0);
+    double binomial = smooth * (1.0 - smooth) / n;
+    *standard_error = sqrt(var > binomial ? var : binomial);
     return nu;
 }
 

@@ -216,7 +216,9 @@ static rad_ff_pair_params pair_params(const ff_setup *su)
                              .seed = su->seed,
                              .target_error = su->target_error,
                              .quad_rtol = su->quad_rtol,
-                             .quad_atol = su->quad_atol};
+                             .quad_atol = su->quad_atol,
+                             .lane = 0,
+                             .lanes = 1};
     return pp;
 }
 

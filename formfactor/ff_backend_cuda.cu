@@ -1,11 +1,13 @@
 /* ff_backend_cuda.cu - the CUDA backend. No MPI here, only CUDA.
  *
- * One thread per patch pair runs the shared per-pair procedure
- * (rad_ff_pair.h, the very code the CPU backend runs), with shadow rays
- * through the flat BVH of ff_bvh.h (any hit, first hit returns). A first
- * kernel lists the pairs that can exchange light, far pairs from the front
- * of a list and near ones from the back, so that each gets a launch of its
- * own and warps hold pairs of like cost; culled pairs cost one thread one
+ * One warp per patch pair runs the shared per-pair procedure
+ * (rad_ff_pair.h, the very code the CPU backend runs): its lanes share the
+ * quadrature points, samples and shadow rays of the pair, and reduce them
+ * with shuffles (every lane gets the same bits, so the adaptive control
+ * flow stays uniform); rays go through the flat BVH of ff_bvh.h (any hit,
+ * first hit returns). A first kernel lists the pairs that can exchange
+ * light, far pairs from the front of a list and near ones from the back,
+ * so that each gets a launch of its own; culled pairs cost one thread one
  * test and one store.
  *
  * This file is compiled with --fmad=false so each double operation rounds
@@ -47,6 +49,33 @@ static inline RAD_HD long long cuda_ticks(void)
 #endif
 }
 
+/* Sums over the 32 lanes of a warp that share a pair (the xor butterfly
+ * adds the same two numbers on both sides at each step: same bits on
+ * every lane). */
+static inline RAD_HD double cuda_lane_sum(double v, unsigned lanes)
+{
+#if defined(__CUDA_ARCH__)
+    if (lanes > 1)
+        for (int offset = 16; offset > 0; offset >>= 1) v += __shfl_xor_sync(0xffffffffu, v, offset);
+#else
+    (void)lanes;
+#endif
+    return v;
+}
+
+static inline RAD_HD uint32_t cuda_lane_sum_u(uint32_t v, unsigned lanes)
+{
+#if defined(__CUDA_ARCH__)
+    if (lanes > 1)
+        for (int offset = 16; offset > 0; offset >>= 1) v += __shfl_xor_sync(0xffffffffu, v, offset);
+#else
+    (void)lanes;
+#endif
+    return v;
+}
+
+#define RAD_FF_LANE_SUM(x, lanes) cuda_lane_sum(x, lanes)
+#define RAD_FF_LANE_SUM_U(x, lanes) cuda_lane_sum_u(x, lanes)
 #define RAD_FF_TRACER cuda_tracer
 #define RAD_FF_OCCLUDED(t, o, d, a, b) cuda_occluded(t, o, d, a, b)
 #define RAD_FF_TICKS() cuda_ticks()
@@ -113,12 +142,6 @@ static rad_status cuda_check(cudaError_t err, const char *what, int line)
         if ((status = cuda_check((call), #call, __LINE__)) != RAD_OK) goto done; \
     } while (0)
 
-__device__ static unsigned long long warp_sum_u64(unsigned long long v)
-{
-    for (int offset = 16; offset > 0; offset >>= 1) v += __shfl_xor_sync(0xffffffffu, v, offset);
-    return v;
-}
-
 /* Pass 1: thread per pair; zeros for pairs that cannot exchange light; far
  * pairs listed from the front of p.pairs, near pairs from the back, so each
  * list gets a launch of its own: near pairs (adaptive quadrature, contour
@@ -141,7 +164,7 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t
         pairs[atomicAdd(&counts[0], 1u)] = (uint32_t)t;
 }
 
-/* Pass 2: one thread per listed pair, the shared per-pair procedure.
+/* Pass 2: one warp per listed pair, the shared per-pair procedure.
  * Culling on the GPU: only the convex-enclosure rule. The per-pair shaft
  * test of the CPU backend costs about what the rays it saves cost
  * (measured in session 1); the matrix is the same either way, since a
@@ -151,32 +174,35 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
     __shared__ unsigned long long block_counts[C_COUNT];
     if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
     __syncthreads();
-    uint64_t k = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
-    unsigned long long c[C_COUNT] = {0};
-    if (k < p.pair_count) {
+    uint64_t warp = ((uint64_t)blockIdx.x * blockDim.x + threadIdx.x) >> 5;
+    unsigned lane = threadIdx.x & 31u;
+    if (warp < p.pair_count) { /* warp-uniform */
         long long start = clock64();
-        uint32_t t = p.pairs[p.step * (int64_t)k];
+        uint32_t t = p.pairs[p.step * (int64_t)warp];
         uint32_t j = t % p.n, i = p.row_begin + t / p.n;
         int open = p.pair.rays == 0 || (p.cull && p.scene_convex);
+        rad_ff_pair_params pp = p.pair;
+        pp.lane = lane;
+        pp.lanes = 32;
         rad_ff_pair_result r;
-        rad_ff_pair_compute(&p.pair, &p.patches[i], &p.patches[j], i, j, open ? NULL : &p.tracer, &r);
-        p.out[t] = r.coupling;
-        if (p.errors) p.errors[t] = r.error;
-        c[C_SAMPLES] = r.samples;
-        c[C_RAYS] = r.rays;
-        c[C_OCCLUDED] = r.rays_blocked;
-        c[C_NEAR] = (unsigned long long)r.near;
-        c[C_OPEN_SCENE] = (unsigned long long)(p.pair.rays > 0 && p.cull && p.scene_convex);
-        c[C_SAVED] = r.rays_skipped;
-        c[C_REFINED] = (unsigned long long)r.refined;
-        c[C_CAPPED] = (unsigned long long)r.capped;
-        c[C_RAY_CYCLES] = (unsigned long long)r.ray_ticks;
-        c[C_CYCLES] = (unsigned long long)(clock64() - start);
-    }
-    /* Counters: summed over the warp by shuffles, then once per warp. */
-    for (int m = 0; m < C_COUNT; m++) {
-        unsigned long long v = warp_sum_u64(c[m]);
-        if ((threadIdx.x & 31u) == 0 && v) atomicAdd(&block_counts[m], v);
+        rad_ff_pair_compute(&pp, &p.patches[i], &p.patches[j], i, j, open ? NULL : &p.tracer, &r);
+        if (lane == 0) {
+            p.out[t] = r.coupling;
+            if (p.errors) p.errors[t] = r.error;
+            unsigned long long c[C_COUNT] = {0};
+            c[C_SAMPLES] = r.samples;
+            c[C_RAYS] = r.rays;
+            c[C_OCCLUDED] = r.rays_blocked;
+            c[C_NEAR] = (unsigned long long)r.near;
+            c[C_OPEN_SCENE] = (unsigned long long)(p.pair.rays > 0 && p.cull && p.scene_convex);
+            c[C_SAVED] = r.rays_skipped;
+            c[C_REFINED] = (unsigned long long)r.refined;
+            c[C_CAPPED] = (unsigned long long)r.capped;
+            c[C_RAY_CYCLES] = (unsigned long long)r.ray_ticks;
+            c[C_CYCLES] = (unsigned long long)(clock64() - start);
+            for (int m = 0; m < C_COUNT; m++)
+                if (c[m]) atomicAdd(&block_counts[m], c[m]);
+        }
     }
     __syncthreads();
     if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
@@ -325,7 +351,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
         p.pair_count = pair_counts[list];
         p.pairs = list == 0 ? s->d_pairs : s->d_pairs + need - 1;
         p.step = list == 0 ? 1 : -1;
-        uint64_t blocks = ((uint64_t)p.pair_count + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK;
+        uint64_t blocks = ((uint64_t)p.pair_count + FF_CUDA_BLOCK / 32 - 1) / (FF_CUDA_BLOCK / 32);
         ff_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
         CUDA_TRY(cudaGetLastError());
     }

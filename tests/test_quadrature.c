@@ -38,7 +38,7 @@ static double form_factor(const rad_ff_patch *a, const rad_ff_patch *b, double *
 {
     int a_is_q = rad_ff_quad_roles(a, b, 0, 1);
     rad_ff_quad_result r =
-        rad_ff_quad_unoccluded(a_is_q ? a : b, a_is_q ? b : a, RAD_FF_QUAD_RTOL, RAD_FF_QUAD_ATOL);
+        rad_ff_quad_unoccluded(a_is_q ? a : b, a_is_q ? b : a, RAD_FF_QUAD_RTOL, RAD_FF_QUAD_ATOL, 0, 1);
     if (error) *error = r.error / a->area;
     if (points) *points = r.points;
     RAD_CHECK(!r.capped);
@@ -182,7 +182,7 @@ int main(void)
     const char *angle_names[] = {"hinge 60 deg", "hinge 135 deg", "hinge 10 deg"};
     for (int k = 0; k < 3; k++) {
         rad_ff_patch h = hinge(angles[k]);
-        rad_ff_quad_result tight = rad_ff_quad_unoccluded(&fl, &h, 0.1 * RAD_FF_QUAD_RTOL, RAD_FF_QUAD_ATOL);
+        rad_ff_quad_result tight = rad_ff_quad_unoccluded(&fl, &h, 0.1 * RAD_FF_QUAD_RTOL, RAD_FF_QUAD_ATOL, 0, 1);
         RAD_CHECK(!tight.capped);
         check_case(angle_names[k], &fl, &h, tight.g, tol);
     }
