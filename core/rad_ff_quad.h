@@ -125,6 +125,8 @@ static inline RAD_HD double rad_ff_gl_weight(int order, int k)
 #define RAD_FF_QUAD_MAX_DEPTH 48
 #define RAD_FF_QUAD_MAX_CELLS 4096u
 #define RAD_FF_QUAD_STACK 64
+/* Highest Gauss order a cell apart from p is raised to before it is split. */
+#define RAD_FF_QUAD_P_MAX 8
 
 /* Point of patch q at (u, v) in the unit square, and the area element
  * |dX/du x dX/dv| there (bilinear map P0, P1, P2, P3). */
@@ -330,11 +332,21 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
     while (top > 0) {
         rad_ff_cell c = stack[--top];
         int n = rad_ff_cell_order(q, p, &c);
-        double coarse = rad_ff_cell_rule(q, p, &c, n, n, ends_u, ends_v, lane, lanes), fine = rad_ff_cell_rule(q, p, &c, n + 1, n + 1, ends_u, ends_v, lane, lanes);
+        double coarse = rad_ff_cell_rule(q, p, &c, n, n, ends_u, ends_v, lane, lanes);
+        double fine = rad_ff_cell_rule(q, p, &c, n + 1, n + 1, ends_u, ends_v, lane, lanes);
         double est = fabs(fine - coarse);
         out.points += (uint32_t)(n * n + (n + 1) * (n + 1));
         out.cells++;
         double share = tol * sqrt(c.du * c.dv);
+        /* A cell apart from p (order below 6) holds a smooth integrand: one
+         * order more converges faster than a split, up to RAD_FF_QUAD_P_MAX. */
+        while (est > share && n < 6 && n + 2 <= RAD_FF_QUAD_P_MAX) {
+            n++;
+            coarse = fine;
+            fine = rad_ff_cell_rule(q, p, &c, n + 1, n + 1, ends_u, ends_v, lane, lanes);
+            est = fabs(fine - coarse);
+            out.points += (uint32_t)((n + 1) * (n + 1));
+        }
         int room = top + 4 <= RAD_FF_QUAD_STACK && c.depth < RAD_FF_QUAD_MAX_DEPTH &&
                    out.cells + (uint32_t)top < RAD_FF_QUAD_MAX_CELLS;
         if (est <= share || !room) {

@@ -4,7 +4,7 @@ compares every entry's spread with the error the run reported for it.
 
     python3 tools/seed_spread.py FORMFACTOR SCENE.obj [--subdiv S] [--seeds 64]
                                  [--max-beyond-3 0.01] [--max-beyond-6 0] [--json out.json]
-                                 [-- extra formfactor options]
+                                 [--ff-args "more formfactor options"]
 
 For seed s and entry e (only entries some seed gave a nonzero error, i.e.
 the pairs whose visibility was sampled), z = (F_se - m_-s,e) / sqrt(sigma_se^2
@@ -36,14 +36,14 @@ def main():
     ap.add_argument("--max-beyond-3", type=float, default=0.01)
     ap.add_argument("--max-beyond-6", type=float, default=0.0)
     ap.add_argument("--json")
-    ap.add_argument("extra", nargs="*")
+    ap.add_argument("--ff-args", default="", help="more formfactor options, one string")
     a = ap.parse_args()
     values, errors = [], []
     with tempfile.TemporaryDirectory() as tmp:
         ff, err = os.path.join(tmp, "ff"), os.path.join(tmp, "err")
         for seed in range(1, a.seeds + 1):
             subprocess.run([a.formfactor, a.scene, "--subdiv", str(a.subdiv), "--seed", str(seed), "-q", "-o", ff,
-                            "--errors", err] + a.extra, check=True)
+                            "--errors", err] + a.ff_args.split(), check=True)
             _, _, patches, F = read_formfactors(ff)
             values.append(F.astype(np.float64))
             errors.append(read_formfactors(err)[3].astype(np.float64))
@@ -61,7 +61,7 @@ def main():
     spread = F.std(axis=0, ddof=1)[sampled]
     median_error = np.median(E[:, sampled], axis=0)
     ratio = np.median(median_error / np.where(spread > 0, spread, np.inf)) if count else 0.0
-    result = {"scene": a.scene, "subdiv": a.subdiv, "seeds": S, "extra": a.extra,
+    result = {"scene": a.scene, "subdiv": a.subdiv, "seeds": S, "ff_args": a.ff_args,
               "entries_sampled": int(sampled.sum()), "values": int(count),
               "beyond_3_sigma": beyond3, "beyond_6_sigma": beyond6, "max_abs_z": float(np.abs(z).max()) if count else 0,
               "sd_z": float(z.std()) if count else 0, "median_reported_over_spread": float(ratio)}
