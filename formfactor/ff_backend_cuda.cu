@@ -49,14 +49,27 @@ static inline RAD_HD long long cuda_ticks(void)
 #endif
 }
 
-/* Sums over the 32 lanes of a warp that share a pair (the xor butterfly
+/* Sums over the `lanes` lanes (a power of two, <= 32) of a warp that
+ * share a pair: an xor butterfly within the group, whose mask names only
+ * the group's lanes, so groups of one warp may diverge from each other
+ * (the procedure's control flow is uniform within a group). The butterfly
  * adds the same two numbers on both sides at each step: same bits on
- * every lane). */
+ * every lane. */
+#if defined(__CUDA_ARCH__)
+__device__ static inline unsigned cuda_group_mask(unsigned lanes)
+{
+    unsigned lane = threadIdx.x & 31u;
+    return lanes >= 32 ? 0xffffffffu : ((1u << lanes) - 1u) << (lane & ~(lanes - 1u));
+}
+#endif
+
 static inline RAD_HD double cuda_lane_sum(double v, unsigned lanes)
 {
 #if defined(__CUDA_ARCH__)
-    if (lanes > 1)
-        for (int offset = 16; offset > 0; offset >>= 1) v += __shfl_xor_sync(0xffffffffu, v, offset);
+    if (lanes > 1) {
+        unsigned mask = cuda_group_mask(lanes);
+        for (unsigned offset = lanes / 2; offset > 0; offset >>= 1) v += __shfl_xor_sync(mask, v, offset);
+    }
 #else
     (void)lanes;
 #endif
@@ -66,8 +79,10 @@ static inline RAD_HD double cuda_lane_sum(double v, unsigned lanes)
 static inline RAD_HD uint32_t cuda_lane_sum_u(uint32_t v, unsigned lanes)
 {
 #if defined(__CUDA_ARCH__)
-    if (lanes > 1)
-        for (int offset = 16; offset > 0; offset >>= 1) v += __shfl_xor_sync(0xffffffffu, v, offset);
+    if (lanes > 1) {
+        unsigned mask = cuda_group_mask(lanes);
+        for (unsigned offset = lanes / 2; offset > 0; offset >>= 1) v += __shfl_xor_sync(mask, v, offset);
+    }
 #else
     (void)lanes;
 #endif
@@ -82,6 +97,12 @@ static inline RAD_HD uint32_t cuda_lane_sum_u(uint32_t v, unsigned lanes)
 #include "rad_ff_pair.h"
 
 enum { FF_CUDA_BLOCK = 256 };
+/* Lanes per pair: far pairs (a few quadrature points, 32 rays) in groups
+ * of FF_CUDA_FAR_LANES, four pairs to a warp; near pairs (adaptive cells
+ * of up to 100 points) a whole warp each. */
+#ifndef FF_CUDA_FAR_LANES
+#define FF_CUDA_FAR_LANES 8
+#endif
 /* Blocks per SM the pair kernel is compiled for: bounds its registers
  * (65536 / (256 * blocks) per thread), trading spills for occupancy. */
 #ifndef FF_CUDA_MIN_BLOCKS
@@ -103,6 +124,7 @@ struct cuda_params {
     unsigned long long *counters;  /* C_COUNT */
     const uint32_t *pairs;         /* facing pairs: r * n + j, pair_count of them */
     int64_t step;                  /* +1: the far list, read forwards; -1: the near list, backwards */
+    unsigned lanes;                /* threads per pair (a power of two, <= 32) */
     uint32_t pair_count;
 };
 
@@ -164,7 +186,8 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t
         pairs[atomicAdd(&counts[0], 1u)] = (uint32_t)t;
 }
 
-/* Pass 2: one warp per listed pair, the shared per-pair procedure.
+/* Pass 2: a group of p.lanes threads per listed pair, the shared per-pair
+ * procedure.
  * Culling on the GPU: only the convex-enclosure rule. The per-pair shaft
  * test of the CPU backend costs about what the rays it saves cost
  * (measured in session 1); the matrix is the same either way, since a
@@ -174,16 +197,17 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
     __shared__ unsigned long long block_counts[C_COUNT];
     if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
     __syncthreads();
-    uint64_t warp = ((uint64_t)blockIdx.x * blockDim.x + threadIdx.x) >> 5;
-    unsigned lane = threadIdx.x & 31u;
-    if (warp < p.pair_count) { /* warp-uniform */
+    uint64_t thread = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
+    uint64_t group = thread / p.lanes;
+    unsigned lane = (unsigned)(thread % p.lanes);
+    if (group < p.pair_count) { /* uniform within the group */
         long long start = clock64();
-        uint32_t t = p.pairs[p.step * (int64_t)warp];
+        uint32_t t = p.pairs[p.step * (int64_t)group];
         uint32_t j = t % p.n, i = p.row_begin + t / p.n;
         int open = p.pair.rays == 0 || (p.cull && p.scene_convex);
         rad_ff_pair_params pp = p.pair;
         pp.lane = lane;
-        pp.lanes = 32;
+        pp.lanes = p.lanes;
         rad_ff_pair_result r;
         rad_ff_pair_compute(&pp, &p.patches[i], &p.patches[j], i, j, open ? NULL : &p.tracer, &r);
         if (lane == 0) {
@@ -351,7 +375,9 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
         p.pair_count = pair_counts[list];
         p.pairs = list == 0 ? s->d_pairs : s->d_pairs + need - 1;
         p.step = list == 0 ? 1 : -1;
-        uint64_t blocks = ((uint64_t)p.pair_count + FF_CUDA_BLOCK / 32 - 1) / (FF_CUDA_BLOCK / 32);
+        p.lanes = list == 0 ? FF_CUDA_FAR_LANES : 32;
+        uint64_t per_block = FF_CUDA_BLOCK / p.lanes;
+        uint64_t blocks = ((uint64_t)p.pair_count + per_block - 1) / per_block;
         ff_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
         CUDA_TRY(cudaGetLastError());
     }
