@@ -36,7 +36,9 @@
  * error of both entries is at most RAD_FF_PARTIAL_TARGET, or until they
  * reach RAD_FF_PARTIAL_RAYS times the first batch. */
 #define RAD_FF_PARTIAL_TARGET 2e-5
+#ifndef RAD_FF_PARTIAL_RAYS
 #define RAD_FF_PARTIAL_RAYS 32u
+#endif
 
 /* What every pair of a run shares. */
 typedef struct rad_ff_pair_params {

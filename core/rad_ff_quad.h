@@ -252,20 +252,34 @@ static inline RAD_HD void rad_ff_grade_ends(const rad_ff_patch *q, const rad_ff_
 
 /* Tensor Gauss-Legendre over a cell of q, of F(dA_y -> p): order nu
  * along u, nv along v. */
-static inline RAD_HD double rad_ff_cell_rule(const rad_ff_patch *q, const rad_ff_patch *p, const rad_ff_cell *c, int nu,
-                                            int nv, int ends_u, int ends_v, unsigned lane, unsigned lanes)
+static inline RAD_HD double rad_ff_cell_point(const rad_ff_patch *q, const rad_ff_patch *p, const rad_ff_cell *c, int nu,
+                                             int nv, int k, int ends_u, int ends_v)
 {
-    double sum = 0.0;
-    for (int k = (int)lane; k < nu * nv; k += (int)lanes) {
-        int a = k / nv, b = k % nv;
-        double dudt, u = rad_ff_grade(ends_u, c->u0 + c->du * rad_ff_gl_node(nu, a), &dudt);
-        double dvdt, v = rad_ff_grade(ends_v, c->v0 + c->dv * rad_ff_gl_node(nv, b), &dvdt);
-        double jac;
-        rad_vec3 y = rad_ff_patch_map(q, u, v, &jac);
-        sum += rad_ff_gl_weight(nu, a) * dudt * rad_ff_gl_weight(nv, b) * dvdt * jac *
-               rad_ff_point_polygon(y, q->normal, p);
+    int a = k / nv, b = k % nv;
+    double dudt, u = rad_ff_grade(ends_u, c->u0 + c->du * rad_ff_gl_node(nu, a), &dudt);
+    double dvdt, v = rad_ff_grade(ends_v, c->v0 + c->dv * rad_ff_gl_node(nv, b), &dvdt);
+    double jac;
+    rad_vec3 y = rad_ff_patch_map(q, u, v, &jac);
+    return rad_ff_gl_weight(nu, a) * dudt * rad_ff_gl_weight(nv, b) * dvdt * jac * rad_ff_point_polygon(y, q->normal, p);
+}
+
+/* Two rules over one cell at once, A (orders nu_a x nv_a) and B: their
+ * points form one list that the lanes share, so a group of threads needs
+ * as few rounds as the points allow. */
+static inline RAD_HD void rad_ff_cell_rules(const rad_ff_patch *q, const rad_ff_patch *p, const rad_ff_cell *c,
+                                            int nu_a, int nv_a, int nu_b, int nv_b, int ends_u, int ends_v,
+                                            unsigned lane, unsigned lanes, double *rule_a, double *rule_b)
+{
+    int count_a = nu_a * nv_a, count = count_a + nu_b * nv_b;
+    double sum_a = 0.0, sum_b = 0.0;
+    for (int k = (int)lane; k < count; k += (int)lanes) {
+        if (k < count_a)
+            sum_a += rad_ff_cell_point(q, p, c, nu_a, nv_a, k, ends_u, ends_v);
+        else
+            sum_b += rad_ff_cell_point(q, p, c, nu_b, nv_b, k - count_a, ends_u, ends_v);
     }
-    return RAD_FF_LANE_SUM(sum, lanes) * c->du * c->dv;
+    *rule_a = RAD_FF_LANE_SUM(sum_a, lanes) * c->du * c->dv;
+    *rule_b = RAD_FF_LANE_SUM(sum_b, lanes) * c->du * c->dv;
 }
 
 /* Gauss order for a cell from its distance to p against its size: far
@@ -320,7 +334,9 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
         for (int b = halves_v - 1; b >= 0; b--) {
             stack[top] = rad_ff_cell_make(a * (1.0 / halves_u), b * (1.0 / halves_v), 1.0 / halves_u, 1.0 / halves_v, 0);
             int n = rad_ff_cell_order(q, p, &stack[top]);
-            first += rad_ff_cell_rule(q, p, &stack[top], n, n, ends_u, ends_v, lane, lanes);
+            double coarse, unused;
+            rad_ff_cell_rules(q, p, &stack[top], n, n, 0, 0, ends_u, ends_v, lane, lanes, &coarse, &unused);
+            first += coarse;
             out.points += (uint32_t)(n * n);
             top++;
         }
@@ -332,8 +348,8 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
     while (top > 0) {
         rad_ff_cell c = stack[--top];
         int n = rad_ff_cell_order(q, p, &c);
-        double coarse = rad_ff_cell_rule(q, p, &c, n, n, ends_u, ends_v, lane, lanes);
-        double fine = rad_ff_cell_rule(q, p, &c, n + 1, n + 1, ends_u, ends_v, lane, lanes);
+        double coarse, fine;
+        rad_ff_cell_rules(q, p, &c, n, n, n + 1, n + 1, ends_u, ends_v, lane, lanes, &coarse, &fine);
         double est = fabs(fine - coarse);
         out.points += (uint32_t)(n * n + (n + 1) * (n + 1));
         out.cells++;
@@ -343,7 +359,8 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
         while (est > share && n < 6 && n + 2 <= RAD_FF_QUAD_P_MAX) {
             n++;
             coarse = fine;
-            fine = rad_ff_cell_rule(q, p, &c, n + 1, n + 1, ends_u, ends_v, lane, lanes);
+            double unused;
+            rad_ff_cell_rules(q, p, &c, n + 1, n + 1, 0, 0, ends_u, ends_v, lane, lanes, &fine, &unused);
             est = fabs(fine - coarse);
             out.points += (uint32_t)((n + 1) * (n + 1));
         }
@@ -359,8 +376,9 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
          * along u only, and along v only, tell them apart. Near a shared
          * edge this grades thin cells towards the edge instead of filling
          * its whole length with small squares. */
-        double along_u = fabs(rad_ff_cell_rule(q, p, &c, n + 1, n, ends_u, ends_v, lane, lanes) - coarse);
-        double along_v = fabs(rad_ff_cell_rule(q, p, &c, n, n + 1, ends_u, ends_v, lane, lanes) - coarse);
+        double more_u, more_v;
+        rad_ff_cell_rules(q, p, &c, n + 1, n, n, n + 1, ends_u, ends_v, lane, lanes, &more_u, &more_v);
+        double along_u = fabs(more_u - coarse), along_v = fabs(more_v - coarse);
         out.points += (uint32_t)(2 * n * (n + 1));
         int split_u = !(along_v > 4.0 * along_u), split_v = !(along_u > 4.0 * along_v);
         int nu = split_u ? 2 : 1, nv = split_v ? 2 : 1;

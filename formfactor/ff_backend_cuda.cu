@@ -98,10 +98,10 @@ static inline RAD_HD uint32_t cuda_lane_sum_u(uint32_t v, unsigned lanes)
 
 enum { FF_CUDA_BLOCK = 256 };
 /* Lanes per pair: far pairs (a few quadrature points, 32 rays) in groups
- * of FF_CUDA_FAR_LANES, four pairs to a warp; near pairs (adaptive cells
+ * of FF_CUDA_FAR_LANES, two pairs to a warp; near pairs (adaptive cells
  * of up to 100 points) a whole warp each. */
 #ifndef FF_CUDA_FAR_LANES
-#define FF_CUDA_FAR_LANES 8
+#define FF_CUDA_FAR_LANES 16
 #endif
 /* Blocks per SM the pair kernel is compiled for: bounds its registers
  * (65536 / (256 * blocks) per thread), trading spills for occupancy. */
