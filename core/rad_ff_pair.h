@@ -37,7 +37,7 @@
  * reach RAD_FF_PARTIAL_RAYS times the first batch. */
 #define RAD_FF_PARTIAL_TARGET 2e-5
 #ifndef RAD_FF_PARTIAL_RAYS
-#define RAD_FF_PARTIAL_RAYS 32u
+#define RAD_FF_PARTIAL_RAYS 8u
 #endif
 
 /* What every pair of a run shares. */

@@ -4,7 +4,8 @@
 #     GPU tests skip themselves without a GPU;
 #  2. the sanitized pass: the same sources built with ASan + UBSan
 #     (-DRAD_SANITIZE=ON -DRAD_WERROR=ON) in BUILD_DIR-asan, running the
-#     whole CPU suite (ctest -LE gpu); any sanitizer report fails a test;
+#     CPU suite but for the slow statistical tests (ctest -LE "gpu|slow");
+#     any sanitizer report fails a test;
 #  3. a fuzz smoke run: the libFuzzer targets (clang, BUILD_DIR-fuzz) for
 #     RAD_FUZZ_SECONDS (default 20) each, skipped when clang is missing.
 # RAD_TEST_PASSES picks passes (default "normal sanitize fuzz"); arguments
@@ -37,7 +38,7 @@ if [[ " $passes " == *" sanitize "* ]]; then
   ASAN_OPTIONS=fast_unwind_on_malloc=0:detect_stack_use_after_return=1 \
   UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
   LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp:print_suppressions=0 \
-    ctest --test-dir "$asan" --output-on-failure -j"$jobs" -LE gpu "$@"
+    ctest --test-dir "$asan" --output-on-failure -j"$jobs" -LE "gpu|slow" "$@"
 fi
 
 if [[ " $passes " == *" fuzz "* ]]; then
