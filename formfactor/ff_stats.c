@@ -152,8 +152,13 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
                  e->error_count ? e->error_sum / e->error_count : 0.0,
                  e->error_count ? 100.0 * e->error_relative_sum / e->error_count : 0.0, e->error_max,
                  e->error_max_row, e->error_max_column, e->error_max_value);
-    if (run->target_error > 0)
-        rad_info("--target-error %.3g: %llu pairs took more samples; %llu are still above it at the cap of %u samples",
-                 run->target_error, (unsigned long long)c->pairs_refined, (unsigned long long)c->pairs_capped,
-                 run->max_samples);
+    if (run->target_error > 0 && c->pairs_capped == 0)
+        rad_info("--target-error %.3g: met by every pair (%llu took more samples or rays)", run->target_error,
+                 (unsigned long long)c->pairs_refined);
+    else if (run->target_error > 0)
+        rad_warn("--target-error %.3g: %llu pairs are still above it at their cap (%llu took more samples or rays); "
+                 "the worst is F[%u][%u] = %.6g with a standard error of %.3g; --errors FILE lists every entry's, "
+                 "a larger --max-samples raises the cap",
+                 run->target_error, (unsigned long long)c->pairs_capped, (unsigned long long)c->pairs_refined,
+                 e->error_max_row, e->error_max_column, e->error_max_value, e->error_max);
 }
