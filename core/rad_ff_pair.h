@@ -10,7 +10,7 @@
  *         1 if the segment o + t d (float[3] each, t in [FF_RAY_T_MIN,
  *         FF_RAY_T_MAX]) hits an occluder on neither face
  *     #define RAD_FF_TICKS()    a long long clock (time spent tracing)
- *     #define RAD_FF_LANE_SUM(x, lanes), RAD_FF_LANE_SUM_U(x, lanes)
+ *     #define RAD_FF_LANE_SUM(x, lanes)
  *         optional: sums over the threads that share a pair (rad_ff_quad.h)
  *     #include "rad_ff_pair.h"
  *
@@ -93,7 +93,7 @@ static inline RAD_HD void rad_ff_pair_rays_add(const rad_ff_pair_params *pp, con
     sums->ray_terms_sq += RAD_FF_LANE_SUM(b->terms_sq, pp->lanes);
     sums->ray_seen += RAD_FF_LANE_SUM(b->seen, pp->lanes);
     sums->ray_seen_sq += RAD_FF_LANE_SUM(b->seen_sq, pp->lanes);
-    uint32_t traced = RAD_FF_LANE_SUM_U(b->traced, pp->lanes), visible = RAD_FF_LANE_SUM_U(b->visible, pp->lanes);
+    uint32_t traced = RAD_FF_LANE_SUM(b->traced, pp->lanes), visible = RAD_FF_LANE_SUM(b->visible, pp->lanes);
     sums->visible += visible;
     sums->rays += r1 - r0;
     out->rays += traced;

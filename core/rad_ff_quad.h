@@ -42,7 +42,6 @@
  * uniform). One thread (the CPU, tests): lane 0 of 1, and the sum of one. */
 #ifndef RAD_FF_LANE_SUM
 #define RAD_FF_LANE_SUM(x, lanes) (x)
-#define RAD_FF_LANE_SUM_U(x, lanes) (x)
 #endif
 
 /* Gauss-Legendre rules of orders 1..12 on [0, 1], weights summing to 1,

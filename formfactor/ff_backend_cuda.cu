@@ -63,20 +63,7 @@ __device__ static inline unsigned cuda_group_mask(unsigned lanes)
 }
 #endif
 
-static inline RAD_HD double cuda_lane_sum(double v, unsigned lanes)
-{
-#if defined(__CUDA_ARCH__)
-    if (lanes > 1) {
-        unsigned mask = cuda_group_mask(lanes);
-        for (unsigned offset = lanes / 2; offset > 0; offset >>= 1) v += __shfl_xor_sync(mask, v, offset);
-    }
-#else
-    (void)lanes;
-#endif
-    return v;
-}
-
-static inline RAD_HD uint32_t cuda_lane_sum_u(uint32_t v, unsigned lanes)
+template <typename T> static inline RAD_HD T cuda_lane_sum(T v, unsigned lanes)
 {
 #if defined(__CUDA_ARCH__)
     if (lanes > 1) {
@@ -90,7 +77,6 @@ static inline RAD_HD uint32_t cuda_lane_sum_u(uint32_t v, unsigned lanes)
 }
 
 #define RAD_FF_LANE_SUM(x, lanes) cuda_lane_sum(x, lanes)
-#define RAD_FF_LANE_SUM_U(x, lanes) cuda_lane_sum_u(x, lanes)
 #define RAD_FF_TRACER cuda_tracer
 #define RAD_FF_OCCLUDED(t, o, d, a, b) cuda_occluded(t, o, d, a, b)
 #define RAD_FF_TICKS() cuda_ticks()
