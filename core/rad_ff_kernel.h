@@ -82,6 +82,18 @@ static inline int rad_estimator_parse(const char *name, rad_estimator_id *out)
     return 0;
 }
 
+/* What every pair of a run shares (rad_ff_pair.h). */
+typedef struct rad_ff_pair_params {
+    uint32_t estimator;   /* rad_estimator_id */
+    uint32_t samples;     /* K point pairs (Monte Carlo estimators) */
+    uint32_t rays;        /* R shadow rays of the first batch; 0 = no occlusion */
+    uint32_t max_samples; /* --target-error cap, as a multiple base: samples (and rays) <= first * max / samples */
+    uint64_t seed;
+    double target_error;  /* 0 = one batch */
+    double quad_rtol, quad_atol; /* rad_ff_quad_unoccluded tolerances; 0 = RAD_FF_QUAD_RTOL, _ATOL */
+    unsigned lane, lanes; /* this thread's share of the pair (rad_ff_quad.h, "Lanes"); 0 of 1 on the CPU */
+} rad_ff_pair_params;
+
 /* A patch as the estimators need it: flat, no pointers. */
 typedef struct rad_ff_patch {
     rad_vec3 p[4];         /* vertices in winding order (p[3] = p[2] for triangles) */

@@ -40,17 +40,6 @@
 #define RAD_FF_PARTIAL_RAYS 8u
 #endif
 
-/* What every pair of a run shares. */
-typedef struct rad_ff_pair_params {
-    uint32_t estimator;   /* rad_estimator_id */
-    uint32_t samples;     /* K point pairs (Monte Carlo estimators) */
-    uint32_t rays;        /* R shadow rays of the first batch; 0 = no occlusion */
-    uint32_t max_samples; /* --target-error cap, as a multiple base: samples (and rays) <= first * max / samples */
-    uint64_t seed;
-    double target_error;  /* 0 = one batch */
-    double quad_rtol, quad_atol; /* rad_ff_quad_unoccluded tolerances; 0 = RAD_FF_QUAD_RTOL, _ATOL */
-    unsigned lane, lanes; /* this thread's share of the pair (rad_ff_quad.h, "Lanes"); 0 of 1 on the CPU */
-} rad_ff_pair_params;
 
 /* What one pair gave. */
 typedef struct rad_ff_pair_result {

@@ -304,6 +304,13 @@ static inline RAD_HD int rad_ff_cell_order(const rad_ff_patch *q, const rad_ff_p
     return ratio >= 12.0 ? 2 : ratio >= 5.0 ? 3 : ratio >= 2.5 ? 4 : ratio >= 1.0 ? 5 : 6;
 }
 
+/* max(rtol |G|, atol A_q) for an estimate g of G. */
+static inline RAD_HD double rad_ff_quad_tolerance(double g, double rtol, double atol, const rad_ff_patch *q)
+{
+    double rel = rtol * fabs(g), abs_tol = atol * q->area;
+    return rel > abs_tol ? rel : abs_tol;
+}
+
 /* What rad_ff_quad_unoccluded found. */
 typedef struct rad_ff_quad_result {
     double g;         /* G = A_q F_qp */
@@ -323,26 +330,28 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
     out.g = 0.0, out.error = 0.0, out.points = 0, out.cells = 0, out.capped = 0;
     rad_ff_cell stack[RAD_FF_QUAD_STACK];
     int top = 0;
-    double tol = 0.0;
     int ends_u, ends_v;
     rad_ff_grade_ends(q, p, 1e-9 * (q->radius + p->radius), &ends_u, &ends_v);
     /* A direction graded at both ends starts split at 1/2 (rad_ff_grade). */
     int halves_u = ends_u == 3 ? 2 : 1, halves_v = ends_v == 3 ? 2 : 1;
-    double first = 0.0;
     for (int a = halves_u - 1; a >= 0; a--)
-        for (int b = halves_v - 1; b >= 0; b--) {
-            stack[top] = rad_ff_cell_make(a * (1.0 / halves_u), b * (1.0 / halves_v), 1.0 / halves_u, 1.0 / halves_v, 0);
-            int n = rad_ff_cell_order(q, p, &stack[top]);
+        for (int b = halves_v - 1; b >= 0; b--)
+            stack[top++] = rad_ff_cell_make(a * (1.0 / halves_u), b * (1.0 / halves_v), 1.0 / halves_u,
+                                            1.0 / halves_v, 0);
+    /* The tolerance comes from the coarse rule over the whole square: for
+     * one starting cell, the loop's own first coarse rule (tol < 0 until
+     * then); for several, a pass over them first. */
+    double tol = -1.0;
+    if (top > 1) {
+        double first = 0.0;
+        for (int k = 0; k < top; k++) {
+            int n = rad_ff_cell_order(q, p, &stack[k]);
             double coarse, unused;
-            rad_ff_cell_rules(q, p, &stack[top], n, n, 0, 0, ends_u, ends_v, lane, lanes, &coarse, &unused);
+            rad_ff_cell_rules(q, p, &stack[k], n, n, 0, 0, ends_u, ends_v, lane, lanes, &coarse, &unused);
             first += coarse;
             out.points += (uint32_t)(n * n);
-            top++;
         }
-    double rel = rtol * fabs(first), abs_tol = atol * q->area;
-    tol = rel > abs_tol ? rel : abs_tol;
-    if (top == 1) { /* one cell: its first rule is the coarse rule below */
-        out.points = 0;
+        tol = rad_ff_quad_tolerance(first, rtol, atol, q);
     }
     while (top > 0) {
         rad_ff_cell c = stack[--top];
@@ -351,6 +360,7 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
         rad_ff_cell_rules(q, p, &c, n, n, n + 1, n + 1, ends_u, ends_v, lane, lanes, &coarse, &fine);
         double est = fabs(fine - coarse);
         out.points += (uint32_t)(n * n + (n + 1) * (n + 1));
+        if (tol < 0.0) tol = rad_ff_quad_tolerance(coarse, rtol, atol, q);
         out.cells++;
         double share = tol * sqrt(c.du * c.dv);
         /* A cell apart from p (order below 6) holds a smooth integrand: one

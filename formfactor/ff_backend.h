@@ -63,6 +63,24 @@ typedef struct ff_setup {
     void *progress_user;
 } ff_setup;
 
+/* The run's settings as the per-pair procedure takes them, for one thread
+ * per pair (a backend that shares a pair among lanes sets lane, lanes). */
+static inline rad_ff_pair_params ff_pair_params(const ff_setup *su)
+{
+    rad_ff_pair_params pp;
+    pp.estimator = su->estimator;
+    pp.samples = su->samples;
+    pp.rays = su->shadow_rays;
+    pp.max_samples = su->max_samples;
+    pp.seed = su->seed;
+    pp.target_error = su->target_error;
+    pp.quad_rtol = su->quad_rtol;
+    pp.quad_atol = su->quad_atol;
+    pp.lane = 0;
+    pp.lanes = 1;
+    return pp;
+}
+
 /* What a backend did; summed over calls, ranks and threads. */
 typedef struct ff_counters {
     uint64_t pairs;          /* ordered pairs (i, j) computed (with pairs_once: about half) */

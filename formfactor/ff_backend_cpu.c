@@ -206,29 +206,13 @@ static int pair_needs_rays(const cpu_state *s, uint32_t i, uint32_t j, ff_counte
     return 1;
 }
 
-/* The run's settings as the per-pair procedure takes them. */
-static rad_ff_pair_params pair_params(const ff_setup *su)
-{
-    rad_ff_pair_params pp = {.estimator = su->estimator,
-                             .samples = su->samples,
-                             .rays = su->shadow_rays,
-                             .max_samples = su->max_samples,
-                             .seed = su->seed,
-                             .target_error = su->target_error,
-                             .quad_rtol = su->quad_rtol,
-                             .quad_atol = su->quad_atol,
-                             .lane = 0,
-                             .lanes = 1};
-    return pp;
-}
-
 /* Row i, every column: the shared per-pair procedure for each pair the
  * row computes; zeros elsewhere. */
 static void compute_row(const cpu_state *s, uint32_t i, double *row, double *errors, ff_counters *c)
 {
     const ff_setup *su = &s->setup;
     const rad_ff_patch *pi = &su->patches[i];
-    rad_ff_pair_params pp = pair_params(su);
+    rad_ff_pair_params pp = ff_pair_params(su);
     cpu_tracer tracer = {s->scene, su->triangle_face};
     long long t0 = cpu_ticks(), ray_ticks = 0;
     for (uint32_t j = 0; j < su->patch_count; j++) {

@@ -329,14 +329,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     p.tracer.tris = s->d_tris;
     p.tracer.root = s->root;
     p.tracer.root_count = s->root_count;
-    p.pair.estimator = su->estimator;
-    p.pair.samples = su->samples;
-    p.pair.rays = su->shadow_rays;
-    p.pair.max_samples = su->max_samples;
-    p.pair.seed = su->seed;
-    p.pair.target_error = su->target_error;
-    p.pair.quad_rtol = su->quad_rtol;
-    p.pair.quad_atol = su->quad_atol;
+    p.pair = ff_pair_params(su);
     p.cull = su->cull;
     p.scene_convex = su->scene_convex;
     p.pairs_once = su->pairs_once;

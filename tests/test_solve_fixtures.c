@@ -346,6 +346,15 @@ rad_status solve_fx_write(const char *path, const solve_fx_scene *scene, rad_ele
     return rad_ff_write_serial(path, &info, &scene->mesh, scene->F);
 }
 
+const char *solve_fx_path(const char *dir, const char *name)
+{
+    static char buf[8][1200];
+    static int next;
+    char *p = buf[next++ % 8];
+    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
+    return p;
+}
+
 int solve_fx_work_dir(int argc, char **argv, const char *name, char *dir, size_t size)
 {
     if (argc > 1) {

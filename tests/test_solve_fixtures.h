@@ -48,6 +48,8 @@ int solve_fx_box(const solve_fx_box_spec *spec, solve_fx_scene *out);
 /* The test's working folder into dir: argv[1] (created if missing), else a
  * fresh /tmp/NAME.XXXXXX. Returns 0 (and says why) when it cannot. */
 int solve_fx_work_dir(int argc, char **argv, const char *name, char *dir, size_t size);
+/* DIR/NAME in one of 8 rotating static buffers (valid until 8 more calls). */
+const char *solve_fx_path(const char *dir, const char *name);
 /* Uniform rho and E on every patch. */
 int solve_fx_sphere(int bands, int segments, double rho, double emission, solve_fx_scene *out);
 int solve_fx_two_squares(double rho, double emission, solve_fx_scene *out);

@@ -54,14 +54,7 @@
 static const double truth_rho[4] = {0.5, 0.9, 0.99, 0.999};
 static char g_dir[1024];
 
-static const char *path_in_dir(const char *name)
-{
-    static char buf[8][1200];
-    static int next;
-    char *p = buf[next++ % 8];
-    snprintf(p, sizeof buf[0], "%s/%s", g_dir, name);
-    return p;
-}
+static const char *path_in_dir(const char *name) { return solve_fx_path(g_dir, name); }
 
 static int file_exists(const char *path)
 {
