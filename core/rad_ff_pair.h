@@ -37,7 +37,13 @@
  * reach RAD_FF_PARTIAL_RAYS times the first batch. */
 #define RAD_FF_PARTIAL_TARGET 2e-5
 #ifndef RAD_FF_PARTIAL_RAYS
-#define RAD_FF_PARTIAL_RAYS 8u
+#define RAD_FF_PARTIAL_RAYS 64u
+#endif
+#ifndef RAD_FF_CONFIRM_RAYS
+#define RAD_FF_CONFIRM_RAYS 4u
+#endif
+#ifndef RAD_FF_CONFIRM_TARGET
+#define RAD_FF_CONFIRM_TARGET 1e-4
 #endif
 
 
@@ -89,13 +95,14 @@ static inline RAD_HD void rad_ff_pair_rays_add(const rad_ff_pair_params *pp, con
     out->rays_blocked += traced - visible;
 }
 
-/* One shadow segment from a to b (double), traced as float. */
-static inline RAD_HD int rad_ff_pair_visible(const RAD_FF_TRACER *tracer, rad_vec3 a, rad_vec3 b, uint32_t face_a,
-                                             uint32_t face_b)
+/* One shadow segment from a on patch pa to b on patch pb (double),
+ * traced as float. */
+static inline RAD_HD int rad_ff_pair_visible(const RAD_FF_TRACER *tracer, rad_vec3 a, const rad_ff_patch *pa,
+                                             rad_vec3 b, const rad_ff_patch *pb)
 {
     float o[3] = {(float)a.x, (float)a.y, (float)a.z};
     float d[3] = {(float)b.x - o[0], (float)b.y - o[1], (float)b.z - o[2]};
-    return !(RAD_FF_OCCLUDED(tracer, o, d, face_a, face_b));
+    return !(RAD_FF_OCCLUDED(tracer, o, d, pa->face, pb->face));
 }
 
 /* Monte Carlo terms of samples [k0, k1): G(x, y) (far) or near-field terms. */
@@ -138,8 +145,8 @@ static inline RAD_HD void rad_ff_pair_mc_rays(const rad_ff_pair_params *pp, int 
         else
             rad_ff_pair_points(pp->estimator, pi, pj, i, j, k, pp->seed, &x, &y);
         double g = rad_ff_point_kernel(x, pi->normal, y, pj->normal);
-        int visible = i < j ? rad_ff_pair_visible(tracer, x, y, pi->face, pj->face)
-                            : rad_ff_pair_visible(tracer, y, x, pj->face, pi->face);
+        int visible = i < j ? rad_ff_pair_visible(tracer, x, pi, y, pj)
+                            : rad_ff_pair_visible(tracer, y, pj, x, pi);
         rad_ff_pair_add_ray(&b, g, visible);
     }
     rad_ff_pair_rays_add(pp, &b, r0, r1, sums, out);
@@ -197,7 +204,7 @@ static inline RAD_HD void rad_ff_pair_quad_rays(const rad_ff_pair_params *pp, co
     for (uint32_t r = r0 + pp->lane; r < r1; r += pp->lanes) {
         rad_vec3 y, x;
         double w = rad_ff_vis_ray(q, p, iq, ip, r, strata, pp->seed, near, &y, &x);
-        if (w > 0.0) rad_ff_pair_add_ray(&b, w, rad_ff_pair_visible(tracer, y, x, q->face, p->face));
+        if (w > 0.0) rad_ff_pair_add_ray(&b, w, rad_ff_pair_visible(tracer, y, q, x, p));
     }
     rad_ff_pair_rays_add(pp, &b, r0, r1, sums, out);
     out->ray_ticks += RAD_FF_TICKS() - t0;
@@ -235,18 +242,24 @@ static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, c
          * partly hidden (0 < nu^ < 1), or learnt nothing of (no ray with
          * weight) - the only ones whose fraction is uncertain beyond its
          * one-ray floor. */
-        double target = pp->target_error > 0.0 ? pp->target_error : RAD_FF_PARTIAL_TARGET;
-        int refine = pp->target_error > 0.0 || (nu > 0.0 && nu < 1.0) || !(sums.ray_terms > 0.0);
-        uint64_t cap = (uint64_t)R * (pp->target_error > 0.0 ? pp->max_samples / pp->samples : RAD_FF_PARTIAL_RAYS);
         double area = pi->area > pj->area ? pi->area : pj->area;
-        /* A partly hidden pair decides on at least two batches: an error
-         * judged on its first alone stops early exactly when that batch
-         * happened to look clear (1 of 32 rays hidden where a third are:
-         * 8 standard errors off, seen in the 64-seed check). */
-        uint64_t least = nu > 0.0 && nu < 1.0 ? 2 * (uint64_t)R : 0;
-        least = least < cap ? least : cap;
-        while (refine && sums.rays < cap &&
-               (sums.rays < least || (g0.error + g0.g * nu_error) * scale * area > target)) {
+        for (;;) {
+            uint64_t cap, least = 0;
+            double target;
+            int partial = nu > 0.0 && nu < 1.0;
+            if (pp->target_error > 0.0) {
+                target = pp->target_error;
+                cap = (uint64_t)R * (pp->max_samples / pp->samples);
+            } else if (partial || !(sums.ray_terms > 0.0)) {
+                target = RAD_FF_PARTIAL_TARGET;
+                cap = (uint64_t)R * RAD_FF_PARTIAL_RAYS;
+            } else {
+                target = RAD_FF_CONFIRM_TARGET;
+                cap = (uint64_t)R * RAD_FF_CONFIRM_RAYS;
+            }
+            if (partial) least = 2 * (uint64_t)R < cap ? 2 * (uint64_t)R : cap;
+            if (!(sums.rays < cap && (sums.rays < least || (g0.error + g0.g * nu_error) * scale * area > target)))
+                break;
             uint64_t to = 2 * (uint64_t)sums.rays < cap ? 2 * (uint64_t)sums.rays : cap;
             rad_ff_pair_quad_rays(pp, q, p, iq, ip, strata, near, sums.rays, (uint32_t)to, tracer, out, &sums);
             nu = rad_ff_fraction(&sums, &nu_error);

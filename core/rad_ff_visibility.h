@@ -103,13 +103,24 @@ static inline RAD_HD double rad_ff_vis_ray(const rad_ff_patch *q, const rad_ff_p
     while (side * side < strata) side++;
     uint32_t cell = r % strata;
     double u = ((cell % side) + rad_u01(rnd.v[0])) / side, v = ((cell / side) + rad_u01(rnd.v[1])) / side;
+    /* p's end is stratified too: within each batch of `strata` rays the
+     * cells of q meet the cells of p through a permutation (an odd
+     * multiplier and an offset, mod the power of two `strata`), fresh for
+     * each batch and pair, so both 2-D margins of the 4-D sample are
+     * stratified. */
+    uint32_t mix = ctr.v[0] * 0x9E3779B1u ^ ctr.v[1] * 0x85EBCA77u ^ (r / strata) * 0xC2B2AE3Du ^ (uint32_t)seed;
+    mix ^= mix >> 15;
+    mix *= 0x2C1B3C6Du;
+    mix ^= mix >> 12;
+    uint32_t cell_p = (cell * ((mix >> 8) | 1u) + (mix >> 20)) & (strata - 1u);
+    double s2 = ((cell_p % side) + rad_u01(rnd.v[2])) / side, t2 = ((cell_p / side) + rad_u01(rnd.v[3])) / side;
     double jac;
     rad_vec3 y = rad_ff_patch_map(q, u, v, &jac);
     *y_out = y;
     *x_out = y;
     if (!(rad_v3_dot(p->normal, rad_v3_sub(y, p->p[0])) > 0.0)) return 0.0; /* y on or behind p's plane */
     if (!near) {
-        rad_vec3 x = rad_ff_sample_point(p, rad_u01(rnd.v[2]), rad_u01(rnd.v[3]));
+        rad_vec3 x = rad_ff_sample_point(p, s2, t2);
         *x_out = x;
         return jac * rad_ff_point_kernel(y, q->normal, x, p->normal) * p->area;
     }
@@ -120,9 +131,9 @@ static inline RAD_HD double rad_ff_vis_ray(const rad_ff_patch *q, const rad_ff_p
     double second = p->vertex_count == 4 ? rad_sph_triangle_area(d0, d2, d3) : 0.0;
     double omega = first + second;
     if (!(omega > 0.0)) return 0.0;
-    double xi = rad_u01(rnd.v[2]) * omega;
-    rad_vec3 dir = xi < first ? rad_sph_triangle_sample(d0, d1, d2, first, xi / first, rad_u01(rnd.v[3]))
-                              : rad_sph_triangle_sample(d0, d2, d3, second, (xi - first) / second, rad_u01(rnd.v[3]));
+    double xi = s2 * omega;
+    rad_vec3 dir = xi < first ? rad_sph_triangle_sample(d0, d1, d2, first, xi / first, t2)
+                              : rad_sph_triangle_sample(d0, d2, d3, second, (xi - first) / second, t2);
     double cos_y = rad_v3_dot(q->normal, dir), cos_p = -rad_v3_dot(p->normal, dir);
     if (!(cos_y > 0.0) || !(cos_p > 0.0)) return 0.0;
     double t = rad_v3_dot(p->normal, rad_v3_sub(p->p[0], y)) / -cos_p;

@@ -25,13 +25,6 @@
 #include "ff_bvh.h"
 #include "rad_log.h"
 
-/* Shadow rays from which a pair's shaft test includes the hull planes
- * (ff_pair_may_be_occluded): below it they cost more than the rays they
- * save (measured, docs/performance.md). Compile-time tunable. */
-#ifndef FF_CPU_HULL_MIN_RAYS
-#define FF_CPU_HULL_MIN_RAYS 128u
-#endif
-
 typedef struct cpu_state {
     ff_setup setup;
     RTCDevice device;
@@ -199,7 +192,8 @@ static int pair_needs_rays(const cpu_state *s, uint32_t i, uint32_t j, ff_counte
         return 0;
     }
     if (!ff_pair_may_be_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &su->patches[i],
-                                 &su->patches[j], su->cull_margin, su->shadow_rays >= FF_CPU_HULL_MIN_RAYS)) {
+                                 &su->patches[j], su->cull_margin, 1,
+                                 su->estimator == RAD_ESTIMATOR_QUADRATURE)) {
         c->pairs_open_box++;
         return 0;
     }

@@ -103,6 +103,7 @@ struct cuda_params {
     cuda_tracer tracer;
     rad_ff_pair_params pair;       /* the run's settings (rad_ff_pair.h) */
     int cull, scene_convex, pairs_once;
+    float cull_margin;             /* the shaft's margin (ff_bvh.h) */
     double eps;
     uint32_t row_begin, row_count;
     double *out;                   /* row_count * n */
@@ -174,10 +175,9 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint32_t
 
 /* Pass 2: a group of p.lanes threads per listed pair, the shared per-pair
  * procedure.
- * Culling on the GPU: only the convex-enclosure rule. The per-pair shaft
- * test of the CPU backend costs about what the rays it saves cost
- * (measured in session 1); the matrix is the same either way, since a
- * pair whose rays all pass gets a visible fraction of exactly 1. */
+ * Culling as on the CPU: the convex-enclosure rule, then the per-pair
+ * shaft test (ff_bvh.h), which clears most pairs that only look blocked
+ * and spares them their rays, their confirming batches included. */
 __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_pairs_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
@@ -190,7 +190,15 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
         long long start = clock64();
         uint32_t t = p.pairs[p.step * (int64_t)group];
         uint32_t j = t % p.n, i = p.row_begin + t / p.n;
-        int open = p.pair.rays == 0 || (p.cull && p.scene_convex);
+        /* Culling as on the CPU: a convex room, or nothing in the pair's
+         * shaft (each lane of the group walks it: same answer, no
+         * divergence within the group). */
+        int open_scene = p.pair.rays > 0 && p.cull && p.scene_convex;
+        int open_box = p.pair.rays > 0 && p.cull && !open_scene &&
+                       !ff_pair_may_be_occluded(p.tracer.nodes, p.tracer.tris, p.tracer.root, p.tracer.root_count,
+                                                &p.patches[i], &p.patches[j], p.cull_margin, 1,
+                                                p.pair.estimator == RAD_ESTIMATOR_QUADRATURE);
+        int open = p.pair.rays == 0 || open_scene || open_box;
         rad_ff_pair_params pp = p.pair;
         pp.lane = lane;
         pp.lanes = p.lanes;
@@ -204,7 +212,8 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
             c[C_RAYS] = r.rays;
             c[C_OCCLUDED] = r.rays_blocked;
             c[C_NEAR] = (unsigned long long)r.near;
-            c[C_OPEN_SCENE] = (unsigned long long)(p.pair.rays > 0 && p.cull && p.scene_convex);
+            c[C_OPEN_SCENE] = (unsigned long long)open_scene;
+            c[C_OPEN_BOX] = (unsigned long long)open_box;
             c[C_SAVED] = r.rays_skipped;
             c[C_REFINED] = (unsigned long long)r.refined;
             c[C_CAPPED] = (unsigned long long)r.capped;
@@ -331,6 +340,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     p.tracer.root_count = s->root_count;
     p.pair = ff_pair_params(su);
     p.cull = su->cull;
+    p.cull_margin = su->cull_margin;
     p.scene_convex = su->scene_convex;
     p.pairs_once = su->pairs_once;
     p.eps = su->plane_eps;

