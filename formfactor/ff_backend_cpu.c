@@ -192,7 +192,7 @@ static int pair_needs_rays(const cpu_state *s, uint32_t i, uint32_t j, ff_counte
         return 0;
     }
     if (!ff_pair_may_be_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &su->patches[i],
-                                 &su->patches[j], su->cull_margin, 1,
+                                 &su->patches[j], su->cull_margin, 0,
                                  su->estimator == RAD_ESTIMATOR_QUADRATURE)) {
         c->pairs_open_box++;
         return 0;
