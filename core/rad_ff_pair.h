@@ -37,7 +37,7 @@
  * reach RAD_FF_PARTIAL_RAYS times the first batch. */
 #define RAD_FF_PARTIAL_TARGET 2e-5
 #ifndef RAD_FF_PARTIAL_RAYS
-#define RAD_FF_PARTIAL_RAYS 64u
+#define RAD_FF_PARTIAL_RAYS 16u
 #endif
 #ifndef RAD_FF_CONFIRM_RAYS
 #define RAD_FF_CONFIRM_RAYS 4u
@@ -195,7 +195,7 @@ static inline RAD_HD void rad_ff_pair_monte_carlo(const rad_ff_pair_params *pp, 
 
 /* The quadrature estimator's shadow rays [r0, r1). */
 static inline RAD_HD void rad_ff_pair_quad_rays(const rad_ff_pair_params *pp, const rad_ff_patch *q,
-                                                const rad_ff_patch *p, uint32_t iq, uint32_t ip, uint32_t strata,
+                                                const rad_ff_patch *p, uint32_t iq, uint32_t ip,
                                                 int near, uint32_t r0, uint32_t r1, const RAD_FF_TRACER *tracer,
                                                 rad_ff_pair_result *out, rad_ff_sums *sums)
 {
@@ -203,7 +203,7 @@ static inline RAD_HD void rad_ff_pair_quad_rays(const rad_ff_pair_params *pp, co
     rad_ff_ray_batch b = {0};
     for (uint32_t r = r0 + pp->lane; r < r1; r += pp->lanes) {
         rad_vec3 y, x;
-        double w = rad_ff_vis_ray(q, p, iq, ip, r, strata, pp->seed, near, &y, &x);
+        double w = rad_ff_vis_ray(q, p, iq, ip, r, pp->seed, near, &y, &x);
         if (w > 0.0) rad_ff_pair_add_ray(&b, w, rad_ff_pair_visible(tracer, y, q, x, p));
     }
     rad_ff_pair_rays_add(pp, &b, r0, r1, sums, out);
@@ -232,9 +232,8 @@ static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, c
     out->capped = g0.capped;
     if (pp->rays > 0 && g0.g > 0.0 && !tracer) out->rays_skipped += R;
     if (pp->rays > 0 && g0.g > 0.0 && tracer) {
-        uint32_t strata = rad_ff_vis_strata(pp->rays);
         rad_ff_sums sums = {0};
-        rad_ff_pair_quad_rays(pp, q, p, iq, ip, strata, near, 0, R, tracer, out, &sums);
+        rad_ff_pair_quad_rays(pp, q, p, iq, ip, near, 0, R, tracer, out, &sums);
         nu = rad_ff_fraction(&sums, &nu_error);
         /* More rays (doubling) while the error is above the target: the
          * user's --target-error for every traced pair; by default
@@ -261,7 +260,7 @@ static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, c
             if (!(sums.rays < cap && (sums.rays < least || (g0.error + g0.g * nu_error) * scale * area > target)))
                 break;
             uint64_t to = 2 * (uint64_t)sums.rays < cap ? 2 * (uint64_t)sums.rays : cap;
-            rad_ff_pair_quad_rays(pp, q, p, iq, ip, strata, near, sums.rays, (uint32_t)to, tracer, out, &sums);
+            rad_ff_pair_quad_rays(pp, q, p, iq, ip, near, sums.rays, (uint32_t)to, tracer, out, &sums);
             nu = rad_ff_fraction(&sums, &nu_error);
             out->refined = 1;
         }
