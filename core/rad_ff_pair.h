@@ -226,7 +226,7 @@ static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, c
     rad_ff_quad_result g0 = rad_ff_quad_unoccluded(q, p, rtol, atol, pp->lane, pp->lanes);
     double scale = 1.0 / (pi->area * pj->area);
     double nu = 1.0, nu_error = 0.0;
-    uint32_t R = rad_ff_vis_round_rays(pp->rays);
+    uint32_t R = pp->rays;
     int near = rad_ff_pair_near(pi, pj);
     out->samples = g0.points;
     out->capped = g0.capped;

@@ -71,21 +71,6 @@ static inline RAD_HD rad_vec3 rad_sph_triangle_sample(rad_vec3 a, rad_vec3 b, ra
     return rad_v3_add(rad_v3_scale(b, z), rad_v3_scale(rad_v3_orthonormal(c2, b), sqrt(1.0 - z * z)));
 }
 
-/* Shadow rays are rounded up to a multiple of the strata: the largest
- * power of 4 not above the first batch (at most 64 cells of q). */
-static inline RAD_HD uint32_t rad_ff_vis_strata(uint32_t first_rays)
-{
-    uint32_t s = 1;
-    while (s * 4 <= first_rays && s < 64) s *= 4;
-    return s;
-}
-
-static inline RAD_HD uint32_t rad_ff_vis_round_rays(uint32_t rays)
-{
-    uint32_t s = rad_ff_vis_strata(rays);
-    return (rays + s - 1) / s * s;
-}
-
 /* Reverses the 32 bits of x. */
 static inline RAD_HD uint32_t rad_reverse_bits(uint32_t x)
 {
