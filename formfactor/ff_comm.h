@@ -2,7 +2,7 @@
  *
  * The only header of the stage that stands between the numerics and MPI:
  * ff_comm_mpi.c is the only file that includes <mpi.h>. A plain
- * `./formfactor` runs as an MPI singleton (one rank).
+ * `./formfactor` runs solo: one rank, without initialising MPI.
  *
  * Failure protocol: every phase ends with ff_comm_agree(), which returns the
  * same (worst) status on every rank, so ranks leave together and main()

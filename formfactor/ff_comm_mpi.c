@@ -1,9 +1,21 @@
-/* ff_comm_mpi.c - ff_comm.h on Open MPI; the only file that includes mpi.h. */
+/* ff_comm_mpi.c - ff_comm.h on Open MPI; the only file that includes mpi.h.
+ *
+ * A process that no MPI launcher started (no OMPI_COMM_WORLD_SIZE,
+ * PMIX_RANK, PMI_RANK or PMI_SIZE in its environment: a plain
+ * `./formfactor`) runs solo: one rank, no MPI_Init, POSIX file I/O. An
+ * Open MPI singleton init costs 0.3 s (a forked runtime daemon), as much as
+ * the whole paper-size run on a GPU, and `formfactor --version` paid it
+ * too. The bytes written are the same either way (formfactor_ranks). */
+#define _POSIX_C_SOURCE 200809L /* pwrite, clock_gettime */
+#include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <mpi.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+#include <unistd.h>
 
 #include "ff_comm.h"
 #include "rad_log.h"
@@ -11,14 +23,25 @@
 struct ff_comm {
     int rank, size, node_size;
     int we_initialized;
+    int solo; /* no MPI: one rank, POSIX files */
 };
 
 struct ff_comm_file {
     ff_comm *comm;
     MPI_File fh;
+    int fd; /* solo */
     char path[4096];
     rad_status status; /* first local failure */
 };
+
+/* Did an MPI launcher start this process? */
+static int launched_by_mpi(void)
+{
+    static const char *const vars[] = {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE"};
+    for (size_t k = 0; k < sizeof vars / sizeof vars[0]; k++)
+        if (getenv(vars[k])) return 1;
+    return 0;
+}
 
 /* MPI counts are int: large writes go in pieces of at most this many bytes. */
 #define FF_MPI_MAX_BYTES ((size_t)1 << 30)
@@ -36,6 +59,14 @@ rad_status ff_comm_init(int *argc, char ***argv, ff_comm **out_comm)
     ff_comm *c = calloc(1, sizeof *c);
     if (!c) return RAD_ERR_NOMEM;
     int initialized = 0;
+    MPI_Initialized(&initialized);
+    if (!initialized && !launched_by_mpi()) {
+        c->solo = 1;
+        c->rank = 0;
+        c->size = c->node_size = 1;
+        *out_comm = c;
+        return RAD_OK;
+    }
     MPI_Initialized(&initialized);
     if (!initialized) {
         if (MPI_Init(argc, argv) != MPI_SUCCESS) {
@@ -59,18 +90,23 @@ rad_status ff_comm_init(int *argc, char ***argv, ff_comm **out_comm)
 void ff_comm_finalize(ff_comm *comm)
 {
     if (!comm) return;
-    if (comm->we_initialized) MPI_Finalize();
+    if (comm->we_initialized && !comm->solo) MPI_Finalize();
     free(comm);
 }
 
 int ff_comm_rank(const ff_comm *comm) { return comm->rank; }
 int ff_comm_size(const ff_comm *comm) { return comm->size; }
 int ff_comm_node_size(const ff_comm *comm) { return comm->node_size; }
-double ff_comm_time(void) { return MPI_Wtime(); }
+double ff_comm_time(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
 
 rad_status ff_comm_agree(ff_comm *comm, rad_status local)
 {
-    (void)comm;
+    if (comm->solo) return local;
     int in = (int)local, out = 0;
     MPI_Allreduce(&in, &out, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
     return (rad_status)out;
@@ -78,7 +114,7 @@ rad_status ff_comm_agree(ff_comm *comm, rad_status local)
 
 uint64_t ff_comm_max_u64(ff_comm *comm, uint64_t value)
 {
-    (void)comm;
+    if (comm->solo) return value;
     uint64_t out = 0;
     MPI_Allreduce(&value, &out, 1, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD);
     return out;
@@ -87,8 +123,11 @@ uint64_t ff_comm_max_u64(ff_comm *comm, uint64_t value)
 rad_status ff_comm_sendrecv(ff_comm *comm, int dest, const double *send, size_t send_count, int source, double *recv,
                             size_t recv_count)
 {
-    (void)comm;
     if (send_count > FF_COMM_MAX_DOUBLES || recv_count > FF_COMM_MAX_DOUBLES) return RAD_ERR_INVALID;
+    if (comm->solo) { /* to and from rank 0 itself */
+        memmove(recv, send, sizeof *send * (send_count < recv_count ? send_count : recv_count));
+        return RAD_OK;
+    }
     int code = MPI_Sendrecv(send, (int)send_count, MPI_DOUBLE, dest, 7, recv, (int)recv_count, MPI_DOUBLE, source, 7,
                             MPI_COMM_WORLD, MPI_STATUS_IGNORE);
     if (code != MPI_SUCCESS) {
@@ -100,18 +139,25 @@ rad_status ff_comm_sendrecv(ff_comm *comm, int dest, const double *send, size_t 
 
 void ff_comm_broadcast(ff_comm *comm, void *data, size_t bytes, int root)
 {
-    (void)comm;
+    if (comm->solo) return;
     MPI_Bcast(data, (int)bytes, MPI_BYTE, root, MPI_COMM_WORLD);
 }
 
 void ff_comm_gather(ff_comm *comm, const void *data, size_t bytes, void *out, int root)
 {
-    (void)comm;
+    if (comm->solo) {
+        memmove(out, data, bytes);
+        return;
+    }
     MPI_Gather(data, (int)bytes, MPI_BYTE, out, (int)bytes, MPI_BYTE, root, MPI_COMM_WORLD);
 }
 
 void ff_comm_gather_u64v(ff_comm *comm, const uint64_t *data, uint64_t count, uint64_t *out, int root)
 {
+    if (comm->solo) {
+        memmove(out, data, sizeof *data * count);
+        return;
+    }
     int n = (int)count;
     int *counts = NULL, *displs = NULL;
     if (comm->rank == root) {
@@ -132,7 +178,16 @@ rad_status ff_comm_file_open(ff_comm *comm, const char *path, ff_comm_file **out
     rad_status status = f ? RAD_OK : RAD_ERR_NOMEM;
     if (f) {
         f->comm = comm;
+        f->fd = -1;
         snprintf(f->path, sizeof f->path, "%s", path);
+    }
+    if (f && comm->solo) {
+        f->fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+        if (f->fd < 0) {
+            rad_error("%s: cannot create: %s", path, strerror(errno));
+            status = RAD_ERR_IO;
+        }
+    } else if (f) {
         int rc = MPI_File_open(MPI_COMM_WORLD, path, MPI_MODE_CREATE | MPI_MODE_WRONLY, MPI_INFO_NULL, &f->fh);
         if (rc != MPI_SUCCESS) {
             if (comm->rank == 0) log_mpi_error("cannot create", path, rc);
@@ -151,8 +206,29 @@ rad_status ff_comm_file_open(ff_comm *comm, const char *path, ff_comm_file **out
     return RAD_OK;
 }
 
+/* Solo: the whole block with pwrite, resuming after short writes. */
+static rad_status write_posix(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes)
+{
+    const char *p = data;
+    while (bytes > 0) {
+        ssize_t n = pwrite(file->fd, p, bytes, (off_t)offset);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+            if (file->status == RAD_OK)
+                rad_error("%s: write failed: %s", file->path, n < 0 ? strerror(errno) : "no progress (disk full?)");
+            file->status = RAD_ERR_IO;
+            return RAD_ERR_IO;
+        }
+        p += n;
+        offset += (uint64_t)n;
+        bytes -= (size_t)n;
+    }
+    return RAD_OK;
+}
+
 static rad_status write_pieces(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes, int collective)
 {
+    if (file->comm->solo) return write_posix(file, offset, data, bytes);
     const char *p = data;
     do {
         size_t piece = bytes < FF_MPI_MAX_BYTES ? bytes : FF_MPI_MAX_BYTES;
@@ -198,10 +274,17 @@ rad_status ff_comm_file_write(ff_comm_file *file, uint64_t offset, const void *d
 rad_status ff_comm_file_close(ff_comm_file *file)
 {
     rad_status status = file->status;
-    int rc = MPI_File_close(&file->fh);
-    if (rc != MPI_SUCCESS && status == RAD_OK) {
-        log_mpi_error("close failed", file->path, rc);
-        status = RAD_ERR_IO;
+    if (file->comm->solo) {
+        if (close(file->fd) != 0 && status == RAD_OK) {
+            rad_error("%s: close failed: %s", file->path, strerror(errno));
+            status = RAD_ERR_IO;
+        }
+    } else {
+        int rc = MPI_File_close(&file->fh);
+        if (rc != MPI_SUCCESS && status == RAD_OK) {
+            log_mpi_error("close failed", file->path, rc);
+            status = RAD_ERR_IO;
+        }
     }
     status = ff_comm_agree(file->comm, status);
     free(file);

@@ -11,7 +11,7 @@ for p in 1 2 3; do
   mpirun --oversubscribe -n $p "$ff" $args -o ranks$p --stats ranks$p.json
   mpirun --oversubscribe -n $p "$ff" $args -o paper$p --format paper
 done
-"$ff" $args -o ranks1again            # a plain (singleton) run, again
+"$ff" $args -o ranks1again            # a plain run (solo: no MPI at all), again
 for f in ranks2 ranks3 ranks1again; do
   cmp ranks1 $f || { echo "FAIL: $f differs from ranks1"; exit 1; }
 done
