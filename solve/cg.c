@@ -85,43 +85,95 @@ void solve_cg_check_describe(const solve_cg_check *check, char *why, size_t why_
                  check->ratio_row, check->ratio, SOLVE_CG_RECIPROCITY, check->ratio_delta, check->ratio_margin);
 }
 
-typedef struct cg_vectors {
-    double *r, *z, *p, *q; /* each n; zero on rows with rho = 0 */
-} cg_vectors;
+/* CG runs several channels in lockstep (solve_cg_many): every matrix
+ * product of an iteration - K·p for a step, F·B for a true residual - is
+ * taken for all channels in one pass over F, which is what a pass costs
+ * (the row is read once and used for each channel's dot product from
+ * cache). Each channel keeps its own scalars, history, restarts and stall
+ * test, and the arithmetic of each is exactly that of a channel alone: the
+ * same dot products in the same order, so the same bits. */
+typedef enum cg_phase { CG_START, CG_CHECKING, CG_STEPPING, CG_DONE } cg_phase;
 
-/* q = K·p over the reflecting rows (p is zero elsewhere). */
-static void cg_apply(const solve_run *run, const double *p, double *q)
+typedef struct cg_lane {
+    solve_run *run;
+    double *r, *z, *p, *q, *y; /* each n; r, z, p, q zero on rows with rho = 0; y = F·(B or p) */
+    double rz, best;
+    uint32_t best_at;
+    int restarts;
+    cg_phase phase; /* what the next product is for */
+    int stopped;
+    rad_status status;
+    char *why;
+    size_t why_size;
+} cg_lane;
+
+/* The vector lane l multiplies: B (start, checking) or p (stepping). */
+static const double *cg_operand(const cg_lane *l) { return l->phase == CG_STEPPING ? l->p : l->run->B; }
+
+/* y = F·x for each active lane over its reflecting rows: one pass over
+ * the rows of F. Up to three lanes share one loop over a row, each with
+ * its own accumulator summed left to right (so the same bits as a lane
+ * alone): a strict-order dot product waits on its own previous addition,
+ * and three of them interleaved keep the FPU three times as busy - at the
+ * paper's size the pass is bound by that latency, not by memory. */
+static void cg_products(cg_lane *lanes, size_t count)
 {
-    const size_t n = run->n;
+    const size_t n = lanes[0].run->n;
+    const double *F = lanes[0].run->F;
 #pragma omp parallel for schedule(static) if (n >= SOLVE_PARALLEL_MIN_ROWS)
     for (size_t i = 0; i < n; i++) {
-        double rho = run->rho[i];
-        if (rho == 0) {
-            q[i] = 0;
-            continue;
+        const double *row = F + i * n;
+        cg_lane *want[3];
+        size_t k = 0;
+        for (size_t c = 0; c < count; c++) {
+            cg_lane *l = &lanes[c];
+            if (l->phase == CG_DONE || l->run->rho[i] == 0) continue;
+            if (k == 3) { /* more than three lanes: the rest one by one */
+                l->y[i] = solve_dot(row, cg_operand(l), 0, n);
+                continue;
+            }
+            want[k++] = l;
         }
-        const double *row = run->F + i * n;
-        q[i] = run->area[i] * (p[i] / rho - solve_dot(row, p, 0, n));
+        if (k == 3) {
+            const double *x0 = cg_operand(want[0]), *x1 = cg_operand(want[1]), *x2 = cg_operand(want[2]);
+            double s0 = 0, s1 = 0, s2 = 0;
+            for (size_t j = 0; j < n; j++) {
+                s0 += row[j] * x0[j];
+                s1 += row[j] * x1[j];
+                s2 += row[j] * x2[j];
+            }
+            want[0]->y[i] = s0, want[1]->y[i] = s1, want[2]->y[i] = s2;
+        } else if (k == 2) {
+            const double *x0 = cg_operand(want[0]), *x1 = cg_operand(want[1]);
+            double s0 = 0, s1 = 0;
+            for (size_t j = 0; j < n; j++) {
+                s0 += row[j] * x0[j];
+                s1 += row[j] * x1[j];
+            }
+            want[0]->y[i] = s0, want[1]->y[i] = s1;
+        } else if (k == 1) {
+            want[0]->y[i] = solve_dot(row, cg_operand(want[0]), 0, n);
+        }
     }
 }
 
-/* r_K = diag(A/rho)·(E + diag(rho)·F·B - B) on reflecting rows, then
- * z = r_K / M. Returns omega(B) of the unscaled residual. */
-static double cg_residual(const solve_run *run, const double *B, cg_vectors *v)
+/* From y = F·B: r_K = diag(A/rho)·(E + diag(rho)·F·B - B) on reflecting
+ * rows, z = r_K / M. Returns omega(B) of the unscaled residual. */
+static double cg_residual(cg_lane *l)
 {
+    const solve_run *run = l->run;
     const size_t n = run->n;
     double rmax = 0;
     for (size_t i = 0; i < n; i++) {
         double rho = run->rho[i];
         if (rho == 0) {
-            v->r[i] = v->z[i] = 0;
+            l->r[i] = l->z[i] = 0;
             continue;
         }
-        const double *row = run->F + i * n;
-        double gathered = run->E[i] + rho * solve_dot(row, B, 0, n);
-        double r = gathered - B[i];
-        v->r[i] = run->area[i] / rho * r;
-        v->z[i] = v->r[i] / (run->area[i] * (1 / rho - row[i]));
+        double gathered = run->E[i] + rho * l->y[i];
+        double r = gathered - run->B[i];
+        l->r[i] = run->area[i] / rho * r;
+        l->z[i] = l->r[i] / (run->area[i] * (1 / rho - run->F[i * n + i]));
         double a = solve_patch_residual(r, gathered, run->e_norm);
         if (!(a <= rmax)) rmax = a;
     }
@@ -130,94 +182,141 @@ static double cg_residual(const solve_run *run, const double *B, cg_vectors *v)
 
 static double cg_dot(const double *a, const double *b, size_t n) { return solve_dot(a, b, 0, n); }
 
-/* One CG update of B, r, z, p; returns the new omega (from the
- * recurrence) or NAN when p·Kp <= 0 (K not positive definite). */
-static double cg_step(solve_run *run, cg_vectors *v, double *rz)
+/* From y = F·p: q = K·p, then one CG update of B, r, z, p; returns the
+ * new omega (from the recurrence) or NAN when p·Kp <= 0 (K not positive
+ * definite). */
+static double cg_step(cg_lane *l)
 {
+    solve_run *run = l->run;
     const size_t n = run->n;
-    cg_apply(run, v->p, v->q);
-    double pq = cg_dot(v->p, v->q, n);
+    for (size_t i = 0; i < n; i++) {
+        double rho = run->rho[i];
+        l->q[i] = rho == 0 ? 0 : run->area[i] * (l->p[i] / rho - l->y[i]);
+    }
+    double pq = cg_dot(l->p, l->q, n);
     if (!(pq > 0)) return NAN;
-    double alpha = *rz / pq, rmax = 0;
+    double alpha = l->rz / pq, rmax = 0;
     for (size_t i = 0; i < n; i++) {
         if (run->rho[i] == 0) continue;
-        run->B[i] += alpha * v->p[i];
-        v->r[i] -= alpha * v->q[i];
-        v->z[i] = v->r[i] / (run->area[i] * (1 / run->rho[i] - run->F[i * n + i]));
-        double r = v->r[i] * run->rho[i] / run->area[i];
+        run->B[i] += alpha * l->p[i];
+        l->r[i] -= alpha * l->q[i];
+        l->z[i] = l->r[i] / (run->area[i] * (1 / run->rho[i] - run->F[i * n + i]));
+        double r = l->r[i] * run->rho[i] / run->area[i];
         double a = solve_patch_residual(r, run->B[i] + r, run->e_norm);
         if (!(a <= rmax)) rmax = a;
     }
-    double rz_new = cg_dot(v->r, v->z, n);
-    double beta = rz_new / *rz;
-    for (size_t i = 0; i < n; i++) v->p[i] = v->z[i] + beta * v->p[i];
-    *rz = rz_new;
+    double rz_new = cg_dot(l->r, l->z, n);
+    double beta = rz_new / l->rz;
+    for (size_t i = 0; i < n; i++) l->p[i] = l->z[i] + beta * l->p[i];
+    l->rz = rz_new;
     return rmax;
+}
+
+/* p = z, rz = r·z: a fresh search direction. */
+static void cg_restart_direction(cg_lane *l)
+{
+    const size_t n = l->run->n;
+    for (size_t i = 0; i < n; i++) l->p[i] = l->z[i];
+    l->rz = cg_dot(l->r, l->z, n);
+}
+
+/* Takes the product the lane asked for and runs its CG logic up to the
+ * next product it needs (or to its end). */
+static void cg_advance(cg_lane *l)
+{
+    solve_run *run = l->run;
+    double residual;
+    if (l->phase == CG_START) {
+        residual = cg_residual(l);
+        cg_restart_direction(l);
+        l->best = INFINITY;
+        l->best_at = run->iterations;
+    } else if (l->phase == CG_CHECKING) {
+        /* the recurrence may drift from the true residual: checked */
+        residual = cg_residual(l);
+        if (residual <= run->tolerance) {
+            l->phase = CG_DONE;
+            return;
+        }
+        if (++l->restarts > SOLVE_CG_MAX_RESTARTS) {
+            snprintf(l->why, l->why_size, "CG residual recurrence drifted (true residual %.3g) after %d restarts",
+                     residual, SOLVE_CG_MAX_RESTARTS);
+            l->stopped = 1;
+            l->phase = CG_DONE;
+            return;
+        }
+        cg_restart_direction(l); /* then records the true residual of the same iterate */
+    } else {
+        residual = cg_step(l);
+        if (isnan(residual)) {
+            snprintf(l->why, l->why_size,
+                     "CG met non-positive curvature at iteration %u (matrix not positive definite)", run->iterations);
+            l->stopped = 1;
+            l->phase = CG_DONE;
+            return;
+        }
+        run->iterations++;
+    }
+    solve_verdict verdict = solve_run_record(run, residual);
+    if (verdict == SOLVE_FAILED) {
+        l->status = RAD_ERR_INVALID;
+        l->phase = CG_DONE;
+    } else if (verdict == SOLVE_CONVERGED) {
+        l->phase = CG_CHECKING;
+    } else if (verdict == SOLVE_LIMIT) {
+        l->phase = CG_DONE;
+    } else if (residual < l->best) {
+        l->best = residual;
+        l->best_at = run->iterations;
+        l->phase = CG_STEPPING;
+    } else if (run->iterations - l->best_at > SOLVE_CG_STALL_WINDOW) {
+        snprintf(l->why, l->why_size, "CG stalled at residual %.3g (no progress in %u iterations)", l->best,
+                 SOLVE_CG_STALL_WINDOW);
+        l->stopped = 1;
+        l->phase = CG_DONE;
+    } else {
+        l->phase = CG_STEPPING;
+    }
+}
+
+rad_status solve_cg_many(solve_run *const *runs, size_t count, int *out_stopped, char *const *why,
+                         size_t why_size)
+{
+    rad_status status = RAD_OK;
+    if (count == 0) return RAD_OK;
+    const size_t n = runs[0]->n;
+    cg_lane *lanes = calloc(count, sizeof *lanes);
+    double *block = calloc(5 * n * count, sizeof(double));
+    if (!lanes || !block) {
+        rad_error("%s: out of memory for the CG vectors (%zu patches)", runs[0]->label, n);
+        status = RAD_ERR_NOMEM;
+        goto done;
+    }
+    for (size_t c = 0; c < count; c++) {
+        cg_lane *l = &lanes[c];
+        double *b = block + 5 * n * c;
+        *l = (cg_lane){.run = runs[c], .r = b, .z = b + n, .p = b + 2 * n, .q = b + 3 * n, .y = b + 4 * n,
+                       .phase = CG_START, .status = RAD_OK, .why = why[c], .why_size = why_size};
+    }
+    for (;;) {
+        size_t active = 0;
+        for (size_t c = 0; c < count; c++) active += lanes[c].phase != CG_DONE;
+        if (!active) break;
+        cg_products(lanes, count);
+        for (size_t c = 0; c < count; c++)
+            if (lanes[c].phase != CG_DONE) cg_advance(&lanes[c]);
+    }
+    for (size_t c = 0; c < count; c++) {
+        out_stopped[c] = lanes[c].stopped;
+        if (lanes[c].status != RAD_OK && status == RAD_OK) status = lanes[c].status;
+    }
+done:
+    free(block);
+    free(lanes);
+    return status;
 }
 
 rad_status solve_cg(solve_run *run, int *out_stopped, char *why, size_t why_size)
 {
-    rad_status status = RAD_OK;
-    const size_t n = run->n;
-    int stopped = 0, restarts = 0;
-    cg_vectors v = {0};
-    double *block = calloc(4 * n, sizeof(double));
-    if (!block) {
-        rad_error("%s: out of memory for the CG vectors (%zu patches)", run->label, n);
-        status = RAD_ERR_NOMEM;
-        goto done;
-    }
-    v.r = block;
-    v.z = block + n;
-    v.p = block + 2 * n;
-    v.q = block + 3 * n;
-
-    double residual = cg_residual(run, run->B, &v);
-    for (size_t i = 0; i < n; i++) v.p[i] = v.z[i];
-    double rz = cg_dot(v.r, v.z, n);
-    double best = INFINITY;
-    uint32_t best_at = run->iterations;
-    for (;;) {
-        solve_verdict verdict = solve_run_record(run, residual);
-        if (verdict == SOLVE_FAILED) {
-            status = RAD_ERR_INVALID;
-            goto done;
-        }
-        if (verdict == SOLVE_CONVERGED) {
-            /* the recurrence may drift from the true residual: check it */
-            residual = cg_residual(run, run->B, &v);
-            if (residual <= run->tolerance) break;
-            if (++restarts > SOLVE_CG_MAX_RESTARTS) {
-                snprintf(why, why_size, "CG residual recurrence drifted (true residual %.3g) after %d restarts",
-                         residual, SOLVE_CG_MAX_RESTARTS);
-                stopped = 1;
-                break;
-            }
-            for (size_t i = 0; i < n; i++) v.p[i] = v.z[i];
-            rz = cg_dot(v.r, v.z, n);
-            continue; /* records the true residual of the same iterate */
-        }
-        if (verdict == SOLVE_LIMIT) break;
-        if (residual < best) {
-            best = residual;
-            best_at = run->iterations;
-        } else if (run->iterations - best_at > SOLVE_CG_STALL_WINDOW) {
-            snprintf(why, why_size, "CG stalled at residual %.3g (no progress in %u iterations)", best,
-                     SOLVE_CG_STALL_WINDOW);
-            stopped = 1;
-            break;
-        }
-        residual = cg_step(run, &v, &rz);
-        if (isnan(residual)) {
-            snprintf(why, why_size, "CG met non-positive curvature at iteration %u (matrix not positive definite)",
-                     run->iterations);
-            stopped = 1;
-            break;
-        }
-        run->iterations++;
-    }
-    *out_stopped = stopped;
-done:
-    free(block);
-    return status;
+    return solve_cg_many(&run, 1, out_stopped, &why, why_size);
 }

@@ -101,6 +101,11 @@ rad_status solve_gauss_seidel(solve_run *run);
  * reason in `why`; run->B then holds its best effort, to be finished by
  * another method. */
 rad_status solve_cg(solve_run *run, int *out_stopped, char *why, size_t why_size);
+/* The same for `count` channels of one matrix in lockstep: one pass over F
+ * per iteration for all of them (cg.c). out_stopped[c] and why[c] (each
+ * why_size bytes) per channel; a failure status if any channel failed. */
+rad_status solve_cg_many(solve_run *const *runs, size_t count, int *out_stopped, char *const *why,
+                         size_t why_size);
 
 /* The check that decides whether CG may run (SOLVE_CG_RECIPROCITY in
  * solver.h), over patches with rho > 0:

@@ -137,16 +137,36 @@ static double contraction(const solve_run *run, size_t *out_row)
     return c;
 }
 
-rad_status solve_channel(const solve_system *system, const double *rho, const double *emission,
-                         const solve_params *params, double *out_radiosity, solve_report *out_report)
-{
-    rad_status status = RAD_OK;
+/* One channel's solve from start to end, in three parts so that the CG
+ * iterations of several channels can run in lockstep (solve_channels):
+ * channel_begin checks and allocates and picks the method, the methods
+ * iterate, channel_end verifies and reports. */
+typedef struct channel_solve {
+    solve_run run;
     solve_report rep;
-    memset(&rep, 0, sizeof rep);
-    rep.reciprocity = -1;
-    rep.margin = NAN;
+    double c;          /* max rho_i * row sum_i */
+    double *buffers;
+    solve_method method;
+    int trivial;       /* nothing emits: B = 0, no iteration */
+} channel_solve;
+
+static void channel_free(channel_solve *ch)
+{
+    free(ch->run.history);
+    free(ch->buffers);
+    ch->run.history = NULL;
+    ch->buffers = NULL;
+}
+
+static rad_status channel_begin(const solve_system *system, const double *rho, const double *emission,
+                                const solve_params *params, channel_solve *ch)
+{
+    memset(ch, 0, sizeof *ch);
+    ch->rep.reciprocity = -1;
+    ch->rep.margin = NAN;
     const size_t n = system->patch_count;
-    solve_run run = {
+    solve_run *run = &ch->run;
+    *run = (solve_run){
         .n = n,
         .F = system->form_factors,
         .area = system->area,
@@ -158,73 +178,159 @@ rad_status solve_channel(const solve_system *system, const double *rho, const do
         .label = params->label ? params->label : "channel",
         .progress_seconds = params->progress_seconds ? params->progress_seconds : SOLVE_DEFAULT_PROGRESS_SECONDS,
     };
-    double *buffers = NULL;
-    if (!(run.tolerance < 1) || !isfinite(run.tolerance)) {
-        rad_error("%s: tolerance %g must lie in (0, 1)", run.label, run.tolerance);
-        status = RAD_ERR_USAGE;
-        goto done;
+    if (!(run->tolerance < 1) || !isfinite(run->tolerance)) {
+        rad_error("%s: tolerance %g must lie in (0, 1)", run->label, run->tolerance);
+        return RAD_ERR_USAGE;
     }
     size_t worst_row;
-    const double c = contraction(&run, &worst_row);
-    if (!(c < 1)) {
+    ch->c = contraction(run, &worst_row);
+    if (!(ch->c < 1)) {
         rad_error("%s: row %zu: rho * row sum = %.9g >= 1: the patch would reflect at least all the light "
                   "that reaches it, so no iteration is sure to converge (lower rho, or form factors whose rows "
                   "sum to 1; docs/solve.md)",
-                  run.label, worst_row, c);
-        status = RAD_ERR_INVALID;
-        goto done;
+                  run->label, worst_row, ch->c);
+        return RAD_ERR_INVALID;
     }
-    run.start_time = run.last_progress_time = solve_now();
+    run->start_time = run->last_progress_time = solve_now();
     for (size_t i = 0; i < n; i++)
-        if (emission[i] > run.e_norm) run.e_norm = emission[i];
-    buffers = malloc(2 * n * sizeof(double));
-    if (!buffers) {
-        rad_error("%s: out of memory for %zu patches", run.label, n);
+        if (emission[i] > run->e_norm) run->e_norm = emission[i];
+    ch->buffers = malloc(2 * n * sizeof(double));
+    if (!ch->buffers) {
+        rad_error("%s: out of memory for %zu patches", run->label, n);
+        return RAD_ERR_NOMEM;
+    }
+    run->B = ch->buffers;
+    run->work = ch->buffers + n;
+    memcpy(run->B, emission, n * sizeof(double)); /* start from B = E */
+    if (run->e_norm == 0) { /* nothing emits: B = 0 exactly */
+        ch->trivial = 1;
+        ch->rep.method_used = params->method == SOLVE_AUTO ? SOLVE_CG : params->method;
+        run->e_norm = 1;
+        if (solve_run_record(run, 0) == SOLVE_FAILED) return RAD_ERR_NOMEM;
+        return RAD_OK;
+    }
+    ch->method = choose_method(run, params->method, &ch->rep);
+    return RAD_OK;
+}
+
+static rad_status channel_end(const solve_system *system, channel_solve *ch, double *out_radiosity,
+                              solve_report *out_report)
+{
+    solve_run *run = &ch->run;
+    solve_report *rep = &ch->rep;
+    if (!ch->trivial) {
+        rep->residual = solve_run_residual(run, run->B);
+        if (!isfinite(rep->residual)) {
+            rad_error("%s: the solution is not finite (overflow: is some emission near the largest double?)",
+                      run->label);
+            return RAD_ERR_INVALID;
+        }
+        run->history[run->iterations] = rep->residual; /* the verified value */
+    }
+    rep->error_bound = rep->residual * run->e_norm / (1 - ch->c);
+    rep->balance = solve_balance_compute(system, run->rho, run->E, run->B, run->work);
+    rep->iterations = run->iterations;
+    rep->converged = rep->residual <= run->tolerance;
+    rep->seconds = solve_now() - run->start_time;
+    rep->history = run->history;
+    rep->history_count = run->history_count;
+    run->history = NULL;
+    rad_status status = RAD_OK;
+    if (!rep->converged) {
+        rad_error("%s: not converged: residual %.3g > tolerance %.3g after %u iterations (%s)", run->label,
+                  rep->residual, run->tolerance, rep->iterations, solve_method_name(rep->method_used));
+        status = RAD_ERR_NOT_CONVERGED;
+    }
+    memcpy(out_radiosity, run->B, run->n * sizeof(double));
+    *out_report = *rep;
+    return status;
+}
+
+rad_status solve_channel(const solve_system *system, const double *rho, const double *emission,
+                         const solve_params *params, double *out_radiosity, solve_report *out_report)
+{
+    rad_status status;
+    solve_channels_result result;
+    status = solve_channels(system, 1, &rho, &emission, params, &out_radiosity, out_report, &result);
+    (void)result;
+    return status;
+}
+
+rad_status solve_channels(const solve_system *system, size_t count, const double *const *rho,
+                          const double *const *emission, const solve_params *params, double *const *out_radiosity,
+                          solve_report *out_reports, solve_channels_result *out_result)
+{
+    rad_status status = RAD_OK;
+    channel_solve *ch = calloc(count, sizeof *ch);
+    solve_run **cg_runs = calloc(count, sizeof *cg_runs);
+    char **cg_why = calloc(count, sizeof *cg_why);
+    int *cg_stopped = calloc(count, sizeof *cg_stopped);
+    size_t *cg_channel = calloc(count, sizeof *cg_channel);
+    memset(out_result, 0, sizeof *out_result);
+    if (!ch || !cg_runs || !cg_why || !cg_stopped || !cg_channel) {
+        rad_error("out of memory for %zu channels", count);
         status = RAD_ERR_NOMEM;
         goto done;
     }
-    run.B = buffers;
-    run.work = buffers + n;
-    memcpy(run.B, emission, n * sizeof(double)); /* start from B = E */
-
-    if (run.e_norm == 0) { /* nothing emits: B = 0 exactly */
-        rep.method_used = params->method == SOLVE_AUTO ? SOLVE_CG : params->method;
-        run.e_norm = 1;
-        if (solve_run_record(&run, 0) == SOLVE_FAILED) {
-            status = RAD_ERR_NOMEM;
-            goto done;
-        }
-    } else {
-        solve_method method = choose_method(&run, params->method, &rep);
-        status = run_methods(&run, method, &rep);
+    /* Checks first, every channel: a refused one stops the lot before any
+     * iteration. */
+    for (size_t c = 0; c < count; c++) {
+        solve_params p = params[c];
+        if ((status = channel_begin(system, rho[c], emission[c], &p, &ch[c])) != RAD_OK) goto done;
+    }
+    /* CG channels together, one pass over F per iteration for all. */
+    size_t cg_count = 0;
+    for (size_t c = 0; c < count; c++) {
+        if (ch[c].trivial || ch[c].method != SOLVE_CG) continue;
+        ch[c].rep.method_used = SOLVE_CG;
+        cg_runs[cg_count] = &ch[c].run;
+        cg_why[cg_count] = ch[c].rep.fallback_reason;
+        cg_channel[cg_count++] = c;
+    }
+    if (cg_count) {
+        double t = solve_now();
+        status = solve_cg_many(cg_runs, cg_count, cg_stopped, cg_why, sizeof ch[0].rep.fallback_reason);
+        out_result->lockstep_channels = cg_count;
+        out_result->lockstep_seconds = solve_now() - t;
         if (status != RAD_OK) goto done;
-        rep.residual = solve_run_residual(&run, run.B);
-        if (!isfinite(rep.residual)) {
-            rad_error("%s: the solution is not finite (overflow: is some emission near the largest double?)",
-                      run.label);
-            status = RAD_ERR_INVALID;
+    }
+    /* The rest one by one: other methods, and CG channels that stopped
+     * (finished by Gauss-Seidel from where CG left them). */
+    for (size_t k = 0, c = 0; c < count; c++) {
+        channel_solve *h = &ch[c];
+        if (h->trivial) continue;
+        int was_cg = k < cg_count && cg_channel[k] == c;
+        if (was_cg) {
+            int stopped = cg_stopped[k++];
+            if (!stopped) continue;
+            h->rep.fell_back = 1;
+            rad_warn("%s: %s; continuing with gauss-seidel from iteration %u", h->run.label, h->rep.fallback_reason,
+                     h->run.iterations);
+            h->rep.method_used = SOLVE_GAUSS_SEIDEL;
+            status = solve_gauss_seidel(&h->run);
+        } else {
+            status = run_methods(&h->run, h->method, &h->rep);
+        }
+        if (status != RAD_OK) goto done;
+    }
+    for (size_t c = 0; c < count; c++) {
+        rad_status st = channel_end(system, &ch[c], out_radiosity[c], &out_reports[c]);
+        if (st == RAD_ERR_NOT_CONVERGED && status == RAD_OK) {
+            status = st;
+        } else if (st != RAD_OK && st != RAD_ERR_NOT_CONVERGED) {
+            for (size_t d = 0; d < c; d++) solve_report_free(&out_reports[d]);
+            status = st;
             goto done;
         }
-        run.history[run.iterations] = rep.residual; /* the verified value */
     }
-    rep.error_bound = rep.residual * run.e_norm / (1 - c);
-    rep.balance = solve_balance_compute(system, rho, emission, run.B, run.work);
-    rep.iterations = run.iterations;
-    rep.converged = rep.residual <= run.tolerance;
-    rep.seconds = solve_now() - run.start_time;
-    rep.history = run.history;
-    rep.history_count = run.history_count;
-    run.history = NULL;
-    if (!rep.converged) {
-        rad_error("%s: not converged: residual %.3g > tolerance %.3g after %u iterations (%s)", run.label,
-                  rep.residual, run.tolerance, rep.iterations, solve_method_name(rep.method_used));
-        status = RAD_ERR_NOT_CONVERGED;
-    }
-    memcpy(out_radiosity, run.B, n * sizeof(double));
-    *out_report = rep;
 done:
-    free(run.history);
-    free(buffers);
+    if (ch)
+        for (size_t c = 0; c < count; c++) channel_free(&ch[c]);
+    free(ch);
+    free(cg_runs);
+    free(cg_why);
+    free(cg_stopped);
+    free(cg_channel);
     return status;
 }
 

@@ -137,6 +137,25 @@ rad_status solve_channel(const solve_system *system, const double *rho, const do
                          const solve_params *params, double *out_radiosity, solve_report *out_report);
 void solve_report_free(solve_report *report); /* safe on zeroed */
 
+/* What solving several channels together shared. */
+typedef struct solve_channels_result {
+    size_t lockstep_channels; /* channels whose CG ran in lockstep */
+    double lockstep_seconds;  /* wall time of that joint CG */
+} solve_channels_result;
+
+/* Solves `count` channels of one system: channel c has rho[c], emission[c],
+ * params[c] and writes out_radiosity[c], out_reports[c], each as
+ * solve_channel would. Every channel is checked before any iterates; the
+ * channels that use CG iterate in lockstep, one pass over F per iteration
+ * for all of them (the same bits as one at a time); the others, and CG
+ * channels that stopped and finish with Gauss-Seidel, follow one by one.
+ * Status: as solve_channel's, the worst over the channels; on
+ * RAD_ERR_NOT_CONVERGED every channel's outputs are filled. A report's
+ * seconds run from its channel's start to its end. */
+rad_status solve_channels(const solve_system *system, size_t count, const double *const *rho,
+                          const double *const *emission, const solve_params *params, double *const *out_radiosity,
+                          solve_report *out_reports, solve_channels_result *out_result);
+
 /* Seconds on a monotonic clock (for timings). */
 double solve_now(void);
 

@@ -1,5 +1,6 @@
 /* stage.c - the solve stage: read and validate the form factors, solve
- * each channel (once for grey scenes), write the radiosity and stats. */
+ * the channels together (once for grey scenes; solve_channels), write the
+ * radiosity and stats. */
 #include "stage.h"
 
 #include <stdlib.h>
@@ -26,7 +27,7 @@ static int scene_is_grey(const rad_mesh *mesh)
 typedef struct stage_state {
     rad_ff_file *file;
     solve_matrix matrix;
-    double *rho, *emission, *channel_b; /* N each, one channel at a time */
+    double *rho, *emission, *channel_b; /* 3 * N each, channel c at c * N */
     double *radiosity;                  /* N * 3 */
     solve_report reports[3];
 } stage_state;
@@ -42,27 +43,42 @@ static void stage_state_free(stage_state *s)
     for (int c = 0; c < 3; c++) solve_report_free(&s->reports[c]);
 }
 
-/* Solves channel c (all three at once when grey) into s->radiosity. */
-static rad_status solve_one(stage_state *s, const char *input, const rad_mesh *mesh, int c, int grey,
-                            const solve_params *base, const char *label)
+/* Solves the channels (one when grey) into s->radiosity. */
+static rad_status solve_all(stage_state *s, const char *input, const rad_mesh *mesh, uint32_t channels, int grey,
+                            const solve_params *base, const char *const *labels)
 {
     const size_t n = mesh->patch_count;
-    for (size_t i = 0; i < n; i++) {
-        s->rho[i] = mesh->patches[i].rho[c];
-        s->emission[i] = mesh->patches[i].emission[c];
+    const double *rho[3], *emission[3];
+    double *b[3];
+    solve_params p[3];
+    for (uint32_t c = 0; c < channels; c++) {
+        double *rc = s->rho + c * n, *ec = s->emission + c * n;
+        for (size_t i = 0; i < n; i++) {
+            rc[i] = mesh->patches[i].rho[c];
+            ec[i] = mesh->patches[i].emission[c];
+        }
+        rho[c] = rc;
+        emission[c] = ec;
+        b[c] = s->channel_b + c * n;
+        p[c] = *base;
+        p[c].label = labels[c];
     }
-    solve_params p = *base;
-    p.label = label;
     solve_system sys = solve_matrix_system(&s->matrix);
-    rad_status status = solve_channel(&sys, s->rho, s->emission, &p, s->channel_b, &s->reports[c]);
+    solve_channels_result joint;
+    rad_status status = solve_channels(&sys, channels, rho, emission, p, b, s->reports, &joint);
     if (status != RAD_OK && status != RAD_ERR_NOT_CONVERGED) return status;
-    for (size_t i = 0; i < n; i++)
-        for (int k = grey ? 0 : c; k <= (grey ? 2 : c); k++) s->radiosity[3 * i + k] = s->channel_b[i];
-    const solve_report *r = &s->reports[c];
-    rad_info("%s: %s: %s, %u iterations, residual %.3g, %.3f s", input, label, solve_method_name(r->method_used),
-             r->iterations, r->residual, r->seconds);
-    rad_info("%s: %s: energy: emitted %.9g, absorbed %.9g, escaped %.9g (imbalance %.2g)", input, label,
-             r->balance.emitted, r->balance.absorbed, r->balance.escaped, r->balance.imbalance);
+    for (uint32_t c = 0; c < channels; c++) {
+        for (size_t i = 0; i < n; i++)
+            for (uint32_t k = grey ? 0 : c; k <= (grey ? 2 : c); k++) s->radiosity[3 * i + k] = b[c][i];
+        const solve_report *r = &s->reports[c];
+        rad_info("%s: %s: %s, %u iterations, residual %.3g, %.3f s", input, labels[c],
+                 solve_method_name(r->method_used), r->iterations, r->residual, r->seconds);
+        rad_info("%s: %s: energy: emitted %.9g, absorbed %.9g, escaped %.9g (imbalance %.2g)", input, labels[c],
+                 r->balance.emitted, r->balance.absorbed, r->balance.escaped, r->balance.imbalance);
+    }
+    if (joint.lockstep_channels > 1)
+        rad_info("%s: CG on %zu channels in lockstep (one pass over the matrix per iteration): %.3f s", input,
+                 joint.lockstep_channels, joint.lockstep_seconds);
     return status;
 }
 
@@ -96,9 +112,9 @@ rad_status solve_stage_run(const solve_options *options)
     status = solve_matrix_check_reflectance(&s.matrix, mesh, input);
     if (status != RAD_OK) goto done;
     const solve_row_sum_summary row_sums = solve_matrix_warn_row_sums(&s.matrix, input);
-    s.rho = malloc(n * sizeof(double));
-    s.emission = malloc(n * sizeof(double));
-    s.channel_b = malloc(n * sizeof(double));
+    s.rho = malloc(3 * n * sizeof(double));
+    s.emission = malloc(3 * n * sizeof(double));
+    s.channel_b = malloc(3 * n * sizeof(double));
     s.radiosity = malloc(3 * n * sizeof(double));
     if (!s.rho || !s.emission || !s.channel_b || !s.radiosity) {
         rad_error("%s: out of memory for %zu patches", input, n);
@@ -108,13 +124,12 @@ rad_status solve_stage_run(const solve_options *options)
     const int grey = scene_is_grey(mesh);
     const uint32_t channels = grey ? 1 : 3;
     rad_info("%s: %zu patches, %s, loaded in %.2f s", input, n, grey ? "grey (solved once)" : "RGB", load_seconds);
-    for (uint32_t c = 0; c < channels; c++) {
-        status = solve_one(&s, input, mesh, (int)c, grey, &options->params, grey ? "grey" : rgb_names[c]);
-        if (status == RAD_ERR_NOT_CONVERGED)
-            solved = status;
-        else if (status != RAD_OK)
-            goto done;
-    }
+    static const char *const grey_names[1] = {"grey"};
+    status = solve_all(&s, input, mesh, channels, grey, &options->params, grey ? grey_names : rgb_names);
+    if (status == RAD_ERR_NOT_CONVERGED)
+        solved = status;
+    else if (status != RAD_OK)
+        goto done;
 
     rad_radiosity out;
     memset(&out, 0, sizeof out);
