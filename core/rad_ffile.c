@@ -154,8 +154,11 @@ rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info, const 
     size_t prologue_size = 0;
     FILE *f = NULL;
     char temp[4096];
-    if ((status = rad_fs_temp_path(path, temp, sizeof temp)) != RAD_OK) return status;
     if ((status = rad_ff_prologue_encode(info, mesh, &prologue, &prologue_size)) != RAD_OK) return status;
+    if ((status = rad_fs_temp_create(path, temp, sizeof temp)) != RAD_OK) {
+        free(prologue);
+        return status;
+    }
     rad_ff_layout l = rad_ff_layout_of(info);
     uint64_t n = info->patch_count;
     row = malloc(l.row_bytes ? l.row_bytes : 1);
@@ -165,9 +168,9 @@ rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info, const 
         status = RAD_ERR_NOMEM;
         goto done;
     }
-    f = fopen(temp, "wb");
+    f = rad_fs_temp_open(temp);
     if (!f) {
-        rad_error("%s: cannot create: %s", temp, strerror(errno));
+        rad_error("%s: cannot open: %s", temp, strerror(errno));
         status = RAD_ERR_IO;
         goto done;
     }
@@ -331,9 +334,8 @@ rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
     *out_file = NULL;
     if (!ff) return RAD_ERR_NOMEM;
     snprintf(ff->path, sizeof ff->path, "%s", path);
-    ff->f = fopen(path, "rb");
+    ff->f = rad_fs_open_input(path);
     if (!ff->f) {
-        rad_error("%s: cannot open: %s", path, strerror(errno));
         status = RAD_ERR_IO;
         goto done;
     }

@@ -153,15 +153,15 @@ rad_status rad_rf_write(const char *path, const rad_radiosity *radiosity)
 
     status = rf_encode(path, radiosity, &bytes, &size);
     if (status != RAD_OK) goto done;
-    status = rad_fs_temp_path(path, temp, sizeof temp);
+    status = rad_fs_temp_create(path, temp, sizeof temp);
     if (status != RAD_OK) goto done;
-    f = fopen(temp, "wb");
+    have_temp = 1;
+    f = rad_fs_temp_open(temp);
     if (!f) {
-        rad_error("%s: cannot create: %s", temp, strerror(errno));
+        rad_error("%s: cannot open: %s", temp, strerror(errno));
         status = RAD_ERR_IO;
         goto done;
     }
-    have_temp = 1;
     if (fwrite(bytes, 1, size, f) != size) {
         rad_error("%s: write failed: %s", temp, strerror(errno));
         status = RAD_ERR_IO;
@@ -189,11 +189,8 @@ static rad_status read_file(const char *path, unsigned char **out_bytes, size_t 
 {
     rad_status status = RAD_ERR_IO;
     unsigned char *bytes = NULL;
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        rad_error("%s: cannot open: %s", path, strerror(errno));
-        return RAD_ERR_IO;
-    }
+    FILE *f = rad_fs_open_input(path);
+    if (!f) return RAD_ERR_IO;
     if (fseeko(f, 0, SEEK_END) != 0) {
         rad_error("%s: cannot seek: %s", path, strerror(errno));
         goto done;

@@ -44,7 +44,7 @@ void ff_comm_gather_u64v(ff_comm *comm, const uint64_t *data, uint64_t count, ui
 rad_status ff_comm_sendrecv(ff_comm *comm, int dest, const double *send, size_t send_count, int source, double *recv,
                             size_t recv_count);
 
-/* Collective open (create, write-only) of `path` on every rank. */
+/* Collective open (write-only) of the existing file `path` on every rank. */
 rad_status ff_comm_file_open(ff_comm *comm, const char *path, ff_comm_file **out_file);
 /* Collective write: each rank its own (offset, bytes); bytes may be 0. */
 rad_status ff_comm_file_write_all(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes);

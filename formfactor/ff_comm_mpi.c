@@ -6,7 +6,7 @@
  * Open MPI singleton init costs 0.3 s (a forked runtime daemon), as much as
  * the whole paper-size run on a GPU, and `formfactor --version` paid it
  * too. The bytes written are the same either way (formfactor_ranks). */
-#define _POSIX_C_SOURCE 200809L /* pwrite, clock_gettime */
+#define _GNU_SOURCE /* pwrite, clock_gettime, O_NOFOLLOW */
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -181,20 +181,22 @@ rad_status ff_comm_file_open(ff_comm *comm, const char *path, ff_comm_file **out
         f->fd = -1;
         snprintf(f->path, sizeof f->path, "%s", path);
     }
+    /* The file exists (rad_fs_temp_create made it, empty, or it is a
+     * device written in place): opened, never created, no symlink
+     * followed where POSIX opens it. */
     if (f && comm->solo) {
-        f->fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+        f->fd = open(path, O_WRONLY | O_NOFOLLOW | O_CLOEXEC);
         if (f->fd < 0) {
-            rad_error("%s: cannot create: %s", path, strerror(errno));
+            rad_error("%s: cannot open: %s", path, strerror(errno));
             status = RAD_ERR_IO;
         }
     } else if (f) {
-        int rc = MPI_File_open(MPI_COMM_WORLD, path, MPI_MODE_CREATE | MPI_MODE_WRONLY, MPI_INFO_NULL, &f->fh);
+        int rc = MPI_File_open(MPI_COMM_WORLD, path, MPI_MODE_WRONLY, MPI_INFO_NULL, &f->fh);
         if (rc != MPI_SUCCESS) {
-            if (comm->rank == 0) log_mpi_error("cannot create", path, rc);
+            if (comm->rank == 0) log_mpi_error("cannot open", path, rc);
             status = RAD_ERR_IO;
         } else {
             MPI_File_set_errhandler(f->fh, MPI_ERRORS_RETURN);
-            MPI_File_set_size(f->fh, 0); /* collective: a stale file of this name is emptied */
         }
     }
     status = ff_comm_agree(comm, status);

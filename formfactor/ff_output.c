@@ -1,8 +1,5 @@
-#define _POSIX_C_SOURCE 200809L /* sigaction */
 #include "ff_output.h"
 
-#include <signal.h>
-#include <sys/stat.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,64 +22,8 @@ struct ff_output {
     uint64_t *row_checksums; /* this rank's rows, in order */
     uint64_t checksum_count, checksum_cap;
     void *convert; /* one write's rows in the stored element type */
-    int guard_slot; /* guard_temp's slot for the temporary name */
     uint64_t convert_bytes; /* its size: grown to the largest write seen */
 };
-
-/* A run stopped by a signal (mpirun terminating the other ranks after one
- * died, a batch system's time limit, Ctrl-C) removes the temporary file
- * it was writing: every rank knows its name, so whichever rank is
- * signalled unlinks it, then dies of the signal as it would have. This is
- * the one piece of process-wide state here - a handler reaches nothing
- * else. SIGKILL cannot be caught: a rank killed that way relies on the
- * others being terminated (mpirun does that). */
-static const int guarded_signals[] = {SIGTERM, SIGINT, SIGHUP};
-/* One slot per file open at once (the matrix and its --errors file). */
-#define FF_GUARD_SLOTS 2
-static char g_signal_temp[FF_GUARD_SLOTS][4096];
-/* A slot's name counts only while its flag is set: the name is written
- * before the flag goes up and the flag goes down before the name changes,
- * so a handler on any thread sees whole names only. */
-static volatile sig_atomic_t g_signal_valid[FF_GUARD_SLOTS];
-static int g_guarded; /* slots in use */
-static struct sigaction g_previous[sizeof guarded_signals / sizeof guarded_signals[0]];
-
-static void remove_temp_and_die(int sig)
-{
-    for (int k = 0; k < FF_GUARD_SLOTS; k++)
-        if (g_signal_valid[k]) unlink(g_signal_temp[k]);
-    signal(sig, SIG_DFL);
-    raise(sig);
-}
-
-/* Returns the slot, for unguard_temp. */
-static int guard_temp(const char *temp)
-{
-    int slot = 0;
-    while (slot < FF_GUARD_SLOTS - 1 && g_signal_valid[slot]) slot++;
-    g_signal_valid[slot] = 0;
-    snprintf(g_signal_temp[slot], sizeof g_signal_temp[slot], "%s", temp);
-    __atomic_thread_fence(__ATOMIC_SEQ_CST);
-    g_signal_valid[slot] = 1;
-    if (g_guarded++ == 0) {
-        struct sigaction sa;
-        memset(&sa, 0, sizeof sa);
-        sa.sa_handler = remove_temp_and_die;
-        sigfillset(&sa.sa_mask);
-        for (size_t k = 0; k < sizeof guarded_signals / sizeof guarded_signals[0]; k++)
-            sigaction(guarded_signals[k], &sa, &g_previous[k]);
-    }
-    return slot;
-}
-
-static void unguard_temp(int slot)
-{
-    g_signal_valid[slot] = 0;
-    __atomic_thread_fence(__ATOMIC_SEQ_CST);
-    if (--g_guarded == 0)
-        for (size_t k = 0; k < sizeof guarded_signals / sizeof guarded_signals[0]; k++)
-            sigaction(guarded_signals[k], &g_previous[k], NULL);
-}
 
 uint32_t ff_output_max_rows(const ff_output *output)
 {
@@ -106,12 +47,12 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
         if (format == FF_FORMAT_PAPER) o->info.element_type = RAD_ELEMENT_F64;
         o->layout = rad_ff_layout_of(&o->info);
         snprintf(o->path, sizeof o->path, "%s", path);
-        struct stat st;
-        if (ff_comm_rank(comm) == 0 && stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
-            rad_error("%s: is a directory", path);
-            status = RAD_ERR_IO;
-        }
-        if (status == RAD_OK && ff_comm_rank(comm) == 0) status = rad_fs_temp_path(path, o->temp, sizeof o->temp);
+        if (ff_comm_rank(comm) == 0) status = rad_fs_check_output("-o", path);
+        /* Rank 0 creates the temporary (exclusively, guarded); the others
+         * learn its name below and guard it too: a rank that is
+         * signalled removes it whichever it is (mpirun terminates the
+         * others when one dies; a batch system's time limit; Ctrl-C). */
+        if (status == RAD_OK && ff_comm_rank(comm) == 0) status = rad_fs_temp_create(path, o->temp, sizeof o->temp);
         if (status == RAD_OK && ff_comm_rank(comm) == 0 && format == FF_FORMAT_NATIVE)
             status = rad_ff_prologue_encode(&o->info, mesh, &o->prologue, &o->prologue_size);
         /* Sized by the first write (ff_output_write_rows), not by the
@@ -126,9 +67,17 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
     status = ff_comm_agree(comm, status);
     if (status == RAD_OK) {
         ff_comm_broadcast(comm, o->temp, sizeof o->temp, 0);
-        o->guard_slot = guard_temp(o->temp);
-        status = ff_comm_file_open(comm, o->temp, &o->file);
-        if (status != RAD_OK) unguard_temp(o->guard_slot);
+        if (ff_comm_rank(comm) != 0 && strcmp(o->temp, path)) status = rad_fs_guard(o->temp);
+        status = ff_comm_agree(comm, status);
+        if (status == RAD_OK) status = ff_comm_file_open(comm, o->temp, &o->file);
+        if (status != RAD_OK) {
+            if (ff_comm_rank(comm) == 0)
+                rad_fs_discard(o->temp);
+            else
+                rad_fs_unguard(o->temp);
+        }
+    } else if (o && ff_comm_rank(comm) == 0 && o->temp[0]) {
+        rad_fs_discard(o->temp);
     }
     if (status != RAD_OK) {
         if (o) {
@@ -246,7 +195,7 @@ rad_status ff_output_commit(ff_output *o, rad_status status)
             rad_fs_discard(o->temp);
     }
     status = ff_comm_agree(o->comm, status);
-    unguard_temp(o->guard_slot);
+    if (ff_comm_rank(o->comm) != 0) rad_fs_unguard(o->temp);
     free(o->prologue);
     free(o->convert);
     free(o->row_checksums);

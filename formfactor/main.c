@@ -28,6 +28,7 @@
 #include "ff_stats.h"
 #include "rad_ff_quad.h"
 #include "rad_ffile.h"
+#include "rad_fs.h"
 #include "rad_log.h"
 #include "rad_mesh.h"
 #include "rad_scene.h"
@@ -150,22 +151,6 @@ bad:
     return RAD_ERR_USAGE;
 }
 
-/* Do two output names name the same file (`m` and `./m`, `d/../m`)? Their
- * folders are resolved (they must exist to be written into); the last
- * parts compared as given. */
-static int same_output(const char *a, const char *b)
-{
-    char dirs[2][PATH_MAX], resolved[2][PATH_MAX];
-    const char *names[2] = {a, b}, *base[2];
-    for (int k = 0; k < 2; k++) {
-        const char *slash = strrchr(names[k], '/');
-        base[k] = slash ? slash + 1 : names[k];
-        snprintf(dirs[k], sizeof dirs[k], "%.*s", slash ? (int)(slash - names[k]) + 1 : 1, slash ? names[k] : ".");
-        if (!realpath(dirs[k], resolved[k])) return !strcmp(a, b);
-    }
-    return !strcmp(resolved[0], resolved[1]) && !strcmp(base[0], base[1]);
-}
-
 static rad_status parse_options(int argc, char **argv, ff_options *o)
 {
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
@@ -282,10 +267,14 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         rad_error("--no-errors and --errors %s contradict each other", o->errors_path);
         return RAD_ERR_USAGE;
     }
-    if (o->errors_path && same_output(o->errors_path, o->output)) {
-        rad_error("--errors %s: the same file as the output", o->errors_path);
-        return RAD_ERR_USAGE;
-    }
+    /* Files: outputs are new, regular or character devices, and no two
+     * roles name one file (docs/reliability.md, "Threat model: files on
+     * disk"); the scene's MTL files are checked as the loader opens them. */
+    rad_fs_role roles[] = {{"the scene", o->scene_path, 0}, {"-o", o->output, 1}, {"--stats", o->stats_path, 1},
+                           {"--errors", o->errors_path, 1}};
+    for (size_t k = 1; k < sizeof roles / sizeof roles[0]; k++)
+        if (rad_fs_check_output(roles[k].option, roles[k].path) != RAD_OK) return RAD_ERR_USAGE;
+    if (rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]) != RAD_OK) return RAD_ERR_USAGE;
     if (o->format == FF_FORMAT_PAPER && o->element != RAD_ELEMENT_F64) {
         rad_error("--format paper stores float64 only; drop --element f32");
         return RAD_ERR_USAGE;
@@ -416,10 +405,24 @@ static rad_status check_limits(const ff_run *run)
     return RAD_OK;
 }
 
+/* The loader reads the OBJ and each mtllib through here: none of them may
+ * be an output of this run (`-o scene.mtl` would replace the scene's
+ * materials). */
+static rad_status read_scene_file(const char *path, char **out_data, size_t *out_size, void *user)
+{
+    const ff_options *o = user;
+    rad_fs_role roles[] = {{"the scene's file", path, 0}, {"-o", o->output, 1}, {"--stats", o->stats_path, 1},
+                           {"--errors", o->errors_path, 1}};
+    *out_data = NULL;
+    if (rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]) != RAD_OK) return RAD_ERR_USAGE;
+    return rad_fs_read_all(path, out_data, out_size);
+}
+
 static rad_status load(ff_run *run)
 {
     double t0 = ff_comm_time();
-    rad_status st = run->opt.scene_path ? rad_scene_load_file(run->opt.scene_path, NULL, &run->scene)
+    rad_scene_options loader = {.read_file = read_scene_file, .read_file_user = &run->opt};
+    rad_status st = run->opt.scene_path ? rad_scene_load_file(run->opt.scene_path, &loader, &run->scene)
                                         : rad_scene_load_default(&run->scene);
     double t1 = ff_comm_time();
     if (st == RAD_OK && ff_comm_rank(run->comm) == 0) st = check_limits(run);

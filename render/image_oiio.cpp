@@ -154,7 +154,7 @@ extern "C" rad_status render_image_write(const char *path, const float *values, 
         status = RAD_ERR_INVALID;
         goto done;
     }
-    status = rad_fs_temp_path(path, temp, sizeof temp);
+    status = rad_fs_temp_create(path, temp, sizeof temp);
     if (status != RAD_OK) goto done;
     temp_named = true;
     try {

@@ -13,6 +13,7 @@
 #include <time.h>
 
 #include "camera.h"
+#include "rad_fs.h"
 #include "frame.h"
 #include "image.h"
 #include "rad_log.h"
@@ -360,6 +361,12 @@ int main(int argc, char **argv)
     if (status == RAD_OK && cli.help) {
         fputs(usage_text, stdout);
         return 0;
+    }
+    if (status == RAD_OK) { /* before any work: docs/reliability.md, "Threat model: files on disk" */
+        rad_fs_role roles[] = {{"the radiosity file", cli.input, 0}, {"--camera", cli.camera_path, 0},
+                               {"-o", cli.output, 1}};
+        status = rad_fs_check_output("-o", cli.output);
+        if (status == RAD_OK) status = rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]);
     }
     if (status == RAD_OK) {
         if (cli.quiet) rad_log_set_level(RAD_LOG_ERROR);

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "rad_log.h"
+#include "rad_fs.h"
 #include "stage.h"
 
 static const char usage_text[] =
@@ -141,6 +142,16 @@ int main(int argc, char **argv)
         fputs(usage_text, stdout);
         return 0;
     }
+    /* Before any work: docs/reliability.md, "Threat model: files on disk". */
+    const char *output = c.options.output ? c.options.output : SOLVE_DEFAULT_OUTPUT;
+    rad_fs_role roles[] = {{"the form-factor file", c.options.input ? c.options.input : SOLVE_DEFAULT_INPUT, 0},
+                           {"--errors", c.options.errors, 0},
+                           {"-o", output, 1},
+                           {"--stats", c.options.stats, 1}};
+    status = rad_fs_check_output("-o", output);
+    if (status == RAD_OK) status = rad_fs_check_output("--stats", c.options.stats);
+    if (status == RAD_OK) status = rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]);
+    if (status != RAD_OK) return rad_status_exit_code(status);
     if (c.quiet) rad_log_set_level(RAD_LOG_WARN);
     status = solve_stage_run(&c.options);
     return rad_status_exit_code(status);

@@ -144,7 +144,7 @@ disk-full)
   wait $mp; rc=$?
   rm -f full/hog
   expect_failed "formfactor, disk filled while it computes" $rc err.txt full/out.ff good.ff \
-    "full/out.ff.tmp-[0-9]+: (short write|write failed)"
+    "full/out.ff.tmp-[0-9a-f]+: (short write|write failed)"
   cp good.rad full/out.rad
   [ -n "$render" ] && cp good.png full/out.png
   fill full
