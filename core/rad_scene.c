@@ -26,6 +26,18 @@
  * than this relative amount crosses itself. */
 #define SELF_INTERSECT_TOL 1e-9
 #define WARNED_KEYS_MAX 64
+/* Limits a hostile or broken file meets (docs/reliability.md, "Threat
+ * model: scene files"): warnings shown per scene (the rest are counted and
+ * summarised), the longest line, the largest coordinate and emission. */
+#define SCENE_WARNINGS_SHOWN 20
+#define SCENE_LINE_MAX ((size_t)1 << 20)
+/* |x| <= 1e12: the ray tracers (Embree, the GPU BVH) work in float, where
+ * Moller-Trumbore forms products of three lengths - (2e12)^3 = 8e36 stays
+ * below FLT_MAX = 3.4e38 with room; 1e39 is not even a float. */
+#define SCENE_COORD_MAX 1e12
+/* Ke <= 1e30: B = E / (1 - rho) and the energy sums (area x B, areas up to
+ * 1e24 at the largest coordinates) stay far inside double range. */
+#define SCENE_EMISSION_MAX 1e30
 #define PATH_MAX_LEN 1024
 
 /* Generated from scenes/cornell_box.{obj,mtl} by scenes/embed.cmake. */
@@ -58,6 +70,7 @@ typedef struct loader {
     size_t mtl_loaded_count, mtl_loaded_cap;
     char warned[WARNED_KEYS_MAX][32]; /* unknown keys warned about */
     int warned_count;
+    size_t warnings, warnings_hidden; /* shown so far; past SCENE_WARNINGS_SHOWN, counted only */
     uint32_t *poly; /* scratch for one face: vertex indices */
     size_t poly_cap;
     double *uv; /* scratch: projected 2D points */
@@ -149,6 +162,27 @@ static rad_status read_embedded(const char *path, char **out_data, size_t *out_s
     return RAD_ERR_IO;
 }
 
+/* Warnings go through here: the first SCENE_WARNINGS_SHOWN of a scene are
+ * shown, the rest counted (rad_scene_load_file summarises them), so a
+ * file of a million odd lines cannot flood a log. */
+static void scene_warn(loader *L, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+static void scene_warn(loader *L, const char *format, ...)
+{
+    if (L->warnings >= SCENE_WARNINGS_SHOWN) {
+        L->warnings_hidden++;
+        return;
+    }
+    L->warnings++;
+    va_list args;
+    va_start(args, format);
+    rad_logv(RAD_LOG_WARN, format, args);
+    va_end(args);
+}
+
 /* ---- tokens and numbers ---- */
 
 static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
@@ -205,13 +239,31 @@ static rad_status parse_name(const source *src, char **tok, size_t n, char *out)
     return RAD_OK;
 }
 
+/* A key is named in a message only if it looks like an OBJ/MTL keyword (a
+ * letter or '_', then up to 15 letters, digits or '_'): a file that is not
+ * a scene (mtllib ../../etc/shadow) gets its lines counted, not echoed. */
+static int keyword_like(const char *key)
+{
+    size_t n = 0;
+    for (; key[n]; n++) {
+        char c = key[n];
+        int alpha = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_';
+        if (!(alpha || (n > 0 && c >= '0' && c <= '9')) || n >= 16) return 0;
+    }
+    return n > 0;
+}
+
 static void warn_unknown(loader *L, const source *src, const char *key)
 {
+    if (!keyword_like(key)) {
+        scene_warn(L, "%s:%u: not an OBJ/MTL statement (its text is not shown); ignored", src->path, src->line);
+        return;
+    }
     for (int i = 0; i < L->warned_count; i++)
         if (strcmp(L->warned[i], key) == 0) return;
     if (L->warned_count < WARNED_KEYS_MAX && strlen(key) < sizeof L->warned[0])
         strcpy(L->warned[L->warned_count++], key);
-    rad_warn("%s:%u: unknown key '%s' ignored (warned once per key)", src->path, src->line, key);
+    scene_warn(L, "%s:%u: unknown key '%s' ignored (warned once per key)", src->path, src->line, key);
 }
 
 /* ---- polygon geometry (n-gons, in the OBJ's vertex positions) ---- */
@@ -342,13 +394,13 @@ static rad_status add_polygon(loader *L, const source *src, size_t n)
         rad_vec3 d = rad_v3_sub(position(s, v[i]), position(s, kept ? v[kept - 1] : v[n - 1]));
         if (rad_v3_dot(d, d) > 0 || (kept == 0 && i == n - 1)) v[kept++] = v[i];
     }
-    if (kept < n) rad_warn("%s:%u: face repeats a corner; repeat removed", src->path, src->line);
+    if (kept < n) scene_warn(L, "%s:%u: face repeats a corner; repeat removed", src->path, src->line);
     n = kept;
     double diam = diameter(s, v, n);
     rad_vec3 N = newell(s, v, n);
     double area = 0.5 * rad_v3_length(N), min_area = AREA_TOL * diam * diam;
     if (n < 3 || !(area > min_area)) {
-        rad_warn("%s:%u: face has zero area; dropped", src->path, src->line);
+        scene_warn(L, "%s:%u: face has zero area; dropped", src->path, src->line);
         return RAD_OK;
     }
     rad_vec3 unit = rad_v3_scale(N, 1.0 / (2 * area)), centre = rad_v3(0, 0, 0);
@@ -387,7 +439,7 @@ static rad_status add_polygon(loader *L, const source *src, size_t n)
         return fail(src, RAD_ERR_INVALID, "face crosses itself; cannot triangulate");
     size_t emitted = s->face_count - first;
     const char *why = !planar ? "non-planar" : !convex ? "non-convex" : "more than 4 vertices";
-    rad_warn("%s:%u: %zu-vertex face triangulated into %zu triangles (%s%s)", src->path, src->line, n, emitted, why,
+    scene_warn(L, "%s:%u: %zu-vertex face triangulated into %zu triangles (%s%s)", src->path, src->line, n, emitted, why,
              planar ? "" : "; off its plane by more than 1e-6 of its size");
     return RAD_OK;
 }
@@ -438,7 +490,7 @@ static rad_status parse_face(loader *L, const source *src, char **tok, size_t n)
     }
     if (!L->have_usemtl && !L->warned_default) {
         L->warned_default = 1;
-        rad_warn("%s:%u: face before any usemtl uses material 'default' (grey 0.5)", src->path, src->line);
+        scene_warn(L, "%s:%u: face before any usemtl uses material 'default' (grey 0.5)", src->path, src->line);
     }
     return add_polygon(L, src, n - 1);
 }
@@ -474,7 +526,7 @@ static rad_status load(loader *L, const char *path, const source *from, const ch
     const char *nul = memchr(data, 0, size);
     if (nul) {
         here.line = 1;
-        for (const char *c = data; c < nul; c++) here.line += *c == '\n';
+        for (const char *c = data; c < nul; c++) here.line += *c == '\n' || (*c == '\r' && c[1] != '\n');
         status = fail(&here, RAD_ERR_PARSE, "contains a NUL byte (not a text file)");
         goto done;
     }
@@ -529,6 +581,12 @@ static rad_status obj_statement(loader *L, const source *src, char **tok, size_t
         memcpy(p, extra, sizeof p);
         if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2]))
             return fail(src, RAD_ERR_INVALID, "coordinate is NaN or infinite");
+        for (int a = 0; a < 3; a++)
+            if (fabs(p[a]) > SCENE_COORD_MAX)
+                return fail(src, RAD_ERR_INVALID,
+                            "coordinate %s beyond the supported range |x| <= %g (the ray tracers work in float; "
+                            "scale the scene down)",
+                            tok[1 + a], SCENE_COORD_MAX);
         if (s->vertex_count >= UINT32_MAX - 1) return fail(src, RAD_ERR_INVALID, "too many vertices");
         double *pos = reserve(s->positions, &L->position_cap, 3 * (s->vertex_count + 1), sizeof *pos);
         if (!pos) return out_of_memory(src);
@@ -573,7 +631,7 @@ static rad_status obj_statement(loader *L, const source *src, char **tok, size_t
 static void finish_material(loader *L, const char *path)
 {
     if (L->mtl_current && !L->mtl_has_kd)
-        rad_warn("%s:%u: material '%s' has no Kd; using grey 0.5", path, L->mtl_line,
+        scene_warn(L, "%s:%u: material '%s' has no Kd; using grey 0.5", path, L->mtl_line,
                  L->scene->materials[L->mtl_current].name);
     L->mtl_current = 0;
 }
@@ -617,7 +675,8 @@ static rad_status mtl_statement(loader *L, const source *src, char **tok, size_t
             if (is_kd && !(rgb[c] >= 0 && rgb[c] < 1))
                 return fail(src, RAD_ERR_INVALID, "Kd %s out of range [0,1)%s", text,
                             rgb[c] >= 1 ? " (reflectance 1 makes the system singular)" : "");
-            if (!is_kd && rgb[c] < 0) return fail(src, RAD_ERR_INVALID, "Ke %s out of range (must be >= 0)", text);
+            if (!is_kd && !(rgb[c] >= 0 && rgb[c] <= SCENE_EMISSION_MAX))
+                return fail(src, RAD_ERR_INVALID, "Ke %s out of range [0, %g]", text, SCENE_EMISSION_MAX);
         }
         memcpy(is_kd ? s->materials[L->mtl_current].rho : s->materials[L->mtl_current].emission, rgb, sizeof rgb);
         L->mtl_has_kd |= is_kd;
@@ -635,14 +694,19 @@ static rad_status parse_text(loader *L, const char *path, char *text, int is_mtl
     source src = {path, 0};
     if ((unsigned char)text[0] == 0xEF && (unsigned char)text[1] == 0xBB && (unsigned char)text[2] == 0xBF) text += 3;
     while (*text) {
-        char *line = text, *end = strchr(text, '\n');
+        /* A line ends at LF, CRLF or a lone CR (classic Mac OS). */
+        char *line = text, *end = strpbrk(text, "\r\n");
         if (end) {
+            text = end + (end[0] == '\r' && end[1] == '\n' ? 2 : 1);
             *end = 0;
-            text = end + 1;
         } else {
             text += strlen(text);
         }
         src.line++;
+        if ((size_t)(end ? end - line : text - line) > SCENE_LINE_MAX) {
+            status = fail(&src, RAD_ERR_PARSE, "line longer than %zu bytes", (size_t)SCENE_LINE_MAX);
+            goto done;
+        }
         status = tokenize(line, &tok, &tok_cap, &n);
         if (status) {
             out_of_memory(&src);
@@ -699,6 +763,8 @@ rad_status rad_scene_load_file(const char *path, const rad_scene_options *option
     strcpy(scene.groups[0], "default");
     scene.group_count = 1;
     status = load(&L, path, NULL, path, 0);
+    if (L.warnings_hidden)
+        rad_warn("%s: %zu more warnings not shown (the first %d are)", path, L.warnings_hidden, SCENE_WARNINGS_SHOWN);
     if (status) goto done;
     if (scene.face_count == 0) {
         rad_error("%s: no faces", path);

@@ -31,6 +31,7 @@
 #include "rad_fs.h"
 #include "rad_log.h"
 #include "rad_mesh.h"
+#include "rad_parse.h"
 #include "rad_scene.h"
 
 #define FF_VERSION "0.1.0"
@@ -128,27 +129,12 @@ static void print_help(void)
 /* A tolerance: a finite number in (0, 1). */
 static rad_status parse_tolerance(const char *flag, const char *text, double *out)
 {
-    char *end = NULL;
-    double v = text && *text ? strtod(text, &end) : 0;
-    if (!end || *end || !(v > 0) || !(v < 1)) {
-        rad_error("%s: expected a number in (0, 1), got '%s'", flag, text ? text : "");
-        return RAD_ERR_USAGE;
-    }
-    *out = v;
-    return RAD_OK;
+    return rad_parse_real(flag, text, 0, 0, 1, 0, out);
 }
 
-static rad_status parse_uint(const char *flag, const char *text, uint64_t max, uint64_t *out)
+static rad_status parse_uint(const char *flag, const char *text, uint64_t min, uint64_t max, uint64_t *out)
 {
-    char *end = NULL;
-    if (!text || !*text || *text == '-') goto bad;
-    unsigned long long v = strtoull(text, &end, 10);
-    if (*end || v > max) goto bad;
-    *out = v;
-    return RAD_OK;
-bad:
-    rad_error("%s: expected an integer in [0, %llu], got '%s'", flag, (unsigned long long)max, text ? text : "");
-    return RAD_ERR_USAGE;
+    return rad_parse_uint(flag, text, min, max, out);
 }
 
 static rad_status parse_options(int argc, char **argv, ff_options *o)
@@ -183,12 +169,12 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         case 'q': o->quiet = 1; break;
         case 'h': o->help = 1; break;
         case O_VERSION: o->version = 1; break;
-        case O_SUBDIV: st = parse_uint("--subdiv", optarg, 12, &v); o->subdiv = (int)v; break;
+        case O_SUBDIV: st = parse_uint("--subdiv", optarg, 0, 12, &v); o->subdiv = (int)v; break;
         case O_ONLY: o->subdiv_only = optarg; break;
-        case O_SAMPLES: st = parse_uint("--samples", optarg, 1u << 24, &v); o->samples = (uint32_t)v; break;
-        case O_RAYS: st = parse_uint("--shadow-rays", optarg, 1u << 24, &v); o->shadow_rays = (uint32_t)v; break;
-        case O_SEED: st = parse_uint("--seed", optarg, UINT64_MAX, &v); o->seed = v; break;
-        case O_THREADS: st = parse_uint("--threads", optarg, 1024, &v); o->threads = (int)v; break;
+        case O_SAMPLES: st = parse_uint("--samples", optarg, 1, 1u << 24, &v); o->samples = (uint32_t)v; break;
+        case O_RAYS: st = parse_uint("--shadow-rays", optarg, 0, 1u << 24, &v); o->shadow_rays = (uint32_t)v; break;
+        case O_SEED: st = parse_uint("--seed", optarg, 0, UINT64_MAX, &v); o->seed = v; break;
+        case O_THREADS: st = parse_uint("--threads", optarg, 1, 1024, &v); o->threads = (int)v; break;
         case O_STATS: o->stats_path = optarg; break;
         case O_BACKEND:
             o->backend = optarg;
@@ -224,7 +210,7 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
             }
             break;
         }
-        case O_MAX_SAMPLES: st = parse_uint("--max-samples", optarg, 1u << 30, &v); o->max_samples = (uint32_t)v; break;
+        case O_MAX_SAMPLES: st = parse_uint("--max-samples", optarg, 1, 1u << 30, &v); o->max_samples = (uint32_t)v; break;
         case O_ERRORS: o->errors_path = optarg; break;
         case O_NO_ERRORS: o->no_errors = 1; break;
         case O_RECIPROCITY:
@@ -781,7 +767,7 @@ int main(int argc, char **argv)
             else printf("formfactor %s\n", FF_VERSION);
         }
     } else if (st == RAD_OK) {
-        if (run.opt.quiet) rad_log_set_level(RAD_LOG_WARN);
+        if (run.opt.quiet) rad_log_set_level(RAD_LOG_ERROR);
         if (rank != 0) rad_log_set_level(RAD_LOG_ERROR);
         st = run_formfactor(&run);
     } else if (rank == 0) {

@@ -120,6 +120,7 @@ rad_status write_temp(const char *path, const char *temp, render_image_format fo
         rad_error("%s: cannot write: %s", path, why.empty() ? "unknown OpenImageIO error" : why.c_str());
         return RAD_ERR_IO;
     }
+    if (std::strcmp(path, temp) == 0) return RAD_OK; // a device written in place (rad_fs.h): nothing to read back
     return verify_temp(path, temp, width, height, channels, png ? bytes.data() : nullptr);
 }
 

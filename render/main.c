@@ -14,6 +14,7 @@
 
 #include "camera.h"
 #include "rad_fs.h"
+#include "rad_parse.h"
 #include "frame.h"
 #include "image.h"
 #include "rad_log.h"
@@ -78,27 +79,15 @@ typedef struct render_cli {
 
 static rad_status parse_int(const char *opt, const char *text, int lo, int hi, int *out)
 {
-    char *end = NULL;
-    errno = 0;
-    long v = strtol(text, &end, 10);
-    if (end == text || *end || errno || v < lo || v > hi) {
-        rad_error("%s: '%s' is not an integer in %d..%d", opt, text, lo, hi);
-        return RAD_ERR_USAGE;
-    }
+    uint64_t v = 0;
+    rad_status status = rad_parse_uint(opt, text, (uint64_t)lo, (uint64_t)hi, &v);
     *out = (int)v;
-    return RAD_OK;
+    return status;
 }
 
 static rad_status parse_double(const char *opt, const char *text, double *out)
 {
-    char *end = NULL;
-    double v = strtod(text, &end);
-    if (end == text || *end || !isfinite(v)) {
-        rad_error("%s: '%s' is not a finite number", opt, text);
-        return RAD_ERR_USAGE;
-    }
-    *out = v;
-    return RAD_OK;
+    return rad_parse_real(opt, text, -HUGE_VAL, 0, HUGE_VAL, 0, out);
 }
 
 /* "X,Y,Z" */

@@ -7,6 +7,7 @@
 
 #include "rad_log.h"
 #include "rad_fs.h"
+#include "rad_parse.h"
 #include "stage.h"
 
 static const char usage_text[] =
@@ -46,28 +47,15 @@ typedef struct cli {
 
 static rad_status parse_tolerance(const char *text, double *out)
 {
-    char *end = NULL;
-    errno = 0;
-    double x = strtod(text, &end);
-    if (errno || end == text || *end || !(x > 0 && x < 1)) {
-        rad_error("--tol: '%s' is not a number in (0, 1)", text);
-        return RAD_ERR_USAGE;
-    }
-    *out = x;
-    return RAD_OK;
+    return rad_parse_real("--tol", text, 0, 0, 1, 0, out);
 }
 
 static rad_status parse_count(const char *text, uint32_t *out)
 {
-    char *end = NULL;
-    errno = 0;
-    unsigned long long x = strtoull(text, &end, 10);
-    if (errno || end == text || *end || text[0] == '-' || x == 0 || x > UINT32_MAX) {
-        rad_error("--max-iter: '%s' is not an integer in [1, %u]", text, UINT32_MAX);
-        return RAD_ERR_USAGE;
-    }
-    *out = (uint32_t)x;
-    return RAD_OK;
+    uint64_t v = 0;
+    rad_status status = rad_parse_uint("--max-iter", text, 1, UINT32_MAX, &v);
+    *out = (uint32_t)v;
+    return status;
 }
 
 /* Option `name` matched argv[*i], in the form "--name VALUE" or

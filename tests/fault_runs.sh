@@ -224,7 +224,7 @@ limits)
     "2181038080 patches: .* but more than the format's limit of 2147483647 patches; refused"
   "$ff" --subdiv 13 -o out.ff > err.txt 2>&1; rc=$?
   [ $rc -eq 2 ] || fail "--subdiv 13: exit $rc, expected 2 (usage)"
-  expect_failed "formfactor --subdiv 13" $rc err.txt out.ff good.ff "expected an integer in \[0, 12\]"
+  expect_failed "formfactor --subdiv 13" $rc err.txt out.ff good.ff "not an integer in \[0, 12\]"
   if [ -n "$render" ]; then
     cp good.png out.png
     "$render" good.rad -o out.png --width 100000 > err.txt 2>&1; rc=$?

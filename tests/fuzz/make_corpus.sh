@@ -27,6 +27,13 @@ seed nonplanar 'v 0 0 0 1\nv 1 0 0 1 0 0\nv 1 1 0.5\nv 0 1 0\nv 0.5 0.5 -1\nf 1 
 seed concave 'v 0 0 0\nv 4 0 0\nv 4 4 0\nv 2 1 0\nv 0 4 0\nf 1 2 3 4 5\nf 1 1 2 3\nf 1 2 3 2\n'
 seed two_mtllibs 'mtllib a.mtl b.mtl\nmtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\nusemtl light\nf 3 2 1\n\0newmtl red\nKd 0.5 0 0\nillum 2\nmap_Kd x.png\n\0newmtl light\nKe 10 10 10\nNs 3\n'
 
+# Hostile shapes (issue 16): classic Mac OS line ends, coordinates and
+# emission at and beyond the limits, junk and unknown keys, a long line.
+seed tri_cr 'v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r'
+seed huge_coords 'v 0 0 0\nv 1e12 0 0\nv 0 -1e12 0\nv 1e39 0 0\nv 1e154 1e100 0\nf 1 2 3\nf 1 2 4\n'
+seed junk_keys 'mtllib a.mtl\nroot:$6$x:1:0:9:7:::\nkey1 1\nkey2 2\nkey1 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n\0newmtl m\nKd 0.5\nKe 1e30 1e308 0\ndaemon:*:1:1::/:/bin/sh\n'
+{ printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n# '; head -c 8192 /dev/zero | tr '\0' 'x'; printf '\nf 3 2 1\n'; } > "$out/scene/long_line"
+
 # ffile and rfile: files formfactor and solve write for small scenes.
 cd "$out/work"
 printf 'mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nusemtl lit\nf 1 2 3 4\nusemtl grey\nf 1 5 6 2\nf 2 6 3\n' > two.obj
