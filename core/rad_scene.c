@@ -546,6 +546,9 @@ static rad_status load_mtllibs(loader *L, const source *src, char **tok, size_t 
         int len = tok[i][0] == '/' ? snprintf(path, sizeof path, "%s", tok[i])
                                    : snprintf(path, sizeof path, "%.*s%s", dir_len, src->path, tok[i]);
         if (len < 0 || (size_t)len >= sizeof path) return fail(src, RAD_ERR_INVALID, "mtllib '%s': path too long", tok[i]);
+        /* Read, but said: a scene that reaches outside its folder. */
+        if (tok[i][0] == '/' || !strncmp(tok[i], "../", 3) || strstr(tok[i], "/../") || !strcmp(tok[i], ".."))
+            scene_warn(L, "%s:%u: mtllib '%s' lies outside the scene's folder", src->path, src->line, tok[i]);
         uint64_t h = rad_hash64(RAD_HASH_SEED, path, (size_t)len);
         int seen = 0;
         for (size_t k = 0; k < L->mtl_loaded_count; k++) seen |= L->mtl_loaded[k] == h;

@@ -100,6 +100,10 @@ grep -q "more warnings not shown" err.txt || fail "no summary of the hidden warn
 "$ff" shadow.obj -o s -q 2> err.txt || fail "-q run"
 [ -s err.txt ] && fail "-q printed: $(head -3 err.txt)"
 ok "a junk mtllib: $(grep -c . err.txt) lines with -q, nothing echoed, warnings summarised"
+mkdir -p sub && printf "mtllib ../shadow.mtl\nusemtl w\n$tri" > sub/up.obj
+"$ff" sub/up.obj -o up 2> err.txt || fail "an mtllib in the parent folder: $(cat err.txt)"
+grep -q "mtllib '../shadow.mtl' lies outside the scene's folder" err.txt || fail "no warning for ../: $(head -3 err.txt)"
+ok "an mtllib outside the scene's folder: read, with a warning"
 
 # 3. Coordinates beyond float range: a clear error, no crash.
 for big in 1e39 1e100 1e154; do

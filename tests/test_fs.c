@@ -70,6 +70,7 @@ static void test_temporaries(void)
     /* The old predictable names, planted as symlinks to the victim. */
     char planted[1100];
     snprintf(planted, sizeof planted, "%s.tmp-%ld", out, (long)getpid());
+    unlink(planted);
     RAD_CHECK(symlink("victim.txt", planted) == 0);
     char temp[1100], temp2[1100];
     RAD_CHECK(rad_fs_temp_create(out, temp, sizeof temp) == RAD_OK);
@@ -131,6 +132,7 @@ static void test_outputs(void)
     RAD_CHECK(rad_fs_check_output("-o", "") == RAD_ERR_USAGE && rad_test_log_contains("-o: empty file name"));
     RAD_CHECK(rad_fs_check_output("-o", g_dir) == RAD_ERR_USAGE && rad_test_log_contains("is a directory"));
     const char *fifo = in_dir("fifo");
+    unlink(fifo);
     RAD_CHECK(mkfifo(fifo, 0600) == 0);
     RAD_CHECK(rad_fs_check_output("-o", fifo) == RAD_ERR_USAGE && rad_test_log_contains("is a FIFO"));
     RAD_CHECK(rad_fs_check_output("-o", in_dir("new.txt")) == RAD_OK);
@@ -147,6 +149,7 @@ static void test_outputs(void)
     RAD_CHECK(stat("/dev/null", &st) == 0 && S_ISCHR(st.st_mode));
     /* A private copy of /dev/null (root only: mknod). */
     const char *node = in_dir("null-copy");
+    unlink(node);
     if (mknod(node, S_IFCHR | 0666, makedev(1, 3)) == 0) {
         RAD_CHECK(rad_fs_temp_create(node, temp, sizeof temp) == RAD_OK && !strcmp(temp, node));
         RAD_CHECK(rad_fs_commit(temp, node) == RAD_OK);
@@ -163,6 +166,8 @@ static void test_roles(void)
 {
     const char *a = in_dir("a.obj"), *soft = in_dir("link.obj"), *hard = in_dir("hard.obj");
     write_text(a, "v 0 0 0\n");
+    unlink(soft); /* a run before */
+    unlink(hard);
     RAD_CHECK(symlink("a.obj", soft) == 0 && link(a, hard) == 0); /* relative to its folder */
     char dotted[1100];
     snprintf(dotted, sizeof dotted, "%s/./b.out", g_dir);
@@ -191,6 +196,7 @@ static void test_roles(void)
 static void test_inputs(void)
 {
     const char *fifo = in_dir("in-fifo");
+    unlink(fifo);
     RAD_CHECK(mkfifo(fifo, 0600) == 0);
     rad_test_capture_log();
     char *data = NULL;
