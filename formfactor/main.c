@@ -34,7 +34,7 @@
 #include "rad_parse.h"
 #include "rad_scene.h"
 
-#define FF_VERSION "0.1.0"
+#define FF_VERSION RAD_VERSION /* the project version (core/CMakeLists.txt) */
 #define FF_ROUND_BYTES ((uint64_t)96 << 20) /* rows computed between collective writes */
 /* Buffers up to this size come from the backend (page-locked for CUDA, so
  * results stream back by DMA); larger ones - a whole rank's rows with

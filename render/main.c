@@ -55,6 +55,7 @@ static const char usage_text[] =
     "  --shading MODE       smooth (Gouraud between patches, default) or flat (patches)\n"
     "  -q, --quiet          report errors only\n"
     "  -h, --help           show this help\n"
+    "  --version            print the version\n"
     "\n"
     "PNG: sRGB(clamp(B * scale)); EXR: radiosity B per channel, unscaled.\n"
     "Exit status: 0 success, 2 usage error (a bad option or value), 1 anything else.\n";
@@ -73,7 +74,7 @@ typedef struct render_cli {
     double fov_y;
     double exposure;
     int auto_exposure;
-    int quiet, help;
+    int quiet, help, version;
     render_channels_mode channels;
 } render_cli;
 
@@ -134,7 +135,7 @@ static rad_status parse_args(int argc, char **argv, render_cli *cli)
 {
     rad_status status = RAD_OK;
     const render_cli defaults = {RENDER_DEFAULT_INPUT, RENDER_DEFAULT_OUTPUT, NULL, {0, 0, 0, RENDER_SHADING_SMOOTH, 0},
-                                 0, 0, 0, 0, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0.0, 0.0, 1, 0, 0,
+                                 0, 0, 0, 0, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0.0, 0.0, 1, 0, 0, 0,
                                  RENDER_CHANNELS_AUTO};
     int have_input = 0;
     *cli = defaults;
@@ -142,6 +143,8 @@ static rad_status parse_args(int argc, char **argv, render_cli *cli)
         const char *arg = argv[i], *v = NULL;
         if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
             cli->help = 1;
+        } else if (strcmp(arg, "--version") == 0) {
+            cli->version = 1;
         } else if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) {
             cli->quiet = 1;
         } else if (strcmp(arg, "--no-auto-exposure") == 0) {
@@ -347,6 +350,10 @@ int main(int argc, char **argv)
     render_cli cli;
     rad_log_set_program("render");
     rad_status status = parse_args(argc, argv, &cli);
+    if (status == RAD_OK && cli.version) {
+        printf("render %s\n", RAD_VERSION);
+        return 0;
+    }
     if (status == RAD_OK && cli.help) {
         fputs(usage_text, stdout);
         return 0;

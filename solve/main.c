@@ -33,6 +33,7 @@ static const char usage_text[] =
     "                      as JSON\n"
     "  -q, --quiet         only warnings and errors on stderr\n"
     "  -h, --help          this text\n"
+    "      --version       print the version\n"
     "\n"
     "Refuses (exit 1, nothing written) a matrix in which some patch has\n"
     "rho * (row sum of F) >= 1: it would reflect more light than it receives.\n"
@@ -42,7 +43,7 @@ static const char usage_text[] =
 
 typedef struct cli {
     solve_options options;
-    int help, quiet;
+    int help, quiet, version;
 } cli;
 
 static rad_status parse_tolerance(const char *text, double *out)
@@ -88,6 +89,8 @@ static rad_status parse_args(int argc, char **argv, cli *out)
         const char *arg = argv[i], *value = NULL;
         if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
             c.help = 1;
+        } else if (strcmp(arg, "--version") == 0) {
+            c.version = 1;
         } else if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) {
             c.quiet = 1;
         } else if (take_value(argc, argv, &i, "-o", &value, &status) ||
@@ -125,6 +128,10 @@ int main(int argc, char **argv)
     if (status != RAD_OK) {
         fputs("try 'solve --help'\n", stderr);
         return rad_status_exit_code(status);
+    }
+    if (c.version) {
+        printf("solve %s\n", RAD_VERSION);
+        return 0;
     }
     if (c.help) {
         fputs(usage_text, stdout);

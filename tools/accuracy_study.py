@@ -248,7 +248,7 @@ def read_oiiotool(path):
     img = np.zeros((h, w, len(rows[0][2])))
     for x, y, v in rows:
         img[y, x] = v
-    return img[:, :, ::-1]   # oiiotool lists R, G, B; EXR files (and exrread) keep B, G, R
+    return img   # R, G, B, as OpenImageIO and exrread give them
 
 
 # ------------------------------------------------- writing a matrix file ---

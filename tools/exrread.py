@@ -8,8 +8,9 @@ Enough for what `render` writes (RGB half float, ZIP compression) and for
 the other simple cases: scanline images (not tiled, not deep, one part),
 HALF / FLOAT / UINT channels without subsampling, compression NONE, RLE,
 ZIPS or ZIP. Anything else raises ValueError; tools/accuracy_study.py then
-falls back to `oiiotool --dumpdata`. Channels come back in file order,
-which EXR keeps sorted by name (B, G, R); read_exr(..., names=True) also
+falls back to `oiiotool --dumpdata`. Channels come back as R, G, B (then
+A, then any others) - the file keeps them sorted by name, B, G, R, as
+OpenImageIO's reader also reorders them; read_exr(..., names=True) also
 returns the names.
 """
 import struct
@@ -113,9 +114,17 @@ def read_exr(path, names=False):
                 n = width * dt.itemsize
                 image[y - y0 + line, :, c] = np.frombuffer(data[p:p + n], dtype=dt)
                 p += n
+    # EXR stores channels sorted by name (B, G, R); give them back as R, G, B
+    # (then A), the order every image tool uses, and the others after.
+    order = sorted(range(len(channels)), key=lambda c: (_RGBA.index(channels[c][0])
+                                                        if channels[c][0] in _RGBA else len(_RGBA), c))
+    image = image[:, :, order]
     if names:
-        return image, [name for name, _ in channels]
+        return image, [channels[c][0] for c in order]
     return image
+
+
+_RGBA = ("R", "G", "B", "A")
 
 
 if __name__ == "__main__":

@@ -35,7 +35,8 @@ if __name__ == "__main__":
     h, vertices, patches, F = read_formfactors(sys.argv[1])
     A = patches["area"]
     rows = F.sum(axis=1)
-    recip = np.abs(A[:, None] * F - (A[:, None] * F).T).max() / (A[:, None] * F).max()
+    G = A[:, None] * F
+    recip = np.abs(G - G.T).max() / G.max() if G.max() > 0 else 0.0  # all zeros: nothing to compare
     print(f"N = {len(A)}, samples {h['samples']}, shadow rays {h['shadow_rays']}")
     print(f"row sums: min {rows.min():.6f} max {rows.max():.6f} mean {rows.mean():.6f}")
     print(f"reciprocity max |A_i F_ij - A_j F_ji| / max(A_i F_ij) = {recip:.3e}")
