@@ -146,6 +146,10 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
              all.load, all.subdivide, all.setup, all.form_factors, all.visibility, all.gpu_memory, all.io, all.total);
     rad_info("row sums: min %.6f  max %.6f  mean %.6f", all.rows.row_sum_min, all.rows.row_sum_max,
              run->patch_count ? all.rows.row_sum_total / run->patch_count : 0.0);
+    if (run->patch_count > 1 && !(all.rows.row_sum_max > 0))
+        rad_warn("every form factor is 0: no two patches face each other, so no light is exchanged. Do the faces "
+                 "point away from each other - a closed object seen from inside, such as Blender's default cube "
+                 "used as a room? Reverse the faces' vertex order (in Blender: Mesh > Normals > Flip)");
     const ff_rows_summary *e = &all.rows;
     if (run->errors)
         rad_info("standard errors of F > 0: mean %.3g (%.2g%% of F), max %.3g at F[%u][%u] = %.3g",

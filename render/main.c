@@ -218,6 +218,25 @@ static double seconds_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+/* A black image is never silent: it says whether nothing emits (every
+ * radiosity 0) or the camera sees nothing lit. */
+static void warn_if_black(const char *input, const rad_mesh *mesh, const double *radiosity, uint32_t channels,
+                          const float *pixels, size_t values, const char *camera_text)
+{
+    for (size_t k = 0; k < values; k++)
+        if (pixels[k] != 0.0f) return;
+    int lit = 0;
+    for (size_t k = 0; k < mesh->patch_count * channels && !lit; k++) lit = radiosity[k] != 0.0;
+    if (!lit)
+        rad_warn("%s: the image is black: every radiosity is 0, so nothing emits light (no material with Ke > 0; "
+                 "Blender exports before 2.9 write no Ke)",
+                 input);
+    else
+        rad_warn("%s: the image is black: the camera sees nothing lit (%s); try the automatic framing (no "
+                 "--camera) or other --eye/--look-at",
+                 input, camera_text);
+}
+
 /* The camera: file or default, then the flags on top. */
 static rad_status choose_camera(const render_cli *cli, const rad_mesh *mesh, double aspect, render_camera *out)
 {
@@ -309,6 +328,7 @@ static rad_status run(const render_cli *cli)
     status = render_frame_draw(&rf.mesh, radiosity, &camera, &frame, rgb);
     if (status != RAD_OK) goto done;
     t_draw = seconds_now() - t_draw;
+    warn_if_black(cli->input, &rf.mesh, radiosity, rf.channel_count, rgb, (size_t)frame.channels * pixels, camera_text);
 
     double scale = pow(2.0, cli->exposure);
     if (cli->auto_exposure) scale *= render_tonemap_auto_scale(&rf.mesh, radiosity);

@@ -121,6 +121,13 @@ rad_status solve_stage_run(const solve_options *options)
         status = RAD_ERR_NOMEM;
         goto done;
     }
+    int emits = 0;
+    for (size_t i = 0; i < n && !emits; i++)
+        emits = mesh->patches[i].emission[0] > 0 || mesh->patches[i].emission[1] > 0 || mesh->patches[i].emission[2] > 0;
+    if (!emits)
+        rad_warn("%s: no patch emits light (no material has Ke > 0; Blender exports before 2.9 write no Ke): every "
+                 "radiosity is 0 and an image of it is black",
+                 input);
     const int grey = scene_is_grey(mesh);
     const uint32_t channels = grey ? 1 : 3;
     rad_info("%s: %zu patches, %s, loaded in %.2f s", input, n, grey ? "grey (solved once)" : "RGB", load_seconds);
