@@ -242,17 +242,36 @@ static rad_status choose_camera(const render_cli *cli, const rad_mesh *mesh, dou
 {
     rad_status status = RAD_OK;
     int cornell = 0;
+    char source[600];
     if (cli->camera_path) {
         status = render_camera_load(cli->camera_path, out);
         if (status != RAD_OK) return status;
+        snprintf(source, sizeof source, "from %s", cli->camera_path);
     } else {
         render_camera_default(mesh, aspect, out, &cornell);
-        rad_info("camera: %s", cornell ? "the Cornell box's measured camera" : "automatic framing");
+        snprintf(source, sizeof source, "%s", cornell ? "the Cornell box's measured camera" : "automatic framing");
     }
     if (cli->have_eye) out->eye = cli->eye;
     if (cli->have_look_at) out->look_at = cli->look_at;
     if (cli->have_up) out->up = cli->up;
     if (cli->have_fov) out->fov_y = cli->fov_y;
+    int overridden = cli->have_eye || cli->have_look_at || cli->have_up || cli->have_fov;
+    /* --eye/--look-at along the up that came with the camera (the default
+     * frames with z or y up): without --up of their own, take the axis
+     * most across the view instead of refusing. */
+    rad_vec3 dir = rad_v3_sub(out->look_at, out->eye);
+    double dir_len = rad_v3_length(dir), up_len = rad_v3_length(out->up);
+    if (!cli->have_up && dir_len > 0 && up_len > 0 &&
+        rad_v3_length(rad_v3_cross(dir, out->up)) <= 1e-3 * dir_len * up_len) {
+        const rad_vec3 axes[3] = {rad_v3(0, 1, 0), rad_v3(0, 0, 1), rad_v3(1, 0, 0)};
+        int best = 0;
+        for (int k = 1; k < 3; k++)
+            if (fabs(rad_v3_dot(axes[k], dir)) < fabs(rad_v3_dot(axes[best], dir))) best = k;
+        out->up = axes[best];
+        rad_info("camera: the view runs along its up direction; using up %s (give --up to choose)",
+                 best == 0 ? "+y" : best == 1 ? "+z" : "+x");
+    }
+    rad_info("camera: %s%s", source, overridden ? ", with --eye/--look-at/--up/--fov on top" : "");
     return render_camera_validate(out, "camera (after --eye/--look-at/--up/--fov)");
 }
 

@@ -1,7 +1,8 @@
 #!/bin/sh
 # No silent black images (issue 17): a scene without emitters, faces that
 # all point away from each other (Blender's default cube used as a room),
-# and a camera that sees nothing lit each get a warning saying why.
+# and a camera that sees nothing lit each get a warning saying why. And
+# cameras: a view along the default up works, and says so.
 #   black_images.sh BIN_DIR WORKDIR   (render's case skipped where it was not built)
 set -u
 bin=$1 dir=$2
@@ -26,4 +27,13 @@ if [ -x "$bin/render" ]; then
   "$bin/render" box.rad -o box.png --width 32 --height 32 2> err.txt || fail "render: $(cat err.txt)"
   grep -q "black" err.txt && fail "a lit image was called black"
   echo "ok: render names why an image is black, and only then"
+  # Cameras (issue 17): a view along the default up (the Cornell camera's
+  # +y) takes another up instead of failing; messages say where the camera
+  # came from.
+  "$bin/render" box.rad -o up.png --width 32 --height 32 --eye 278,-500,280 --look-at 278,273,280 2> err.txt ||
+    fail "render looking along y: $(cat err.txt)"
+  grep -q "using up +z" err.txt || fail "no word on the up used: $(cat err.txt)"
+  grep -q "camera: the Cornell box's measured camera, with --eye/--look-at/--up/--fov on top" err.txt ||
+    fail "the camera's source: $(cat err.txt)"
+  echo "ok: a view along the default up gets another up, and the camera's source is named"
 fi
