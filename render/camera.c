@@ -134,8 +134,15 @@ rad_status render_camera_parse(const char *name, const char *text, render_camera
         line[len] = 0;
         char *hash = strchr(line, '#');
         if (hash) *hash = 0;
-        status = parse_statement(name, line_no, line, &cam, seen);
-        if (status != RAD_OK) goto done;
+        /* ';' also ends a statement, so the one-line form render writes
+         * into the image (rad:camera, render_camera_format) is a camera
+         * file too. */
+        for (char *stmt = line, *semi; stmt; stmt = semi ? semi + 1 : NULL) {
+            semi = strchr(stmt, ';');
+            if (semi) *semi = 0;
+            status = parse_statement(name, line_no, stmt, &cam, seen);
+            if (status != RAD_OK) goto done;
+        }
         p = end ? end + 1 : p + len;
     }
     for (int k = KEY_EYE; k <= KEY_LOOK_AT; k++) {

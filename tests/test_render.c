@@ -437,6 +437,12 @@ static void test_camera_parse(void)
     RAD_CHECK_NEAR(cam.look_at.z, 4, 0);
     RAD_CHECK_NEAR(cam.up.y, 1, 0); /* default up */
     RAD_CHECK_NEAR(cam.fov_y, 50, 0);
+    /* The camera render writes into the image's metadata reads back as a
+     * camera file, to the bit. */
+    render_camera written = {rad_v3(278, 273, -800), rad_v3(278.5, 273, 0), rad_v3(0.1, 1, 0), 39.3077}, again;
+    char meta[512];
+    render_camera_format(&written, meta, sizeof meta);
+    RAD_CHECK(render_camera_parse("meta", meta, &again) == RAD_OK && memcmp(&again, &written, sizeof again) == 0);
     static const struct {
         const char *text, *message;
         rad_status status;
