@@ -210,28 +210,47 @@ static inline RAD_HD void rad_ff_pair_quad_rays(const rad_ff_pair_params *pp, co
     out->ray_ticks += RAD_FF_TICKS() - t0;
 }
 
-/* The quadrature estimator: G0 to the quadrature tolerance; with a tracer
- * (the backend could not rule out occlusion), G = G0 nu^ with the visible
- * fraction from stratified shadow rays, doubled under --target-error
- * until the error is met or the rays reach their cap. */
-static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, const rad_ff_patch *pi,
-                                                 const rad_ff_patch *pj, uint32_t i, uint32_t j,
-                                                 const RAD_FF_TRACER *tracer, rad_ff_pair_result *out)
+/* The quadrature estimator, stage 1: G0 of the pair to the quadrature
+ * tolerance (rad_ff_quad.h), over the smaller patch q. Stage 2
+ * (rad_ff_pair_quad_finish) needs only this result, so a backend may run
+ * the stages apart (the CUDA backend: a launch for the quadrature of
+ * every pair, then one for the rays of the pairs that trace). */
+static inline RAD_HD rad_ff_quad_result rad_ff_pair_quad_unoccluded(const rad_ff_pair_params *pp,
+                                                                    const rad_ff_patch *pi, const rad_ff_patch *pj,
+                                                                    uint32_t i, uint32_t j)
+{
+    int i_is_q = rad_ff_quad_roles(pi, pj, i, j);
+    double rtol = pp->quad_rtol > 0.0 ? pp->quad_rtol : RAD_FF_QUAD_RTOL; /* 0: the defaults */
+    double atol = pp->quad_atol > 0.0 ? pp->quad_atol : RAD_FF_QUAD_ATOL;
+    return rad_ff_quad_unoccluded(i_is_q ? pi : pj, i_is_q ? pj : pi, rtol, atol, pp->lane, pp->lanes);
+}
+
+/* Does stage 2 trace rays for G0 (given a tracer)? */
+static inline RAD_HD int rad_ff_pair_quad_traces(const rad_ff_pair_params *pp, const rad_ff_quad_result *g0)
+{
+    return pp->rays > 0 && g0->g > 0.0;
+}
+
+/* The quadrature estimator, stage 2: with a tracer (the backend could not
+ * rule out occlusion), G = G0 nu^ with the visible fraction from
+ * stratified shadow rays, doubled under --target-error until the error is
+ * met or the rays reach their cap; without one, G = G0. */
+static inline RAD_HD void rad_ff_pair_quad_finish(const rad_ff_pair_params *pp, const rad_ff_patch *pi,
+                                                  const rad_ff_patch *pj, uint32_t i, uint32_t j,
+                                                  const rad_ff_quad_result *g0, const RAD_FF_TRACER *tracer,
+                                                  rad_ff_pair_result *out)
 {
     int i_is_q = rad_ff_quad_roles(pi, pj, i, j);
     const rad_ff_patch *q = i_is_q ? pi : pj, *p = i_is_q ? pj : pi;
     uint32_t iq = i_is_q ? i : j, ip = i_is_q ? j : i;
-    double rtol = pp->quad_rtol > 0.0 ? pp->quad_rtol : RAD_FF_QUAD_RTOL; /* 0: the defaults */
-    double atol = pp->quad_atol > 0.0 ? pp->quad_atol : RAD_FF_QUAD_ATOL;
-    rad_ff_quad_result g0 = rad_ff_quad_unoccluded(q, p, rtol, atol, pp->lane, pp->lanes);
     double scale = 1.0 / (pi->area * pj->area);
     double nu = 1.0, nu_error = 0.0;
     uint32_t R = pp->rays;
     int near = rad_ff_pair_near(pi, pj);
-    out->samples = g0.points;
-    out->capped = g0.capped;
-    if (pp->rays > 0 && g0.g > 0.0 && !tracer) out->rays_skipped += R;
-    if (pp->rays > 0 && g0.g > 0.0 && tracer) {
+    out->samples = g0->points;
+    out->capped = g0->capped;
+    if (rad_ff_pair_quad_traces(pp, g0) && !tracer) out->rays_skipped += R;
+    if (rad_ff_pair_quad_traces(pp, g0) && tracer) {
         rad_ff_sums sums = {0};
         rad_ff_pair_quad_rays(pp, q, p, iq, ip, near, 0, R, tracer, out, &sums);
         nu = rad_ff_fraction(&sums, &nu_error);
@@ -257,7 +276,7 @@ static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, c
                 cap = (uint64_t)R * RAD_FF_CONFIRM_RAYS;
             }
             if (partial) least = 2 * (uint64_t)R < cap ? 2 * (uint64_t)R : cap;
-            if (!(sums.rays < cap && (sums.rays < least || (g0.error + g0.g * nu_error) * scale * area > target)))
+            if (!(sums.rays < cap && (sums.rays < least || (g0->error + g0->g * nu_error) * scale * area > target)))
                 break;
             uint64_t to = 2 * (uint64_t)sums.rays < cap ? 2 * (uint64_t)sums.rays : cap;
             rad_ff_pair_quad_rays(pp, q, p, iq, ip, near, sums.rays, (uint32_t)to, tracer, out, &sums);
@@ -266,10 +285,19 @@ static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, c
         }
         out->near = near;
     }
-    out->coupling = g0.g * nu * scale;
-    out->error = (g0.error * nu + g0.g * nu_error) * scale;
+    out->coupling = g0->g * nu * scale;
+    out->error = (g0->error * nu + g0->g * nu_error) * scale;
     if (pp->target_error > 0.0)
         out->capped |= !rad_ff_error_reached(out->error, pi, pj, pp->target_error);
+}
+
+/* The quadrature estimator, both stages at once. */
+static inline RAD_HD void rad_ff_pair_quadrature(const rad_ff_pair_params *pp, const rad_ff_patch *pi,
+                                                 const rad_ff_patch *pj, uint32_t i, uint32_t j,
+                                                 const RAD_FF_TRACER *tracer, rad_ff_pair_result *out)
+{
+    rad_ff_quad_result g0 = rad_ff_pair_quad_unoccluded(pp, pi, pj, i, j);
+    rad_ff_pair_quad_finish(pp, pi, pj, i, j, &g0, tracer, out);
 }
 
 /* Pair (i, j), i != j, facing (rad_ff_pair_facing): its coupling and

@@ -1,14 +1,18 @@
 /* ff_backend_cuda.cu - the CUDA backend. No MPI here, only CUDA.
  *
- * One warp per patch pair runs the shared per-pair procedure
- * (rad_ff_pair.h, the very code the CPU backend runs): its lanes share the
- * quadrature points, samples and shadow rays of the pair, and reduce them
- * with shuffles (every lane gets the same bits, so the adaptive control
- * flow stays uniform); rays go through the flat BVH of ff_bvh.h (any hit,
- * first hit returns). A first kernel lists the pairs that can exchange
- * light, far pairs from the front of a list and near ones from the back,
- * so that each gets a launch of its own; culled pairs cost one thread one
- * test and one store.
+ * A group of lanes per patch pair (a few for far pairs, a warp for near
+ * ones) runs the shared per-pair procedure (rad_ff_pair.h, the very code
+ * the CPU backend runs): its lanes share the quadrature points, samples
+ * and shadow rays of the pair, and reduce them with shuffles (every lane
+ * gets the same bits, so the adaptive control flow stays uniform); rays go
+ * through the flat BVH of ff_bvh.h (any hit, first hit returns). A first
+ * kernel lists the pairs that can exchange light, far pairs from the front
+ * of a list and near ones from the back, so that each gets a launch of its
+ * own; culled pairs cost one thread one test and one store. The
+ * quadrature estimator runs its two stages in two launches: the
+ * quadrature of every listed pair, then the shadow rays of the few that
+ * trace (cornell_sphere --subdiv 3: 34 k of 431 k), each kernel with the
+ * registers its own code needs.
  *
  * This file is compiled with --fmad=false so each double operation rounds
  * as on the CPU: only atan2, sqrt and sin/cos (a few ulps apart) and
@@ -83,19 +87,43 @@ template <typename T> static inline RAD_HD T cuda_lane_sum(T v, unsigned lanes)
 #include "rad_ff_pair.h"
 
 enum { FF_CUDA_BLOCK = 256 };
-/* Lanes per pair: far pairs (a few quadrature points, 32 rays) in groups
- * of FF_CUDA_FAR_LANES, two pairs to a warp; near pairs (adaptive cells
- * of up to 100 points) a whole warp each. */
+/* Lanes per pair: far pairs (a few quadrature points) in groups of
+ * FF_CUDA_FAR_LANES, eight pairs to a warp; near pairs (adaptive cells of
+ * up to 100 points) a whole warp each. Measured on an H100
+ * (docs/performance.md, session 5): 4 and 8 lanes alike, 16 about 10 %
+ * slower, 32 half again. */
 #ifndef FF_CUDA_FAR_LANES
-#define FF_CUDA_FAR_LANES 16
+#define FF_CUDA_FAR_LANES 4
 #endif
 /* Blocks per SM the pair kernel is compiled for: bounds its registers
  * (65536 / (256 * blocks) per thread), trading spills for occupancy. */
 #ifndef FF_CUDA_MIN_BLOCKS
 #define FF_CUDA_MIN_BLOCKS 2
 #endif
+/* The same for the quadrature estimator's kernels: the first holds no
+ * tracing code (80 registers at 3 blocks; 2 and 4 are slower), the second
+ * all of it (64 registers at 4 blocks: 1.8 ms of rays against 2.1 at 3
+ * and 2.7 at 2). */
+#ifndef FF_CUDA_QUAD_MIN_BLOCKS
+#define FF_CUDA_QUAD_MIN_BLOCKS 3
+#endif
+#ifndef FF_CUDA_RAY_MIN_BLOCKS
+#define FF_CUDA_RAY_MIN_BLOCKS 4
+#endif
+/* Lanes per pair in the ray kernel: the first batch (32 rays) in one round. */
+#ifndef FF_CUDA_RAY_LANES
+#define FF_CUDA_RAY_LANES 32
+#endif
 enum { C_SAMPLES, C_RAYS, C_OCCLUDED, C_NEAR, C_OPEN_SCENE, C_OPEN_BOX, C_SAVED, C_CYCLES, C_RAY_CYCLES, C_REFINED,
        C_CAPPED, C_COUNT };
+
+/* A quadrature pair that traces rays: stage 1's result for stage 2
+ * (rad_ff_pair_quad_finish). */
+struct cuda_ray_pair {
+    double g, error;
+    uint32_t t; /* r * n + j */
+    uint32_t capped;
+};
 
 struct cuda_params {
     const rad_ff_patch *patches;
@@ -111,6 +139,8 @@ struct cuda_params {
     unsigned long long *counters;  /* C_COUNT */
     const uint32_t *pairs;         /* facing pairs: r * n + j, pair_count of them */
     const uint8_t *open;           /* beside each listed pair: 1 = culling proved it unblocked */
+    cuda_ray_pair *ray_pairs;      /* quadrature: the pairs that trace, appended by the first stage */
+    uint32_t *ray_count;           /* their number (device) */
     int64_t step;                  /* +1: the far list, read forwards; -1: the near list, backwards */
     unsigned lanes;                /* threads per pair (a power of two, <= 32) */
     uint32_t pair_count;
@@ -128,10 +158,13 @@ struct cuda_state {
     size_t errors_capacity; /* doubles */
     uint32_t *d_pairs;   /* facing-pair list, out_capacity entries */
     uint8_t *d_open;     /* beside d_pairs: the pair needs no rays (culling) */
-    uint32_t *d_pair_counts; /* [0] far pairs, [1] near pairs */
+    uint32_t *d_pair_counts; /* [0] far pairs, [1] near pairs, [2] pairs culling left open to
+                                occlusion, [3] the quadrature pairs that trace rays */
+    cuda_ray_pair *d_ray_pairs; /* the quadrature estimator's tracing pairs, ray_capacity of them */
+    size_t ray_capacity;
     size_t out_capacity; /* doubles */
     unsigned long long *d_counters;
-    cudaEvent_t start, stop;
+    cudaEvent_t start, middle, stop;
 };
 
 static double now_seconds(void)
@@ -186,12 +219,43 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint8_t 
         uint64_t at = rad_ff_pair_near(pi, pj) ? capacity - 1 - atomicAdd(&counts[1], 1u) : atomicAdd(&counts[0], 1u);
         pairs[at] = (uint32_t)t;
         open[at] = clear;
+        if (!clear) atomicAdd(&counts[2], 1u);
     }
 }
 
-/* Pass 2: a group of p.lanes threads per listed pair, the shared per-pair
- * procedure.
- * Pairs culling cleared (pass 1) trace nothing. */
+/* A pair's counters into its block's. */
+__device__ static void cuda_count_pair(unsigned long long *block_counts, const rad_ff_pair_result *r,
+                                       int open_scene, int open_box, long long cycles)
+{
+    unsigned long long c[C_COUNT] = {0};
+    c[C_SAMPLES] = r->samples;
+    c[C_RAYS] = r->rays;
+    c[C_OCCLUDED] = r->rays_blocked;
+    c[C_NEAR] = (unsigned long long)r->near;
+    c[C_OPEN_SCENE] = (unsigned long long)open_scene;
+    c[C_OPEN_BOX] = (unsigned long long)open_box;
+    c[C_SAVED] = r->rays_skipped;
+    c[C_REFINED] = (unsigned long long)r->refined;
+    c[C_CAPPED] = (unsigned long long)r->capped;
+    c[C_RAY_CYCLES] = (unsigned long long)r->ray_ticks;
+    c[C_CYCLES] = (unsigned long long)cycles;
+    for (int m = 0; m < C_COUNT; m++)
+        if (c[m]) atomicAdd(&block_counts[m], c[m]);
+}
+
+/* The listed pair `group` of this launch: its index t = r * n + j, its
+ * patches and whether culling cleared it. */
+__device__ static uint32_t cuda_listed_pair(const cuda_params &p, uint64_t group, uint32_t *i, uint32_t *j, int *open)
+{
+    uint32_t t = p.pairs[p.step * (int64_t)group];
+    *j = t % p.n, *i = p.row_begin + t / p.n;
+    *open = p.open[p.step * (int64_t)group];
+    return t;
+}
+
+/* Pass 2 of the Monte Carlo estimators: a group of p.lanes threads per
+ * listed pair, the shared per-pair procedure. Pairs culling cleared
+ * (pass 1) trace nothing. */
 __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_pairs_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
@@ -202,11 +266,10 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
     unsigned lane = (unsigned)(thread % p.lanes);
     if (group < p.pair_count) { /* uniform within the group */
         long long start = clock64();
-        uint32_t t = p.pairs[p.step * (int64_t)group];
-        uint32_t j = t % p.n, i = p.row_begin + t / p.n;
+        uint32_t i, j;
+        int open;
+        uint32_t t = cuda_listed_pair(p, group, &i, &j, &open);
         int open_scene = p.pair.rays > 0 && p.cull && p.scene_convex;
-        int open = p.open[p.step * (int64_t)group];
-        int open_box = p.pair.rays > 0 && open && !open_scene;
         rad_ff_pair_params pp = p.pair;
         pp.lane = lane;
         pp.lanes = p.lanes;
@@ -215,20 +278,85 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
         if (lane == 0) {
             p.out[t] = r.coupling;
             if (p.errors) p.errors[t] = r.error;
-            unsigned long long c[C_COUNT] = {0};
-            c[C_SAMPLES] = r.samples;
-            c[C_RAYS] = r.rays;
-            c[C_OCCLUDED] = r.rays_blocked;
-            c[C_NEAR] = (unsigned long long)r.near;
-            c[C_OPEN_SCENE] = (unsigned long long)open_scene;
-            c[C_OPEN_BOX] = (unsigned long long)open_box;
-            c[C_SAVED] = r.rays_skipped;
-            c[C_REFINED] = (unsigned long long)r.refined;
-            c[C_CAPPED] = (unsigned long long)r.capped;
-            c[C_RAY_CYCLES] = (unsigned long long)r.ray_ticks;
-            c[C_CYCLES] = (unsigned long long)(clock64() - start);
-            for (int m = 0; m < C_COUNT; m++)
-                if (c[m]) atomicAdd(&block_counts[m], c[m]);
+            cuda_count_pair(block_counts, &r, open_scene, p.pair.rays > 0 && open && !open_scene,
+                            clock64() - start);
+        }
+    }
+    __syncthreads();
+    if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
+}
+
+/* Pass 2 of the quadrature estimator, stage 1 (rad_ff_pair.h): G0 of
+ * every listed pair, a group of p.lanes threads each; pairs that need no
+ * rays are finished here, the others appended to p.ray_pairs for pass 3.
+ * Without the tracing code this kernel holds fewer registers, and pairs
+ * whose rays refine no longer hold up the warps of those that trace none. */
+__global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_QUAD_MIN_BLOCKS) ff_quad_kernel(cuda_params p)
+{
+    __shared__ unsigned long long block_counts[C_COUNT];
+    if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
+    __syncthreads();
+    uint64_t thread = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
+    uint64_t group = thread / p.lanes;
+    unsigned lane = (unsigned)(thread % p.lanes);
+    if (group < p.pair_count) { /* uniform within the group */
+        long long start = clock64();
+        uint32_t i, j;
+        int open;
+        uint32_t t = cuda_listed_pair(p, group, &i, &j, &open);
+        int open_scene = p.pair.rays > 0 && p.cull && p.scene_convex;
+        rad_ff_pair_params pp = p.pair;
+        pp.lane = lane;
+        pp.lanes = p.lanes;
+        const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
+        rad_ff_quad_result g0 = rad_ff_pair_quad_unoccluded(&pp, pi, pj, i, j);
+        if (lane == 0) {
+            rad_ff_pair_result r = {0};
+            if (!open && rad_ff_pair_quad_traces(&pp, &g0)) {
+                cuda_ray_pair *rp = &p.ray_pairs[atomicAdd(p.ray_count, 1u)];
+                rp->g = g0.g, rp->error = g0.error, rp->t = t, rp->capped = (uint32_t)g0.capped;
+                r.samples = g0.points; /* the rest comes from pass 3 */
+            } else {
+                rad_ff_pair_quad_finish(&pp, pi, pj, i, j, &g0, (const cuda_tracer *)NULL, &r);
+                p.out[t] = r.coupling;
+                if (p.errors) p.errors[t] = r.error;
+            }
+            cuda_count_pair(block_counts, &r, open_scene, p.pair.rays > 0 && open && !open_scene,
+                            clock64() - start);
+        }
+    }
+    __syncthreads();
+    if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
+}
+
+/* Pass 3 of the quadrature estimator, stage 2: the shadow rays of the
+ * pairs pass 2 appended, a group of p.lanes threads each. Launched for as
+ * many pairs as culling left open (an upper bound); groups past
+ * *p.ray_count return at once. */
+__global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_RAY_MIN_BLOCKS) ff_quad_rays_kernel(cuda_params p)
+{
+    __shared__ unsigned long long block_counts[C_COUNT];
+    if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
+    __syncthreads();
+    uint64_t thread = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
+    uint64_t group = thread / p.lanes;
+    unsigned lane = (unsigned)(thread % p.lanes);
+    if (group < *p.ray_count) { /* uniform within the group */
+        long long start = clock64();
+        cuda_ray_pair rp = p.ray_pairs[group];
+        uint32_t j = rp.t % p.n, i = p.row_begin + rp.t / p.n;
+        rad_ff_pair_params pp = p.pair;
+        pp.lane = lane;
+        pp.lanes = p.lanes;
+        rad_ff_quad_result g0;
+        g0.g = rp.g, g0.error = rp.error, g0.points = 0, g0.cells = 0, g0.capped = (int)rp.capped;
+        rad_ff_pair_result r = {0};
+        rad_ff_pair_quad_finish(&pp, &p.patches[i], &p.patches[j], i, j, &g0, &p.tracer, &r);
+        if (lane == 0) {
+            p.out[rp.t] = r.coupling;
+            if (p.errors) p.errors[rp.t] = r.error;
+            r.samples = 0; /* counted in pass 2 */
+            cuda_count_pair(block_counts, &r, 0, 0, clock64() - start);
         }
     }
     __syncthreads();
@@ -257,8 +385,10 @@ static void cuda_destroy(void *state)
     cudaFree(s->d_pairs);
     cudaFree(s->d_open);
     cudaFree(s->d_pair_counts);
+    cudaFree(s->d_ray_pairs);
     cudaFree(s->d_counters);
     if (s->start) cudaEventDestroy(s->start);
+    if (s->middle) cudaEventDestroy(s->middle);
     if (s->stop) cudaEventDestroy(s->stop);
     delete s;
 }
@@ -284,7 +414,7 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
     CUDA_TRY(cudaMalloc(&s->d_nodes, sizeof(ff_bvh_node) * (bvh.node_count ? bvh.node_count : 1)));
     CUDA_TRY(cudaMalloc(&s->d_tris, sizeof(ff_bvh_tri) * (bvh.tri_count ? bvh.tri_count : 1)));
     CUDA_TRY(cudaMalloc(&s->d_counters, sizeof(unsigned long long) * C_COUNT));
-    CUDA_TRY(cudaMalloc(&s->d_pair_counts, 2 * sizeof(uint32_t)));
+    CUDA_TRY(cudaMalloc(&s->d_pair_counts, 4 * sizeof(uint32_t)));
     CUDA_TRY(cudaMemcpy(s->d_patches, setup->patches, sizeof(rad_ff_patch) * setup->patch_count,
                         cudaMemcpyHostToDevice));
     if (bvh.node_count)
@@ -292,7 +422,16 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
     if (bvh.tri_count)
         CUDA_TRY(cudaMemcpy(s->d_tris, bvh.tris, sizeof(ff_bvh_tri) * bvh.tri_count, cudaMemcpyHostToDevice));
     CUDA_TRY(cudaEventCreate(&s->start));
+    CUDA_TRY(cudaEventCreate(&s->middle));
     CUDA_TRY(cudaEventCreate(&s->stop));
+    { /* Load the kernels now (CUDA loads modules lazily, at a kernel's
+       * first launch), so that setup, not the kernels' time, pays for it. */
+        cudaFuncAttributes attributes;
+        CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_facing_kernel));
+        CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_pairs_kernel));
+        CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_quad_kernel));
+        CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_quad_rays_kernel));
+    }
 done:
     ff_bvh_free(&bvh);
     if (status != RAD_OK) {
@@ -309,11 +448,13 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     cuda_state *s = (cuda_state *)state;
     const ff_setup *su = &s->setup;
     rad_status status = RAD_OK;
-    size_t need = (size_t)row_count * su->patch_count;
+    size_t need = (size_t)row_count * su->patch_count, ray_room;
     unsigned long long counts[C_COUNT] = {0};
     double ray_share = 0.0;
     float kernel_ms = 0;
-    uint32_t pair_counts[2] = {0, 0};
+    uint32_t pair_counts[4] = {0, 0, 0, 0};
+    float rays_ms = 0;
+    int quadrature = su->estimator == RAD_ESTIMATOR_QUADRATURE;
     uint64_t computed = 0; /* pairs this call computes */
     cuda_params p;
     double t_mem = now_seconds();
@@ -335,6 +476,17 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
         CUDA_TRY(cudaMalloc(&s->d_open, need));
         s->out_capacity = need;
     }
+    /* Room for the tracing pairs, sized with the rows (a sixteenth of the
+     * pairs: cornell_sphere --subdiv 3 traces 0.4 %), so that a run does
+     * not allocate between its kernels; grown below if a round needs more. */
+    ray_room = need / 16 > 65536 ? need / 16 : 65536;
+    if (su->estimator == RAD_ESTIMATOR_QUADRATURE && ray_room > s->ray_capacity) {
+        cudaFree(s->d_ray_pairs);
+        s->d_ray_pairs = NULL;
+        s->ray_capacity = 0;
+        CUDA_TRY(cudaMalloc(&s->d_ray_pairs, sizeof(cuda_ray_pair) * ray_room));
+        s->ray_capacity = ray_room;
+    }
     if (errors && need > s->errors_capacity) {
         cudaFree(s->d_errors);
         s->d_errors = NULL;
@@ -343,7 +495,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
         s->errors_capacity = need;
     }
     CUDA_TRY(cudaMemset(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT));
-    CUDA_TRY(cudaMemset(s->d_pair_counts, 0, 2 * sizeof(uint32_t)));
+    CUDA_TRY(cudaMemset(s->d_pair_counts, 0, 4 * sizeof(uint32_t)));
     p.patches = s->d_patches;
     p.n = su->patch_count;
     p.tracer.nodes = s->d_nodes;
@@ -372,6 +524,15 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
         p, s->d_pairs, s->d_open, s->d_pair_counts, need);
     CUDA_TRY(cudaGetLastError()); /* launch configuration errors */
     CUDA_TRY(cudaMemcpy(pair_counts, s->d_pair_counts, sizeof pair_counts, cudaMemcpyDeviceToHost));
+    if (quadrature && pair_counts[2] > s->ray_capacity) { /* grows only */
+        cudaFree(s->d_ray_pairs);
+        s->d_ray_pairs = NULL;
+        s->ray_capacity = 0;
+        CUDA_TRY(cudaMalloc(&s->d_ray_pairs, sizeof(cuda_ray_pair) * pair_counts[2]));
+        s->ray_capacity = pair_counts[2];
+    }
+    p.ray_pairs = s->d_ray_pairs;
+    p.ray_count = s->d_pair_counts + 3;
     for (int list = 0; list < 2; list++) { /* far pairs, then near ones */
         if (pair_counts[list] == 0) continue;
         p.pair_count = pair_counts[list];
@@ -381,11 +542,23 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
         p.lanes = list == 0 ? FF_CUDA_FAR_LANES : 32;
         uint64_t per_block = FF_CUDA_BLOCK / p.lanes;
         uint64_t blocks = ((uint64_t)p.pair_count + per_block - 1) / per_block;
-        ff_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+        if (quadrature)
+            ff_quad_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+        else
+            ff_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+        CUDA_TRY(cudaGetLastError());
+    }
+    CUDA_TRY(cudaEventRecord(s->middle));
+    if (quadrature && pair_counts[2] > 0) { /* pass 3: the rays of the pairs pass 2 appended */
+        p.lanes = FF_CUDA_RAY_LANES;
+        uint64_t per_block = FF_CUDA_BLOCK / p.lanes;
+        uint64_t blocks = ((uint64_t)pair_counts[2] + per_block - 1) / per_block;
+        ff_quad_rays_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
         CUDA_TRY(cudaGetLastError());
     }
     CUDA_TRY(cudaEventRecord(s->stop));
     CUDA_TRY(cudaEventSynchronize(s->stop)); /* execution errors surface here */
+    CUDA_TRY(cudaEventElapsedTime(&rays_ms, s->middle, s->stop));
     CUDA_TRY(cudaEventElapsedTime(&kernel_ms, s->start, s->stop));
 
     t_mem = now_seconds();
@@ -409,8 +582,13 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     counters->pairs_open_scene += counts[C_OPEN_SCENE];
     counters->pairs_open_box += counts[C_OPEN_BOX];
     counters->rays_saved += counts[C_SAVED];
-    /* Kernel time split by where the warps spent their cycles. */
-    ray_share = counts[C_CYCLES] ? (double)counts[C_RAY_CYCLES] / (double)counts[C_CYCLES] : 0.0;
+    /* Kernel time split: the quadrature estimator's ray launch (pass 3)
+     * is visibility; the Monte Carlo estimators trace inside pass 2, whose
+     * time is split by where the warps spent their cycles. */
+    if (quadrature)
+        ray_share = kernel_ms > 0 ? rays_ms / kernel_ms : 0.0;
+    else
+        ray_share = counts[C_CYCLES] ? (double)counts[C_RAY_CYCLES] / (double)counts[C_CYCLES] : 0.0;
     counters->kernel_seconds += kernel_ms * 1e-3 * (1.0 - ray_share);
     counters->visibility_seconds += kernel_ms * 1e-3 * ray_share;
     if (su->progress) su->progress(su->progress_user, row_count);
