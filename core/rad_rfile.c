@@ -37,6 +37,7 @@ enum {
     RF_OFF_RADIOSITY_OFFSET = 128,
     RF_OFF_FILE_BYTES = 136,
     RF_OFF_PAYLOAD_SUM = 144,
+    RF_OFF_SCENE_PATH = 152, /* char[88] */
     RF_OFF_HEADER_SUM = 248
 };
 
@@ -129,6 +130,7 @@ static rad_status rf_encode(const char *path, const rad_radiosity *r, unsigned c
         rad_put_u32(b + RF_OFF_CHANNEL_METHOD + 4 * c, r->channel_method[c] ? r->channel_method[c] : r->method);
     }
     rad_put_f64(b + RF_OFF_TOLERANCE, r->tolerance);
+    memcpy(b + RF_OFF_SCENE_PATH, r->scene_path, strnlen(r->scene_path, sizeof r->scene_path - 1));
     rad_put_u64(b + RF_OFF_FINGERPRINT, r->scene_fingerprint);
     rad_put_u64(b + RF_OFF_VERTEX_OFFSET, l.vertex_offset);
     rad_put_u64(b + RF_OFF_PATCH_OFFSET, l.patch_offset);
@@ -373,6 +375,7 @@ rad_status rad_rf_read(const char *path, rad_radiosity *out_radiosity)
     if (status != RAD_OK) goto done;
     status = decode_scalars(path, bytes, &r);
     if (status != RAD_OK) goto done;
+    memcpy(r.scene_path, bytes + RF_OFF_SCENE_PATH, sizeof r.scene_path - 1); /* NUL-ended by the memset */
     r.mesh.patch_count = (size_t)rad_get_u64(bytes + RF_OFF_PATCH_COUNT);
     r.mesh.vertex_count = (size_t)rad_get_u64(bytes + RF_OFF_VERTEX_COUNT);
     r.mesh.positions = malloc(r.mesh.vertex_count * 3 * sizeof(double));

@@ -30,7 +30,13 @@
  *                 136  u64      file size in bytes
  *                 144  u64      payload checksum: rad_hash64(RAD_HASH_SEED, ...)
  *                               over bytes [256, file size)
- *                 152  ...      reserved (0)
+ *                 152  char[88] scene: the OBJ path formfactor was given (as the
+ *                               form-factor file records it), NUL-padded;
+ *                               all zero when unknown (files before
+ *                               2026-11-24, the built-in box). Informational:
+ *                               render looks for the scene's camera sidecar
+ *                               there; never validated beyond a NUL end
+ *                 240  u64      reserved (0)
  *                 248  u64      header checksum: rad_hash64 over bytes [0, 248)
  *   vertex table  V * 3 float64 (x, y, z)
  *   patch table   N * 128-byte rad_patch records, fields in declaration
@@ -78,6 +84,7 @@ typedef struct rad_radiosity {
     uint64_t scene_fingerprint;
     uint32_t channel_method[3]; /* rad_solve_method that produced each channel's
                                    B; differs from `method` after a fallback */
+    char scene_path[88];      /* the OBJ formfactor read, or "" (NUL-terminated) */
 } rad_radiosity;
 
 /* Writes to `path` through a temporary name in the same directory and a

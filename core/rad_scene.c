@@ -61,6 +61,14 @@ typedef struct loader {
     void *read_file_user;
     size_t position_cap, face_cap, material_cap, group_cap;
     size_t texcoord_count, normal_count; /* `vt`, `vn` seen: to check indices */
+    double *normals;                     /* the `vn` vectors, xyz each */
+    size_t normal_cap;
+    uint32_t *poly_normal;               /* scratch for one face: its corners' vn (UINT32_MAX: none) */
+    size_t poly_normal_cap;
+    double clamp_rho;                    /* rad_scene_options */
+    int flip_normals;
+    size_t vn_faces, vn_against;         /* faces whose corners all have vn; of those, wound against them */
+    char vn_first[600];                  /* file:line of the first one against */
     uint32_t material, group;            /* current `usemtl`, `g`/`o` */
     int have_usemtl, warned_default;
     size_t mtl_current;                  /* material being defined (0 = none) */
@@ -461,6 +469,41 @@ static rad_status parse_index(const source *src, const char *text, size_t count,
     return RAD_OK;
 }
 
+/* Does the face's winding (its Newell normal; reversed under
+ * flip_normals) agree with its corners' vn normals? Counted, and the
+ * first disagreement's place kept, for one warning per scene (vn_report):
+ * the patch faces the way the winding says, as OBJ defines it, so a
+ * contradiction usually means an exporter or modeller flipped one of them. */
+static void check_vn(loader *L, const source *src, size_t n)
+{
+    rad_vec3 sum = rad_v3(0, 0, 0);
+    for (size_t i = 0; i < n; i++) {
+        if (L->poly_normal[i] == UINT32_MAX) return;
+        const double *nv = L->normals + 3 * L->poly_normal[i];
+        sum = rad_v3_add(sum, rad_v3(nv[0], nv[1], nv[2]));
+    }
+    rad_vec3 winding = newell(L->scene, L->poly, n);
+    double along = rad_v3_dot(sum, winding) * (L->flip_normals ? -1.0 : 1.0);
+    if (!(rad_v3_length(sum) > 0) || !(rad_v3_length(winding) > 0)) return;
+    L->vn_faces++;
+    if (along < 0 && L->vn_against++ == 0) snprintf(L->vn_first, sizeof L->vn_first, "%s:%u", src->path, src->line);
+}
+
+static void vn_report(const loader *L)
+{
+    if (L->vn_against == 0) return;
+    if (L->vn_against == L->vn_faces)
+        rad_warn("%s: every face is wound against its vn normals (%zu faces): patches face the way the winding "
+                 "says (counter-clockwise seen from the front, as OBJ defines it), so they face away from where "
+                 "the normals point; if the normals are right, run formfactor with %s",
+                 L->vn_first, L->vn_faces, L->flip_normals ? "without --flip-normals" : "--flip-normals");
+    else
+        rad_warn("%s: %zu of %zu faces with vn normals are wound against them (this is the first): patches "
+                 "face the way the winding says; fix the winding in the modeller (Blender: Mesh > Normals > "
+                 "Recalculate Outside, or Flip) and export again",
+                 L->vn_first, L->vn_against, L->vn_faces);
+}
+
 static rad_status parse_face(loader *L, const source *src, char **tok, size_t n)
 {
     rad_scene *s = L->scene;
@@ -468,6 +511,9 @@ static rad_status parse_face(loader *L, const source *src, char **tok, size_t n)
     uint32_t *poly = reserve(L->poly, &L->poly_cap, n - 1, sizeof *poly);
     if (!poly) return out_of_memory(src);
     L->poly = poly;
+    uint32_t *poly_normal = reserve(L->poly_normal, &L->poly_normal_cap, n - 1, sizeof *poly_normal);
+    if (!poly_normal) return out_of_memory(src);
+    L->poly_normal = poly_normal;
     for (size_t i = 1; i < n; i++) {
         /* v, v/vt, v//vn or v/vt/vn: split at the slashes in place. */
         char *part[3] = {tok[i], NULL, NULL};
@@ -482,12 +528,15 @@ static rad_status parse_face(loader *L, const source *src, char **tok, size_t n)
             }
         }
         uint32_t unused;
+        poly_normal[i - 1] = UINT32_MAX;
         rad_status status = parse_index(src, part[0], s->vertex_count, "vertex", "vertices", &poly[i - 1]);
         if (!status && part[1] && (*part[1] || !part[2]))
             status = parse_index(src, part[1], L->texcoord_count, "texture", "texture coordinates", &unused);
-        if (!status && part[2]) status = parse_index(src, part[2], L->normal_count, "normal", "normals", &unused);
+        if (!status && part[2])
+            status = parse_index(src, part[2], L->normal_count, "normal", "normals", &poly_normal[i - 1]);
         if (status) return status;
     }
+    check_vn(L, src, n - 1);
     if (!L->have_usemtl && !L->warned_default) {
         L->warned_default = 1;
         scene_warn(L, "%s:%u: face before any usemtl uses material 'default' (grey 0.5)", src->path, src->line);
@@ -599,7 +648,16 @@ static rad_status obj_statement(loader *L, const source *src, char **tok, size_t
     }
     if (strcmp(key, "f") == 0) return parse_face(L, src, tok, n);
     if (strcmp(key, "vt") == 0) return L->texcoord_count++, RAD_OK;
-    if (strcmp(key, "vn") == 0) return L->normal_count++, RAD_OK;
+    if (strcmp(key, "vn") == 0) {
+        double nv[3];
+        rad_status status = parse_numbers(src, tok, n, 3, nv);
+        if (status) return status;
+        double *normals = reserve(L->normals, &L->normal_cap, 3 * (L->normal_count + 1), sizeof *normals);
+        if (!normals) return out_of_memory(src);
+        L->normals = normals;
+        memcpy(normals + 3 * L->normal_count++, nv, sizeof nv);
+        return RAD_OK;
+    }
     if (strcmp(key, "s") == 0) return RAD_OK;
     if (strcmp(key, "mtllib") == 0) return load_mtllibs(L, src, tok, n);
     if (strcmp(key, "usemtl") == 0) {
@@ -672,15 +730,27 @@ static rad_status mtl_statement(loader *L, const source *src, char **tok, size_t
         rad_status status = parse_numbers(src, tok, n, n == 2 ? 1 : 3, rgb); /* "Kd r" means grey */
         if (status) return status;
         if (n == 2) rgb[1] = rgb[2] = rgb[0];
+        double given[3] = {rgb[0], rgb[1], rgb[2]};
+        int clamped = 0;
         for (int c = 0; c < 3; c++) {
             const char *text = tok[n == 2 ? 1 : 1 + c];
             if (!isfinite(rgb[c])) return fail(src, RAD_ERR_INVALID, "%s %s is NaN or infinite", key, text);
+            if (is_kd && L->clamp_rho > 0 && rgb[c] > L->clamp_rho) {
+                rgb[c] = L->clamp_rho;
+                clamped = 1;
+            }
             if (is_kd && !(rgb[c] >= 0 && rgb[c] < 1))
                 return fail(src, RAD_ERR_INVALID, "Kd %s out of range [0,1)%s", text,
-                            rgb[c] >= 1 ? " (reflectance 1 makes the system singular)" : "");
+                            rgb[c] >= 1 ? " (reflectance 1 makes the system singular; formfactor --clamp-rho "
+                                          "0.99 clamps it)"
+                                        : "");
             if (!is_kd && !(rgb[c] >= 0 && rgb[c] <= SCENE_EMISSION_MAX))
                 return fail(src, RAD_ERR_INVALID, "Ke %s out of range [0, %g]", text, SCENE_EMISSION_MAX);
         }
+        if (clamped)
+            scene_warn(L, "%s:%u: material '%s': Kd %g %g %g clamped to %g %g %g (--clamp-rho %g)", src->path,
+                       src->line, s->materials[L->mtl_current].name, given[0], given[1], given[2], rgb[0], rgb[1],
+                       rgb[2], L->clamp_rho);
         memcpy(is_kd ? s->materials[L->mtl_current].rho : s->materials[L->mtl_current].emission, rgb, sizeof rgb);
         L->mtl_has_kd |= is_kd;
         return RAD_OK;
@@ -754,6 +824,8 @@ rad_status rad_scene_load_file(const char *path, const rad_scene_options *option
     L.scene = &scene;
     L.read_file = options && options->read_file ? options->read_file : read_file_system;
     L.read_file_user = options ? options->read_file_user : NULL;
+    L.clamp_rho = options ? options->clamp_rho : 0;
+    L.flip_normals = options ? options->flip_normals : 0;
     snprintf(scene.path, sizeof scene.path, "%s", path);
     scene.materials = reserve(NULL, &L.material_cap, 8, sizeof *scene.materials);
     scene.groups = reserve(NULL, &L.group_cap, 8, sizeof *scene.groups);
@@ -766,6 +838,7 @@ rad_status rad_scene_load_file(const char *path, const rad_scene_options *option
     strcpy(scene.groups[0], "default");
     scene.group_count = 1;
     status = load(&L, path, NULL, path, 0);
+    if (!status) vn_report(&L);
     if (L.warnings_hidden)
         rad_warn("%s: %zu more warnings not shown (the first %d are)", path, L.warnings_hidden, SCENE_WARNINGS_SHOWN);
     if (status) goto done;
@@ -774,12 +847,23 @@ rad_status rad_scene_load_file(const char *path, const rad_scene_options *option
         status = RAD_ERR_INVALID;
         goto done;
     }
+    if (L.flip_normals) /* every face wound the other way round */
+        for (size_t f = 0; f < scene.face_count; f++) {
+            rad_face *face = &scene.faces[f];
+            for (uint32_t a = 0, b = face->vertex_count - 1; a < b; a++, b--) {
+                uint32_t t = face->v[a];
+                face->v[a] = face->v[b];
+                face->v[b] = t;
+            }
+        }
     scene.fingerprint = fingerprint(&scene);
     *out_scene = scene;
     memset(&scene, 0, sizeof scene);
 done:
     rad_scene_free(&scene);
     free(L.poly);
+    free(L.poly_normal);
+    free(L.normals);
     free(L.uv);
     free(L.mtl_loaded);
     return status;

@@ -13,7 +13,10 @@
  * index forms (v, v/vt, v//vn, v/vt/vn; negative = relative); `g`, `o`, `s`,
  * `usemtl`, `mtllib` (several files, several names per line); in MTL:
  * `newmtl`, `Kd` (reflectance rho, RGB in [0,1)), `Ke` (emission E, RGB >= 0).
- * `vt`, `vn` and other known-but-unused keys are accepted and ignored;
+ * `vt` and other known-but-unused keys are accepted and ignored; `vn`
+ * normals only check the winding: a patch faces the way its winding says
+ * (counter-clockwise seen from the front), and faces wound against their
+ * corners' vn get one warning per scene saying what to do;
  * unknown keys produce one warning each. CRLF, a UTF-8 BOM and a missing
  * final newline are tolerated.
  * Details (rad_scene.c): `v` may carry a w or an r g b after x y z (checked,
@@ -80,6 +83,11 @@ typedef rad_status (*rad_read_file_fn)(const char *path, char **out_data, size_t
 typedef struct rad_scene_options {
     rad_read_file_fn read_file; /* NULL = read from the file system */
     void *read_file_user;
+    double clamp_rho;  /* > 0: a Kd value above it (1 included) is set to it, with a
+                          warning per statement, instead of refused (formfactor
+                          --clamp-rho); 0: values outside [0, 1) are errors */
+    int flip_normals;  /* every face wound the other way round (formfactor
+                          --flip-normals): for scenes whose faces all point away */
 } rad_scene_options;
 
 /* materials[0] is "default": rho 0.5 grey, no emission. Faces before any

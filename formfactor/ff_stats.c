@@ -149,7 +149,8 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
     if (run->patch_count > 1 && !(all.rows.row_sum_max > 0))
         rad_warn("every form factor is 0: no two patches face each other, so no light is exchanged. Do the faces "
                  "point away from each other - a closed object seen from inside, such as Blender's default cube "
-                 "used as a room? Reverse the faces' vertex order (in Blender: Mesh > Normals > Flip)");
+                 "used as a room? Run again with --flip-normals, or reverse the faces' vertex order (in Blender: "
+                 "Mesh > Normals > Flip)");
     const ff_rows_summary *e = &all.rows;
     if (run->errors)
         rad_info("standard errors of F > 0: mean %.3g (%.2g%% of F), max %.3g at F[%u][%u] = %.3g",

@@ -62,6 +62,8 @@ typedef struct ff_options {
     rad_element_type element;
     rad_estimator_id estimator;
     double quad_rtol, quad_atol; /* --quad-rtol, --quad-atol */
+    double clamp_rho;       /* --clamp-rho: Kd above it set to it; 0 = refuse Kd >= 1 */
+    int flip_normals;       /* --flip-normals: every face wound the other way */
     ff_format format;
     int threads; /* 0 = cores / ranks on this node */
     int cull;    /* 1 = skip shadow rays that cannot hit anything (default) */
@@ -82,6 +84,11 @@ static void print_help(void)
            "      --subdiv S           split every face into 4^S patches (default: 0)\n"
            "      --subdiv-only GROUP  subdivide only faces of OBJ group GROUP (the paper's\n"
            "                           code subdivided only the box: --subdiv-only box)\n"
+           "      --flip-normals       wind every face the other way round: for scenes whose\n"
+           "                           faces all point away from where the light is (a closed\n"
+           "                           object used as a room, faces wound against their vn)\n"
+           "      --clamp-rho R        set every Kd value above R (0 < R < 1) to R, saying which,\n"
+           "                           instead of refusing Kd >= 1 (Blender's white is Kd 1)\n"
            "      --samples K          point pairs per patch pair (default: 512)\n"
            "      --shadow-rays R      of those, pairs that carry a shadow ray (default: 32;\n"
            "                           0 = no occlusion)\n"
@@ -141,7 +148,7 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
 {
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
-           O_QUAD_RTOL, O_QUAD_ATOL };
+           O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -155,6 +162,7 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         {"max-samples", required_argument, 0, O_MAX_SAMPLES}, {"errors", required_argument, 0, O_ERRORS},
         {"no-errors", no_argument, 0, O_NO_ERRORS}, {"quad-rtol", required_argument, 0, O_QUAD_RTOL},
         {"quad-atol", required_argument, 0, O_QUAD_ATOL},
+        {"flip-normals", no_argument, 0, O_FLIP_NORMALS}, {"clamp-rho", required_argument, 0, O_CLAMP_RHO},
         {0, 0, 0, 0}};
     *o = (ff_options){.output = "formfactors", .backend = "auto", .samples = 512, .shadow_rays = 32, .seed = 1,
                       .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE, .format = FF_FORMAT_NATIVE,
@@ -196,6 +204,8 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
             break;
         case O_QUAD_RTOL: st = parse_tolerance("--quad-rtol", optarg, &o->quad_rtol); break;
         case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
+        case O_FLIP_NORMALS: o->flip_normals = 1; break;
+        case O_CLAMP_RHO: st = rad_parse_real("--clamp-rho", optarg, 0, 0, 1, 0, &o->clamp_rho); break;
         case O_CULL:
             if (!strcmp(optarg, "all")) o->cull = 1;
             else if (!strcmp(optarg, "none")) o->cull = 0;
@@ -407,7 +417,8 @@ static rad_status read_scene_file(const char *path, char **out_data, size_t *out
 static rad_status load(ff_run *run)
 {
     double t0 = ff_comm_time();
-    rad_scene_options loader = {.read_file = read_scene_file, .read_file_user = &run->opt};
+    rad_scene_options loader = {.read_file = read_scene_file, .read_file_user = &run->opt,
+                                .clamp_rho = run->opt.clamp_rho, .flip_normals = run->opt.flip_normals};
     rad_status st = run->opt.scene_path ? rad_scene_load_file(run->opt.scene_path, &loader, &run->scene)
                                         : rad_scene_load_default(&run->scene);
     double t1 = ff_comm_time();

@@ -6,6 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <sys/stat.h>
+
 #include "rad_fs.h"
 #include "rad_log.h"
 
@@ -332,4 +334,19 @@ int render_view_project(const render_view *view, int width, int height, rad_vec3
     *out_x = 0.5 * (ndc_x + 1.0) * width;
     *out_y = 0.5 * (1.0 - ndc_y) * height;
     return 1;
+}
+
+int render_camera_sidecar(const char *scene_path, char *out_path, size_t size)
+{
+    if (!scene_path || !scene_path[0] || size == 0) return 0;
+    const char *slash = strrchr(scene_path, '/');
+    const char *dot = strrchr(slash ? slash + 1 : scene_path, '.');
+    size_t stem = dot && dot != (slash ? slash + 1 : scene_path) ? (size_t)(dot - scene_path) : strlen(scene_path);
+    int n = snprintf(out_path, size, "%.*s.camera", (int)stem, scene_path);
+    if (n < 0 || (size_t)n >= size) {
+        out_path[0] = '\0';
+        return 0;
+    }
+    struct stat st;
+    return stat(out_path, &st) == 0;
 }

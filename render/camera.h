@@ -19,10 +19,16 @@
  * required key, fov outside (0, 180), eye == look_at, up parallel to the
  * view direction).
  *
- * Default camera (no file): a scene whose bounding box is the Cornell box's
- * (0..556 x 0..548.8 x 0..559.2 mm, within RENDER_CORNELL_BBOX_TOL) gets the
- * measured Cornell camera; any other scene is framed automatically (see
- * render_camera_auto and docs/render.md).
+ * Sidecar: the camera file `<scene>.camera` beside the scene's OBJ
+ * (`scenes/room.obj` -> `scenes/room.camera`), which render loads when no
+ * --camera is given and the radiosity file names its scene
+ * (render_camera_sidecar).
+ *
+ * Default camera (no file, no sidecar): a scene whose bounding box is the
+ * Cornell box's (0..556 x 0..548.8 x 0..559.2 mm, within
+ * RENDER_CORNELL_BBOX_TOL) gets the measured Cornell camera; any other
+ * scene is framed automatically (see render_camera_auto and
+ * docs/render.md).
  *
  * Screen conventions: +x right, +y down in pixel coordinates, pixel (0, 0)
  * is the top-left pixel and its centre is (0.5, 0.5).
@@ -64,6 +70,12 @@ render_camera render_camera_cornell(void);
 rad_status render_camera_parse(const char *name, const char *text, render_camera *out_camera);
 /* Reads and parses a camera file. */
 rad_status render_camera_load(const char *path, render_camera *out_camera);
+
+/* The sidecar of the scene at scene_path: its name with the extension
+ * (if any) replaced by ".camera", into out_path (size bytes). Returns 1
+ * when that names an existing file, 0 when there is none or scene_path is
+ * empty. */
+int render_camera_sidecar(const char *scene_path, char *out_path, size_t size);
 
 /* Checks the values (see above); `what` names the camera in messages. */
 rad_status render_camera_validate(const render_camera *camera, const char *what);

@@ -43,9 +43,11 @@ static const char usage_text[] =
     "  --width N            image width in pixels (default: 512)\n"
     "  --height N           image height in pixels (default: 512)\n"
     "  --spp N              samples per pixel, a square: 1, 4, 9, 16, ... 256 (default: 16)\n"
-    "  --camera FILE        camera file (lines: eye X Y Z, look_at X Y Z, up X Y Z,\n"
-    "                       fov_y DEGREES; # comments). Default: the measured camera\n"
-    "                       for the Cornell box, automatic framing for other scenes\n"
+    "  --camera FILE|auto   camera file (lines: eye X Y Z, look_at X Y Z, up X Y Z,\n"
+    "                       fov_y DEGREES; # comments). Default: the scene's sidecar\n"
+    "                       <scene>.camera beside its OBJ when there is one, else the\n"
+    "                       measured camera for the Cornell box, automatic framing\n"
+    "                       for other scenes; auto: the default without the sidecar\n"
     "  --eye X,Y,Z          camera position (overrides the camera file or default)\n"
     "  --look-at X,Y,Z      point at the image centre\n"
     "  --up X,Y,Z           up direction\n"
@@ -232,21 +234,32 @@ static void warn_if_black(const char *input, const rad_mesh *mesh, const double 
                  "Blender exports before 2.9 write no Ke)",
                  input);
     else
-        rad_warn("%s: the image is black: the camera sees nothing lit (%s); try the automatic framing (no "
-                 "--camera) or other --eye/--look-at",
+        rad_warn("%s: the image is black: the camera sees nothing lit (%s); try the automatic framing "
+                 "(--camera auto) or other --eye/--look-at",
                  input, camera_text);
 }
 
 /* The camera: file or default, then the flags on top. */
-static rad_status choose_camera(const render_cli *cli, const rad_mesh *mesh, double aspect, render_camera *out)
+static rad_status choose_camera(const render_cli *cli, const rad_mesh *mesh, const char *scene_path, double aspect,
+                                render_camera *out)
 {
     rad_status status = RAD_OK;
     int cornell = 0;
     char source[600];
-    if (cli->camera_path) {
+    char sidecar[400];
+    int automatic = cli->camera_path && strcmp(cli->camera_path, "auto") == 0;
+    if (cli->camera_path && !automatic) {
         status = render_camera_load(cli->camera_path, out);
         if (status != RAD_OK) return status;
         snprintf(source, sizeof source, "from %s", cli->camera_path);
+    } else if (!automatic && render_camera_sidecar(scene_path, sidecar, sizeof sidecar)) {
+        status = render_camera_load(sidecar, out);
+        if (status != RAD_OK) {
+            rad_error("%s: the camera sidecar of scene %s; fix it, or give --camera FILE or --camera auto",
+                      sidecar, scene_path);
+            return status;
+        }
+        snprintf(source, sizeof source, "from %s, the scene's sidecar (--camera auto ignores it)", sidecar);
     } else {
         render_camera_default(mesh, aspect, out, &cornell);
         snprintf(source, sizeof source, "%s", cornell ? "the Cornell box's measured camera" : "automatic framing");
@@ -304,7 +317,7 @@ static rad_status run(const render_cli *cli)
     }
 
     render_camera camera;
-    status = choose_camera(cli, &rf.mesh, (double)frame.width / frame.height, &camera);
+    status = choose_camera(cli, &rf.mesh, rf.scene_path, (double)frame.width / frame.height, &camera);
     if (status != RAD_OK) goto done;
     char camera_text[512];
     render_camera_format(&camera, camera_text, sizeof camera_text);
@@ -398,7 +411,7 @@ int main(int argc, char **argv)
         return 0;
     }
     if (status == RAD_OK) { /* before any work: docs/reliability.md, "Threat model: files on disk" */
-        rad_fs_role roles[] = {{"the radiosity file", cli.input, 0}, {"--camera", cli.camera_path, 0},
+        rad_fs_role roles[] = {{"the radiosity file", cli.input, 0}, {"--camera", cli.camera_path && strcmp(cli.camera_path, "auto") != 0 ? cli.camera_path : NULL, 0},
                                {"-o", cli.output, 1}};
         status = rad_fs_check_output("-o", cli.output);
         if (status == RAD_OK) status = rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]);

@@ -10,6 +10,7 @@
 #include "rad_ffile.h"
 #include "rad_log.h"
 #include "rad_rfile.h"
+#include "rad_scene.h"
 #include "stats.h"
 
 static int scene_is_grey(const rad_mesh *mesh)
@@ -147,6 +148,11 @@ rad_status solve_stage_run(const solve_options *options)
     out.converged = solved == RAD_OK;
     out.tolerance = options->params.tolerance > 0 ? options->params.tolerance : SOLVE_DEFAULT_TOLERANCE;
     out.scene_fingerprint = rad_ff_file_info(s.file)->scene_fingerprint;
+    /* The scene's path, for render's camera sidecar: only a real path that
+     * fits whole (not the built-in box's name). */
+    const char *scene = rad_ff_file_info(s.file)->scene_name;
+    if (strcmp(scene, rad_default_scene_name) != 0 && strlen(scene) < sizeof out.scene_path)
+        memcpy(out.scene_path, scene, strlen(scene) + 1);
     for (uint32_t c = 0; c < 3; c++) {
         const solve_report *r = &s.reports[grey ? 0 : c];
         out.iterations[c] = r->iterations;

@@ -35,14 +35,21 @@ static rad_status vfs_read(const char *path, char **out_data, size_t *out_size, 
     return RAD_ERR_IO;
 }
 
-/* Loads `obj` (named x.obj) with `mtl` as x.mtl; captures the log. */
-static rad_status load_text(const char *obj, const char *mtl, rad_scene *scene)
+/* Loads `obj` (named x.obj) with `mtl` as x.mtl and the options' clamp
+ * and flip (NULL: none); captures the log. */
+static rad_status load_text_with(const char *obj, const char *mtl, const rad_scene_options *with, rad_scene *scene)
 {
     vfile files[] = {{"x.obj", obj, 0}, {"x.mtl", mtl ? mtl : "", 0}, {NULL, NULL, 0}};
     rad_scene_options opt = {.read_file = vfs_read, .read_file_user = files};
+    if (with) opt.clamp_rho = with->clamp_rho, opt.flip_normals = with->flip_normals;
     rad_test_capture_log();
     memset(scene, 0, sizeof *scene);
     return rad_scene_load_file("x.obj", &opt, scene);
+}
+
+static rad_status load_text(const char *obj, const char *mtl, rad_scene *scene)
+{
+    return load_text_with(obj, mtl, NULL, scene);
 }
 
 static int count_in_log(const char *text)
@@ -84,7 +91,8 @@ static void test_errors(void)
     expect_error("v 0 0 0\nv 1e999 0 0\n", NULL, RAD_ERR_INVALID, "x.obj:2: coordinate is NaN or infinite");
     expect_error(QUAD "\n\n\n\nf 1 2\n", NULL, RAD_ERR_PARSE, "x.obj:9: face has 2 vertices, needs at least 3");
     expect_error("mtllib x.mtl\n" QUAD "f 1 2 3\n", "newmtl a\nKd 0.5 0.5 0.5\nnewmtl b\nKd 0.5 1.0 0.5\n", RAD_ERR_INVALID,
-                 "x.mtl:4: Kd 1.0 out of range [0,1) (reflectance 1 makes the system singular)");
+                 "x.mtl:4: Kd 1.0 out of range [0,1) (reflectance 1 makes the system singular; formfactor --clamp-rho "
+                 "0.99 clamps it)");
     expect_error("mtllib x.mtl\n" QUAD "f 1 2 3\n", "newmtl a\nKd -0.1 0 0\n", RAD_ERR_INVALID, "x.mtl:2: Kd -0.1 out of range [0,1)");
     expect_error("mtllib x.mtl\n" QUAD "f 1 2 3\n", "newmtl a\nKe 1 -2 0\n", RAD_ERR_INVALID, "x.mtl:2: Ke -2 out of range [0, 1e+30]");
     expect_error("mtllib x.mtl\n" QUAD "f 1 2 3\n", "Kd 0.5 0.5 0.5\n", RAD_ERR_PARSE, "x.mtl:1: Kd before any newmtl");
@@ -491,9 +499,57 @@ static void test_hostile(void)
     free(long_line);
 }
 
+/* --clamp-rho, --flip-normals and the vn winding check (issue 17). */
+static void test_blender_options(void)
+{
+    rad_scene scene;
+    const char *mtl = "newmtl a\nKd 1 0.995 0.5\n";
+    rad_scene_options clamp = {.clamp_rho = 0.99};
+    RAD_CHECK(load_text_with("mtllib x.mtl\n" QUAD "usemtl a\nf 1 2 3\n", mtl, &clamp, &scene) == RAD_OK);
+    RAD_CHECK(scene.materials[1].rho[0] == 0.99 && scene.materials[1].rho[1] == 0.99 &&
+              scene.materials[1].rho[2] == 0.5);
+    RAD_CHECK(rad_test_log_contains("x.mtl:2: material 'a': Kd 1 0.995 0.5 clamped to 0.99 0.99 0.5 (--clamp-rho 0.99)"));
+    rad_scene_free(&scene);
+    /* Nothing above the clamp: nothing said, nothing changed. */
+    RAD_CHECK(load_text_with("mtllib x.mtl\n" QUAD "usemtl a\nf 1 2 3\n", "newmtl a\nKd 0.5 0.5 0.5\n", &clamp,
+                             &scene) == RAD_OK);
+    RAD_CHECK(scene.materials[1].rho[0] == 0.5 && !rad_test_log_contains("clamped"));
+    rad_scene_free(&scene);
+    /* Negative values stay errors under a clamp. */
+    expect_error("mtllib x.mtl\n" QUAD "f 1 2 3\n", "newmtl a\nKd -0.1 0 0\n", RAD_ERR_INVALID,
+                 "x.mtl:2: Kd -0.1 out of range [0,1)");
+
+    /* vn against the winding: the quad is wound towards +z. */
+    RAD_CHECK(load_text(QUAD "vn 0 0 -1\nf 1//1 2//1 3//1 4//1\n", NULL, &scene) == RAD_OK);
+    RAD_CHECK(rad_test_log_contains("x.obj:6: every face is wound against its vn normals (1 faces)"));
+    RAD_CHECK(rad_test_log_contains("--flip-normals"));
+    rad_scene_free(&scene);
+    RAD_CHECK(load_text(QUAD "vn 0 0 1\nf 1//1 2//1 3//1 4//1\n", NULL, &scene) == RAD_OK);
+    RAD_CHECK(!rad_test_log_contains("wound against"));
+    rad_scene_free(&scene);
+    RAD_CHECK(load_text(QUAD "vn 0 0 1\nvn 0 0 -1\nf 1//1 2//1 3//1 4//1\nf 1//2 2//2 3//2\n", NULL, &scene) ==
+              RAD_OK);
+    RAD_CHECK(rad_test_log_contains("x.obj:8: 1 of 2 faces with vn normals are wound against them"));
+    rad_scene_free(&scene);
+    /* Faces without vn on every corner are not judged. */
+    RAD_CHECK(load_text(QUAD "vn 0 0 -1\nf 1//1 2 3 4\n", NULL, &scene) == RAD_OK);
+    RAD_CHECK(!rad_test_log_contains("wound against"));
+    rad_scene_free(&scene);
+
+    /* --flip-normals: every face reversed; the vn check follows it. */
+    rad_scene_options flip = {.flip_normals = 1};
+    RAD_CHECK(load_text_with(QUAD "vn 0 0 -1\nf 1//1 2//1 3//1 4//1\nf 1 2 3\n", NULL, &flip, &scene) == RAD_OK);
+    RAD_CHECK(scene.face_count == 2 && scene.faces[0].v[0] == 3 && scene.faces[0].v[1] == 2 &&
+              scene.faces[0].v[2] == 1 && scene.faces[0].v[3] == 0);
+    RAD_CHECK(scene.faces[1].v[0] == 2 && scene.faces[1].v[1] == 1 && scene.faces[1].v[2] == 0);
+    RAD_CHECK(!rad_test_log_contains("wound against"));
+    rad_scene_free(&scene);
+}
+
 int main(void)
 {
     test_errors();
+    test_blender_options();
     test_index_forms();
     test_encodings();
     test_warnings();
