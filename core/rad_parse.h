@@ -23,4 +23,10 @@ rad_status rad_parse_uint(const char *option, const char *text, uint64_t min, ui
 rad_status rad_parse_real(const char *option, const char *text, double lo, int lo_inclusive, double hi,
                           int hi_inclusive, double *out);
 
+/* A size in bytes: a positive number with an optional unit, k M G T P
+ * (powers of 1000) or Ki Mi Gi Ti Pi (powers of 1024), a trailing B
+ * allowed ("53.7G", "2GiB", "500MB", "1e9"). At least 1 byte, at most
+ * 2^63. RAD_ERR_USAGE (logged) otherwise. */
+rad_status rad_parse_bytes(const char *option, const char *text, double *out);
+
 #endif

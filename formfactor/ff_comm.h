@@ -38,6 +38,15 @@ void ff_comm_gather(ff_comm *comm, const void *data, size_t bytes, void *out, in
 /* Collective: variable-sized blocks of uint64 gathered on root in rank order. */
 void ff_comm_gather_u64v(ff_comm *comm, const uint64_t *data, uint64_t count, uint64_t *out, int root);
 
+/* A counter of rows done, kept on rank 0, that every rank adds to without
+ * waiting for the others (one-sided), so that rank 0's progress lines
+ * count all ranks. open and close are collective; without them (or solo)
+ * add and read work on a local counter. */
+void ff_comm_progress_open(ff_comm *comm);
+void ff_comm_progress_add(ff_comm *comm, uint64_t rows);
+uint64_t ff_comm_progress_read(ff_comm *comm); /* rank 0 */
+void ff_comm_progress_close(ff_comm *comm);
+
 /* Point to point, both at once: `send_count` doubles to rank `dest` and
  * `recv_count` doubles from rank `source` (each at most FF_COMM_MAX_DOUBLES). */
 #define FF_COMM_MAX_DOUBLES ((size_t)1 << 27)

@@ -24,6 +24,9 @@ struct ff_comm {
     int rank, size, node_size;
     int we_initialized;
     int solo; /* no MPI: one rank, POSIX files */
+    uint64_t progress_local; /* rows done: the whole count solo, or until the window opens */
+    MPI_Win progress_win;    /* one uint64 on rank 0 (ff_comm_progress_open) */
+    int progress_open;
 };
 
 struct ff_comm_file {
@@ -69,7 +72,10 @@ rad_status ff_comm_init(int *argc, char ***argv, ff_comm **out_comm)
     }
     MPI_Initialized(&initialized);
     if (!initialized) {
-        if (MPI_Init(argc, argv) != MPI_SUCCESS) {
+        /* Funneled: the progress counter is updated from inside the CPU
+         * backend's OpenMP region, by its master thread (this one). */
+        int provided = 0;
+        if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
             rad_error("MPI_Init failed");
             free(c);
             return RAD_ERR_BACKEND;
@@ -92,6 +98,60 @@ void ff_comm_finalize(ff_comm *comm)
     if (!comm) return;
     if (comm->we_initialized && !comm->solo) MPI_Finalize();
     free(comm);
+}
+
+void ff_comm_progress_open(ff_comm *comm)
+{
+    if (comm->solo || comm->progress_open) return;
+    uint64_t *base = NULL;
+    MPI_Win win;
+    int ok = MPI_Win_allocate(comm->rank == 0 ? (MPI_Aint)sizeof(uint64_t) : 0, sizeof(uint64_t), MPI_INFO_NULL,
+                              MPI_COMM_WORLD, &base, &win) == MPI_SUCCESS;
+    /* Every rank must agree before using it: a rank whose window failed
+     * would leave the others' one-sided calls without a partner. */
+    int all = 0;
+    MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (!all) {
+        if (ok) MPI_Win_free(&win);
+        return;
+    }
+    MPI_Win_set_errhandler(win, MPI_ERRORS_RETURN);
+    if (comm->rank == 0) {
+        MPI_Win_lock(MPI_LOCK_EXCLUSIVE, 0, 0, win);
+        *base = 0;
+        MPI_Win_unlock(0, win);
+    }
+    MPI_Barrier(MPI_COMM_WORLD); /* the counter is zero before anyone adds */
+    comm->progress_win = win;
+    comm->progress_open = 1;
+}
+
+void ff_comm_progress_add(ff_comm *comm, uint64_t rows)
+{
+    if (!comm->progress_open) {
+        comm->progress_local += rows;
+        return;
+    }
+    MPI_Win_lock(MPI_LOCK_SHARED, 0, 0, comm->progress_win);
+    MPI_Accumulate(&rows, 1, MPI_UINT64_T, 0, 0, 1, MPI_UINT64_T, MPI_SUM, comm->progress_win);
+    MPI_Win_unlock(0, comm->progress_win);
+}
+
+uint64_t ff_comm_progress_read(ff_comm *comm)
+{
+    if (!comm->progress_open) return comm->progress_local;
+    uint64_t value = 0, unused = 0;
+    MPI_Win_lock(MPI_LOCK_SHARED, 0, 0, comm->progress_win);
+    MPI_Fetch_and_op(&unused, &value, MPI_UINT64_T, 0, 0, MPI_NO_OP, comm->progress_win);
+    MPI_Win_unlock(0, comm->progress_win);
+    return value;
+}
+
+void ff_comm_progress_close(ff_comm *comm)
+{
+    if (!comm->progress_open) return;
+    MPI_Win_free(&comm->progress_win);
+    comm->progress_open = 0;
 }
 
 int ff_comm_rank(const ff_comm *comm) { return comm->rank; }

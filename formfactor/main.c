@@ -63,6 +63,7 @@ typedef struct ff_options {
     rad_estimator_id estimator;
     double quad_rtol, quad_atol; /* --quad-rtol, --quad-atol */
     double clamp_rho;       /* --clamp-rho: Kd above it set to it; 0 = refuse Kd >= 1 */
+    double max_bytes;       /* --max-bytes: refuse a larger output; 0 = only the disk's free space */
     int flip_normals;       /* --flip-normals: every face wound the other way */
     ff_format format;
     int threads; /* 0 = cores / ranks on this node */
@@ -126,6 +127,9 @@ static void print_help(void)
            "                           (default). Same bytes either way.\n"
            "      --threads T          CPU threads per rank (default: cores / ranks per node)\n"
            "      --stats FILE.json    write counts and phase times (per rank and total)\n"
+           "      --max-bytes SIZE     refuse, before any work, a run whose output (with --errors)\n"
+           "                           would be larger (e.g. 20G, 512Mi); runs larger than the\n"
+           "                           free space of the output's file system are always refused\n"
            "  -q, --quiet              only errors on stderr\n"
            "  -h, --help               this help\n"
            "      --version            print the version\n"
@@ -148,7 +152,7 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
 {
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
-           O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO };
+           O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -163,6 +167,7 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         {"no-errors", no_argument, 0, O_NO_ERRORS}, {"quad-rtol", required_argument, 0, O_QUAD_RTOL},
         {"quad-atol", required_argument, 0, O_QUAD_ATOL},
         {"flip-normals", no_argument, 0, O_FLIP_NORMALS}, {"clamp-rho", required_argument, 0, O_CLAMP_RHO},
+        {"max-bytes", required_argument, 0, O_MAX_BYTES},
         {0, 0, 0, 0}};
     *o = (ff_options){.output = "formfactors", .backend = "auto", .samples = 512, .shadow_rays = 32, .seed = 1,
                       .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE, .format = FF_FORMAT_NATIVE,
@@ -205,6 +210,7 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
         case O_QUAD_RTOL: st = parse_tolerance("--quad-rtol", optarg, &o->quad_rtol); break;
         case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
         case O_FLIP_NORMALS: o->flip_normals = 1; break;
+        case O_MAX_BYTES: st = rad_parse_bytes("--max-bytes", optarg, &o->max_bytes); break;
         case O_CLAMP_RHO: st = rad_parse_real("--clamp-rho", optarg, 0, 0, 1, 0, &o->clamp_rho); break;
         case O_CULL:
             if (!strcmp(optarg, "all")) o->cull = 1;
@@ -293,20 +299,68 @@ typedef struct ff_run {
     int pairs_once; /* --reciprocity as decided for this run (same on every rank) */
     int want_errors; /* standard errors computed (not --no-errors) */
     ff_rank_stats stats;
-    double start, last_progress;
-    uint32_t progress_base, progress_total;
+    double start;
+    double planned_bytes, planned_memory; /* check_limits (rank 0): the outputs' size, memory per rank */
+    /* Progress (report_progress): this rank's rows done before the current
+     * backend call, the rows it has added to the shared counter, when, and
+     * (rank 0) when it last reported, every how many seconds, and whether
+     * to a terminal (one line that updates). calibrating: no reports. */
+    uint32_t progress_base;
+    uint64_t progress_added;
+    double progress_added_at, progress_said_at, progress_every, compute_start;
+    double estimated_seconds; /* estimate(): the calibration's forecast, or -1 */
+    int progress_tty, calibrating;
 } ff_run;
 
+/* "1.2 s", "3 min 20 s", "33 h 10 min". */
+static const char *format_seconds(double s, char *out, size_t size)
+{
+    if (!(s < 1e9)) snprintf(out, size, "longer than 30 years");
+    else if (s < 0.01) snprintf(out, size, "%.1f ms", 1e3 * s);
+    else if (s < 60) snprintf(out, size, "%.2g s", s);
+    else if (s < 3600) snprintf(out, size, "%d min %d s", (int)(s / 60), (int)fmod(s, 60));
+    else snprintf(out, size, "%d h %d min", (int)(s / 3600), (int)fmod(s / 60, 60));
+    return out;
+}
+
+/* The backends' progress callback, on every rank: adds this rank's rows to
+ * the shared counter at most once a second; rank 0 reports the whole run's
+ * rows every progress_every seconds (about 40 lines per run, at least
+ * 2 s apart; on a terminal one line, updated twice a second). */
 static void report_progress(void *user, uint64_t rows_done)
 {
     ff_run *run = user;
+    if (run->calibrating) return;
     double t = ff_comm_time();
-    if (t - run->last_progress < 2.0) return;
-    run->last_progress = t;
-    double done = (double)(run->progress_base + rows_done) / (run->progress_total ? run->progress_total : 1);
-    double elapsed = t - run->start;
-    rad_info("rank 0: %.1f%% of its rows, %.0f s elapsed, about %.0f s to go", 100 * done, elapsed,
-             done > 0 ? elapsed * (1 - done) / done : 0.0);
+    uint64_t done = run->progress_base + rows_done;
+    uint32_t mine = run->row_begin[ff_comm_rank(run->comm) + 1] - run->row_begin[ff_comm_rank(run->comm)];
+    if (done > run->progress_added && (t - run->progress_added_at >= 1.0 || done == mine)) {
+        ff_comm_progress_add(run->comm, done - run->progress_added);
+        run->progress_added = done;
+        run->progress_added_at = t;
+    }
+    if (ff_comm_rank(run->comm) != 0 || t - run->progress_said_at < run->progress_every) return;
+    run->progress_said_at = t;
+    double fraction = (double)ff_comm_progress_read(run->comm) / (double)(run->mesh.patch_count ? run->mesh.patch_count : 1);
+    double elapsed = t - run->compute_start;
+    /* The first rows say little about the rest: until 5 % are done, the
+     * calibration's forecast (which sampled the whole matrix) holds. */
+    double to_go = fraction > 0 ? elapsed * (1 - fraction) / fraction : -1;
+    if (fraction < 0.05 && run->estimated_seconds >= 0)
+        to_go = run->estimated_seconds > elapsed ? run->estimated_seconds - elapsed : 0;
+    char took[32], left[32];
+    const char *format = run->progress_tty ? "\r%s%.1f%% of the rows (%d rank(s)), %s elapsed, about %s to go\033[K"
+                                           : "%s%.1f%% of the rows (%d rank(s)), %s elapsed, about %s to go";
+    char line[256];
+    snprintf(line, sizeof line, format, run->progress_tty ? "formfactor: " : "", 100 * fraction, ff_comm_size(run->comm),
+             format_seconds(elapsed, took, sizeof took),
+             to_go >= 0 ? format_seconds(to_go, left, sizeof left) : "?");
+    if (run->progress_tty && rad_log_get_level() >= RAD_LOG_INFO) {
+        fputs(line, stderr); /* the one line that updates; ended before the next message (run_formfactor) */
+        fflush(stderr);
+    } else {
+        rad_info("%s", line);
+    }
 }
 
 static int default_threads(const ff_run *run)
@@ -349,7 +403,7 @@ static double memory_per_rank(const ff_run *run)
  * format, whose file would not fit in the free space of the output's file
  * system, or whose memory per rank would exceed this node's memory per
  * rank is refused with the numbers instead of being attempted. */
-static rad_status check_limits(const ff_run *run)
+static rad_status check_limits(ff_run *run)
 {
     rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
     uint64_t n = rad_mesh_count_patches(&run->scene, &mo);
@@ -385,6 +439,10 @@ static rad_status check_limits(const ff_run *run)
     double free_bytes = statvfs(dir, &fs) == 0 ? (double)fs.f_bavail * (double)fs.f_frsize : INFINITY;
     if (!why[0] && file_bytes > free_bytes)
         snprintf(why, sizeof why, "%s has %s free", dir, format_bytes(free_bytes, have, sizeof have));
+    if (!why[0] && run->opt.max_bytes > 0 && file_bytes > run->opt.max_bytes)
+        snprintf(why, sizeof why, "--max-bytes is %s", format_bytes(run->opt.max_bytes, have, sizeof have));
+    run->planned_bytes = file_bytes;
+    run->planned_memory = memory;
     double per_rank = memory_per_rank(run);
     int node_ranks = ff_comm_node_size(run->comm) > 0 ? ff_comm_node_size(run->comm) : 1;
     if (!why[0] && memory > per_rank)
@@ -393,7 +451,7 @@ static rad_status check_limits(const ff_run *run)
     if (why[0]) {
         char need[32], mem[32];
         rad_error("--subdiv %d: %" PRIu64 " patches: %s would need %s (N^2 x %.0f bytes) and each rank about %s "
-                  "of memory, but %s; refused",
+                  "of memory, but %s; refused (--element f32 halves the file; each --subdiv level less divides it by 16)",
                   run->opt.subdiv, n, run->opt.output, format_bytes(file_bytes, need, sizeof need), element,
                   format_bytes(memory, mem, sizeof mem), why);
         return RAD_ERR_NOMEM;
@@ -481,7 +539,7 @@ static rad_status setup(ff_run *run)
                        .quad_atol = run->opt.quad_atol, .target_error = run->opt.target_error,
                        .max_samples = run->opt.max_samples, .errors = run->want_errors, .cull = run->opt.cull, .scene_convex = convex,
                        .cull_margin = ff_cull_margin(&run->mesh, centre, eps), .plane_eps = eps, .pairs_once = run->pairs_once, .threads = run->stats.threads, .device = ff_comm_rank(run->comm),
-                       .progress = ff_comm_rank(run->comm) == 0 ? report_progress : NULL, .progress_user = run};
+                       .progress = report_progress, .progress_user = run};
         st = run->backend->create(&su, &run->backend_state);
     }
     run->stats.setup = ff_comm_time() - t0;
@@ -543,6 +601,64 @@ static void free_buffer(ff_run *run, size_t count, double *buffer)
         run->backend->free_rows(run->backend_state, buffer);
     else
         free(buffer);
+}
+
+/* Rank 0, before any row is written: one line with what the run will
+ * take - the outputs' size, the memory per rank and the time. The time
+ * comes from a calibration: FF_CALIBRATION_CHUNKS chunks of rows spread
+ * over the matrix, together about 1/64 of it, computed by the run's own
+ * backend (and computed again later: 1.6 % more work) and scaled to all
+ * rows, divided among the ranks. A GPU's chunks of a small scene are
+ * mostly launch latency, so small runs are overestimated; runs of fewer
+ * than FF_CALIBRATION_MIN patches take seconds and are not calibrated.
+ * Sets the progress lines' cadence from the estimate. */
+#define FF_CALIBRATION_CHUNKS 4
+#define FF_CALIBRATION_MIN 1024
+static void estimate(ff_run *run)
+{
+    uint32_t n = (uint32_t)run->mesh.patch_count;
+    double seconds = -1, calibration = 0;
+    uint32_t chunk = n / 64 / FF_CALIBRATION_CHUNKS > 2 ? n / 64 / FF_CALIBRATION_CHUNKS : 2;
+    if (n >= FF_CALIBRATION_MIN) {
+        double *rows = alloc_buffer(run, (size_t)chunk * n);
+        double *errors = run->want_errors ? alloc_buffer(run, (size_t)chunk * n) : NULL;
+        if (rows && (errors || !run->want_errors)) {
+            ff_counters scratch = {0};
+            rad_status st = RAD_OK;
+            run->calibrating = 1;
+            double t0 = ff_comm_time();
+            for (uint32_t k = 0; k < FF_CALIBRATION_CHUNKS && st == RAD_OK; k++) {
+                uint64_t centre = (uint64_t)n * (2 * k + 1) / (2 * FF_CALIBRATION_CHUNKS);
+                uint32_t r0 = centre > chunk / 2 ? (uint32_t)(centre - chunk / 2) : 0;
+                if (r0 + chunk > n) r0 = n - chunk;
+                st = run->backend->compute_rows(run->backend_state, r0, chunk, rows, errors, &scratch);
+            }
+            calibration = ff_comm_time() - t0;
+            run->calibrating = 0;
+            if (st == RAD_OK)
+                seconds = calibration * ((double)n / (FF_CALIBRATION_CHUNKS * chunk)) / ff_comm_size(run->comm);
+        }
+        if (rows) free_buffer(run, (size_t)chunk * n, rows);
+        if (errors) free_buffer(run, (size_t)chunk * n, errors);
+    }
+    char bytes[32], memory[32], time[32], took[32];
+    if (seconds >= 0)
+        rad_info("estimate: %s to write, about %s of memory per rank, about %s of form factors on %d rank(s) "
+                 "(calibrated on %u of %u rows in %s)",
+                 format_bytes(run->planned_bytes, bytes, sizeof bytes),
+                 format_bytes(run->planned_memory, memory, sizeof memory), format_seconds(seconds, time, sizeof time),
+                 ff_comm_size(run->comm), FF_CALIBRATION_CHUNKS * chunk, n,
+                 format_seconds(calibration, took, sizeof took));
+    else
+        rad_info("estimate: %s to write, about %s of memory per rank, seconds of form factors",
+                 format_bytes(run->planned_bytes, bytes, sizeof bytes),
+                 format_bytes(run->planned_memory, memory, sizeof memory));
+    run->estimated_seconds = seconds;
+    run->progress_every = seconds / 40 > 2.0 ? seconds / 40 : 2.0;
+    if (run->progress_tty) run->progress_every = 0.5;
+    /* Tests ask for lines at a cadence of their own. */
+    const char *every = getenv("RAD_PROGRESS_SECONDS");
+    if (every && atof(every) > 0) run->progress_every = atof(every);
 }
 
 /* Row buffers of `count` doubles, for the values and (if wanted) the
@@ -648,7 +764,6 @@ static rad_status compute_and_write(ff_run *run, const ff_files *files)
     uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
     run->stats.row_begin = begin;
     run->stats.row_end = end;
-    run->progress_total = end - begin;
     ff_counters counters = {0};
     rad_status st = run->pairs_once ? compute_once(run, files, &counters) : compute_streamed(run, files, &counters);
     run->stats.counters = counters;
@@ -691,7 +806,6 @@ static rad_status run_formfactor(ff_run *run)
 {
     int rank = ff_comm_rank(run->comm);
     run->start = ff_comm_time();
-    run->last_progress = run->start;
     /* Loading is deterministic, so rank 0 alone reports its errors. */
     rad_log_level level = rad_log_get_level();
     if (rank != 0) rad_log_set_level(RAD_LOG_NONE);
@@ -712,6 +826,10 @@ static rad_status run_formfactor(ff_run *run)
                  run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name, run->mesh.patch_count,
                  run->scene.face_count, run->opt.samples, run->opt.shadow_rays, ff_comm_size(run->comm),
                  run->stats.threads, run->backend->name);
+    run->progress_every = 2.0;
+    run->estimated_seconds = -1;
+    run->progress_tty = rank == 0 && isatty(STDERR_FILENO) && rad_log_get_level() >= RAD_LOG_INFO;
+    if (rank == 0 && rad_log_get_level() >= RAD_LOG_INFO) estimate(run);
 
     rad_ff_info info = {.patch_count = run->mesh.patch_count, .vertex_count = run->mesh.vertex_count,
                         .element_type = run->opt.element, .estimator = run->opt.estimator,
@@ -731,7 +849,12 @@ static rad_status run_formfactor(ff_run *run)
         if (st != RAD_OK) files.errors = NULL;
     }
     run->stats.io += ff_comm_time() - t0;
+    ff_comm_progress_open(run->comm);
+    run->compute_start = ff_comm_time();
+    run->progress_said_at = run->compute_start;
     if (st == RAD_OK) st = compute_and_write(run, &files);
+    ff_comm_progress_close(run->comm);
+    if (run->progress_tty && run->progress_said_at > run->compute_start) fputc('\n', stderr); /* end the updating line */
     t0 = ff_comm_time();
     /* Both files are written and closed before either is renamed; the
      * errors file is renamed first, so a failure there leaves the old
