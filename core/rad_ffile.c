@@ -38,6 +38,8 @@ enum {
     H_TABLES_CHECKSUM = 112,
     H_ROW_CHECKSUMS_DIGEST = 120,
     H_SCENE_NAME = 128, /* 96 bytes, NUL-padded */
+    H_GROUP_OFFSET = 224, /* version 2; reserved (zero) in version 1 */
+    H_GROUP_COUNT = 232,  /* version 2; then 12 reserved bytes */
     H_HEADER_CHECKSUM = 248
 };
 
@@ -56,7 +58,15 @@ rad_ff_layout rad_ff_layout_of(const rad_ff_info *info)
     l.row_bytes = n * l.element_bytes;
     l.vertex_offset = RAD_FF_HEADER_BYTES;
     l.patch_offset = rad_align_up(l.vertex_offset + info->vertex_count * 24, RAD_FF_ALIGN);
-    l.matrix_offset = rad_align_up(l.patch_offset + n * sizeof(rad_patch), RAD_FF_ALIGN);
+    uint64_t patches_end = l.patch_offset + n * sizeof(rad_patch);
+    if (info->group_count) {
+        l.group_offset = rad_align_up(patches_end, RAD_FF_ALIGN);
+        l.patch_group_offset = l.group_offset + (uint64_t)info->group_count * RAD_NAME_MAX;
+        l.matrix_offset = rad_align_up(l.patch_group_offset + n * 4, RAD_FF_ALIGN);
+    } else {
+        l.group_offset = l.patch_group_offset = 0;
+        l.matrix_offset = rad_align_up(patches_end, RAD_FF_ALIGN);
+    }
     l.row_checksum_offset = rad_align_up(l.matrix_offset + n * l.row_bytes, RAD_FF_ALIGN);
     l.file_bytes = l.row_checksum_offset + n * 8;
     return l;
@@ -92,6 +102,8 @@ static void encode_header(const rad_ff_info *info, const rad_ff_layout *l, uint6
     rad_put_u64(h + H_TABLES_CHECKSUM, tables_checksum);
     size_t name_len = strnlen(info->scene_name, sizeof info->scene_name - 1);
     memcpy(h + H_SCENE_NAME, info->scene_name, name_len);
+    rad_put_u64(h + H_GROUP_OFFSET, l->group_offset);
+    rad_put_u32(h + H_GROUP_COUNT, info->group_count);
     rad_put_u64(h + H_HEADER_CHECKSUM, rad_hash64(RAD_HASH_SEED, h, H_HEADER_CHECKSUM));
 }
 
@@ -109,15 +121,22 @@ static void decode_header(const unsigned char *h, rad_ff_info *info)
     info->subdiv = (int32_t)rad_get_u32(h + H_SUBDIV);
     info->flags = rad_get_u32(h + H_FLAGS);
     memcpy(info->scene_name, h + H_SCENE_NAME, sizeof info->scene_name - 1);
+    if (rad_get_u32(h + H_VERSION) >= 2) info->group_count = rad_get_u32(h + H_GROUP_COUNT);
 }
 
 rad_status rad_ff_prologue_encode(const rad_ff_info *info, const rad_mesh *mesh, unsigned char **out_bytes,
                                   size_t *out_size)
 {
-    if (info->patch_count != mesh->patch_count || info->vertex_count != mesh->vertex_count) {
+    if (info->patch_count != mesh->patch_count || info->vertex_count != mesh->vertex_count ||
+        info->group_count != mesh->group_count || (mesh->group_count && (!mesh->group_names || !mesh->patch_group))) {
         rad_error("internal: form-factor info does not match the mesh");
         return RAD_ERR_INVALID;
     }
+    for (size_t i = 0; i < mesh->patch_count && mesh->group_count; i++)
+        if (mesh->patch_group[i] >= mesh->group_count) {
+            rad_error("internal: patch %zu: group %u of %zu", i, mesh->patch_group[i], mesh->group_count);
+            return RAD_ERR_INVALID;
+        }
     rad_ff_layout l = rad_ff_layout_of(info);
     unsigned char *bytes = calloc(1, l.matrix_offset);
     if (!bytes) {
@@ -127,6 +146,13 @@ rad_status rad_ff_prologue_encode(const rad_ff_info *info, const rad_mesh *mesh,
     }
     memcpy(bytes + l.vertex_offset, mesh->positions, mesh->vertex_count * 24);
     memcpy(bytes + l.patch_offset, mesh->patches, mesh->patch_count * sizeof(rad_patch));
+    for (size_t g = 0; g < mesh->group_count; g++) {
+        const char *name = mesh->group_names[g];
+        memcpy(bytes + l.group_offset + g * RAD_NAME_MAX, name, strnlen(name, RAD_NAME_MAX - 1));
+    }
+    if (mesh->group_count)
+        for (size_t i = 0; i < mesh->patch_count; i++)
+            rad_put_u32(bytes + l.patch_group_offset + 4 * i, mesh->patch_group[i]);
     uint64_t tables = rad_hash64(RAD_HASH_SEED, bytes + RAD_FF_HEADER_BYTES, l.matrix_offset - RAD_FF_HEADER_BYTES);
     encode_header(info, &l, tables, bytes);
     *out_bytes = bytes;
@@ -251,6 +277,42 @@ static rad_status validate_patches(const char *path, const rad_mesh *mesh)
     return RAD_OK;
 }
 
+/* The group table (G names, then each patch's group), from the tables as
+ * read (which start at byte RAD_FF_HEADER_BYTES of the file). */
+static rad_status decode_groups(const char *path, const unsigned char *tables, const rad_ff_layout *l,
+                                rad_mesh *mesh, uint32_t group_count)
+{
+    if (group_count == 0) return RAD_OK;
+    const unsigned char *names = tables + (l->group_offset - RAD_FF_HEADER_BYTES);
+    const unsigned char *ids = tables + (l->patch_group_offset - RAD_FF_HEADER_BYTES);
+    mesh->group_names = malloc((size_t)group_count * sizeof *mesh->group_names);
+    mesh->patch_group = malloc((mesh->patch_count ? mesh->patch_count : 1) * sizeof *mesh->patch_group);
+    if (!mesh->group_names || !mesh->patch_group) {
+        rad_error("%s: out of memory for %u groups", path, group_count);
+        return RAD_ERR_NOMEM;
+    }
+    for (uint32_t g = 0; g < group_count; g++) {
+        const unsigned char *name = names + (size_t)g * RAD_NAME_MAX;
+        size_t len = strnlen((const char *)name, RAD_NAME_MAX);
+        int padded = len < RAD_NAME_MAX;
+        for (size_t k = len; padded && k < RAD_NAME_MAX; k++) padded = name[k] == 0;
+        if (len == 0 || !padded) {
+            rad_error("%s: group %u: %s", path, g, len == 0 ? "empty name" : "name not NUL-terminated and zero-padded");
+            return RAD_ERR_FORMAT;
+        }
+        memcpy(mesh->group_names[g], name, RAD_NAME_MAX);
+    }
+    for (size_t i = 0; i < mesh->patch_count; i++) {
+        mesh->patch_group[i] = rad_get_u32(ids + 4 * i);
+        if (mesh->patch_group[i] >= group_count) {
+            rad_error("%s: patch %zu: group %u out of range (%u groups)", path, i, mesh->patch_group[i], group_count);
+            return RAD_ERR_FORMAT;
+        }
+    }
+    mesh->group_count = group_count;
+    return RAD_OK;
+}
+
 static int read_at(FILE *f, uint64_t offset, void *data, size_t size)
 {
     return fseeko(f, (off_t)offset, SEEK_SET) == 0 && fread(data, 1, size, f) == size;
@@ -282,9 +344,9 @@ static rad_status check_header(const char *path, const unsigned char *h, uint64_
         return RAD_ERR_FORMAT;
     }
     uint32_t version = rad_get_u32(h + H_VERSION);
-    if (version != RAD_FF_VERSION) {
-        rad_error("%s: format version %u, this program reads version %u%s", path, version, RAD_FF_VERSION,
-                  version > RAD_FF_VERSION ? " (written by a newer radiosity?)" : "");
+    if (version < RAD_FF_VERSION_OLDEST || version > RAD_FF_VERSION) {
+        rad_error("%s: format version %u, this program reads versions %u to %u%s", path, version,
+                  RAD_FF_VERSION_OLDEST, RAD_FF_VERSION, version > RAD_FF_VERSION ? " (written by a newer radiosity?)" : "");
         return RAD_ERR_FORMAT;
     }
     if (rad_get_u64(h + H_HEADER_CHECKSUM) != rad_hash64(RAD_HASH_SEED, h, H_HEADER_CHECKSUM)) {
@@ -302,6 +364,11 @@ static rad_status check_header(const char *path, const unsigned char *h, uint64_
                   (unsigned long long)info->vertex_count);
         return RAD_ERR_FORMAT;
     }
+    if (info->group_count > info->patch_count) {
+        rad_error("%s: implausible sizes (%u groups for %llu patches)", path, info->group_count,
+                  (unsigned long long)info->patch_count);
+        return RAD_ERR_FORMAT;
+    }
     uint64_t element_bytes = info->element_type == RAD_ELEMENT_F32 ? 4 : 8;
     if (info->patch_count * info->patch_count > RAD_FF_MAX_MATRIX_BYTES / element_bytes) {
         rad_error("%s: implausible sizes (N = %llu: the matrix alone would be %.3g bytes)", path,
@@ -311,6 +378,7 @@ static rad_status check_header(const char *path, const unsigned char *h, uint64_
     }
     *layout = rad_ff_layout_of(info);
     if (rad_get_u64(h + H_MATRIX_OFFSET) != layout->matrix_offset ||
+        (version >= 2 && rad_get_u64(h + H_GROUP_OFFSET) != layout->group_offset) ||
         rad_get_u64(h + H_FILE_BYTES) != layout->file_bytes ||
         rad_get_u64(h + H_ROW_CHECKSUM_OFFSET) != layout->row_checksum_offset) {
         rad_error("%s: section offsets disagree with N = %llu", path, (unsigned long long)info->patch_count);
@@ -382,6 +450,7 @@ rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
     ff->mesh.vertex_count = v;
     ff->mesh.patch_count = n;
     if ((status = validate_patches(path, &ff->mesh)) != RAD_OK) goto done;
+    if ((status = decode_groups(path, tables, l, &ff->mesh, ff->info.group_count)) != RAD_OK) goto done;
     *out_file = ff;
     ff = NULL;
     status = RAD_OK;

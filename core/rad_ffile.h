@@ -4,6 +4,8 @@
  *   header        256 bytes (rad_ff_header below)
  *   vertex table  vertex_count * 3 float64 (x, y, z)
  *   patch table   patch_count * 128-byte rad_patch records
+ *   group table   (version 2, when group_count > 0) group_count * 64-byte
+ *                 names, then patch_count * uint32: each patch's group
  *   matrix        patch_count^2 elements (float32 or float64), row-major,
  *                 F_ij at i * N + j
  *   row checksums patch_count * uint64: rad_hash64 of each matrix row's bytes
@@ -32,7 +34,10 @@
 #include "rad_status.h"
 
 #define RAD_FF_MAGIC "RADFF\r\n\x1a" /* 8 bytes; catches text-mode mangling */
-#define RAD_FF_VERSION 1u
+/* Version 2 added the group table; readers take 1 and 2 (a version-1 file
+ * reads as one without groups: rad_mesh.group_count 0). */
+#define RAD_FF_VERSION 2u
+#define RAD_FF_VERSION_OLDEST 1u
 #define RAD_FF_HEADER_BYTES 256u
 #define RAD_FF_ALIGN 64u
 
@@ -55,22 +60,27 @@ typedef struct rad_ff_info {
     int32_t subdiv;
     uint32_t flags;            /* RAD_FF_FLAG_* */
     char scene_name[96];       /* NUL-terminated, informational */
+    uint32_t group_count;      /* G, entries of the group table: the mesh's group_count
+                                  (0: no table; always 0 in version-1 files) */
 } rad_ff_info;
 
 #define RAD_FF_FLAG_PARTIAL_SUBDIV 1u /* only one group was subdivided */
 #define RAD_FF_FLAG_STANDARD_ERRORS 2u /* the matrix holds standard errors of F (--errors), not F */
 
-/* Byte offsets of each section, derived from N, V and the element type. */
+/* Byte offsets of each section, derived from N, V, G and the element type. */
 typedef struct rad_ff_layout {
     uint64_t vertex_offset, patch_offset, matrix_offset, row_checksum_offset, file_bytes;
+    uint64_t group_offset;       /* group names (G * 64 bytes); 0 when G = 0 */
+    uint64_t patch_group_offset; /* N * uint32 after them; 0 when G = 0 */
     uint64_t element_bytes; /* 4 or 8 */
     uint64_t row_bytes;     /* N * element_bytes */
 } rad_ff_layout;
 
 rad_ff_layout rad_ff_layout_of(const rad_ff_info *info);
 
-/* Header + vertex table + patch table as one buffer of
+/* Header + vertex table + patch table + group table as one buffer of
  * layout.matrix_offset bytes (padding zeroed), to be written at offset 0.
+ * info->group_count must equal mesh->group_count.
  * The header's row-checksum digest is left 0 until rad_ff_header_finish.
  * *out_bytes is freed with free(). */
 rad_status rad_ff_prologue_encode(const rad_ff_info *info, const rad_mesh *mesh, unsigned char **out_bytes,
@@ -95,13 +105,16 @@ typedef struct rad_ff_file rad_ff_file; /* opaque */
 
 /* Opens and validates: magic, version, sizes against the file size, header
  * and table checksums, the row-checksum table's digest, patch records
- * (finite, unit normals, rho in [0,1), E >= 0, vertex indices in range).
+ * (finite, unit normals, rho in [0,1), E >= 0, vertex indices in range),
+ * the group table (names NUL-terminated, not empty, zero-padded; every
+ * patch's group in range).
  * Errors name the file and what is wrong. */
 rad_status rad_ff_open(const char *path, rad_ff_file **out_file);
 void rad_ff_close(rad_ff_file *file); /* NULL is fine */
 
 const rad_ff_info *rad_ff_file_info(const rad_ff_file *file);
-/* The patch mesh stored in the file (owned by the file). */
+/* The patch mesh stored in the file (owned by the file), with its groups
+ * (group_count 0 for a file without a group table). */
 const rad_mesh *rad_ff_file_mesh(const rad_ff_file *file);
 
 /* Reads rows [row_begin, row_begin + row_count) into `out` (row_count * N

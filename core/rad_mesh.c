@@ -144,6 +144,29 @@ static void split(builder *B, const uint32_t *v, int n, int level)
     for (int i = 0; i < 4; i++) split(B, child[i], 4, level - 1);
 }
 
+/* The groups that own faces, in the scene's order, and each patch's index
+ * into them (group_of: scene->group_count entries of scratch). */
+static rad_status collect_groups(const rad_scene *scene, rad_mesh *mesh, uint32_t *group_of)
+{
+    size_t used = 0;
+    for (size_t g = 0; g < scene->group_count; g++) group_of[g] = RAD_NO_VERTEX;
+    for (size_t f = 0; f < scene->face_count; f++) group_of[scene->faces[f].group] = 0;
+    for (size_t g = 0; g < scene->group_count; g++)
+        if (group_of[g] != RAD_NO_VERTEX) group_of[g] = (uint32_t)used++;
+    mesh->group_names = calloc(used ? used : 1, sizeof *mesh->group_names);
+    if (!mesh->group_names) {
+        rad_error("mesh: out of memory for %zu group names", used);
+        return RAD_ERR_NOMEM;
+    }
+    for (size_t g = 0; g < scene->group_count; g++)
+        for (size_t k = 0; group_of[g] != RAD_NO_VERTEX && k < RAD_NAME_MAX - 1 && scene->groups[g][k]; k++)
+            mesh->group_names[group_of[g]][k] = scene->groups[g][k];
+    mesh->group_count = used;
+    for (size_t i = 0; i < mesh->patch_count; i++)
+        mesh->patch_group[i] = group_of[scene->faces[mesh->patches[i].source_face].group];
+    return RAD_OK;
+}
+
 /* Upper bound on the vertices of one face after `subdiv` levels (its own,
  * unshared). Only called once the patch count has shown subdiv <= 15. */
 static uint64_t face_vertex_bound(uint32_t corners, int subdiv)
@@ -158,6 +181,7 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
     rad_mesh mesh;
     builder B;
     uint32_t *vertex_of = NULL; /* scene vertex -> mesh vertex */
+    uint32_t *group_of = NULL;  /* scene group -> mesh group (RAD_NO_VERTEX: owns no face) */
     memset(&mesh, 0, sizeof mesh);
     memset(&B, 0, sizeof B);
     int subdiv = options ? options->subdiv : 0;
@@ -196,10 +220,13 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
 
     mesh.patches = malloc((size_t)patches * sizeof *mesh.patches);
     mesh.positions = malloc((size_t)vertices * 3 * sizeof *mesh.positions);
+    mesh.patch_group = malloc(((size_t)patches ? (size_t)patches : 1) * sizeof *mesh.patch_group);
+    group_of = malloc((scene->group_count ? scene->group_count : 1) * sizeof *group_of);
     vertex_of = malloc((scene->vertex_count ? scene->vertex_count : 1) * sizeof *vertex_of);
     B.edge_keys = malloc(table * sizeof *B.edge_keys);
     B.edge_midpoint = malloc(table * sizeof *B.edge_midpoint);
-    if (!mesh.patches || !mesh.positions || !vertex_of || !B.edge_keys || !B.edge_midpoint) {
+    if (!mesh.patches || !mesh.positions || !mesh.patch_group || !group_of || !vertex_of || !B.edge_keys ||
+        !B.edge_midpoint) {
         rad_error("mesh: out of memory (%llu patches need about %.1f MiB)", (unsigned long long)patches,
                   need / (1024.0 * 1024));
         goto done;
@@ -228,6 +255,7 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
         split(&B, corner, (int)face->vertex_count, is_subdivided(scene, face, only_group) ? subdiv : 0);
     }
     assert(mesh.patch_count == patches && mesh.vertex_count <= vertices);
+    if ((status = collect_groups(scene, &mesh, group_of)) != RAD_OK) goto done;
     double *shrunk = realloc(mesh.positions, (mesh.vertex_count ? mesh.vertex_count : 1) * 3 * sizeof *shrunk);
     if (shrunk) mesh.positions = shrunk;
     *out_mesh = mesh;
@@ -235,6 +263,7 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
     status = RAD_OK;
 done:
     rad_mesh_free(&mesh);
+    free(group_of);
     free(vertex_of);
     free(B.edge_keys);
     free(B.edge_midpoint);
@@ -246,6 +275,8 @@ void rad_mesh_free(rad_mesh *mesh)
     if (!mesh) return;
     free(mesh->patches);
     free(mesh->positions);
+    free(mesh->group_names);
+    free(mesh->patch_group);
     memset(mesh, 0, sizeof *mesh);
 }
 

@@ -17,6 +17,12 @@
  * source_face ascending); vertices are the scene's used vertices in order of
  * first use, then the new ones. Unused scene vertices are left out.
  *
+ * Groups: every patch belongs to its face's OBJ group (the last `g` or `o`
+ * name before it). The mesh keeps the groups that own at least one face,
+ * in the scene's order, and each patch's index into them: the surfaces that
+ * results are reported by (solve --by-group, tools/ffdump.py). The
+ * form-factor file stores them (docs/formats.md, "Group table").
+ *
  * rad_patch is laid out exactly as a patch record of the form-factor and
  * radiosity files (128 bytes, see docs/formats.md).
  */
@@ -48,6 +54,13 @@ typedef struct rad_mesh {
     size_t vertex_count;
     rad_patch *patches;
     size_t patch_count;
+    /* The groups (surfaces) of the patches. group_count is 0, and both
+     * arrays NULL, where they are unknown: meshes read from a radiosity
+     * file or from a form-factor file of version 1, and meshes put
+     * together by hand. */
+    char (*group_names)[RAD_NAME_MAX]; /* group_count names, NUL-terminated, zero-padded */
+    size_t group_count;
+    uint32_t *patch_group;             /* patch_count entries: index into group_names */
 } rad_mesh;
 
 typedef struct rad_mesh_options {

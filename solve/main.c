@@ -7,6 +7,7 @@
 
 #include "rad_log.h"
 #include "rad_fs.h"
+#include "groups.h"
 #include "rad_parse.h"
 #include "stage.h"
 
@@ -31,6 +32,11 @@ static const char usage_text[] =
     "                      (without it: above 1.001)\n"
     "  --stats FILE.json   write iterations, residuals, energy balance and timings\n"
     "                      as JSON\n"
+    "  --by-group FILE     results per OBJ group (surface): patches, area,\n"
+    "                      area-weighted mean radiosity, emitted and absorbed\n"
+    "                      power per channel; FILE.csv or FILE.npy (NumPy);\n"
+    "                      needs a form-factor file with a group table\n"
+    "                      (docs/solve.md, \"Results by surface\")\n"
     "  -q, --quiet         only warnings and errors on stderr\n"
     "  -h, --help          this text\n"
     "      --version       print the version\n"
@@ -106,6 +112,10 @@ static rad_status parse_args(int argc, char **argv, cli *out)
             if (status == RAD_OK) c.options.stats = value;
         } else if (take_value(argc, argv, &i, "--errors", &value, &status)) {
             if (status == RAD_OK) c.options.errors = value;
+        } else if (take_value(argc, argv, &i, "--by-group", &value, &status)) {
+            solve_groups_format format;
+            if (status == RAD_OK) status = solve_groups_format_of("--by-group", value, &format);
+            if (status == RAD_OK) c.options.by_group = value;
         } else if (arg[0] == '-' && arg[1] != 0) {
             rad_error("unknown option '%s' (see solve --help)", arg);
             status = RAD_ERR_USAGE;
@@ -142,9 +152,11 @@ int main(int argc, char **argv)
     rad_fs_role roles[] = {{"the form-factor file", c.options.input ? c.options.input : SOLVE_DEFAULT_INPUT, 0},
                            {"--errors", c.options.errors, 0},
                            {"-o", output, 1},
-                           {"--stats", c.options.stats, 1}};
+                           {"--stats", c.options.stats, 1},
+                           {"--by-group", c.options.by_group, 1}};
     status = rad_fs_check_output("-o", output);
     if (status == RAD_OK) status = rad_fs_check_output("--stats", c.options.stats);
+    if (status == RAD_OK) status = rad_fs_check_output("--by-group", c.options.by_group);
     if (status == RAD_OK) status = rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]);
     if (status != RAD_OK) return rad_status_exit_code(status);
     if (c.quiet) rad_log_set_level(RAD_LOG_WARN);

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "groups.h"
 #include "matrix.h"
 #include "rad_ffile.h"
 #include "rad_log.h"
@@ -101,6 +102,13 @@ rad_status solve_stage_run(const solve_options *options)
         status = RAD_ERR_INVALID;
         goto done;
     }
+    if (options->by_group && rad_ff_file_mesh(s.file)->group_count == 0) {
+        rad_error("%s: has no group table (the OBJ groups of its patches, which formfactor records since "
+                  "form-factor file version 2): --by-group needs one; run formfactor again",
+                  input);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
     status = solve_matrix_load(s.file, input, &s.matrix);
     if (status != RAD_OK) goto done;
     if (options->errors) {
@@ -185,12 +193,18 @@ rad_status solve_stage_run(const solve_options *options)
         status = solve_stats_write(options->stats, &st);
         if (status != RAD_OK) goto done;
     }
+    if (options->by_group) {
+        solve_system sys = solve_matrix_system(&s.matrix);
+        status = solve_groups_write(options->by_group, &sys, mesh, s.radiosity);
+        if (status != RAD_OK) goto done;
+    }
     if (solved != RAD_OK) {
         rad_error("%s: not converged; wrote %s marked unconverged (raise --max-iter or try --method cg)", input,
                   output);
         status = solved;
     } else {
-        rad_info("%s: wrote %s", input, output);
+        rad_info("%s: wrote %s%s%s", input, output, options->by_group ? " and " : "",
+                 options->by_group ? options->by_group : "");
     }
 done:
     stage_state_free(&s);

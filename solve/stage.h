@@ -6,6 +6,10 @@
  * summing above 1 beyond their accuracy get a warning, rows with
  * rho * row sum >= 1 in any channel are refused (nothing is written).
  *
+ * With by_group, a form-factor file without a group table (version 1) is
+ * refused before solving; the per-group file is written after the
+ * radiosity file and the stats.
+ *
  * Grey scenes (rho and E equal in all three channels on every patch) are
  * solved once and stored in all three channels. A channel that does not
  * converge does not stop the others; the radiosity file is still written,
@@ -26,6 +30,8 @@ typedef struct solve_options {
     const char *stats;   /* JSON statistics file; NULL = none */
     const char *errors;  /* standard errors of the form factors (formfactor --errors); NULL = none:
                             row sums are then judged by a fixed threshold (matrix.h) */
+    const char *by_group; /* results per OBJ group, .csv or .npy (groups.h); NULL = none. The
+                             form-factor file must have a group table (version 2) */
     solve_params params; /* zero = defaults (solver.h) */
 } solve_options;
 

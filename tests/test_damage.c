@@ -6,7 +6,8 @@
  * offset: header, tables, padding, radiosity). Every byte of the file is
  * covered by one of its two checksums, so nothing may be accepted.
  *
- * Both formats: a file from the future (version 2, checksums valid) is
+ * Both formats: a file from the future (radiosity version 2, form-factor
+ * version 3; checksums valid) is
  * refused as such; sizes whose layout would overflow 64 bits or need
  * absurd memory are refused before any allocation, even with valid
  * checksums; a centroid outside its patch (which render's reader
@@ -42,7 +43,7 @@ static void small_mesh(rad_patch patches[3], rad_mesh *mesh)
         p->rho[0] = 0.5, p->rho[1] = 0.25, p->rho[2] = 0.125;
         p->emission[0] = i == 0 ? 1.0 : 0.0;
     }
-    *mesh = (rad_mesh){positions, 5, patches, 3};
+    *mesh = (rad_mesh){.positions = positions, .vertex_count = 5, .patches = patches, .patch_count = 3};
 }
 
 static unsigned char *read_whole(const char *path, size_t *size)
@@ -199,13 +200,13 @@ static void test_form_factor_header_limits(void)
     unsigned char h[RAD_FF_HEADER_BYTES];
     capture_quietly();
 
-    /* Version 2 with a valid header checksum. */
+    /* The next version with a valid header checksum. */
     memcpy(h, bytes, sizeof h);
-    rad_put_u32(h + 8, 2);
+    rad_put_u32(h + 8, RAD_FF_VERSION + 1);
     ff_reseal(h);
     memcpy(bytes, h, sizeof h);
     write_whole(damaged, bytes, size);
-    RAD_CHECK(ff_open_status(damaged) == RAD_ERR_FORMAT && rad_test_log_contains("format version 2"));
+    RAD_CHECK(ff_open_status(damaged) == RAD_ERR_FORMAT && rad_test_log_contains("format version 3"));
 
     /* N = 2^31 (the format's limit) with float64: N^2 * 8 = 2^65 bytes
      * wraps around 64 bits, and the wrapped layout asks for a file of

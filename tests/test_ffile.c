@@ -1,14 +1,20 @@
 /* test_ffile.c - the form-factor file: round trip, and damage refused.
  *
- * A small file (N = 3) is written with rad_ff_write_serial and read back
- * exactly (f64) or to float precision (f32). Then every truncation length
- * and every single-byte flip of the file must be refused by rad_ff_open or
- * rad_ff_read_rows with a message - never accepted with different numbers.
+ * A small file (N = 3, two groups) is written with rad_ff_write_serial and
+ * read back exactly (f64) or to float precision (f32). Then every
+ * truncation length and every single-byte flip of the file must be refused
+ * by rad_ff_open or rad_ff_read_rows with a message - never accepted with
+ * different numbers. Groups: a mesh without them writes a file without a
+ * group table; the same file as version 1 (what formfactor wrote before the
+ * table existed) still reads; a group table with valid checksums but a
+ * patch's group out of range, or a name without its NUL, is refused.
  */
 #include <stdlib.h>
 #include <string.h>
 
+#include "rad_bytes.h"
 #include "rad_ffile.h"
+#include "rad_hash.h"
 #include "rad_test.h"
 
 static double positions[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1};
@@ -27,8 +33,27 @@ static rad_mesh small_mesh(rad_patch patches[3])
         p->rho[0] = p->rho[1] = p->rho[2] = 0.5;
         p->emission[0] = i == 0 ? 1.0 : 0.0;
     }
-    rad_mesh mesh = {positions, 5, patches, 3};
+    rad_mesh mesh = {.positions = positions, .vertex_count = 5, .patches = patches, .patch_count = 3};
     return mesh;
+}
+
+/* Patches 0 and 2 in "walls", patch 1 in "light,1" (a comma: any OBJ name). */
+static char group_names[2][RAD_NAME_MAX] = {"walls", "light,1"};
+static uint32_t patch_group[3] = {0, 1, 0};
+static void add_groups(rad_mesh *mesh, rad_ff_info *info)
+{
+    mesh->group_names = group_names;
+    mesh->group_count = 2;
+    mesh->patch_group = patch_group;
+    info->group_count = 2;
+}
+
+/* Recomputes the tables checksum and the header checksum after an edit. */
+static void reseal(unsigned char *bytes)
+{
+    uint64_t matrix_offset = rad_get_u64(bytes + 88);
+    rad_put_u64(bytes + 112, rad_hash64(RAD_HASH_SEED, bytes + RAD_FF_HEADER_BYTES, matrix_offset - RAD_FF_HEADER_BYTES));
+    rad_put_u64(bytes + 248, rad_hash64(RAD_HASH_SEED, bytes, 248));
 }
 
 static rad_ff_info small_info(rad_element_type element)
@@ -82,8 +107,9 @@ int main(void)
     rad_mesh mesh = small_mesh(patches);
     const char *path = "test_ffile.out", *damaged = "test_ffile.damaged";
 
-    /* Round trip, float64: every number and the patch table exactly. */
+    /* Round trip, float64: every number, the patch and group tables exactly. */
     rad_ff_info info = small_info(RAD_ELEMENT_F64);
+    add_groups(&mesh, &info);
     RAD_CHECK(rad_ff_write_serial(path, &info, &mesh, matrix) == RAD_OK);
     rad_ff_file *ff = NULL;
     RAD_CHECK(rad_ff_open(path, &ff) == RAD_OK);
@@ -94,6 +120,9 @@ int main(void)
         const rad_mesh *m = rad_ff_file_mesh(ff);
         RAD_CHECK(m->patch_count == 3 && memcmp(m->patches, patches, sizeof patches) == 0);
         RAD_CHECK(m->vertex_count == 5 && memcmp(m->positions, positions, sizeof positions) == 0);
+        RAD_CHECK(got->group_count == 2 && m->group_count == 2);
+        RAD_CHECK(m->group_names && strcmp(m->group_names[0], "walls") == 0 && strcmp(m->group_names[1], "light,1") == 0);
+        RAD_CHECK(m->patch_group && memcmp(m->patch_group, patch_group, sizeof patch_group) == 0);
         double rows[6];
         RAD_CHECK(rad_ff_read_rows(ff, 1, 2, rows) == RAD_OK);
         RAD_CHECK(memcmp(rows, matrix + 3, sizeof rows) == 0);
@@ -103,6 +132,7 @@ int main(void)
 
     /* float32: values rounded to float, nothing else changes. */
     rad_ff_info info32 = small_info(RAD_ELEMENT_F32);
+    info32.group_count = 2;
     RAD_CHECK(rad_ff_write_serial("test_ffile.f32", &info32, &mesh, matrix) == RAD_OK);
     double as_float[9];
     for (int k = 0; k < 9; k++) as_float[k] = (float)matrix[k];
@@ -136,7 +166,10 @@ int main(void)
             if (rad_ff_read_rows(d, 0, 3, rows) != RAD_OK)
                 refused++;
             else if (memcmp(rows, matrix, sizeof rows) != 0 ||
-                     memcmp(rad_ff_file_mesh(d)->patches, patches, sizeof patches) != 0)
+                     memcmp(rad_ff_file_mesh(d)->patches, patches, sizeof patches) != 0 ||
+                     rad_ff_file_mesh(d)->group_count != 2 ||
+                     memcmp(rad_ff_file_mesh(d)->patch_group, patch_group, sizeof patch_group) != 0 ||
+                     memcmp(rad_ff_file_mesh(d)->group_names, group_names, sizeof group_names) != 0)
                 silently_wrong++;
             rad_ff_close(d);
         }
@@ -145,6 +178,60 @@ int main(void)
     RAD_CHECK(silently_wrong == 0);
     RAD_CHECK(refused > (int)size * 9 / 10);
     fprintf(stderr, "byte flips: %d of %zu refused, %d silently wrong\n", refused, size, silently_wrong);
+
+    /* A group table that its checksums cannot catch: written so (the
+     * checksums resealed), a patch's group out of range and a name that
+     * fills its 64 bytes are refused and named. */
+    const rad_ff_layout lay = rad_ff_layout_of(&info);
+    RAD_CHECK(lay.group_offset > 0 && lay.patch_group_offset == lay.group_offset + 2 * RAD_NAME_MAX);
+    if (bytes) {
+        rad_test_capture_log();
+        rad_put_u32(bytes + lay.patch_group_offset + 4, 2);
+        reseal(bytes);
+        write_whole(damaged, bytes, size);
+        RAD_CHECK(rad_ff_open(damaged, &ff) == RAD_ERR_FORMAT && ff == NULL);
+        RAD_CHECK(rad_test_log_contains("patch 1: group 2 out of range (2 groups)"));
+        rad_put_u32(bytes + lay.patch_group_offset + 4, 1);
+        memset(bytes + lay.group_offset + RAD_NAME_MAX, 'x', RAD_NAME_MAX);
+        reseal(bytes);
+        write_whole(damaged, bytes, size);
+        RAD_CHECK(rad_ff_open(damaged, &ff) == RAD_ERR_FORMAT && ff == NULL);
+        RAD_CHECK(rad_test_log_contains("group 1: name not NUL-terminated"));
+    }
+
+    /* Without groups: no group table (the layout of version 1), and the
+     * same bytes marked version 1 - a file from before the table - read
+     * back the same numbers, with no groups. */
+    rad_mesh plain = small_mesh(patches);
+    rad_ff_info plain_info = small_info(RAD_ELEMENT_F64);
+    RAD_CHECK(rad_ff_write_serial("test_ffile.plain", &plain_info, &plain, matrix) == RAD_OK);
+    RAD_CHECK(rad_ff_layout_of(&plain_info).matrix_offset == 256 + 128 + 3 * 128);
+    size_t plain_size = 0;
+    unsigned char *old = read_whole("test_ffile.plain", &plain_size);
+    RAD_CHECK(old != NULL && plain_size < size);
+    if (old) {
+        RAD_CHECK(rad_get_u32(old + 8) == RAD_FF_VERSION && rad_get_u64(old + 224) == 0 && rad_get_u32(old + 232) == 0);
+        rad_put_u32(old + 8, 1);
+        reseal(old);
+        write_whole("test_ffile.v1", old, plain_size);
+        RAD_CHECK(reads_back("test_ffile.v1", matrix));
+        RAD_CHECK(rad_ff_open("test_ffile.v1", &ff) == RAD_OK);
+        if (ff) {
+            RAD_CHECK(rad_ff_file_info(ff)->group_count == 0 && rad_ff_file_mesh(ff)->group_count == 0);
+            RAD_CHECK(rad_ff_file_mesh(ff)->patch_group == NULL && rad_ff_file_mesh(ff)->group_names == NULL);
+            rad_ff_close(ff);
+        }
+        /* A version-1 file whose reserved bytes say "groups" has none. */
+        rad_put_u32(old + 232, 2);
+        reseal(old);
+        write_whole("test_ffile.v1", old, plain_size);
+        RAD_CHECK(reads_back("test_ffile.v1", matrix));
+        free(old);
+    }
+    /* The info must match the mesh's groups. */
+    rad_test_capture_log();
+    RAD_CHECK(rad_ff_write_serial("test_ffile.plain", &info, &plain, matrix) == RAD_ERR_INVALID);
+    RAD_CHECK(rad_test_log_contains("does not match the mesh"));
 
     /* A foreign file and a paper-format file are named as such. */
     rad_test_capture_log();
@@ -162,5 +249,7 @@ int main(void)
     remove(path);
     remove(damaged);
     remove("test_ffile.f32");
+    remove("test_ffile.plain");
+    remove("test_ffile.v1");
     return rad_test_finish();
 }

@@ -167,10 +167,25 @@ static void check_mesh(const rad_scene *s, const rad_mesh *m)
             weighted = rad_v3_add(weighted, rad_v3_scale(patch->centroid, patch->area));
         }
         RAD_CHECK(p > first); /* faces come in order, each with its patches */
+        for (size_t k = first; k < p && m->group_count; k++) /* each patch in its face's group */
+            RAD_CHECK(m->patch_group[k] < m->group_count &&
+                      strcmp(m->group_names[m->patch_group[k]], s->groups[face->group]) == 0);
         RAD_CHECK_REL(sum, fa, 1e-12);
         RAD_CHECK_NEAR(rad_v3_length(rad_v3_sub(rad_v3_scale(weighted, 1.0 / sum), fc)), 0.0, 1e-12 * size + 1e-12);
     }
     RAD_CHECK(p == m->patch_count);
+    /* Groups: those that own a face, each once, in the scene's order. */
+    size_t used = 0, last = 0;
+    for (size_t g = 0; g < s->group_count; g++) {
+        int owns = 0;
+        for (size_t f = 0; f < s->face_count && !owns; f++) owns = s->faces[f].group == g;
+        if (!owns) continue;
+        RAD_CHECK(used < m->group_count && strcmp(m->group_names[used], s->groups[g]) == 0);
+        RAD_CHECK(used == 0 || g > last);
+        last = g;
+        used++;
+    }
+    RAD_CHECK(m->group_count == used && used > 0 && m->patch_group != NULL);
 }
 
 static void test_scenes(void)
@@ -198,6 +213,14 @@ static void test_scenes(void)
      * claims all 46 faces (2944). */
     build(&sphere, 3, "box", 424, 0, &m);
     check_mesh(&sphere, &m);
+    RAD_CHECK(m.group_count == 2 && strcmp(m.group_names[0], "box") == 0 && strcmp(m.group_names[1], "sphere") == 0);
+    rad_mesh_free(&m);
+    /* The Cornell box's eight objects; "default" (no face) is left out. */
+    build(&box, 0, NULL, 20, 0, &m);
+    static const char *const objects[] = {"floor", "ceiling", "light", "back_wall", "green_wall", "red_wall",
+                                          "short_block", "tall_block"};
+    RAD_CHECK(m.group_count == 8);
+    for (size_t g = 0; g < 8 && g < m.group_count; g++) RAD_CHECK(strcmp(m.group_names[g], objects[g]) == 0);
     rad_mesh_free(&m);
     build(&sphere, 3, NULL, 2944, 0, &m);
     rad_mesh_free(&m);

@@ -1,23 +1,44 @@
 #!/usr/bin/env python3
-"""Read a scanline OpenEXR file into a numpy array, with numpy and zlib only.
+"""Read an OpenEXR file into a numpy array.
 
     python3 tools/exrread.py image.exr          # prints size, channels, min/mean/max
     from exrread import read_exr                # -> float32 array (height, width, channels)
 
-Enough for what `render` writes (RGB half float, ZIP compression) and for
-the other simple cases: scanline images (not tiled, not deep, one part),
-HALF / FLOAT / UINT channels without subsampling, compression NONE, RLE,
-ZIPS or ZIP. Anything else raises ValueError; tools/accuracy_study.py then
-falls back to `oiiotool --dumpdata`. Channels come back as R, G, B (then
-A, then any others) - the file keeps them sorted by name, B, G, R, as
-OpenImageIO's reader also reorders them; read_exr(..., names=True) also
-returns the names.
+Two readers behind one function:
+
+  - OpenImageIO's own Python bindings (Debian: python3-openimageio, which
+    scripts/install-deps.sh installs), used whenever `import OpenImageIO`
+    works: every flat EXR that OpenImageIO reads (tiled or scanline, any
+    compression: PIZ, PXR24, B44, DWA too; the first part of a multi-part
+    file), through the library `render` writes with;
+  - a fallback parser with numpy and zlib only, for a Python without the
+    bindings (a virtual environment, another distribution). It is enough
+    for what `render` writes (RGB half float, ZIP compression) and the
+    other simple cases: scanline images (not tiled, not deep, one part),
+    HALF / FLOAT / UINT channels without subsampling, compression NONE,
+    RLE, ZIPS or ZIP; anything else raises ValueError (install the
+    bindings, or tools/accuracy_study.py falls back to `oiiotool
+    --dumpdata`).
+
+read_exr(path, backend="auto" | "oiio" | "numpy") picks one ("auto": the
+bindings when importable); BACKEND says which "auto" takes. Both give the
+same float32 values (tests/exrread_backends.py checks they agree to the
+bit). Channels come back as R, G, B (then A, then any others) - the file
+keeps them sorted by name, B, G, R, and OpenImageIO's reader reorders them
+likewise; read_exr(..., names=True) also returns the names.
 """
 import struct
 import sys
 import zlib
 
 import numpy as np
+
+try:
+    import OpenImageIO as _oiio
+except ImportError:     # the fallback parser below
+    _oiio = None
+
+BACKEND = "oiio" if _oiio is not None else "numpy"
 
 _PIXEL = {0: np.dtype("<u4"), 1: np.dtype("<f2"), 2: np.dtype("<f4")}
 _LINES_PER_CHUNK = {0: 1, 1: 1, 2: 1, 3: 16}   # NONE, RLE, ZIPS, ZIP
@@ -82,7 +103,49 @@ def _rle_decode(data, expected):
     return bytes(out)
 
 
-def read_exr(path, names=False):
+def read_exr(path, names=False, backend="auto"):
+    """The image as float32 (height, width, channels), channels R, G, B first."""
+    if backend == "auto":
+        backend = BACKEND
+    if backend == "oiio":
+        if _oiio is None:
+            raise ImportError("OpenImageIO's Python bindings are not installed (Debian: python3-openimageio)")
+        image, channels = _read_oiio(path)
+    elif backend == "numpy":
+        image, channels = _read_numpy(path)
+    else:
+        raise ValueError(f"unknown backend {backend!r} (auto, oiio or numpy)")
+    # EXR stores channels sorted by name (B, G, R); give them back as R, G, B
+    # (then A), the order every image tool uses, and the others after.
+    order = sorted(range(len(channels)), key=lambda c: (_RGBA.index(channels[c])
+                                                        if channels[c] in _RGBA else len(_RGBA), c))
+    image = image[:, :, order]
+    if names:
+        return image, [channels[c] for c in order]
+    return image
+
+
+def _read_oiio(path):
+    with open(path, "rb"):   # a missing file raises OSError, as with the parser
+        pass
+    inp = _oiio.ImageInput.open(path)
+    if inp is None:
+        raise ValueError(f"{path}: OpenImageIO cannot read it: {_oiio.geterror()}")
+    try:
+        spec = inp.spec()
+        if spec.deep or spec.depth > 1:
+            raise ValueError(f"{path}: deep or volume image: not supported here")
+        pixels = inp.read_image(0, 0, 0, spec.nchannels, _oiio.FLOAT)
+        if pixels is None:
+            raise ValueError(f"{path}: OpenImageIO: {inp.geterror()}")
+        channels = list(spec.channelnames)
+    finally:
+        inp.close()
+    image = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    return image, channels
+
+
+def _read_numpy(path):
     with open(path, "rb") as f:
         buf = f.read()
     attrs, pos = _header(buf)
@@ -114,14 +177,7 @@ def read_exr(path, names=False):
                 n = width * dt.itemsize
                 image[y - y0 + line, :, c] = np.frombuffer(data[p:p + n], dtype=dt)
                 p += n
-    # EXR stores channels sorted by name (B, G, R); give them back as R, G, B
-    # (then A), the order every image tool uses, and the others after.
-    order = sorted(range(len(channels)), key=lambda c: (_RGBA.index(channels[c][0])
-                                                        if channels[c][0] in _RGBA else len(_RGBA), c))
-    image = image[:, :, order]
-    if names:
-        return image, [channels[c][0] for c in order]
-    return image
+    return image, [name for name, _ in channels]
 
 
 _RGBA = ("R", "G", "B", "A")
@@ -129,7 +185,7 @@ _RGBA = ("R", "G", "B", "A")
 
 if __name__ == "__main__":
     img, chans = read_exr(sys.argv[1], names=True)
-    print(f"{img.shape[1]} x {img.shape[0]}, channels {','.join(chans)}")
+    print(f"{img.shape[1]} x {img.shape[0]}, channels {','.join(chans)} (read with {BACKEND})")
     for c, name in enumerate(chans):
         v = img[:, :, c]
         print(f"  {name}: min {v.min():.6g} mean {v.mean():.6g} max {v.max():.6g}")

@@ -3,6 +3,10 @@
 
     python3 tools/ffread.py formfactors     # prints a summary
     from ffread import read_formfactors     # -> (info, vertices, patches, F)
+    from ffread import read_groups          # -> (names, group of each patch) or (None, None)
+
+Versions 1 and 2 of the format; version 2 added the group table (the OBJ
+groups of the patches), which version-1 files lack.
 """
 import sys
 import numpy as np
@@ -16,13 +20,46 @@ HEADER = np.dtype([("magic", "S8"), ("version", "<u4"), ("header_bytes", "<u4"),
                    ("seed", "<u8"), ("scene_fingerprint", "<u8"), ("subdiv", "<i4"), ("flags", "<u4"),
                    ("vertex_offset", "<u8"), ("patch_offset", "<u8"), ("matrix_offset", "<u8"),
                    ("row_checksum_offset", "<u8"), ("file_bytes", "<u8"), ("tables_checksum", "<u8"),
-                   ("row_checksums_digest", "<u8"), ("scene_name", "S96"), ("reserved", "S24"),
+                   ("row_checksums_digest", "<u8"), ("scene_name", "S96"),
+                   ("group_offset", "<u8"), ("group_count", "<u4"), ("reserved", "S12"),
                    ("header_checksum", "<u8")])
 
 
+NAME_BYTES = 64      # one group name, NUL-padded
+VERSIONS = (1, 2)    # what these readers understand
+
+
+def read_header(path):
+    h = np.fromfile(path, dtype=HEADER, count=1)
+    if len(h) != 1 or h[0]["magic"] != b"RADFF\r\n\x1a":
+        raise ValueError(f"{path}: not a form-factor file")
+    h = h[0]
+    if int(h["version"]) not in VERSIONS:
+        raise ValueError(f"{path}: format version {int(h['version'])}, this reader knows {VERSIONS}")
+    return h
+
+
+def group_count(h):
+    """Entries of the group table: 0 for version 1 (no table) and for files without groups."""
+    return int(h["group_count"]) if int(h["version"]) >= 2 else 0
+
+
+def read_groups(path, h=None):
+    """The group table: (list of G names, uint32 array of each patch's group), or (None, None)."""
+    h = read_header(path) if h is None else h
+    g, n = group_count(h), int(h["patch_count"])
+    if g == 0:
+        return None, None
+    raw = np.fromfile(path, dtype=f"S{NAME_BYTES}", count=g, offset=int(h["group_offset"]))
+    names = [bytes(x).decode("utf-8", errors="replace") for x in raw]
+    patch_group = np.fromfile(path, dtype="<u4", count=n, offset=int(h["group_offset"]) + NAME_BYTES * g)
+    if len(names) != g or len(patch_group) != n or (n and patch_group.max() >= g):
+        raise ValueError(f"{path}: damaged group table")
+    return names, patch_group
+
+
 def read_formfactors(path):
-    h = np.fromfile(path, dtype=HEADER, count=1)[0]
-    assert h["magic"] == b"RADFF\r\n\x1a", "not a form-factor file"
+    h = read_header(path)
     n, v = int(h["patch_count"]), int(h["vertex_count"])
     vertices = np.fromfile(path, dtype="<f8", count=3 * v, offset=int(h["vertex_offset"])).reshape(v, 3)
     patches = np.fromfile(path, dtype=PATCH, count=n, offset=int(h["patch_offset"]))
@@ -40,3 +77,5 @@ if __name__ == "__main__":
     print(f"N = {len(A)}, samples {h['samples']}, shadow rays {h['shadow_rays']}")
     print(f"row sums: min {rows.min():.6f} max {rows.max():.6f} mean {rows.mean():.6f}")
     print(f"reciprocity max |A_i F_ij - A_j F_ji| / max(A_i F_ij) = {recip:.3e}")
+    names, _ = read_groups(sys.argv[1], h)
+    print(f"groups: {', '.join(names)}" if names else "groups: none recorded (a version-1 file has no group table)")

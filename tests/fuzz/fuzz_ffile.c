@@ -45,6 +45,11 @@ static void read_back(const char *path)
         FUZZ_REQUIRE(p->area > 0 && isfinite(p->area));
     }
     for (size_t i = 0; i < 3 * mesh->vertex_count; i++) FUZZ_REQUIRE(isfinite(mesh->positions[i]));
+    FUZZ_REQUIRE(mesh->group_count == info->group_count);
+    for (size_t g = 0; g < mesh->group_count; g++)
+        FUZZ_REQUIRE(mesh->group_names[g][0] != 0 && memchr(mesh->group_names[g], 0, RAD_NAME_MAX) != NULL);
+    for (size_t i = 0; i < mesh->patch_count && mesh->group_count; i++)
+        FUZZ_REQUIRE(mesh->patch_group[i] < mesh->group_count);
     /* What solve would write from this mesh, render's reader must accept:
      * the patch checks of the two readers must agree. */
     rad_radiosity solved = {.mesh = *mesh, .channel_count = 3, .method = RAD_SOLVE_JACOBI, .tolerance = 1e-10};
@@ -75,8 +80,10 @@ static int repair(uint8_t *b, size_t size)
 {
     if (size < RAD_FF_HEADER_BYTES) return 0;
     rad_ff_info info = {.patch_count = rad_get_u64(b + 16), .vertex_count = rad_get_u64(b + 24),
-                        .element_type = rad_get_u32(b + 32)};
-    if (info.patch_count == 0 || info.patch_count > size || info.vertex_count > size) return 0;
+                        .element_type = rad_get_u32(b + 32),
+                        .group_count = rad_get_u32(b + 8) >= 2 ? rad_get_u32(b + 232) : 0};
+    if (info.patch_count == 0 || info.patch_count > size || info.vertex_count > size || info.group_count > size)
+        return 0;
     rad_ff_layout l = rad_ff_layout_of(&info);
     if (l.file_bytes > size) return 0;
     uint64_t n = info.patch_count;

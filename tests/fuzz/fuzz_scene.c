@@ -76,7 +76,7 @@ static void check_round_trip(const rad_mesh *mesh)
     double *zeros = calloc(n * n > 3 * n ? n * n : 3 * n, sizeof *zeros);
     if (!zeros) return;
     rad_ff_info info = {.patch_count = n, .vertex_count = mesh->vertex_count, .element_type = RAD_ELEMENT_F32,
-                        .estimator = RAD_ESTIMATOR_MC, .samples = 1};
+                        .estimator = RAD_ESTIMATOR_MC, .samples = 1, .group_count = (uint32_t)mesh->group_count};
     const char *ff_path = fuzz_scratch_path("scene.ff");
     FUZZ_REQUIRE(rad_ff_write_serial(ff_path, &info, mesh, zeros) == RAD_OK);
     rad_ff_file *ff = NULL;
