@@ -1,5 +1,6 @@
 /* main.c - the `solve` command line; the work is in stage.c. */
 #include <errno.h>
+#include <getopt.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -65,65 +66,57 @@ static rad_status parse_count(const char *text, uint32_t *out)
     return status;
 }
 
-/* Option `name` matched argv[*i], in the form "--name VALUE" or
- * "--name=VALUE"; *value gets VALUE. 0 if argv[*i] is another option. */
-static int take_value(int argc, char **argv, int *i, const char *name, const char **value, rad_status *status)
-{
-    size_t len = strlen(name);
-    const char *arg = argv[*i];
-    if (strncmp(arg, name, len) != 0) return 0;
-    if (arg[len] == '=') {
-        *value = arg + len + 1;
-        return 1;
-    }
-    if (arg[len] != 0) return 0;
-    if (*i + 1 >= argc) {
-        rad_error("%s needs a value", name);
-        *status = RAD_ERR_USAGE;
-        return 1;
-    }
-    *value = argv[++*i];
-    return 1;
-}
-
+/* getopt_long, as formfactor and render parse theirs: "--name VALUE",
+ * "--name=VALUE", "-o VALUE"; options and the input in any order. */
 static rad_status parse_args(int argc, char **argv, cli *out)
 {
+    enum { O_METHOD = 256, O_TOL, O_MAX_ITER, O_STATS, O_ERRORS, O_BY_GROUP, O_VERSION };
+    static const struct option longs[] = {
+        {"output", required_argument, 0, 'o'},       {"method", required_argument, 0, O_METHOD},
+        {"tol", required_argument, 0, O_TOL},         {"max-iter", required_argument, 0, O_MAX_ITER},
+        {"stats", required_argument, 0, O_STATS},     {"errors", required_argument, 0, O_ERRORS},
+        {"by-group", required_argument, 0, O_BY_GROUP}, {"quiet", no_argument, 0, 'q'},
+        {"help", no_argument, 0, 'h'},                {"version", no_argument, 0, O_VERSION},
+        {0, 0, 0, 0}};
     cli c;
     memset(&c, 0, sizeof c);
     rad_status status = RAD_OK;
-    for (int i = 1; i < argc && status == RAD_OK; i++) {
-        const char *arg = argv[i], *value = NULL;
-        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            c.help = 1;
-        } else if (strcmp(arg, "--version") == 0) {
-            c.version = 1;
-        } else if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) {
-            c.quiet = 1;
-        } else if (take_value(argc, argv, &i, "-o", &value, &status) ||
-                   take_value(argc, argv, &i, "--output", &value, &status)) {
-            if (status == RAD_OK) c.options.output = value;
-        } else if (take_value(argc, argv, &i, "--method", &value, &status)) {
-            if (status == RAD_OK) status = solve_method_parse(value, &c.options.params.method);
-        } else if (take_value(argc, argv, &i, "--tol", &value, &status)) {
-            if (status == RAD_OK) status = parse_tolerance(value, &c.options.params.tolerance);
-        } else if (take_value(argc, argv, &i, "--max-iter", &value, &status)) {
-            if (status == RAD_OK) status = parse_count(value, &c.options.params.max_iterations);
-        } else if (take_value(argc, argv, &i, "--stats", &value, &status)) {
-            if (status == RAD_OK) c.options.stats = value;
-        } else if (take_value(argc, argv, &i, "--errors", &value, &status)) {
-            if (status == RAD_OK) c.options.errors = value;
-        } else if (take_value(argc, argv, &i, "--by-group", &value, &status)) {
+    int opt, at = 0;
+    opterr = 0; /* our own messages */
+    optind = 1;
+    while (status == RAD_OK && (opt = getopt_long(argc, argv, ":o:qh", longs, &at)) != -1) {
+        const char *value = optarg;
+        switch (opt) {
+        case 'o': c.options.output = value; break;
+        case 'q': c.quiet = 1; break;
+        case 'h': c.help = 1; break;
+        case O_VERSION: c.version = 1; break;
+        case O_METHOD: status = solve_method_parse(value, &c.options.params.method); break;
+        case O_TOL: status = parse_tolerance(value, &c.options.params.tolerance); break;
+        case O_MAX_ITER: status = parse_count(value, &c.options.params.max_iterations); break;
+        case O_STATS: c.options.stats = value; break;
+        case O_ERRORS: c.options.errors = value; break;
+        case O_BY_GROUP: {
             solve_groups_format format;
-            if (status == RAD_OK) status = solve_groups_format_of("--by-group", value, &format);
+            status = solve_groups_format_of("--by-group", value, &format);
             if (status == RAD_OK) c.options.by_group = value;
-        } else if (arg[0] == '-' && arg[1] != 0) {
-            rad_error("unknown option '%s' (see solve --help)", arg);
+            break;
+        }
+        case ':': /* a known option without its value */
+            rad_error("%s needs a value", argv[optind - 1]);
             status = RAD_ERR_USAGE;
-        } else if (c.options.input) {
-            rad_error("more than one form-factor file given ('%s' and '%s')", c.options.input, arg);
+            break;
+        default:
+            rad_error("unknown option '%s' (see solve --help)", argv[optind - 1]);
+            status = RAD_ERR_USAGE;
+        }
+    }
+    for (int i = optind; status == RAD_OK && i < argc; i++) {
+        if (c.options.input) {
+            rad_error("more than one form-factor file given ('%s' and '%s')", c.options.input, argv[i]);
             status = RAD_ERR_USAGE;
         } else {
-            c.options.input = arg;
+            c.options.input = argv[i];
         }
     }
     if (status == RAD_OK) *out = c;
