@@ -165,7 +165,20 @@ def git_commit():
 
 
 def command_line():
-    return " ".join(shlex.quote(a) for a in ["python3"] + sys.argv)
+    """The command as run, with machine-local folders named by their role
+    (BUILD, OUT, IMAGES) and folders inside the repository made relative,
+    so the recorded command reads the same on every machine."""
+    roles = {"--out": "OUT", "--images-from": "IMAGES"}
+    parts, previous = ["python3"], None
+    for k, a in enumerate(sys.argv):
+        if k == 0:
+            a = os.path.relpath(os.path.abspath(a), ROOT)
+        elif os.path.isabs(a):
+            rel = os.path.relpath(a, ROOT)
+            a = rel if not rel.startswith("..") else roles.get(previous, "BUILD")
+        parts.append(a)
+        previous = a
+    return " ".join(shlex.quote(a) for a in parts)
 
 
 # ----------------------------------------------------------------- runner ---
