@@ -39,7 +39,9 @@ enum {
     H_ROW_CHECKSUMS_DIGEST = 120,
     H_SCENE_NAME = 128, /* 96 bytes, NUL-padded */
     H_GROUP_OFFSET = 224, /* version 2; reserved (zero) in version 1 */
-    H_GROUP_COUNT = 232,  /* version 2; then 12 reserved bytes */
+    H_GROUP_COUNT = 232,  /* version 2 */
+    H_LAYOUT = 236,       /* version 3 (reserved, zero, before) */
+    H_MATRIX_BYTES = 240, /* version 3, sparse layout: bytes of the row records */
     H_HEADER_CHECKSUM = 248
 };
 
@@ -67,9 +69,108 @@ rad_ff_layout rad_ff_layout_of(const rad_ff_info *info)
         l.group_offset = l.patch_group_offset = 0;
         l.matrix_offset = rad_align_up(patches_end, RAD_FF_ALIGN);
     }
-    l.row_checksum_offset = rad_align_up(l.matrix_offset + n * l.row_bytes, RAD_FF_ALIGN);
-    l.file_bytes = l.row_checksum_offset + n * 8;
+    uint64_t matrix_bytes = info->layout == RAD_FF_LAYOUT_SPARSE ? info->matrix_bytes : n * l.row_bytes;
+    l.index_bytes = info->layout == RAD_FF_LAYOUT_SPARSE ? (2 * n + 1) * 8 : n * 8;
+    l.row_checksum_offset = rad_align_up(l.matrix_offset + matrix_bytes, RAD_FF_ALIGN);
+    l.file_bytes = l.row_checksum_offset + l.index_bytes;
     return l;
+}
+
+static uint64_t tile_count_of(uint64_t n) { return (n + RAD_FF_TILE_COLUMNS - 1) / RAD_FF_TILE_COLUMNS; }
+
+size_t rad_ff_row_record_max(uint64_t n, uint32_t element_type)
+{
+    uint64_t element = element_type == RAD_ELEMENT_F32 ? 4 : 8;
+    return (size_t)(rad_align_up(4 + 4 * tile_count_of(n), 8) + rad_align_up(n * element, 8));
+}
+
+/* The entries of columns [j0, j1) of `row` as stored; 1 if all bits are zero. */
+static int store_tile(const double *row, uint64_t j0, uint64_t j1, uint32_t element_type, unsigned char *out)
+{
+    int zero = 1;
+    for (uint64_t j = j0; j < j1; j++) {
+        if (element_type == RAD_ELEMENT_F32) {
+            float v = (float)row[j];
+            uint32_t bits;
+            memcpy(&bits, &v, 4);
+            zero &= bits == 0;
+            memcpy(out + 4 * (j - j0), &v, 4);
+        } else {
+            uint64_t bits;
+            memcpy(&bits, &row[j], 8);
+            zero &= bits == 0;
+            memcpy(out + 8 * (j - j0), &row[j], 8);
+        }
+    }
+    return zero;
+}
+
+size_t rad_ff_row_encode(const double *row, uint64_t n, uint32_t element_type, void *out)
+{
+    uint64_t element = element_type == RAD_ELEMENT_F32 ? 4 : 8, tiles = tile_count_of(n);
+    unsigned char scratch[RAD_FF_TILE_COLUMNS * 8];
+    uint32_t listed = 0;
+    for (uint64_t t = 0; t < tiles; t++) {
+        uint64_t j0 = t * RAD_FF_TILE_COLUMNS, j1 = j0 + RAD_FF_TILE_COLUMNS < n ? j0 + RAD_FF_TILE_COLUMNS : n;
+        if (!store_tile(row, j0, j1, element_type, scratch)) listed++;
+    }
+    size_t values_at = (size_t)rad_align_up(4 + 4 * (uint64_t)listed, 8), size = values_at;
+    unsigned char *o = out;
+    if (o) {
+        memset(o, 0, values_at);
+        rad_put_u32(o, listed);
+    }
+    uint32_t k = 0;
+    for (uint64_t t = 0; t < tiles && listed; t++) {
+        uint64_t j0 = t * RAD_FF_TILE_COLUMNS, j1 = j0 + RAD_FF_TILE_COLUMNS < n ? j0 + RAD_FF_TILE_COLUMNS : n;
+        if (store_tile(row, j0, j1, element_type, scratch)) continue;
+        if (o) {
+            rad_put_u32(o + 4 + 4 * k, (uint32_t)t);
+            memcpy(o + size, scratch, (size_t)((j1 - j0) * element));
+        }
+        k++;
+        size += (size_t)((j1 - j0) * element);
+    }
+    size_t end = (size_t)rad_align_up(size, 8);
+    if (o) memset(o + size, 0, end - size);
+    return end;
+}
+
+/* Decodes a sparse row record of `size` bytes into n doubles; NULL if it
+ * is well formed, else what is wrong. */
+static const char *decode_row(const unsigned char *rec, uint64_t size, uint64_t n, uint32_t element_type, double *out)
+{
+    uint64_t element = element_type == RAD_ELEMENT_F32 ? 4 : 8, tiles = tile_count_of(n);
+    if (size < 8 || size % 8) return "record size is not a multiple of 8 bytes of at least 8";
+    uint64_t listed = rad_get_u32(rec);
+    if (listed > tiles) return "more tiles than the row has";
+    uint64_t values_at = rad_align_up(4 + 4 * listed, 8), at = values_at;
+    if (values_at > size) return "tile list runs past the record";
+    for (uint64_t k = 4 + 4 * listed; k < values_at; k++)
+        if (rec[k]) return "padding is not zero";
+    memset(out, 0, n * sizeof *out);
+    uint64_t previous = 0;
+    for (uint64_t k = 0; k < listed; k++) {
+        uint64_t t = rad_get_u32(rec + 4 + 4 * k);
+        if (t >= tiles) return "tile number beyond the row";
+        if (k > 0 && t <= previous) return "tile numbers not ascending within the row";
+        previous = t;
+        uint64_t j0 = t * RAD_FF_TILE_COLUMNS, j1 = j0 + RAD_FF_TILE_COLUMNS < n ? j0 + RAD_FF_TILE_COLUMNS : n;
+        if (at + (j1 - j0) * element > size) return "tiles run past the record";
+        for (uint64_t j = j0; j < j1; j++, at += element) {
+            if (element_type == RAD_ELEMENT_F32) {
+                float v;
+                memcpy(&v, rec + at, 4);
+                out[j] = v;
+            } else {
+                memcpy(&out[j], rec + at, 8);
+            }
+        }
+    }
+    if (rad_align_up(at, 8) != size) return "record size disagrees with its tiles";
+    for (uint64_t k = at; k < size; k++)
+        if (rec[k]) return "padding is not zero";
+    return NULL;
 }
 
 uint64_t rad_ff_row_checksum(const void *row, size_t row_bytes)
@@ -80,9 +181,10 @@ uint64_t rad_ff_row_checksum(const void *row, size_t row_bytes)
 static void encode_header(const rad_ff_info *info, const rad_ff_layout *l, uint64_t tables_checksum,
                           unsigned char *h)
 {
+    int sparse = info->layout == RAD_FF_LAYOUT_SPARSE;
     memset(h, 0, RAD_FF_HEADER_BYTES);
     memcpy(h + H_MAGIC, RAD_FF_MAGIC, 8);
-    rad_put_u32(h + H_VERSION, RAD_FF_VERSION);
+    rad_put_u32(h + H_VERSION, sparse ? RAD_FF_VERSION : RAD_FF_VERSION_DENSE);
     rad_put_u32(h + H_HEADER_BYTES, RAD_FF_HEADER_BYTES);
     rad_put_u64(h + H_PATCH_COUNT, info->patch_count);
     rad_put_u64(h + H_VERTEX_COUNT, info->vertex_count);
@@ -104,6 +206,10 @@ static void encode_header(const rad_ff_info *info, const rad_ff_layout *l, uint6
     memcpy(h + H_SCENE_NAME, info->scene_name, name_len);
     rad_put_u64(h + H_GROUP_OFFSET, l->group_offset);
     rad_put_u32(h + H_GROUP_COUNT, info->group_count);
+    if (sparse) {
+        rad_put_u32(h + H_LAYOUT, info->layout);
+        rad_put_u64(h + H_MATRIX_BYTES, info->matrix_bytes);
+    }
     rad_put_u64(h + H_HEADER_CHECKSUM, rad_hash64(RAD_HASH_SEED, h, H_HEADER_CHECKSUM));
 }
 
@@ -121,7 +227,12 @@ static void decode_header(const unsigned char *h, rad_ff_info *info)
     info->subdiv = (int32_t)rad_get_u32(h + H_SUBDIV);
     info->flags = rad_get_u32(h + H_FLAGS);
     memcpy(info->scene_name, h + H_SCENE_NAME, sizeof info->scene_name - 1);
-    if (rad_get_u32(h + H_VERSION) >= 2) info->group_count = rad_get_u32(h + H_GROUP_COUNT);
+    uint32_t version = rad_get_u32(h + H_VERSION);
+    if (version >= 2) info->group_count = rad_get_u32(h + H_GROUP_COUNT);
+    if (version >= 3) {
+        info->layout = rad_get_u32(h + H_LAYOUT);
+        info->matrix_bytes = rad_get_u64(h + H_MATRIX_BYTES);
+    }
 }
 
 rad_status rad_ff_prologue_encode(const rad_ff_info *info, const rad_mesh *mesh, unsigned char **out_bytes,
@@ -160,9 +271,11 @@ rad_status rad_ff_prologue_encode(const rad_ff_info *info, const rad_mesh *mesh,
     return RAD_OK;
 }
 
-void rad_ff_header_finish(unsigned char *prologue, const uint64_t *row_checksums, uint64_t patch_count)
+void rad_ff_header_finish(unsigned char *prologue, const rad_ff_info *info, const void *index)
 {
-    rad_put_u64(prologue + H_ROW_CHECKSUMS_DIGEST, rad_hash64(RAD_HASH_SEED, row_checksums, patch_count * 8));
+    rad_ff_layout l = rad_ff_layout_of(info);
+    encode_header(info, &l, rad_get_u64(prologue + H_TABLES_CHECKSUM), prologue);
+    rad_put_u64(prologue + H_ROW_CHECKSUMS_DIGEST, rad_hash64(RAD_HASH_SEED, index, l.index_bytes));
     rad_put_u64(prologue + H_HEADER_CHECKSUM, rad_hash64(RAD_HASH_SEED, prologue, H_HEADER_CHECKSUM));
 }
 
@@ -171,29 +284,36 @@ static int write_at(FILE *f, uint64_t offset, const void *data, size_t size)
     return fseeko(f, (off_t)offset, SEEK_SET) == 0 && fwrite(data, 1, size, f) == size;
 }
 
-rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info, const rad_mesh *mesh,
+rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info_in, const rad_mesh *mesh,
                                const double *matrix)
 {
     rad_status status = RAD_OK;
     unsigned char *prologue = NULL, *row = NULL;
-    uint64_t *checksums = NULL;
+    uint64_t *index = NULL;
     size_t prologue_size = 0;
     FILE *f = NULL;
     char temp[4096];
-    if ((status = rad_ff_prologue_encode(info, mesh, &prologue, &prologue_size)) != RAD_OK) return status;
+    rad_ff_info info = *info_in;
+    int sparse = info.layout == RAD_FF_LAYOUT_SPARSE;
+    if ((status = rad_ff_prologue_encode(&info, mesh, &prologue, &prologue_size)) != RAD_OK) return status;
     if ((status = rad_fs_temp_create(path, temp, sizeof temp)) != RAD_OK) {
         free(prologue);
         return status;
     }
-    rad_ff_layout l = rad_ff_layout_of(info);
-    uint64_t n = info->patch_count;
-    row = malloc(l.row_bytes ? l.row_bytes : 1);
-    checksums = malloc(n ? n * 8 : 8);
-    if (!row || !checksums) {
+    rad_ff_layout l = rad_ff_layout_of(&info);
+    uint64_t n = info.patch_count;
+    /* Dense: N row checksums. Sparse: N + 1 record offsets, then N checksums. */
+    uint64_t *offsets = NULL, *checksums = NULL;
+    size_t row_max = sparse ? rad_ff_row_record_max(n, info.element_type) : (size_t)l.row_bytes;
+    row = malloc(row_max ? row_max : 1);
+    index = malloc((2 * n + 1) * 8);
+    if (!row || !index) {
         rad_error("%s: out of memory", path);
         status = RAD_ERR_NOMEM;
         goto done;
     }
+    offsets = sparse ? index : NULL;
+    checksums = sparse ? index + n + 1 : index;
     f = rad_fs_temp_open(temp);
     if (!f) {
         rad_error("%s: cannot open: %s", temp, strerror(errno));
@@ -201,17 +321,28 @@ rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info, const 
         goto done;
     }
     int ok = 1;
+    uint64_t at = 0;
     for (uint64_t i = 0; i < n && ok; i++) {
         const double *src = matrix + i * n;
-        if (info->element_type == RAD_ELEMENT_F32)
+        size_t size = l.row_bytes;
+        if (sparse)
+            size = rad_ff_row_encode(src, n, info.element_type, row);
+        else if (info.element_type == RAD_ELEMENT_F32)
             for (uint64_t j = 0; j < n; j++) ((float *)row)[j] = (float)src[j];
         else
-            memcpy(row, src, l.row_bytes);
-        checksums[i] = rad_ff_row_checksum(row, l.row_bytes);
-        ok = write_at(f, l.matrix_offset + i * l.row_bytes, row, l.row_bytes);
+            memcpy(row, src, size);
+        if (offsets) offsets[i] = at;
+        checksums[i] = rad_ff_row_checksum(row, size);
+        ok = write_at(f, l.matrix_offset + at, row, size);
+        at += size;
     }
-    rad_ff_header_finish(prologue, checksums, n);
-    ok = ok && write_at(f, l.row_checksum_offset, checksums, n * 8);
+    if (sparse) {
+        offsets[n] = at;
+        info.matrix_bytes = at;
+        l = rad_ff_layout_of(&info);
+    }
+    rad_ff_header_finish(prologue, &info, index);
+    ok = ok && write_at(f, l.row_checksum_offset, index, (size_t)l.index_bytes);
     ok = ok && write_at(f, 0, prologue, prologue_size);
     if (fclose(f) != 0) ok = 0;
     f = NULL;
@@ -226,7 +357,7 @@ done:
     if (status != RAD_OK) rad_fs_discard(temp);
     free(prologue);
     free(row);
-    free(checksums);
+    free(index);
     return status;
 }
 
@@ -238,7 +369,9 @@ struct rad_ff_file {
     rad_ff_info info;
     rad_ff_layout layout;
     rad_mesh mesh;
-    uint64_t *row_checksums;
+    uint64_t *index;         /* the layout's index: row_offsets (sparse) and row_checksums */
+    uint64_t *row_offsets;   /* sparse: N + 1 record offsets from the matrix offset; else NULL */
+    uint64_t *row_checksums; /* N */
     unsigned char *row_buffer;
 };
 
@@ -354,6 +487,14 @@ static rad_status check_header(const char *path, const unsigned char *h, uint64_
         return RAD_ERR_FORMAT;
     }
     decode_header(h, info);
+    if (info->layout != RAD_FF_LAYOUT_DENSE && info->layout != RAD_FF_LAYOUT_SPARSE) {
+        rad_error("%s: unknown matrix layout %u", path, info->layout);
+        return RAD_ERR_FORMAT;
+    }
+    if (info->layout == RAD_FF_LAYOUT_DENSE && info->matrix_bytes != 0) {
+        rad_error("%s: a dense matrix with a sparse matrix size", path);
+        return RAD_ERR_FORMAT;
+    }
     if (info->element_type != RAD_ELEMENT_F32 && info->element_type != RAD_ELEMENT_F64) {
         rad_error("%s: unknown element type %u", path, info->element_type);
         return RAD_ERR_FORMAT;
@@ -374,6 +515,12 @@ static rad_status check_header(const char *path, const unsigned char *h, uint64_
         rad_error("%s: implausible sizes (N = %llu: the matrix alone would be %.3g bytes)", path,
                   (unsigned long long)info->patch_count,
                   (double)info->patch_count * (double)info->patch_count * (double)element_bytes);
+        return RAD_ERR_FORMAT;
+    }
+    if (info->layout == RAD_FF_LAYOUT_SPARSE &&
+        info->matrix_bytes / info->patch_count > rad_ff_row_record_max(info->patch_count, info->element_type)) {
+        rad_error("%s: implausible sizes (%llu bytes of sparse rows for N = %llu)", path,
+                  (unsigned long long)info->matrix_bytes, (unsigned long long)info->patch_count);
         return RAD_ERR_FORMAT;
     }
     *layout = rad_ff_layout_of(info);
@@ -424,15 +571,17 @@ rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
     tables = malloc(tables_size);
     ff->mesh.positions = malloc(v * 24 + 1);
     ff->mesh.patches = malloc(n * sizeof(rad_patch));
-    ff->row_checksums = malloc(n * 8);
-    ff->row_buffer = malloc(l->row_bytes);
-    if (!tables || !ff->mesh.positions || !ff->mesh.patches || !ff->row_checksums || !ff->row_buffer) {
+    int sparse = ff->info.layout == RAD_FF_LAYOUT_SPARSE;
+    size_t record_max = rad_ff_row_record_max(n, ff->info.element_type);
+    ff->index = malloc(l->index_bytes);
+    ff->row_buffer = malloc(sparse ? record_max : l->row_bytes);
+    if (!tables || !ff->mesh.positions || !ff->mesh.patches || !ff->index || !ff->row_buffer) {
         rad_error("%s: out of memory for N = %llu", path, (unsigned long long)n);
         status = RAD_ERR_NOMEM;
         goto done;
     }
     if (!read_at(ff->f, RAD_FF_HEADER_BYTES, tables, tables_size) ||
-        !read_at(ff->f, l->row_checksum_offset, ff->row_checksums, n * 8)) {
+        !read_at(ff->f, l->row_checksum_offset, ff->index, l->index_bytes)) {
         rad_error("%s: read error", path);
         status = RAD_ERR_IO;
         goto done;
@@ -441,9 +590,19 @@ rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
         rad_error("%s: vertex/patch table checksum mismatch: the file is corrupted", path);
         goto done;
     }
-    if (rad_hash64(RAD_HASH_SEED, ff->row_checksums, n * 8) != rad_get_u64(h + H_ROW_CHECKSUMS_DIGEST)) {
+    if (rad_hash64(RAD_HASH_SEED, ff->index, l->index_bytes) != rad_get_u64(h + H_ROW_CHECKSUMS_DIGEST)) {
         rad_error("%s: row-checksum table is corrupted (or the file was not completely written)", path);
         goto done;
+    }
+    ff->row_offsets = sparse ? ff->index : NULL;
+    ff->row_checksums = sparse ? ff->index + n + 1 : ff->index;
+    for (uint64_t i = 0; sparse && i <= n; i++) {
+        uint64_t at = ff->row_offsets[i], size = i < n ? ff->row_offsets[i + 1] - at : 0;
+        if ((i == 0 && at != 0) || (i == n && at != ff->info.matrix_bytes) ||
+            (i < n && (ff->row_offsets[i + 1] < at || size < 8 || size % 8 || size > record_max))) {
+            rad_error("%s: row %llu: record offset out of order or out of range", path, (unsigned long long)i);
+            goto done;
+        }
     }
     memcpy(ff->mesh.positions, tables + (l->vertex_offset - RAD_FF_HEADER_BYTES), v * 24);
     memcpy(ff->mesh.patches, tables + (l->patch_offset - RAD_FF_HEADER_BYTES), n * sizeof(rad_patch));
@@ -465,7 +624,7 @@ void rad_ff_close(rad_ff_file *file)
     if (!file) return;
     if (file->f) fclose(file->f);
     rad_mesh_free(&file->mesh);
-    free(file->row_checksums);
+    free(file->index);
     free(file->row_buffer);
     free(file);
 }
@@ -482,23 +641,31 @@ rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_
                   (unsigned long long)(row_begin + row_count), (unsigned long long)n);
         return RAD_ERR_INVALID;
     }
-    if (row_count && fseeko(file->f, (off_t)(l->matrix_offset + row_begin * l->row_bytes), SEEK_SET) != 0) {
+    uint64_t start = file->row_offsets ? file->row_offsets[row_begin] : row_begin * l->row_bytes;
+    if (row_count && fseeko(file->f, (off_t)(l->matrix_offset + start), SEEK_SET) != 0) {
         rad_error("%s: cannot seek: %s", file->path, strerror(errno));
         return RAD_ERR_IO;
     }
     for (uint64_t r = 0; r < row_count; r++) {
         uint64_t i = row_begin + r;
-        if (fread(file->row_buffer, 1, l->row_bytes, file->f) != l->row_bytes) {
+        uint64_t size = file->row_offsets ? file->row_offsets[i + 1] - file->row_offsets[i] : l->row_bytes;
+        if (fread(file->row_buffer, 1, size, file->f) != size) {
             rad_error("%s: row %llu: read error", file->path, (unsigned long long)i);
             return RAD_ERR_IO;
         }
-        if (rad_ff_row_checksum(file->row_buffer, l->row_bytes) != file->row_checksums[i]) {
+        if (rad_ff_row_checksum(file->row_buffer, size) != file->row_checksums[i]) {
             rad_error("%s: row %llu: checksum mismatch: the matrix is corrupted", file->path,
                       (unsigned long long)i);
             return RAD_ERR_FORMAT;
         }
         double *dst = out + r * n;
-        if (file->info.element_type == RAD_ELEMENT_F32)
+        if (file->row_offsets) {
+            const char *why = decode_row(file->row_buffer, size, n, file->info.element_type, dst);
+            if (why) {
+                rad_error("%s: row %llu: %s", file->path, (unsigned long long)i, why);
+                return RAD_ERR_FORMAT;
+            }
+        } else if (file->info.element_type == RAD_ELEMENT_F32)
             for (uint64_t j = 0; j < n; j++) dst[j] = ((const float *)file->row_buffer)[j];
         else
             memcpy(dst, file->row_buffer, l->row_bytes);

@@ -6,9 +6,15 @@
  *   patch table   patch_count * 128-byte rad_patch records
  *   group table   (version 2, when group_count > 0) group_count * 64-byte
  *                 names, then patch_count * uint32: each patch's group
- *   matrix        patch_count^2 elements (float32 or float64), row-major,
- *                 F_ij at i * N + j
- *   row checksums patch_count * uint64: rad_hash64 of each matrix row's bytes
+ *   matrix        dense (versions 1, 2): patch_count^2 elements (float32
+ *                 or float64), row-major, F_ij at i * N + j;
+ *                 sparse (version 3, --format sparse): one record per row,
+ *                 holding only the row's non-zero tiles of
+ *                 RAD_FF_TILE_COLUMNS columns (rad_ff_row_encode)
+ *   row checksums dense: patch_count * uint64, rad_hash64 of each matrix
+ *                 row's bytes; sparse: the row index, patch_count + 1
+ *                 uint64 record offsets (from the matrix offset), then
+ *                 patch_count uint64 checksums of the row records
  * The header carries a checksum of itself, of the vertex + patch tables and
  * of the row-checksum table, so a reader detects truncation, corruption and
  * foreign files before trusting any number.
@@ -34,12 +40,22 @@
 #include "rad_status.h"
 
 #define RAD_FF_MAGIC "RADFF\r\n\x1a" /* 8 bytes; catches text-mode mangling */
-/* Version 2 added the group table; readers take 1 and 2 (a version-1 file
- * reads as one without groups: rad_mesh.group_count 0). */
-#define RAD_FF_VERSION 2u
+/* Version 2 added the group table; readers take 1 to 3 (a version-1 file
+ * reads as one without groups: rad_mesh.group_count 0). Version 3 added
+ * the sparse layout; dense files are still written as version 2, which
+ * they are byte for byte, so that version-2 readers keep reading them. */
+#define RAD_FF_VERSION 3u
+#define RAD_FF_VERSION_DENSE 2u
 #define RAD_FF_VERSION_OLDEST 1u
+/* Columns per tile of a sparse row record. */
+#define RAD_FF_TILE_COLUMNS 64u
 #define RAD_FF_HEADER_BYTES 256u
 #define RAD_FF_ALIGN 64u
+
+typedef enum rad_ff_layout_kind {
+    RAD_FF_LAYOUT_DENSE = 0,  /* every entry stored (versions 1-3) */
+    RAD_FF_LAYOUT_SPARSE = 1  /* row records of non-zero tiles (version 3) */
+} rad_ff_layout_kind;
 
 typedef enum rad_element_type {
     RAD_ELEMENT_F32 = 1,
@@ -62,6 +78,9 @@ typedef struct rad_ff_info {
     char scene_name[96];       /* NUL-terminated, informational */
     uint32_t group_count;      /* G, entries of the group table: the mesh's group_count
                                   (0: no table; always 0 in version-1 files) */
+    uint32_t layout;           /* rad_ff_layout_kind (dense in versions 1 and 2) */
+    uint64_t matrix_bytes;     /* sparse: bytes of all row records (known once
+                                  written); dense: ignored, 0 */
 } rad_ff_info;
 
 #define RAD_FF_FLAG_PARTIAL_SUBDIV 1u /* only one group was subdivided */
@@ -73,7 +92,8 @@ typedef struct rad_ff_layout {
     uint64_t group_offset;       /* group names (G * 64 bytes); 0 when G = 0 */
     uint64_t patch_group_offset; /* N * uint32 after them; 0 when G = 0 */
     uint64_t element_bytes; /* 4 or 8 */
-    uint64_t row_bytes;     /* N * element_bytes */
+    uint64_t row_bytes;     /* N * element_bytes (dense rows; decoded sparse rows) */
+    uint64_t index_bytes;   /* at row_checksum_offset: dense N * 8, sparse (2N + 1) * 8 */
 } rad_ff_layout;
 
 rad_ff_layout rad_ff_layout_of(const rad_ff_info *info);
@@ -86,16 +106,28 @@ rad_ff_layout rad_ff_layout_of(const rad_ff_info *info);
 rad_status rad_ff_prologue_encode(const rad_ff_info *info, const rad_mesh *mesh, unsigned char **out_bytes,
                                   size_t *out_size);
 
-/* Checksum of one row as stored (element_type bytes). */
+/* Checksum of one row as stored (dense: element_type bytes; sparse: the record). */
 uint64_t rad_ff_row_checksum(const void *row, size_t row_bytes);
 
-/* Rewrites the 256-byte header at the start of `prologue` with the digest
- * of the N row checksums and recomputes the header checksum. */
-void rad_ff_header_finish(unsigned char *prologue, const uint64_t *row_checksums, uint64_t patch_count);
+/* Sparse layout: the record of one row of n entries, stored as
+ * element_type: u32 tile count T, T ascending u32 tile numbers, zero
+ * padding to 8 bytes, then each listed tile's entries (columns
+ * [64 t, min(64 t + 64, n))), zero padding to 8 bytes. A tile whose
+ * stored entries are all zero bits is not listed. Writes the record to
+ * `out` (NULL: only counts) and returns its size in bytes. */
+size_t rad_ff_row_encode(const double *row, uint64_t n, uint32_t element_type, void *out);
+/* The largest record a row of n entries can need. */
+size_t rad_ff_row_record_max(uint64_t n, uint32_t element_type);
+
+/* Rewrites the 256-byte header at the start of `prologue` for `info`
+ * (sparse: its matrix_bytes, now known) with the digest of the index
+ * (layout.index_bytes bytes: dense, the N row checksums; sparse, the N + 1
+ * offsets and N checksums) and recomputes the header checksum. */
+void rad_ff_header_finish(unsigned char *prologue, const rad_ff_info *info, const void *index);
 
 /* Writes a whole file from one process (tests, tools): `matrix` holds
- * N * N doubles, stored converted to info->element_type. Temporary name +
- * rename, as every output. */
+ * N * N doubles, stored converted to info->element_type in info->layout.
+ * Temporary name + rename, as every output. */
 rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info, const rad_mesh *mesh,
                                const double *matrix);
 
@@ -118,8 +150,9 @@ const rad_ff_info *rad_ff_file_info(const rad_ff_file *file);
 const rad_mesh *rad_ff_file_mesh(const rad_ff_file *file);
 
 /* Reads rows [row_begin, row_begin + row_count) into `out` (row_count * N
- * doubles, converted from the stored element type), verifying each row's
- * checksum. Errors name the file and the first bad row. */
+ * doubles, converted from the stored element type; a sparse file's
+ * missing tiles as 0), verifying each row's checksum (and a sparse
+ * record's structure). Errors name the file and the first bad row. */
 rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, double *out);
 
 #endif

@@ -31,6 +31,9 @@ double ff_comm_time(void);                  /* wall-clock seconds */
 rad_status ff_comm_agree(ff_comm *comm, rad_status local);
 /* Collective: max of a uint64 over all ranks. */
 uint64_t ff_comm_max_u64(ff_comm *comm, uint64_t value);
+/* Collective: the sum of `value` over the ranks below this one; *total
+ * gets the sum over all ranks. */
+uint64_t ff_comm_exscan_u64(ff_comm *comm, uint64_t value, uint64_t *total);
 /* Collective: root's bytes to every rank. */
 void ff_comm_broadcast(ff_comm *comm, void *data, size_t bytes, int root);
 /* Collective: every rank's `bytes` into root's `out` (size * bytes), rank order. */

@@ -180,6 +180,17 @@ uint64_t ff_comm_max_u64(ff_comm *comm, uint64_t value)
     return out;
 }
 
+uint64_t ff_comm_exscan_u64(ff_comm *comm, uint64_t value, uint64_t *total)
+{
+    *total = value;
+    if (comm->solo) return 0;
+    uint64_t below = 0;
+    MPI_Exscan(&value, &below, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+    if (comm->rank == 0) below = 0; /* MPI_Exscan leaves rank 0's result undefined */
+    MPI_Allreduce(&value, total, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+    return below;
+}
+
 rad_status ff_comm_sendrecv(ff_comm *comm, int dest, const double *send, size_t send_count, int source, double *recv,
                             size_t recv_count)
 {

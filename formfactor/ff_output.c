@@ -20,14 +20,19 @@ struct ff_output {
     unsigned char *prologue; /* rank 0, native format */
     size_t prologue_size;
     uint64_t *row_checksums; /* this rank's rows, in order */
+    uint64_t *row_offsets;   /* sparse: their records' offsets from the matrix offset */
     uint64_t checksum_count, checksum_cap;
+    uint64_t record_max;     /* bytes one row can take as stored */
+    uint64_t appended;       /* sparse: bytes of records written so far, all ranks */
+    int reserved;            /* sparse: ff_output_reserve placed this rank's records */
+    uint64_t reserved_at;    /* … the next one's offset */
     void *convert; /* one write's rows in the stored element type */
     uint64_t convert_bytes; /* its size: grown to the largest write seen */
 };
 
 uint32_t ff_output_max_rows(const ff_output *output)
 {
-    uint64_t rows = FF_OUTPUT_MAX_BYTES / output->layout.row_bytes;
+    uint64_t rows = FF_OUTPUT_MAX_BYTES / output->record_max;
     return rows ? (uint32_t)rows : 1;
 }
 
@@ -45,7 +50,12 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
         o->format = format;
         o->info = *info;
         if (format == FF_FORMAT_PAPER) o->info.element_type = RAD_ELEMENT_F64;
+        o->info.layout = format == FF_FORMAT_SPARSE ? RAD_FF_LAYOUT_SPARSE : RAD_FF_LAYOUT_DENSE;
+        o->info.matrix_bytes = 0;
         o->layout = rad_ff_layout_of(&o->info);
+        o->record_max = format == FF_FORMAT_SPARSE ? rad_ff_row_record_max(info->patch_count, o->info.element_type)
+                                                   : o->layout.row_bytes;
+        if (!o->record_max) o->record_max = 1;
         snprintf(o->path, sizeof o->path, "%s", path);
         if (ff_comm_rank(comm) == 0) status = rad_fs_check_output("-o", path);
         /* Rank 0 creates the temporary (exclusively, guarded); the others
@@ -53,7 +63,7 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
          * signalled removes it whichever it is (mpirun terminates the
          * others when one dies; a batch system's time limit; Ctrl-C). */
         if (status == RAD_OK && ff_comm_rank(comm) == 0) status = rad_fs_temp_create(path, o->temp, sizeof o->temp);
-        if (status == RAD_OK && ff_comm_rank(comm) == 0 && format == FF_FORMAT_NATIVE)
+        if (status == RAD_OK && ff_comm_rank(comm) == 0 && format != FF_FORMAT_PAPER)
             status = rad_ff_prologue_encode(&o->info, mesh, &o->prologue, &o->prologue_size);
         /* Sized by the first write (ff_output_write_rows), not by the
          * largest write allowed: that could be 256 MiB more than needed. */
@@ -91,72 +101,106 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
     return RAD_OK;
 }
 
-static uint64_t matrix_offset(const ff_output *o, uint32_t row)
+rad_status ff_output_reserve(ff_output *o, uint32_t row_count, const double *rows)
 {
-    if (o->format == FF_FORMAT_PAPER) return 4 + (uint64_t)row * o->layout.row_bytes;
-    return o->layout.matrix_offset + (uint64_t)row * o->layout.row_bytes;
+    if (o->format != FF_FORMAT_SPARSE) return RAD_OK;
+    uint64_t n = o->info.patch_count, bytes = 0, total = 0;
+    for (uint32_t r = 0; r < row_count; r++) bytes += rad_ff_row_encode(rows + (uint64_t)r * n, n, o->info.element_type, NULL);
+    o->reserved_at = o->appended + ff_comm_exscan_u64(o->comm, bytes, &total);
+    o->appended += total;
+    o->reserved = 1;
+    return RAD_OK;
+}
+
+static rad_status grow_row_tables(ff_output *o, uint32_t row_count)
+{
+    if (o->checksum_count + row_count <= o->checksum_cap) return RAD_OK;
+    uint64_t cap = o->checksum_cap ? 2 * o->checksum_cap : 1024;
+    while (cap < o->checksum_count + row_count) cap *= 2;
+    uint64_t *checksums = realloc(o->row_checksums, cap * 8);
+    if (checksums) o->row_checksums = checksums;
+    uint64_t *offsets = checksums ? realloc(o->row_offsets, cap * 8) : NULL;
+    if (offsets) o->row_offsets = offsets;
+    if (!checksums || !offsets) {
+        rad_error("out of memory for row checksums");
+        return RAD_ERR_NOMEM;
+    }
+    o->checksum_cap = cap;
+    return RAD_OK;
 }
 
 rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_count, const double *rows)
 {
-    uint64_t n = o->info.patch_count, rb = o->layout.row_bytes;
+    uint64_t n = o->info.patch_count, rb = o->layout.row_bytes, max = o->record_max;
+    int sparse = o->format == FF_FORMAT_SPARSE;
     rad_status status = RAD_OK;
-    if ((uint64_t)row_count * rb > FF_OUTPUT_MAX_BYTES) {
+    if ((uint64_t)row_count * max > FF_OUTPUT_MAX_BYTES) {
         rad_error("internal: %u rows exceed one collective write", row_count);
         status = RAD_ERR_INVALID;
         row_count = 0;
     }
-    if (o->checksum_count + row_count > o->checksum_cap) {
-        uint64_t cap = o->checksum_cap ? 2 * o->checksum_cap : 1024;
-        while (cap < o->checksum_count + row_count) cap *= 2;
-        uint64_t *grown = realloc(o->row_checksums, cap * 8);
-        if (!grown) {
-            rad_error("out of memory for row checksums");
-            status = RAD_ERR_NOMEM;
-            row_count = 0;
-        } else {
-            o->row_checksums = grown;
-            o->checksum_cap = cap;
-        }
-    }
-    if ((uint64_t)row_count * rb > o->convert_bytes) {
-        void *grown = realloc(o->convert, (size_t)row_count * rb);
+    if (status == RAD_OK && (status = grow_row_tables(o, row_count)) != RAD_OK) row_count = 0;
+    if ((uint64_t)row_count * max > o->convert_bytes) {
+        void *grown = realloc(o->convert, (size_t)(row_count * max));
         if (!grown) {
             rad_error("out of memory for %u rows of output (%llu bytes)", row_count,
-                      (unsigned long long)row_count * rb);
+                      (unsigned long long)(row_count * max));
             status = RAD_ERR_NOMEM;
             row_count = 0;
         } else {
             o->convert = grown;
-            o->convert_bytes = (uint64_t)row_count * rb;
+            o->convert_bytes = (uint64_t)row_count * max;
         }
     }
+    uint64_t bytes = 0;
     for (uint32_t r = 0; r < row_count; r++) {
-        unsigned char *dst = (unsigned char *)o->convert + r * rb;
+        unsigned char *dst = (unsigned char *)o->convert + bytes;
         const double *src = rows + (uint64_t)r * n;
-        if (o->info.element_type == RAD_ELEMENT_F32)
+        uint64_t size = rb;
+        if (sparse)
+            size = rad_ff_row_encode(src, n, o->info.element_type, dst);
+        else if (o->info.element_type == RAD_ELEMENT_F32)
             for (uint64_t j = 0; j < n; j++) ((float *)dst)[j] = (float)src[j];
         else
             memcpy(dst, src, rb);
-        o->row_checksums[o->checksum_count++] = rad_ff_row_checksum(dst, rb);
+        o->row_offsets[o->checksum_count] = bytes; /* from this write's start, fixed below */
+        o->row_checksums[o->checksum_count++] = rad_ff_row_checksum(dst, size);
+        bytes += size;
+    }
+    uint64_t offset = o->format == FF_FORMAT_PAPER ? 4 + (uint64_t)row_begin * rb
+                                                  : o->layout.matrix_offset + (uint64_t)row_begin * rb;
+    if (sparse) {
+        /* Every rank takes part in the scan, as in the write below. */
+        uint64_t at;
+        if (o->reserved) {
+            at = o->reserved_at;
+            o->reserved_at += bytes;
+        } else {
+            uint64_t total = 0;
+            at = o->appended + ff_comm_exscan_u64(o->comm, bytes, &total);
+            o->appended += total;
+        }
+        for (uint64_t k = o->checksum_count - row_count; k < o->checksum_count; k++) o->row_offsets[k] += at;
+        offset = o->layout.matrix_offset + at;
     }
     /* Every rank takes part in the collective write, even with nothing to write. */
-    rad_status written = ff_comm_file_write_all(o->file, matrix_offset(o, row_begin), o->convert,
-                                                (size_t)row_count * rb);
+    rad_status written = ff_comm_file_write_all(o->file, offset, o->convert, (size_t)bytes);
     return status != RAD_OK ? status : written;
 }
 
 /* Rank 0: the leading parts (header + tables, or the paper's int32 N) and
- * the row-checksum table gathered from all ranks. */
-static rad_status write_prologue(ff_output *o, const uint64_t *all_checksums)
+ * the index gathered from all ranks (dense: the row checksums; sparse: the
+ * record offsets, then the checksums). */
+static rad_status write_prologue(ff_output *o, const uint64_t *index)
 {
     if (o->format == FF_FORMAT_PAPER) {
         int32_t n = (int32_t)o->info.patch_count;
         return ff_comm_file_write(o->file, 0, &n, 4);
     }
-    rad_ff_header_finish(o->prologue, all_checksums, o->info.patch_count);
-    rad_status status = ff_comm_file_write(o->file, o->layout.row_checksum_offset, all_checksums,
-                                           o->info.patch_count * 8);
+    o->info.matrix_bytes = o->format == FF_FORMAT_SPARSE ? o->appended : 0;
+    o->layout = rad_ff_layout_of(&o->info);
+    rad_ff_header_finish(o->prologue, &o->info, index);
+    rad_status status = ff_comm_file_write(o->file, o->layout.row_checksum_offset, index, o->layout.index_bytes);
     if (status == RAD_OK) status = ff_comm_file_write(o->file, 0, o->prologue, o->prologue_size);
     return status;
 }
@@ -168,13 +212,20 @@ rad_status ff_output_close(ff_output *o, rad_status status)
     status = ff_comm_agree(o->comm, status);
     if (status == RAD_OK) {
         if (root) {
-            all = malloc(o->info.patch_count * 8);
+            all = malloc((2 * o->info.patch_count + 1) * 8);
             if (!all) rad_error("out of memory gathering row checksums");
         }
         if (ff_comm_agree(o->comm, root && !all ? RAD_ERR_NOMEM : RAD_OK) != RAD_OK) status = RAD_ERR_NOMEM;
     }
     if (status == RAD_OK) {
-        ff_comm_gather_u64v(o->comm, o->row_checksums, o->checksum_count, all, 0);
+        uint64_t n = o->info.patch_count;
+        if (o->format == FF_FORMAT_SPARSE) {
+            ff_comm_gather_u64v(o->comm, o->row_offsets, o->checksum_count, all, 0);
+            if (root) all[n] = o->appended;
+            ff_comm_gather_u64v(o->comm, o->row_checksums, o->checksum_count, root ? all + n + 1 : NULL, 0);
+        } else {
+            ff_comm_gather_u64v(o->comm, o->row_checksums, o->checksum_count, all, 0);
+        }
         rad_status local = root ? write_prologue(o, all) : RAD_OK;
         status = ff_comm_agree(o->comm, local);
     }
@@ -199,6 +250,7 @@ rad_status ff_output_commit(ff_output *o, rad_status status)
     free(o->prologue);
     free(o->convert);
     free(o->row_checksums);
+    free(o->row_offsets);
     free(o);
     return status;
 }

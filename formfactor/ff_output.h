@@ -11,6 +11,14 @@
  * layout; rank 0 adds the header and the row checksums last and renames the
  * file only if every rank succeeded. Otherwise the temporary is removed and
  * whatever was under `path` before stays as it was.
+ *
+ * The sparse format's row records vary in size, so their offsets come from
+ * the ranks' sizes (an exclusive scan) as they are written: each
+ * collective write appends its rows after the previous one's, rank by
+ * rank. A rank that holds all its rows before writing calls
+ * ff_output_reserve first: the records then lie in row order whatever the
+ * number of ranks and rounds, and the file is the same bytes for any rank
+ * count.
  */
 #ifndef FF_OUTPUT_H
 #define FF_OUTPUT_H
@@ -22,7 +30,8 @@
 
 typedef enum ff_format {
     FF_FORMAT_NATIVE = 0, /* docs/formats.md */
-    FF_FORMAT_PAPER = 1   /* int32 N, then N*N float64, row-major; nothing else */
+    FF_FORMAT_PAPER = 1,  /* int32 N, then N*N float64, row-major; nothing else */
+    FF_FORMAT_SPARSE = 2  /* docs/formats.md, version 3: only the non-zero tiles of each row */
 } ff_format;
 
 typedef struct ff_output ff_output;
@@ -31,6 +40,10 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
                           const rad_mesh *mesh, ff_output **out_output);
 /* Largest number of rows one write may carry (keeps a collective write in one MPI piece). */
 uint32_t ff_output_max_rows(const ff_output *output);
+/* Collective, sparse format, optional, before the first write: this
+ * rank's rows, all of them (row_count x N, as they will be written), so
+ * that the records can be placed in row order. Other formats: nothing. */
+rad_status ff_output_reserve(ff_output *output, uint32_t row_count, const double *rows);
 /* Collective: this rank's rows [row_begin, row_begin + row_count) (row_count may be 0). */
 rad_status ff_output_write_rows(ff_output *output, uint32_t row_begin, uint32_t row_count, const double *rows);
 /* Collective, in two steps so that several files can appear together:

@@ -116,7 +116,8 @@ static void print_help(void)
            "      --quad-atol A        quadrature: absolute tolerance, in units of F (default: 1e-13)\n"
            "      --backend B          auto | cpu | cuda (default: auto)\n"
            "      --element T          f64 | f32 matrix element type (default: f64)\n"
-           "      --format F           native | paper (paper: int32 N + N*N float64 only)\n"
+           "      --format F           native | sparse | paper (sparse: only each row's non-zero\n"
+           "                           tiles of 64 entries; paper: int32 N + N*N float64 only)\n"
            "      --cull C             all | none: skip shadow rays where nothing can lie between\n"
            "                           the two patches (default: all; the same matrix)\n"
            "      --reciprocity M      auto | on | off: on computes each unordered pair once and\n"
@@ -237,8 +238,9 @@ static rad_status parse_options(int argc, char **argv, ff_options *o)
             break;
         case O_FORMAT:
             if (!strcmp(optarg, "native")) o->format = FF_FORMAT_NATIVE;
+            else if (!strcmp(optarg, "sparse")) o->format = FF_FORMAT_SPARSE;
             else if (!strcmp(optarg, "paper")) o->format = FF_FORMAT_PAPER;
-            else { rad_error("--format: expected native or paper, got '%s'", optarg); st = RAD_ERR_USAGE; }
+            else { rad_error("--format: expected native, sparse or paper, got '%s'", optarg); st = RAD_ERR_USAGE; }
             break;
         default:
             rad_error("unknown or incomplete option '%s' (see --help)", argv[optind - 1]);
@@ -642,15 +644,17 @@ static void estimate(ff_run *run)
         if (errors) free_buffer(run, (size_t)chunk * n, errors);
     }
     char bytes[32], memory[32], time[32], took[32];
+    /* The sparse format's size is known once written: the dense size bounds it. */
+    const char *bound = run->opt.format == FF_FORMAT_SPARSE ? "at most " : "";
     if (seconds >= 0)
-        rad_info("estimate: %s to write, about %s of memory per rank, about %s of form factors on %d rank(s) "
+        rad_info("estimate: %s%s to write, about %s of memory per rank, about %s of form factors on %d rank(s) "
                  "(calibrated on %u of %u rows in %s)",
-                 format_bytes(run->planned_bytes, bytes, sizeof bytes),
+                 bound, format_bytes(run->planned_bytes, bytes, sizeof bytes),
                  format_bytes(run->planned_memory, memory, sizeof memory), format_seconds(seconds, time, sizeof time),
                  ff_comm_size(run->comm), FF_CALIBRATION_CHUNKS * chunk, n,
                  format_seconds(calibration, took, sizeof took));
     else
-        rad_info("estimate: %s to write, about %s of memory per rank, seconds of form factors",
+        rad_info("estimate: %s%s to write, about %s of memory per rank, seconds of form factors", bound,
                  format_bytes(run->planned_bytes, bytes, sizeof bytes),
                  format_bytes(run->planned_memory, memory, sizeof memory));
     run->estimated_seconds = seconds;
@@ -744,6 +748,13 @@ static rad_status compute_once(ff_run *run, const ff_files *files, ff_counters *
     }
     if (st == RAD_OK) {
         ff_rows_finish(run->patches, n, begin, end - begin, block, errors, run->stats.threads, &run->stats.rows);
+    }
+    /* The sparse format places all the rank's records in row order (the
+     * same bytes for any rank count); collective, so every rank joins. */
+    uint32_t reserve = st == RAD_OK ? end - begin : 0;
+    if (files->matrix) ff_output_reserve(files->matrix, reserve, block);
+    if (files->errors) ff_output_reserve(files->errors, reserve, errors);
+    if (st == RAD_OK) {
         /* Every rank joins every collective write, with no rows after a failure. */
         for (uint64_t round = 0; round < rounds; round++) {
             count = round_rows(begin, end, per_round, round, &r0);
@@ -793,7 +804,9 @@ static rad_status write_stats(ff_run *run, int gpus)
                             .errors = run->want_errors,
                             .backend = run->backend->name,
                             .element = run->opt.element == RAD_ELEMENT_F32 ? "f32" : "f64",
-                            .format = run->opt.format == FF_FORMAT_PAPER ? "paper" : "native",
+                            .format = run->opt.format == FF_FORMAT_PAPER    ? "paper"
+                                      : run->opt.format == FF_FORMAT_SPARSE ? "sparse"
+                                                                            : "native",
                             .output = run->opt.output, .ranks = ranks, .gpus_visible = gpus};
         ff_stats_log_summary(&info, all);
         if (run->opt.stats_path) st = ff_stats_write_json(run->opt.stats_path, &info, all);
@@ -846,7 +859,8 @@ static rad_status run_formfactor(ff_run *run)
         rad_ff_info error_info = info;
         error_info.element_type = RAD_ELEMENT_F32;
         error_info.flags |= RAD_FF_FLAG_STANDARD_ERRORS;
-        st = ff_output_open(run->comm, run->opt.errors_path, FF_FORMAT_NATIVE, &error_info, &run->mesh, &files.errors);
+        ff_format format = run->opt.format == FF_FORMAT_SPARSE ? FF_FORMAT_SPARSE : FF_FORMAT_NATIVE;
+        st = ff_output_open(run->comm, run->opt.errors_path, format, &error_info, &run->mesh, &files.errors);
         if (st != RAD_OK) files.errors = NULL;
     }
     run->stats.io += ff_comm_time() - t0;

@@ -63,7 +63,7 @@ grep -q -- "--flip-normals" err.txt || fail "no remedy: $(cat err.txt)"
 "$bin/formfactor" room_flipped.obj --subdiv 1 --flip-normals -o flipped.ff --stats flipped.json 2> err.txt ||
   fail "--flip-normals: $(cat err.txt)"
 grep -q "warning" err.txt && fail "--flip-normals still warns: $(cat err.txt)"
-python3 - flipped.json <<'PY' || fail "--flip-normals: row sums"
+"${RAD_PYTHON3:-python3}" - flipped.json <<'PY' || fail "--flip-normals: row sums"
 import json, sys
 rows = json.load(open(sys.argv[1]))["row_sum"]
 assert rows["max"] > 0.99 and rows["max"] < 1.01, rows

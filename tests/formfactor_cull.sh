@@ -17,7 +17,7 @@ tools=$(cd "$(dirname "$0")/../tools" && pwd)
 mkdir -p "$dir" && cd "$dir"
 same() { # same A B: byte-identical, or within 1e-4 relative on at most 1e-4 of the entries
   cmp -s "$1" "$2" && return 0
-  python3 - "$tools" "$1" "$2" <<'PY'
+  "${RAD_PYTHON3:-python3}" - "$tools" "$1" "$2" <<'PY'
 import sys
 sys.path.insert(0, sys.argv[1])
 import numpy as np

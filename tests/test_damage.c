@@ -202,11 +202,11 @@ static void test_form_factor_header_limits(void)
 
     /* The next version with a valid header checksum. */
     memcpy(h, bytes, sizeof h);
-    rad_put_u32(h + 8, RAD_FF_VERSION + 1);
+    rad_put_u32(h + 8, RAD_FF_VERSION + 1); /* 4 */
     ff_reseal(h);
     memcpy(bytes, h, sizeof h);
     write_whole(damaged, bytes, size);
-    RAD_CHECK(ff_open_status(damaged) == RAD_ERR_FORMAT && rad_test_log_contains("format version 3"));
+    RAD_CHECK(ff_open_status(damaged) == RAD_ERR_FORMAT && rad_test_log_contains("format version 4"));
 
     /* N = 2^31 (the format's limit) with float64: N^2 * 8 = 2^65 bytes
      * wraps around 64 bits, and the wrapped layout asks for a file of
@@ -214,7 +214,7 @@ static void test_form_factor_header_limits(void)
      * header checksum agreeing with the wrapped layout, must be refused as
      * implausible before anything is allocated or read. */
     memcpy(h, bytes, sizeof h);
-    rad_put_u32(h + 8, RAD_FF_VERSION);
+    rad_put_u32(h + 8, RAD_FF_VERSION_DENSE);
     rad_put_u64(h + 16, UINT64_C(1) << 31);
     rad_ff_info big = {.patch_count = UINT64_C(1) << 31, .vertex_count = 5, .element_type = RAD_ELEMENT_F64};
     rad_ff_layout l = rad_ff_layout_of(&big);

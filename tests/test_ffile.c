@@ -210,7 +210,7 @@ int main(void)
     unsigned char *old = read_whole("test_ffile.plain", &plain_size);
     RAD_CHECK(old != NULL && plain_size < size);
     if (old) {
-        RAD_CHECK(rad_get_u32(old + 8) == RAD_FF_VERSION && rad_get_u64(old + 224) == 0 && rad_get_u32(old + 232) == 0);
+        RAD_CHECK(rad_get_u32(old + 8) == RAD_FF_VERSION_DENSE && rad_get_u64(old + 224) == 0 && rad_get_u32(old + 232) == 0);
         rad_put_u32(old + 8, 1);
         reseal(old);
         write_whole("test_ffile.v1", old, plain_size);

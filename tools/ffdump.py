@@ -36,7 +36,7 @@ import tempfile
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from ffread import PATCH, group_count, read_groups, read_header  # noqa: E402
+from ffread import PATCH, group_count, read_groups, read_header, read_rows  # noqa: E402
 
 FLAG_STANDARD_ERRORS = 2
 BLOCK_BYTES = 64 << 20     # rows read at once by group-matrix
@@ -47,7 +47,7 @@ class DumpError(Exception):
 
 
 class FormFactors:
-    """A form-factor file, its patch table and group table; the matrix memory-mapped."""
+    """A form-factor file, its patch table and group table; the matrix read in blocks of rows."""
 
     def __init__(self, path):
         self.path = path
@@ -68,7 +68,6 @@ class FormFactors:
         element = {1: "<f4", 2: "<f8"}.get(int(h["element_type"]))
         if element is None or len(self.patches) != n:
             raise DumpError(f"{path}: damaged header or patch table")
-        self.F = np.memmap(path, dtype=element, mode="r", offset=int(h["matrix_offset"]), shape=(n, n))
         try:
             self.names, self.patch_group = read_groups(path, h)
         except ValueError as e:
@@ -96,12 +95,16 @@ class FormFactors:
         rows = max(1, BLOCK_BYTES // max(1, 8 * n))
         for i0 in range(0, n, rows):
             i1 = min(n, i0 + rows)
-            to_groups = np.asarray(self.F[i0:i1], dtype=np.float64) @ onehot
+            to_groups = self.rows(i0, i1) @ onehot
             np.add.at(interchange, self.patch_group[i0:i1], self.area[i0:i1, None] * to_groups)
         return interchange / self.group_areas()[:, None]
 
+    def rows(self, begin, end):
+        """Rows [begin, end) as float64, from either layout (docs/formats.md)."""
+        return np.asarray(read_rows(self.path, self.header, begin, end), dtype=np.float64)
+
     def dense(self):
-        return np.array(self.F, dtype=np.float64)
+        return self.rows(0, self.n)
 
 
 def fmt(x):
@@ -205,7 +208,7 @@ def cmd_heatmap(ff, args):
         names, groups = ff.names, ff.patch_group[order]
     else:
         order, names, groups = np.arange(n), ["(no groups recorded)"], np.zeros(n, dtype=np.uint32)
-    M = np.asarray(ff.F, dtype=np.float64)[order][:, order]
+    M = ff.dense()[order][:, order]
     positive = M[M > 0]
     vmax = positive.max() if positive.size else 1.0
     vmin = args.vmin if args.vmin else (max(positive.min(), vmax * 1e-12) if positive.size else 1e-12)

@@ -5,8 +5,10 @@
     from ffread import read_formfactors     # -> (info, vertices, patches, F)
     from ffread import read_groups          # -> (names, group of each patch) or (None, None)
 
-Versions 1 and 2 of the format; version 2 added the group table (the OBJ
-groups of the patches), which version-1 files lack.
+Versions 1 to 3 of the format; version 2 added the group table (the OBJ
+groups of the patches), which version-1 files lack; version 3 the sparse
+layout (`formfactor --format sparse`), which read_formfactors expands to
+the dense matrix and read_rows reads a block of rows of.
 """
 import sys
 import numpy as np
@@ -21,12 +23,14 @@ HEADER = np.dtype([("magic", "S8"), ("version", "<u4"), ("header_bytes", "<u4"),
                    ("vertex_offset", "<u8"), ("patch_offset", "<u8"), ("matrix_offset", "<u8"),
                    ("row_checksum_offset", "<u8"), ("file_bytes", "<u8"), ("tables_checksum", "<u8"),
                    ("row_checksums_digest", "<u8"), ("scene_name", "S96"),
-                   ("group_offset", "<u8"), ("group_count", "<u4"), ("reserved", "S12"),
-                   ("header_checksum", "<u8")])
+                   ("group_offset", "<u8"), ("group_count", "<u4"), ("layout", "<u4"),
+                   ("matrix_bytes", "<u8"), ("header_checksum", "<u8")])
 
 
 NAME_BYTES = 64      # one group name, NUL-padded
-VERSIONS = (1, 2)    # what these readers understand
+VERSIONS = (1, 2, 3)  # what these readers understand
+TILE = 64             # columns per tile of a sparse row record
+LAYOUT_SPARSE = 1
 
 
 def read_header(path):
@@ -58,13 +62,41 @@ def read_groups(path, h=None):
     return names, patch_group
 
 
+def is_sparse(h):
+    return int(h["version"]) >= 3 and int(h["layout"]) == LAYOUT_SPARSE
+
+
+def read_rows(path, h, begin, end):
+    """Rows [begin, end) of F as a dense (end - begin) x N array, either layout."""
+    n = int(h["patch_count"])
+    element = np.dtype("<f4" if h["element_type"] == 1 else "<f8")
+    moff = int(h["matrix_offset"])
+    if not is_sparse(h):
+        return np.fromfile(path, dtype=element, count=(end - begin) * n,
+                           offset=moff + begin * n * element.itemsize).reshape(end - begin, n)
+    offsets = np.fromfile(path, dtype="<u8", count=n + 1, offset=int(h["row_checksum_offset"]))
+    start, stop = int(offsets[begin]), int(offsets[end])
+    raw = np.fromfile(path, dtype=np.uint8, count=stop - start, offset=moff + start).tobytes()
+    F = np.zeros((end - begin, n), dtype=element)
+    for r in range(end - begin):
+        rec = raw[int(offsets[begin + r]) - start:int(offsets[begin + r + 1]) - start]
+        count = int(np.frombuffer(rec, "<u4", 1)[0])
+        tiles = np.frombuffer(rec, "<u4", count, 4)
+        at = (4 + 4 * count + 7) // 8 * 8
+        for t in tiles:
+            j0 = int(t) * TILE
+            j1 = min(j0 + TILE, n)
+            F[r, j0:j1] = np.frombuffer(rec, element, j1 - j0, at)
+            at += (j1 - j0) * element.itemsize
+    return F
+
+
 def read_formfactors(path):
     h = read_header(path)
     n, v = int(h["patch_count"]), int(h["vertex_count"])
     vertices = np.fromfile(path, dtype="<f8", count=3 * v, offset=int(h["vertex_offset"])).reshape(v, 3)
     patches = np.fromfile(path, dtype=PATCH, count=n, offset=int(h["patch_offset"]))
-    element = "<f4" if h["element_type"] == 1 else "<f8"
-    F = np.fromfile(path, dtype=element, count=n * n, offset=int(h["matrix_offset"])).reshape(n, n)
+    F = read_rows(path, h, 0, n)
     return h, vertices, patches, F
 
 
@@ -74,7 +106,8 @@ if __name__ == "__main__":
     rows = F.sum(axis=1)
     G = A[:, None] * F
     recip = np.abs(G - G.T).max() / G.max() if G.max() > 0 else 0.0  # all zeros: nothing to compare
-    print(f"N = {len(A)}, samples {h['samples']}, shadow rays {h['shadow_rays']}")
+    print(f"N = {len(A)}, samples {h['samples']}, shadow rays {h['shadow_rays']}, "
+          f"{'sparse' if is_sparse(h) else 'dense'} layout")
     print(f"row sums: min {rows.min():.6f} max {rows.max():.6f} mean {rows.mean():.6f}")
     print(f"reciprocity max |A_i F_ij - A_j F_ji| / max(A_i F_ij) = {recip:.3e}")
     names, _ = read_groups(sys.argv[1], h)
