@@ -23,7 +23,7 @@
 #include "rad_rfile.h"
 
 /* Rows are read in one call when N is at most this, else in blocks (the
- * file size bounds N anyway: each row is stored in full). */
+ * file size bounds N anyway: every row has at least 8 bytes of index). */
 #define FUZZ_ROWS_AT_ONCE 64
 
 static void read_back(const char *path)
@@ -84,14 +84,30 @@ static int repair(uint8_t *b, size_t size)
                         .group_count = rad_get_u32(b + 8) >= 2 ? rad_get_u32(b + 232) : 0};
     if (info.patch_count == 0 || info.patch_count > size || info.vertex_count > size || info.group_count > size)
         return 0;
+    if (rad_get_u32(b + 8) >= 3 && rad_get_u32(b + 236) == RAD_FF_LAYOUT_SPARSE) {
+        info.layout = RAD_FF_LAYOUT_SPARSE;
+        info.matrix_bytes = rad_get_u64(b + 240);
+        if (info.matrix_bytes > size) return 0;
+    }
     rad_ff_layout l = rad_ff_layout_of(&info);
     if (l.file_bytes > size) return 0;
     uint64_t n = info.patch_count;
-    for (uint64_t i = 0; i < n; i++)
-        rad_put_u64(b + l.row_checksum_offset + 8 * i,
-                    rad_ff_row_checksum(b + l.matrix_offset + i * l.row_bytes, l.row_bytes));
+    if (info.layout == RAD_FF_LAYOUT_SPARSE) {
+        /* Each record's checksum where its offsets make sense; then the index's. */
+        const uint8_t *offsets = b + l.row_checksum_offset;
+        for (uint64_t i = 0; i < n; i++) {
+            uint64_t at = rad_get_u64(offsets + 8 * i), end = rad_get_u64(offsets + 8 * (i + 1));
+            if (at <= end && end <= info.matrix_bytes)
+                rad_put_u64(b + l.row_checksum_offset + 8 * (n + 1 + i),
+                            rad_ff_row_checksum(b + l.matrix_offset + at, (size_t)(end - at)));
+        }
+    } else {
+        for (uint64_t i = 0; i < n; i++)
+            rad_put_u64(b + l.row_checksum_offset + 8 * i,
+                        rad_ff_row_checksum(b + l.matrix_offset + i * l.row_bytes, l.row_bytes));
+    }
     rad_put_u64(b + 112, rad_hash64(RAD_HASH_SEED, b + RAD_FF_HEADER_BYTES, l.matrix_offset - RAD_FF_HEADER_BYTES));
-    rad_put_u64(b + 120, rad_hash64(RAD_HASH_SEED, b + l.row_checksum_offset, n * 8));
+    rad_put_u64(b + 120, rad_hash64(RAD_HASH_SEED, b + l.row_checksum_offset, l.index_bytes));
     rad_put_u64(b + 248, rad_hash64(RAD_HASH_SEED, b, 248));
     return 1;
 }

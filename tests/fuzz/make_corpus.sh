@@ -45,6 +45,8 @@ ff=$bin/formfactor solve=$bin/solve
 "$ff" -q two.obj -o "$out/ffile/two_sub1" --subdiv 1 --samples 8 --shadow-rays 0
 "$ff" -q "$src/scenes/closed_box.obj" -o "$out/ffile/closed_box" --samples 64
 "$ff" -q -o "$out/ffile/cornell_box_f32" --element f32 --samples 16 --shadow-rays 8
+"$ff" -q two.obj -o "$out/ffile/two_sparse" --format sparse --subdiv 1 --shadow-rays 0
+"$ff" -q "$src/scenes/closed_box.obj" -o "$out/ffile/closed_box_sparse_f32" --format sparse --element f32 --subdiv 1
 for f in two_f64 two_f32 two_sub1 closed_box cornell_box_f32; do
   "$solve" -q "$out/ffile/$f" -o "$out/rfile/$f"
 done
