@@ -24,11 +24,16 @@ struct ff_output {
     uint64_t checksum_count, checksum_cap;
     uint64_t record_max;     /* bytes one row can take as stored */
     uint64_t appended;       /* sparse: bytes of records written so far, all ranks */
+    uint64_t *record_at;     /* one write's records' offsets in `convert` (row_count + 1) */
+    uint64_t record_cap;
+    int threads;
     int reserved;            /* sparse: ff_output_reserve placed this rank's records */
     uint64_t reserved_at;    /* … the next one's offset */
     void *convert; /* one write's rows in the stored element type */
     uint64_t convert_bytes; /* its size: grown to the largest write seen */
 };
+
+void ff_output_set_threads(ff_output *output, int threads) { output->threads = threads > 0 ? threads : 1; }
 
 uint32_t ff_output_max_rows(const ff_output *output)
 {
@@ -48,6 +53,7 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
     if (status == RAD_OK) {
         o->comm = comm;
         o->format = format;
+        o->threads = 1;
         o->info = *info;
         if (format == FF_FORMAT_PAPER) o->info.element_type = RAD_ELEMENT_F64;
         o->info.layout = format == FF_FORMAT_SPARSE ? RAD_FF_LAYOUT_SPARSE : RAD_FF_LAYOUT_DENSE;
@@ -105,6 +111,7 @@ rad_status ff_output_reserve(ff_output *o, uint32_t row_count, const double *row
 {
     if (o->format != FF_FORMAT_SPARSE) return RAD_OK;
     uint64_t n = o->info.patch_count, bytes = 0, total = 0;
+#pragma omp parallel for num_threads(o->threads) schedule(dynamic, 16) reduction(+ : bytes)
     for (uint32_t r = 0; r < row_count; r++) bytes += rad_ff_row_encode(rows + (uint64_t)r * n, n, o->info.element_type, NULL);
     o->reserved_at = o->appended + ff_comm_exscan_u64(o->comm, bytes, &total);
     o->appended += total;
@@ -152,36 +159,56 @@ rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_c
             o->convert_bytes = (uint64_t)row_count * max;
         }
     }
-    uint64_t bytes = 0;
-    for (uint32_t r = 0; r < row_count; r++) {
-        unsigned char *dst = (unsigned char *)o->convert + bytes;
+    if (row_count + 1 > o->record_cap) {
+        uint64_t *grown = realloc(o->record_at, (row_count + 1) * sizeof *grown);
+        if (!grown) {
+            rad_error("out of memory for %u rows of output", row_count);
+            status = RAD_ERR_NOMEM;
+            row_count = 0;
+        } else {
+            o->record_at = grown;
+            o->record_cap = row_count + 1;
+        }
+    }
+    /* Sizes, then where each record goes, then the records themselves,
+     * each row on its own: the same bytes for any number of threads. */
+    uint64_t *at = o->record_at, first = o->checksum_count;
+    int64_t count = row_count;
+#pragma omp parallel for num_threads(o->threads) schedule(dynamic, 16)
+    for (int64_t r = 0; r < count; r++)
+        at[r + 1] = sparse ? rad_ff_row_encode(rows + (uint64_t)r * n, n, o->info.element_type, NULL) : rb;
+    if (at) at[0] = 0;
+    for (int64_t r = 0; r < count; r++) at[r + 1] += at[r];
+#pragma omp parallel for num_threads(o->threads) schedule(dynamic, 16)
+    for (int64_t r = 0; r < count; r++) {
+        unsigned char *dst = (unsigned char *)o->convert + at[r];
         const double *src = rows + (uint64_t)r * n;
-        uint64_t size = rb;
         if (sparse)
-            size = rad_ff_row_encode(src, n, o->info.element_type, dst);
+            rad_ff_row_encode(src, n, o->info.element_type, dst);
         else if (o->info.element_type == RAD_ELEMENT_F32)
             for (uint64_t j = 0; j < n; j++) ((float *)dst)[j] = (float)src[j];
         else
             memcpy(dst, src, rb);
-        o->row_offsets[o->checksum_count] = bytes; /* from this write's start, fixed below */
-        o->row_checksums[o->checksum_count++] = rad_ff_row_checksum(dst, size);
-        bytes += size;
+        o->row_offsets[first + r] = at[r]; /* from this write's start, fixed below */
+        o->row_checksums[first + r] = rad_ff_row_checksum(dst, at[r + 1] - at[r]);
     }
+    o->checksum_count += row_count;
+    uint64_t bytes = row_count ? at[row_count] : 0;
     uint64_t offset = o->format == FF_FORMAT_PAPER ? 4 + (uint64_t)row_begin * rb
                                                   : o->layout.matrix_offset + (uint64_t)row_begin * rb;
     if (sparse) {
         /* Every rank takes part in the scan, as in the write below. */
-        uint64_t at;
+        uint64_t base;
         if (o->reserved) {
-            at = o->reserved_at;
+            base = o->reserved_at;
             o->reserved_at += bytes;
         } else {
             uint64_t total = 0;
-            at = o->appended + ff_comm_exscan_u64(o->comm, bytes, &total);
+            base = o->appended + ff_comm_exscan_u64(o->comm, bytes, &total);
             o->appended += total;
         }
-        for (uint64_t k = o->checksum_count - row_count; k < o->checksum_count; k++) o->row_offsets[k] += at;
-        offset = o->layout.matrix_offset + at;
+        for (uint64_t k = first; k < o->checksum_count; k++) o->row_offsets[k] += base;
+        offset = o->layout.matrix_offset + base;
     }
     /* Every rank takes part in the collective write, even with nothing to write. */
     rad_status written = ff_comm_file_write_all(o->file, offset, o->convert, (size_t)bytes);
@@ -251,6 +278,7 @@ rad_status ff_output_commit(ff_output *o, rad_status status)
     free(o->convert);
     free(o->row_checksums);
     free(o->row_offsets);
+    free(o->record_at);
     free(o);
     return status;
 }

@@ -38,6 +38,8 @@ typedef struct ff_output ff_output;
 
 rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, const rad_ff_info *info,
                           const rad_mesh *mesh, ff_output **out_output);
+/* Threads (OpenMP) that convert, encode and checksum the rows of a write (default 1). */
+void ff_output_set_threads(ff_output *output, int threads);
 /* Largest number of rows one write may carry (keeps a collective write in one MPI piece). */
 uint32_t ff_output_max_rows(const ff_output *output);
 /* Collective, sparse format, optional, before the first write: this

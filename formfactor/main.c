@@ -863,6 +863,8 @@ static rad_status run_formfactor(ff_run *run)
         st = ff_output_open(run->comm, run->opt.errors_path, format, &error_info, &run->mesh, &files.errors);
         if (st != RAD_OK) files.errors = NULL;
     }
+    if (files.matrix) ff_output_set_threads(files.matrix, run->stats.threads);
+    if (files.errors) ff_output_set_threads(files.errors, run->stats.threads);
     run->stats.io += ff_comm_time() - t0;
     ff_comm_progress_open(run->comm);
     run->compute_start = ff_comm_time();
