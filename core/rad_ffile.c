@@ -136,40 +136,43 @@ size_t rad_ff_row_encode(const double *row, uint64_t n, uint32_t element_type, v
     return end;
 }
 
-/* Decodes a sparse row record of `size` bytes into n doubles; NULL if it
- * is well formed, else what is wrong. */
-static const char *decode_row(const unsigned char *rec, uint64_t size, uint64_t n, uint32_t element_type, double *out)
+/* Decodes a sparse row record of `size` bytes: its tile numbers into
+ * tiles[] (*out_count of them, at most tile_count_of(n)) and its entries,
+ * tile after tile, as doubles into values[] (*out_values, at most n).
+ * NULL if the record is well formed, else what is wrong. */
+static const char *decode_record(const unsigned char *rec, uint64_t size, uint64_t n, uint32_t element_type,
+                                 uint32_t *tiles, uint32_t *out_count, double *values, uint64_t *out_values)
 {
-    uint64_t element = element_type == RAD_ELEMENT_F32 ? 4 : 8, tiles = tile_count_of(n);
+    uint64_t element = element_type == RAD_ELEMENT_F32 ? 4 : 8, tile_total = tile_count_of(n);
     if (size < 8 || size % 8) return "record size is not a multiple of 8 bytes of at least 8";
     uint64_t listed = rad_get_u32(rec);
-    if (listed > tiles) return "more tiles than the row has";
-    uint64_t values_at = rad_align_up(4 + 4 * listed, 8), at = values_at;
+    if (listed > tile_total) return "more tiles than the row has";
+    uint64_t values_at = rad_align_up(4 + 4 * listed, 8), at = values_at, v = 0;
     if (values_at > size) return "tile list runs past the record";
     for (uint64_t k = 4 + 4 * listed; k < values_at; k++)
         if (rec[k]) return "padding is not zero";
-    memset(out, 0, n * sizeof *out);
-    uint64_t previous = 0;
     for (uint64_t k = 0; k < listed; k++) {
         uint64_t t = rad_get_u32(rec + 4 + 4 * k);
-        if (t >= tiles) return "tile number beyond the row";
-        if (k > 0 && t <= previous) return "tile numbers not ascending within the row";
-        previous = t;
+        if (t >= tile_total) return "tile number beyond the row";
+        if (k > 0 && t <= tiles[k - 1]) return "tile numbers not ascending within the row";
+        tiles[k] = (uint32_t)t;
         uint64_t j0 = t * RAD_FF_TILE_COLUMNS, j1 = j0 + RAD_FF_TILE_COLUMNS < n ? j0 + RAD_FF_TILE_COLUMNS : n;
         if (at + (j1 - j0) * element > size) return "tiles run past the record";
-        for (uint64_t j = j0; j < j1; j++, at += element) {
+        for (uint64_t j = j0; j < j1; j++, at += element, v++) {
             if (element_type == RAD_ELEMENT_F32) {
-                float v;
-                memcpy(&v, rec + at, 4);
-                out[j] = v;
+                float f;
+                memcpy(&f, rec + at, 4);
+                values[v] = f;
             } else {
-                memcpy(&out[j], rec + at, 8);
+                memcpy(&values[v], rec + at, 8);
             }
         }
     }
     if (rad_align_up(at, 8) != size) return "record size disagrees with its tiles";
     for (uint64_t k = at; k < size; k++)
         if (rec[k]) return "padding is not zero";
+    *out_count = (uint32_t)listed;
+    *out_values = v;
     return NULL;
 }
 
@@ -373,6 +376,9 @@ struct rad_ff_file {
     uint64_t *row_offsets;   /* sparse: N + 1 record offsets from the matrix offset; else NULL */
     uint64_t *row_checksums; /* N */
     unsigned char *row_buffer;
+    uint32_t *tile_buffer;   /* sparse: one row's tile numbers */
+    double *value_buffer;    /* sparse: one row's stored entries */
+    uint64_t next_row;       /* the row the file position is at (sparse reads) */
 };
 
 
@@ -575,7 +581,11 @@ rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
     size_t record_max = rad_ff_row_record_max(n, ff->info.element_type);
     ff->index = malloc(l->index_bytes);
     ff->row_buffer = malloc(sparse ? record_max : l->row_bytes);
-    if (!tables || !ff->mesh.positions || !ff->mesh.patches || !ff->index || !ff->row_buffer) {
+    ff->tile_buffer = malloc(sparse ? 4 * tile_count_of(n) : 4);
+    ff->value_buffer = malloc(sparse ? 8 * n : 8);
+    ff->next_row = UINT64_MAX;
+    if (!tables || !ff->mesh.positions || !ff->mesh.patches || !ff->index || !ff->row_buffer || !ff->tile_buffer ||
+        !ff->value_buffer) {
         rad_error("%s: out of memory for N = %llu", path, (unsigned long long)n);
         status = RAD_ERR_NOMEM;
         goto done;
@@ -625,6 +635,8 @@ void rad_ff_close(rad_ff_file *file)
     if (file->f) fclose(file->f);
     rad_mesh_free(&file->mesh);
     free(file->index);
+    free(file->tile_buffer);
+    free(file->value_buffer);
     free(file->row_buffer);
     free(file);
 }
@@ -641,6 +653,7 @@ rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_
                   (unsigned long long)(row_begin + row_count), (unsigned long long)n);
         return RAD_ERR_INVALID;
     }
+    file->next_row = UINT64_MAX;
     uint64_t start = file->row_offsets ? file->row_offsets[row_begin] : row_begin * l->row_bytes;
     if (row_count && fseeko(file->f, (off_t)(l->matrix_offset + start), SEEK_SET) != 0) {
         rad_error("%s: cannot seek: %s", file->path, strerror(errno));
@@ -660,15 +673,61 @@ rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_
         }
         double *dst = out + r * n;
         if (file->row_offsets) {
-            const char *why = decode_row(file->row_buffer, size, n, file->info.element_type, dst);
+            uint32_t count;
+            uint64_t stored;
+            const char *why = decode_record(file->row_buffer, size, n, file->info.element_type, file->tile_buffer,
+                                            &count, file->value_buffer, &stored);
             if (why) {
                 rad_error("%s: row %llu: %s", file->path, (unsigned long long)i, why);
                 return RAD_ERR_FORMAT;
+            }
+            memset(dst, 0, n * sizeof *dst);
+            for (uint64_t k = 0, v = 0; k < count; k++) {
+                uint64_t j0 = (uint64_t)file->tile_buffer[k] * RAD_FF_TILE_COLUMNS;
+                uint64_t width = j0 + RAD_FF_TILE_COLUMNS < n ? RAD_FF_TILE_COLUMNS : n - j0;
+                memcpy(dst + j0, file->value_buffer + v, width * sizeof *dst);
+                v += width;
             }
         } else if (file->info.element_type == RAD_ELEMENT_F32)
             for (uint64_t j = 0; j < n; j++) dst[j] = ((const float *)file->row_buffer)[j];
         else
             memcpy(dst, file->row_buffer, l->row_bytes);
     }
+    return RAD_OK;
+}
+
+rad_status rad_ff_read_row_tiles(rad_ff_file *file, uint64_t row, const uint32_t **out_tiles, uint32_t *out_count,
+                                 const double **out_values)
+{
+    uint64_t n = file->info.patch_count;
+    if (!file->row_offsets || row >= n) {
+        rad_error("%s: row %llu: %s", file->path, (unsigned long long)row,
+                  row >= n ? "out of range" : "not a sparse file");
+        return RAD_ERR_INVALID;
+    }
+    uint64_t at = file->row_offsets[row], size = file->row_offsets[row + 1] - at;
+    if (row != file->next_row && fseeko(file->f, (off_t)(file->layout.matrix_offset + at), SEEK_SET) != 0) {
+        rad_error("%s: cannot seek: %s", file->path, strerror(errno));
+        return RAD_ERR_IO;
+    }
+    file->next_row = UINT64_MAX;
+    if (fread(file->row_buffer, 1, size, file->f) != size) {
+        rad_error("%s: row %llu: read error", file->path, (unsigned long long)row);
+        return RAD_ERR_IO;
+    }
+    if (rad_ff_row_checksum(file->row_buffer, size) != file->row_checksums[row]) {
+        rad_error("%s: row %llu: checksum mismatch: the matrix is corrupted", file->path, (unsigned long long)row);
+        return RAD_ERR_FORMAT;
+    }
+    uint64_t stored;
+    const char *why = decode_record(file->row_buffer, size, n, file->info.element_type, file->tile_buffer, out_count,
+                                    file->value_buffer, &stored);
+    if (why) {
+        rad_error("%s: row %llu: %s", file->path, (unsigned long long)row, why);
+        return RAD_ERR_FORMAT;
+    }
+    file->next_row = row + 1;
+    *out_tiles = file->tile_buffer;
+    *out_values = file->value_buffer;
     return RAD_OK;
 }

@@ -17,9 +17,10 @@ solve_balance solve_balance_compute(const solve_system *system, const double *rh
                                     const double *radiosity, double *scratch)
 {
     const size_t n = system->patch_count;
+    const solve_rows F = solve_system_rows(system);
     double *H = scratch;
 #pragma omp parallel for schedule(static) if (n >= SOLVE_PARALLEL_MIN_ROWS)
-    for (size_t i = 0; i < n; i++) H[i] = solve_dot(system->form_factors + i * n, radiosity, 0, n);
+    for (size_t i = 0; i < n; i++) H[i] = solve_row_dot(&F, i, radiosity, 0, n);
     solve_balance b = {0};
     for (size_t i = 0; i < n; i++) {
         const double A = system->area[i];

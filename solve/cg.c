@@ -21,13 +21,38 @@
 /* Rows of the reciprocity check handled together, for cache reuse. */
 #define CG_TILE 64
 
+/* delta_i = sum_j |A_i F_ij - A_j F_ji| over reflecting i, j, for a
+ * sparse matrix: each unordered pair once, from the row of the two that
+ * stores it first (a pair whose tiles neither row stores adds 0). */
+static void sparse_skew(const solve_run *run, double *delta)
+{
+    const size_t n = run->n;
+    const solve_rows *F = &run->F;
+    const double *A = run->area, *rho = run->rho;
+    for (size_t i = 0; i < n; i++) {
+        if (rho[i] == 0) continue;
+        for (size_t k = 0; k < solve_row_span_count(F, i); k++) {
+            solve_span sp = solve_row_span(F, i, k);
+            for (size_t j = sp.begin; j < sp.end; j++) {
+                if (j == i || rho[j] == 0) continue;
+                /* j < i: row j handled the pair if it stores column i's tile */
+                if (j < i && solve_row_stores(F, j, i)) continue;
+                double d = fabs(A[i] * sp.values[j - sp.begin] - A[j] * solve_row_entry(F, j, i));
+                delta[i] += d;
+                delta[j] += d;
+            }
+        }
+    }
+}
+
 solve_cg_check solve_cg_check_matrix(const solve_run *run)
 {
     const size_t n = run->n;
-    const double *F = run->F, *A = run->area, *rho = run->rho;
+    const double *F = run->F.dense, *A = run->area, *rho = run->rho;
     double *delta = run->work; /* sum_j |A_i F_ij - A_j F_ji| per row */
     for (size_t i = 0; i < n; i++) delta[i] = 0;
-    for (size_t i0 = 0; i0 < n; i0 += CG_TILE) {
+    if (!F) sparse_skew(run, delta);
+    for (size_t i0 = 0; F && i0 < n; i0 += CG_TILE) {
         size_t i1 = i0 + CG_TILE < n ? i0 + CG_TILE : n;
         for (size_t j0 = i0; j0 < n; j0 += CG_TILE) {
             size_t j1 = j0 + CG_TILE < n ? j0 + CG_TILE : n;
@@ -46,9 +71,11 @@ solve_cg_check solve_cg_check_matrix(const solve_run *run)
     for (size_t i = 0; i < n; i++) {
         if (rho[i] == 0) continue;
         double active_sum = 0; /* row sum over reflecting columns */
-        const double *row = F + i * n;
-        for (size_t j = 0; j < n; j++)
-            if (rho[j] != 0) active_sum += row[j];
+        for (size_t k = 0; k < solve_row_span_count(&run->F, i); k++) {
+            solve_span sp = solve_row_span(&run->F, i, k);
+            for (size_t j = sp.begin; j < sp.end; j++)
+                if (rho[j] != 0) active_sum += sp.values[j - sp.begin];
+        }
         double margin = 1 / rho[i] - active_sum, skew = delta[i] / (2 * A[i]);
         if (margin < c.margin) {
             c.margin = margin;
@@ -119,40 +146,48 @@ static const double *cg_operand(const cg_lane *l) { return l->phase == CG_STEPPI
 static void cg_products(cg_lane *lanes, size_t count)
 {
     const size_t n = lanes[0].run->n;
-    const double *F = lanes[0].run->F;
-#pragma omp parallel for schedule(static) if (n >= SOLVE_PARALLEL_MIN_ROWS)
+    const solve_rows *F = &lanes[0].run->F;
+#pragma omp parallel for schedule(dynamic, 64) if (n >= SOLVE_PARALLEL_MIN_ROWS)
     for (size_t i = 0; i < n; i++) {
-        const double *row = F + i * n;
         cg_lane *want[3];
         size_t k = 0;
         for (size_t c = 0; c < count; c++) {
             cg_lane *l = &lanes[c];
             if (l->phase == CG_DONE || l->run->rho[i] == 0) continue;
             if (k == 3) { /* more than three lanes: the rest one by one */
-                l->y[i] = solve_dot(row, cg_operand(l), 0, n);
+                l->y[i] = solve_row_dot(F, i, cg_operand(l), 0, n);
                 continue;
             }
             want[k++] = l;
         }
+        const size_t spans = solve_row_span_count(F, i);
         if (k == 3) {
             const double *x0 = cg_operand(want[0]), *x1 = cg_operand(want[1]), *x2 = cg_operand(want[2]);
             double s0 = 0, s1 = 0, s2 = 0;
-            for (size_t j = 0; j < n; j++) {
-                s0 += row[j] * x0[j];
-                s1 += row[j] * x1[j];
-                s2 += row[j] * x2[j];
+            for (size_t t = 0; t < spans; t++) {
+                solve_span sp = solve_row_span(F, i, t);
+                for (size_t j = sp.begin; j < sp.end; j++) {
+                    double f = sp.values[j - sp.begin];
+                    s0 += f * x0[j];
+                    s1 += f * x1[j];
+                    s2 += f * x2[j];
+                }
             }
             want[0]->y[i] = s0, want[1]->y[i] = s1, want[2]->y[i] = s2;
         } else if (k == 2) {
             const double *x0 = cg_operand(want[0]), *x1 = cg_operand(want[1]);
             double s0 = 0, s1 = 0;
-            for (size_t j = 0; j < n; j++) {
-                s0 += row[j] * x0[j];
-                s1 += row[j] * x1[j];
+            for (size_t t = 0; t < spans; t++) {
+                solve_span sp = solve_row_span(F, i, t);
+                for (size_t j = sp.begin; j < sp.end; j++) {
+                    double f = sp.values[j - sp.begin];
+                    s0 += f * x0[j];
+                    s1 += f * x1[j];
+                }
             }
             want[0]->y[i] = s0, want[1]->y[i] = s1;
         } else if (k == 1) {
-            want[0]->y[i] = solve_dot(row, cg_operand(want[0]), 0, n);
+            want[0]->y[i] = solve_row_dot(F, i, cg_operand(want[0]), 0, n);
         }
     }
 }
@@ -173,7 +208,7 @@ static double cg_residual(cg_lane *l)
         double gathered = run->E[i] + rho * l->y[i];
         double r = gathered - run->B[i];
         l->r[i] = run->area[i] / rho * r;
-        l->z[i] = l->r[i] / (run->area[i] * (1 / rho - run->F[i * n + i]));
+        l->z[i] = l->r[i] / (run->area[i] * (1 / rho - solve_row_entry(&run->F, i, i)));
         double a = solve_patch_residual(r, gathered, run->e_norm);
         if (!(a <= rmax)) rmax = a;
     }
@@ -200,7 +235,7 @@ static double cg_step(cg_lane *l)
         if (run->rho[i] == 0) continue;
         run->B[i] += alpha * l->p[i];
         l->r[i] -= alpha * l->q[i];
-        l->z[i] = l->r[i] / (run->area[i] * (1 / run->rho[i] - run->F[i * n + i]));
+        l->z[i] = l->r[i] / (run->area[i] * (1 / run->rho[i] - solve_row_entry(&run->F, i, i)));
         double r = l->r[i] * run->rho[i] / run->area[i];
         double a = solve_patch_residual(r, run->B[i] + r, run->e_norm);
         if (!(a <= rmax)) rmax = a;

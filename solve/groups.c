@@ -48,6 +48,7 @@ static void compute_rows(const solve_system *system, const rad_mesh *mesh, const
                          double *H, group_row *rows)
 {
     const size_t n = mesh->patch_count;
+    const solve_rows F = solve_system_rows(system);
     memset(rows, 0, mesh->group_count * sizeof *rows);
     for (size_t i = 0; i < n; i++) {
         group_row *r = &rows[mesh->patch_group[i]];
@@ -62,7 +63,7 @@ static void compute_rows(const solve_system *system, const rad_mesh *mesh, const
     for (int c = 0; c < 3; c++) {
         for (size_t i = 0; i < n; i++) B[i] = radiosity[3 * i + c];
 #pragma omp parallel for schedule(static) if (n >= SOLVE_PARALLEL_MIN_ROWS)
-        for (size_t i = 0; i < n; i++) H[i] = solve_dot(system->form_factors + i * n, B, 0, n);
+        for (size_t i = 0; i < n; i++) H[i] = solve_row_dot(&F, i, B, 0, n);
         for (size_t i = 0; i < n; i++) {
             const rad_patch *p = &mesh->patches[i];
             rows[mesh->patch_group[i]].absorbed[c] += p->area * (1 - p->rho[c]) * H[i];

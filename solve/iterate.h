@@ -21,7 +21,7 @@
 typedef struct solve_run {
     /* the problem (borrowed) */
     size_t n;
-    const double *F;        /* n * n */
+    solve_rows F;           /* the matrix (rows.h) */
     const double *area;     /* n */
     const double *row_sum;  /* n */
     const double *rho;      /* n, this channel */

@@ -19,21 +19,32 @@ static size_t matrix_block_rows(size_t n)
     return block ? block : 1;
 }
 
-/* Checks row i; logs and returns RAD_ERR_INVALID at the first problem. */
-static rad_status check_row(const char *path, size_t i, const double *row, size_t n, double *out_sum)
+/* Checks F_ij; logs and returns RAD_ERR_INVALID if it is not finite or negative. */
+static rad_status check_entry(const char *path, size_t i, size_t j, double f)
+{
+    if (!isfinite(f)) {
+        rad_error("%s: row %zu: F[%zu][%zu] is %s", path, i, i, j, isnan(f) ? "NaN" : "infinite");
+        return RAD_ERR_INVALID;
+    }
+    if (f < -SOLVE_NEGATIVE_TOLERANCE) {
+        rad_error("%s: row %zu: F[%zu][%zu] = %.6g is negative", path, i, i, j, f);
+        return RAD_ERR_INVALID;
+    }
+    return RAD_OK;
+}
+
+/* Checks row i of `rows` (every entry, then the sum, left to right);
+ * logs and returns RAD_ERR_INVALID at the first problem. */
+static rad_status check_row(const char *path, const solve_rows *rows, size_t i, double *out_sum)
 {
     double sum = 0;
-    for (size_t j = 0; j < n; j++) {
-        double f = row[j];
-        if (!isfinite(f)) {
-            rad_error("%s: row %zu: F[%zu][%zu] is %s", path, i, i, j, isnan(f) ? "NaN" : "infinite");
-            return RAD_ERR_INVALID;
+    for (size_t k = 0; k < solve_row_span_count(rows, i); k++) {
+        solve_span sp = solve_row_span(rows, i, k);
+        for (size_t j = sp.begin; j < sp.end; j++) {
+            double f = sp.values[j - sp.begin];
+            if (check_entry(path, i, j, f) != RAD_OK) return RAD_ERR_INVALID;
+            sum += f;
         }
-        if (f < -SOLVE_NEGATIVE_TOLERANCE) {
-            rad_error("%s: row %zu: F[%zu][%zu] = %.6g is negative", path, i, i, j, f);
-            return RAD_ERR_INVALID;
-        }
-        sum += f;
     }
     if (sum > SOLVE_ROW_SUM_LIMIT) {
         rad_error("%s: row %zu: form factors sum to %.6g, more than %g (a closed scene sums to 1)", path, i, sum,
@@ -41,6 +52,76 @@ static rad_status check_row(const char *path, size_t i, const double *row, size_
         return RAD_ERR_INVALID;
     }
     *out_sum = sum;
+    return RAD_OK;
+}
+
+/* Room for `tiles` more tiles and `values` more entries in m's arrays. */
+static rad_status grow_sparse(solve_matrix *m, size_t tiles, size_t values)
+{
+    if (m->tile_count + tiles > m->tile_cap) {
+        size_t cap = m->tile_cap ? 2 * m->tile_cap : 4096;
+        while (cap < m->tile_count + tiles) cap *= 2;
+        uint32_t *column = realloc(m->tile_column, cap * sizeof *column);
+        if (column) m->tile_column = column;
+        uint64_t *value = column ? realloc(m->tile_value, cap * sizeof *value) : NULL;
+        if (value) m->tile_value = value;
+        if (!column || !value) return RAD_ERR_NOMEM;
+        m->tile_cap = cap;
+    }
+    if (m->value_count + values > m->value_cap) {
+        size_t cap = m->value_cap ? 2 * m->value_cap : 1 << 18;
+        while (cap < m->value_count + values) cap *= 2;
+        double *grown = realloc(m->values, cap * sizeof *grown);
+        if (!grown) return RAD_ERR_NOMEM;
+        m->values = grown;
+        m->value_cap = cap;
+    }
+    return RAD_OK;
+}
+
+/* A sparse file, row by row, kept as its tiles (rows.h); each row checked
+ * as a dense one is. */
+static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix *m)
+{
+    const size_t n = m->patch_count;
+    m->row_tiles = malloc((n + 1) * sizeof *m->row_tiles);
+    if (!m->row_tiles) {
+        rad_error("%s: out of memory for %zu rows", path, n);
+        return RAD_ERR_NOMEM;
+    }
+    m->row_tiles[0] = 0;
+    for (size_t i = 0; i < n; i++) {
+        const uint32_t *tiles;
+        const double *values;
+        uint32_t count;
+        rad_status status = rad_ff_read_row_tiles(file, i, &tiles, &count, &values);
+        if (status != RAD_OK) return status;
+        size_t stored = 0;
+        for (uint32_t k = 0; k < count; k++) {
+            size_t begin = (size_t)tiles[k] * RAD_FF_TILE_COLUMNS;
+            stored += (begin + RAD_FF_TILE_COLUMNS < n ? RAD_FF_TILE_COLUMNS : n - begin);
+        }
+        if (grow_sparse(m, count, stored) != RAD_OK) {
+            rad_error("%s: out of memory for the stored tiles of %zu rows (%zu entries so far)", path, n,
+                      m->value_count);
+            return RAD_ERR_NOMEM;
+        }
+        size_t at = m->value_count;
+        for (uint32_t k = 0; k < count; k++) {
+            size_t begin = (size_t)tiles[k] * RAD_FF_TILE_COLUMNS;
+            m->tile_column[m->tile_count + k] = (uint32_t)begin;
+            m->tile_value[m->tile_count + k] = at;
+            at += begin + RAD_FF_TILE_COLUMNS < n ? RAD_FF_TILE_COLUMNS : n - begin;
+        }
+        memcpy(m->values + m->value_count, values, stored * sizeof *values);
+        m->tile_count += count;
+        m->value_count += stored;
+        m->row_tiles[i + 1] = m->tile_count;
+    }
+    m->rows = (solve_rows){.n = n, .row_tiles = m->row_tiles, .tile_column = m->tile_column,
+                           .tile_value = m->tile_value, .values = m->values};
+    for (size_t i = 0; i < n; i++)
+        if (check_row(path, &m->rows, i, &m->row_sum[i]) != RAD_OK) return RAD_ERR_INVALID;
     return RAD_OK;
 }
 
@@ -58,23 +139,35 @@ rad_status solve_matrix_load(rad_ff_file *file, const char *path, solve_matrix *
         status = RAD_ERR_FORMAT;
         goto done;
     }
+    m.patch_count = n;
+    m.area = malloc(n * sizeof(double));
+    m.row_sum = malloc(n * sizeof(double));
+    if (!m.area || !m.row_sum) {
+        rad_error("%s: out of memory for %zu patches", path, n);
+        status = RAD_ERR_NOMEM;
+        goto done;
+    }
+    for (size_t i = 0; i < n; i++) m.area[i] = mesh->patches[i].area;
+    if (info->layout == RAD_FF_LAYOUT_SPARSE) {
+        status = load_sparse(file, path, &m);
+        if (status != RAD_OK) goto done;
+        *out_matrix = m;
+        memset(&m, 0, sizeof m);
+        goto done;
+    }
     if (n > SIZE_MAX / sizeof(double) / n) {
         rad_error("%s: a %zu x %zu matrix does not fit in memory", path, n, n);
         status = RAD_ERR_NOMEM;
         goto done;
     }
-    m.patch_count = n;
     m.form_factors = malloc(n * n * sizeof(double));
-    m.area = malloc(n * sizeof(double));
-    m.row_sum = malloc(n * sizeof(double));
-    if (!m.form_factors || !m.area || !m.row_sum) {
+    m.rows = (solve_rows){.n = n, .dense = m.form_factors};
+    if (!m.form_factors) {
         rad_error("%s: out of memory: the %zu x %zu matrix needs %.2f GiB as double", path, n, n,
                   (double)n * (double)n * 8.0 / (1u << 30));
         status = RAD_ERR_NOMEM;
         goto done;
     }
-    for (size_t i = 0; i < n; i++) m.area[i] = mesh->patches[i].area;
-
     size_t block = matrix_block_rows(n);
     for (size_t begin = 0; begin < n; begin += block) {
         size_t count = n - begin < block ? n - begin : block;
@@ -83,7 +176,7 @@ rad_status solve_matrix_load(rad_ff_file *file, const char *path, solve_matrix *
         if (status != RAD_OK) goto done;
         for (size_t k = 0; k < count; k++) {
             size_t i = begin + k;
-            status = check_row(path, i, rows + k * n, n, &m.row_sum[i]);
+            status = check_row(path, &m.rows, i, &m.row_sum[i]);
             if (status != RAD_OK) goto done;
         }
     }
@@ -98,6 +191,10 @@ void solve_matrix_free(solve_matrix *matrix)
 {
     if (!matrix) return;
     free(matrix->form_factors);
+    free(matrix->row_tiles);
+    free(matrix->tile_column);
+    free(matrix->tile_value);
+    free(matrix->values);
     free(matrix->area);
     free(matrix->row_sum);
     free(matrix->row_error);
@@ -292,6 +389,7 @@ solve_system solve_matrix_system(const solve_matrix *matrix)
     solve_system s = {
         .patch_count = matrix->patch_count,
         .form_factors = matrix->form_factors,
+        .sparse = matrix->form_factors ? NULL : &matrix->rows,
         .area = matrix->area,
         .row_sum = matrix->row_sum,
     };

@@ -24,6 +24,7 @@
 #define SOLVE_MATRIX_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "rad_ffile.h"
 #include "rad_status.h"
@@ -57,13 +58,22 @@
 
 typedef struct solve_matrix {
     size_t patch_count;
-    double *form_factors; /* N * N, row-major */
+    double *form_factors; /* N * N, row-major; NULL when read from a sparse file */
+    /* A sparse file's stored tiles, kept as stored (rows.h); `rows` views
+     * them (or form_factors), and solve_matrix_system hands it on. */
+    uint64_t *row_tiles;
+    uint32_t *tile_column;
+    uint64_t *tile_value;
+    double *values;
+    size_t tile_count, tile_cap, value_count, value_cap;
+    solve_rows rows;
     double *area;         /* N, from the patch table */
     double *row_sum;      /* N */
     double *row_error;    /* N: sqrt(sum_j sigma_ij^2); NULL until solve_matrix_load_errors */
 } solve_matrix;
 
-/* Reads all N rows of `file` (opened from `path`, used in messages).
+/* Reads all N rows of `file` (opened from `path`, used in messages): a
+ * dense file into form_factors, a sparse one (version 3) as its tiles.
  * *out_matrix is set only on success; free with solve_matrix_free. */
 rad_status solve_matrix_load(rad_ff_file *file, const char *path, solve_matrix *out_matrix);
 void solve_matrix_free(solve_matrix *matrix); /* safe on zeroed */

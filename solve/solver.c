@@ -78,7 +78,7 @@ double solve_run_residual(const solve_run *run, const double *B)
     const size_t n = run->n;
     double rmax = 0;
     for (size_t i = 0; i < n; i++) {
-        double gathered = run->E[i] + run->rho[i] * solve_dot(run->F + i * n, B, 0, n);
+        double gathered = run->E[i] + run->rho[i] * solve_row_dot(&run->F, i, B, 0, n);
         double a = solve_patch_residual(gathered - B[i], gathered, run->e_norm);
         if (!(a <= rmax)) rmax = a; /* keeps NaN */
     }
@@ -168,7 +168,7 @@ static rad_status channel_begin(const solve_system *system, const double *rho, c
     solve_run *run = &ch->run;
     *run = (solve_run){
         .n = n,
-        .F = system->form_factors,
+        .F = solve_system_rows(system),
         .area = system->area,
         .row_sum = system->row_sum,
         .rho = rho,

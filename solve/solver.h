@@ -39,6 +39,7 @@
 
 #include "rad_rfile.h"
 #include "rad_status.h"
+#include "rows.h"
 
 /* Default stopping tolerance on the scaled residual omega. The solver's error
  * in the displayed image is then at most ~1e-4 of the smallest 8-bit step
@@ -84,10 +85,18 @@ typedef struct solve_params {
 /* The matrix, shared by all channels; nothing here is copied or freed. */
 typedef struct solve_system {
     size_t patch_count;          /* N >= 1 */
-    const double *form_factors;  /* N * N, F_ij at i * N + j, validated */
+    const double *form_factors;  /* N * N, F_ij at i * N + j, validated; NULL when `sparse` */
     const double *area;          /* N patch areas (> 0) */
     const double *row_sum;       /* N row sums of F */
+    const solve_rows *sparse;    /* the stored tiles of a sparse file (rows.h), or NULL */
 } solve_system;
+
+/* The rows of `system` (rows.h): its sparse tiles, or its dense matrix. */
+static inline solve_rows solve_system_rows(const solve_system *system)
+{
+    if (system->sparse) return *system->sparse;
+    return (solve_rows){.n = system->patch_count, .dense = system->form_factors};
+}
 
 /* Where the light of one channel goes (docs/solve.md, "Energy balance").
  * Powers are area x radiosity. With H_i = sum_j F_ij B_j (what patch i

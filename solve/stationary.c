@@ -27,10 +27,9 @@ static double jacobi_sweep(const solve_run *run, const double *B, double *next)
             next[i] = B[i];
             continue;
         }
-        const double *row = run->F + i * n;
-        double gathered = run->E[i] + rho * solve_dot(row, B, 0, n);
+        double gathered = run->E[i] + rho * solve_row_dot(&run->F, i, B, 0, n);
         double r = gathered - B[i];
-        next[i] = B[i] + r / (1 - rho * row[i]);
+        next[i] = B[i] + r / (1 - rho * solve_row_entry(&run->F, i, i));
         double a = solve_patch_residual(r, gathered, run->e_norm);
         if (!(a <= rmax)) rmax = a; /* lets NaN through to the caller */
     }
@@ -60,14 +59,13 @@ static double gauss_seidel_sweep(const solve_run *run, double *B, const double *
     for (size_t i = 0; i < n; i++) {
         double rho = run->rho[i];
         if (rho == 0) continue;
-        const double *row = run->F + i * n;
         /* columns j < i already hold new values in B, the rest old ones */
-        double lower_new = solve_dot(row, B, 0, i);
-        double lower_old = solve_dot(row, old, 0, i);
-        double upper = solve_dot(row, B, i, n);
+        double lower_new = solve_row_dot(&run->F, i, B, 0, i);
+        double lower_old = solve_row_dot(&run->F, i, old, 0, i);
+        double upper = solve_row_dot(&run->F, i, B, i, n);
         double gathered_old = run->E[i] + rho * (lower_old + upper);
         double r_now = run->E[i] + rho * (lower_new + upper) - B[i];
-        B[i] += r_now / (1 - rho * row[i]);
+        B[i] += r_now / (1 - rho * solve_row_entry(&run->F, i, i));
         double a = solve_patch_residual(gathered_old - old[i], gathered_old, run->e_norm);
         if (!(a <= rmax)) rmax = a;
     }

@@ -72,7 +72,7 @@ static rad_status fx_solve(const solve_fx_scene *s, solve_method method, double 
         E[i] = s->mesh.patches[i].emission[0];
     }
     solve_params p = {.method = method, .tolerance = TRUTH_TOL, .progress_seconds = -1};
-    solve_system sys = {n, s->F, s->area, s->row_sum};
+    solve_system sys = {n, s->F, s->area, s->row_sum, NULL};
     rad_status st = solve_channel(&sys, rho, E, &p, B, rep);
     free(rho);
     free(E);
@@ -317,7 +317,7 @@ static void test_cg_reasons(void)
      * perfectly reciprocal. solve_channel refuses such a system before the
      * check, so the check is called directly. */
     double rho[2] = {0.9, 0.9}, area[2] = {1, 1}, F[4] = {0, 1.2, 1.2, 0}, work[2];
-    solve_run run = {.n = 2, .F = F, .area = area, .rho = rho, .work = work};
+    solve_run run = {.n = 2, .F = {.n = 2, .dense = F}, .area = area, .rho = rho, .work = work};
     solve_cg_check check = solve_cg_check_matrix(&run);
     RAD_CHECK(check.no_margin_count == 2 && check.margin < 0 && !solve_cg_check_passes(&check));
     char why[320];
