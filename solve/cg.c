@@ -21,28 +21,54 @@
 /* Rows of the reciprocity check handled together, for cache reuse. */
 #define CG_TILE 64
 
-/* delta_i = sum_j |A_i F_ij - A_j F_ji| over reflecting i, j, for a
- * sparse matrix: each unordered pair once, from the row of the two that
- * stores it first (a pair whose tiles neither row stores adds 0). */
-static void sparse_skew(const solve_run *run, double *delta)
+static int compare_u64(const void *a, const void *b)
 {
-    const size_t n = run->n;
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* delta_i = sum_j |A_i F_ij - A_j F_ji| over reflecting i, j, for a
+ * sparse matrix: block by block of 64 x 64 entries (a tile and its
+ * transpose), only the blocks where either is stored, in the order of the
+ * dense loop below - so the same bits as over the expanded matrix, as
+ * blocks left out add |0 - 0|. 0 on success, -1 out of memory (the caller
+ * then goes through every pair entry by entry). */
+static int sparse_skew(const solve_run *run, double *delta)
+{
+    const size_t n = run->n, tiles = (size_t)run->F.row_tiles[n], T = RAD_FF_TILE_COLUMNS;
+    const size_t blocks = (n + T - 1) / T;
     const solve_rows *F = &run->F;
     const double *A = run->area, *rho = run->rho;
-    for (size_t i = 0; i < n; i++) {
-        if (rho[i] == 0) continue;
-        for (size_t k = 0; k < solve_row_span_count(F, i); k++) {
-            solve_span sp = solve_row_span(F, i, k);
-            for (size_t j = sp.begin; j < sp.end; j++) {
-                if (j == i || rho[j] == 0) continue;
-                /* j < i: row j handled the pair if it stores column i's tile */
-                if (j < i && solve_row_stores(F, j, i)) continue;
-                double d = fabs(A[i] * sp.values[j - sp.begin] - A[j] * solve_row_entry(F, j, i));
+    uint64_t *pairs = malloc((tiles ? tiles : 1) * sizeof *pairs);
+    if (!pairs) return -1;
+    size_t count = 0;
+    for (size_t i = 0; i < n; i++)
+        for (uint64_t t = F->row_tiles[i]; t < F->row_tiles[i + 1]; t++) {
+            uint64_t I = i / T, J = F->tile_column[t] / T;
+            pairs[count++] = I <= J ? I * blocks + J : J * blocks + I;
+        }
+    qsort(pairs, count, sizeof *pairs, compare_u64);
+    const double *row_i[RAD_FF_TILE_COLUMNS], *row_j[RAD_FF_TILE_COLUMNS];
+    for (size_t k = 0; k < count; k++) {
+        if (k > 0 && pairs[k] == pairs[k - 1]) continue;
+        size_t i0 = (size_t)(pairs[k] / blocks) * T, j0 = (size_t)(pairs[k] % blocks) * T;
+        size_t i1 = i0 + T < n ? i0 + T : n, j1 = j0 + T < n ? j0 + T : n;
+        for (size_t i = i0; i < i1; i++) row_i[i - i0] = solve_row_tile(F, i, j0);
+        for (size_t j = j0; j < j1; j++) row_j[j - j0] = solve_row_tile(F, j, i0);
+        for (size_t i = i0; i < i1; i++) {
+            if (rho[i] == 0) continue;
+            for (size_t j = (j0 > i + 1 ? j0 : i + 1); j < j1; j++) {
+                if (rho[j] == 0) continue;
+                double fij = row_i[i - i0] ? row_i[i - i0][j - j0] : 0;
+                double fji = row_j[j - j0] ? row_j[j - j0][i - i0] : 0;
+                double d = fabs(A[i] * fij - A[j] * fji);
                 delta[i] += d;
                 delta[j] += d;
             }
         }
     }
+    free(pairs);
+    return 0;
 }
 
 solve_cg_check solve_cg_check_matrix(const solve_run *run)
@@ -51,8 +77,8 @@ solve_cg_check solve_cg_check_matrix(const solve_run *run)
     const double *F = run->F.dense, *A = run->area, *rho = run->rho;
     double *delta = run->work; /* sum_j |A_i F_ij - A_j F_ji| per row */
     for (size_t i = 0; i < n; i++) delta[i] = 0;
-    if (!F) sparse_skew(run, delta);
-    for (size_t i0 = 0; F && i0 < n; i0 += CG_TILE) {
+    int blocked = !F && sparse_skew(run, delta) == 0;
+    for (size_t i0 = 0; !blocked && i0 < n; i0 += CG_TILE) {
         size_t i1 = i0 + CG_TILE < n ? i0 + CG_TILE : n;
         for (size_t j0 = i0; j0 < n; j0 += CG_TILE) {
             size_t j1 = j0 + CG_TILE < n ? j0 + CG_TILE : n;
@@ -60,7 +86,9 @@ solve_cg_check solve_cg_check_matrix(const solve_run *run)
                 if (rho[i] == 0) continue;
                 for (size_t j = (j0 > i + 1 ? j0 : i + 1); j < j1; j++) {
                     if (rho[j] == 0) continue;
-                    double d = fabs(A[i] * F[i * n + j] - A[j] * F[j * n + i]);
+                    double fij = F ? F[i * n + j] : solve_row_entry(&run->F, i, j);
+                    double fji = F ? F[j * n + i] : solve_row_entry(&run->F, j, i);
+                    double d = fabs(A[i] * fij - A[j] * fji);
                     delta[i] += d;
                     delta[j] += d;
                 }

@@ -63,37 +63,30 @@ static inline double solve_row_dot(const solve_rows *F, size_t i, const double *
     return s;
 }
 
+/* Sparse: the entries of row i's tile holding column j (the tile's first
+ * column at [0]), or NULL when the row does not store it. Dense: the row
+ * from that tile's first column. Binary search over the row's tiles. */
+static inline const double *solve_row_tile(const solve_rows *F, size_t i, size_t j)
+{
+    size_t column = j - j % RAD_FF_TILE_COLUMNS;
+    if (F->dense) return F->dense + i * F->n + column;
+    uint64_t lo = F->row_tiles[i], hi = F->row_tiles[i + 1];
+    while (lo < hi) {
+        uint64_t mid = lo + (hi - lo) / 2;
+        if (F->tile_column[mid] < column)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    if (lo < F->row_tiles[i + 1] && F->tile_column[lo] == column) return F->values + F->tile_value[lo];
+    return NULL;
+}
+
 /* F_ij (0 where not stored). */
 static inline double solve_row_entry(const solve_rows *F, size_t i, size_t j)
 {
-    if (F->dense) return F->dense[i * F->n + j];
-    uint64_t lo = F->row_tiles[i], hi = F->row_tiles[i + 1];
-    uint32_t column = (uint32_t)(j - j % RAD_FF_TILE_COLUMNS);
-    while (lo < hi) { /* binary search for the tile holding column j */
-        uint64_t mid = lo + (hi - lo) / 2;
-        if (F->tile_column[mid] < column)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    if (lo < F->row_tiles[i + 1] && F->tile_column[lo] == column) return F->values[F->tile_value[lo] + (j - column)];
-    return 0;
-}
-
-/* 1 if row i stores the tile holding column j (sparse; dense: always). */
-static inline int solve_row_stores(const solve_rows *F, size_t i, size_t j)
-{
-    if (F->dense) return 1;
-    uint32_t column = (uint32_t)(j - j % RAD_FF_TILE_COLUMNS);
-    for (uint64_t lo = F->row_tiles[i], hi = F->row_tiles[i + 1]; lo < hi;) {
-        uint64_t mid = lo + (hi - lo) / 2;
-        if (F->tile_column[mid] == column) return 1;
-        if (F->tile_column[mid] < column)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return 0;
+    const double *tile = solve_row_tile(F, i, j);
+    return tile ? tile[j % RAD_FF_TILE_COLUMNS] : 0;
 }
 
 #endif
