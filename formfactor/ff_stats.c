@@ -1,10 +1,9 @@
 #include "ff_stats.h"
 
-#include <errno.h>
 #include <stdio.h>
-#include <string.h>
 
 #include "rad_fs.h"
+#include "rad_json.h"
 #include "rad_log.h"
 
 /* Phase times of the whole run: the slowest rank's, as the paper reported. */
@@ -36,38 +35,159 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
     return all;
 }
 
-static void write_times(FILE *f, const ff_rank_stats *s)
+/* Measurements get the digits they have: times to the microsecond, rates
+ * to 6 significant digits, form factors and their errors to 9. */
+#define FF_STATS_TIME_DECIMALS 6
+#define FF_STATS_RATE_DIGITS 6
+#define FF_STATS_VALUE_DIGITS 9
+
+static void put_time(rad_json_writer *w, const char *key, double seconds)
 {
-    fprintf(f,
-            "{\"load\": %.6f, \"subdivide\": %.6f, \"setup\": %.6f, \"form_factors\": %.6f, "
-            "\"visibility\": %.6f, \"gpu_memory\": %.6f, \"mirror\": %.6f, \"io\": %.6f, \"total\": %.6f}",
-            s->load, s->subdivide, s->setup, s->form_factors, s->visibility, s->gpu_memory, s->mirror, s->io, s->total);
+    rad_json_key(w, key);
+    rad_json_number_fixed(w, seconds, FF_STATS_TIME_DECIMALS);
 }
 
-static void write_counters(FILE *f, const ff_counters *c)
+static void put_value(rad_json_writer *w, const char *key, double value)
 {
-    fprintf(f,
-            "\"pairs\": %llu, \"pairs_mirrored\": %llu, \"pairs_culled\": %llu, \"pairs_near\": %llu, \"samples\": %llu, \"rays\": %llu, "
-            "\"rays_occluded\": %llu, \"pairs_open_scene\": %llu, \"pairs_open_box\": %llu, \"rays_saved\": %llu, "
-            "\"pairs_refined\": %llu, \"pairs_capped\": %llu",
-            (unsigned long long)c->pairs, (unsigned long long)c->pairs_mirrored, (unsigned long long)c->pairs_culled,
-            (unsigned long long)c->pairs_near, (unsigned long long)c->samples,
-            (unsigned long long)c->rays, (unsigned long long)c->rays_occluded, (unsigned long long)c->pairs_open_scene,
-            (unsigned long long)c->pairs_open_box, (unsigned long long)c->rays_saved,
-            (unsigned long long)c->pairs_refined, (unsigned long long)c->pairs_capped);
+    rad_json_key(w, key);
+    rad_json_number_digits(w, value, FF_STATS_VALUE_DIGITS);
 }
 
-static void write_string(FILE *f, const char *s)
+static void put_count(rad_json_writer *w, const char *key, uint64_t count)
 {
-    fputc('"', f);
-    for (; s && *s; s++) {
-        if (*s == '"' || *s == '\\') fputc('\\', f);
-        if ((unsigned char)*s < 0x20)
-            fprintf(f, "\\u%04x", *s);
-        else
-            fputc(*s, f);
+    rad_json_key(w, key);
+    rad_json_uint(w, count);
+}
+
+static void put_name(rad_json_writer *w, const char *key, const char *name)
+{
+    rad_json_key(w, key);
+    rad_json_string(w, name);
+}
+
+static void put_times(rad_json_writer *w, const ff_rank_stats *s)
+{
+    rad_json_key(w, "time_seconds");
+    rad_json_begin_object(w, RAD_JSON_INLINE);
+    put_time(w, "load", s->load);
+    put_time(w, "subdivide", s->subdivide);
+    put_time(w, "setup", s->setup);
+    put_time(w, "form_factors", s->form_factors);
+    put_time(w, "visibility", s->visibility);
+    put_time(w, "gpu_memory", s->gpu_memory);
+    put_time(w, "mirror", s->mirror);
+    put_time(w, "io", s->io);
+    put_time(w, "total", s->total);
+    rad_json_end_object(w);
+}
+
+/* The counters, as members of the object being written: on one line. */
+static void put_counters(rad_json_writer *w, const ff_counters *c)
+{
+    rad_json_line_begin(w);
+    put_count(w, "pairs", c->pairs);
+    put_count(w, "pairs_mirrored", c->pairs_mirrored);
+    put_count(w, "pairs_culled", c->pairs_culled);
+    put_count(w, "pairs_near", c->pairs_near);
+    put_count(w, "samples", c->samples);
+    put_count(w, "rays", c->rays);
+    put_count(w, "rays_occluded", c->rays_occluded);
+    put_count(w, "pairs_open_scene", c->pairs_open_scene);
+    put_count(w, "pairs_open_box", c->pairs_open_box);
+    put_count(w, "rays_saved", c->rays_saved);
+    put_count(w, "pairs_refined", c->pairs_refined);
+    put_count(w, "pairs_capped", c->pairs_capped);
+    rad_json_line_end(w);
+}
+
+static void put_standard_error(rad_json_writer *w, const ff_run_info *run, const ff_rows_summary *e)
+{
+    rad_json_key(w, "standard_error");
+    if (!run->errors) {
+        rad_json_null(w);
+        return;
     }
-    fputc('"', f);
+    rad_json_begin_object(w, RAD_JSON_INLINE);
+    put_value(w, "max", e->error_max);
+    put_value(w, "mean", e->error_count ? e->error_sum / e->error_count : 0.0);
+    put_value(w, "mean_relative", e->error_count ? e->error_relative_sum / e->error_count : 0.0);
+    put_count(w, "entries", e->error_count);
+    rad_json_key(w, "worst");
+    rad_json_begin_object(w, RAD_JSON_INLINE);
+    put_count(w, "row", e->error_max_row);
+    put_count(w, "column", e->error_max_column);
+    put_value(w, "F", e->error_max_value);
+    rad_json_end_object(w);
+    rad_json_end_object(w);
+}
+
+static void put_rank(rad_json_writer *w, const ff_rank_stats *s)
+{
+    rad_json_begin_object(w, RAD_JSON_INLINE);
+    rad_json_key(w, "rank");
+    rad_json_int(w, s->rank);
+    rad_json_key(w, "threads");
+    rad_json_int(w, s->threads);
+    rad_json_key(w, "rows");
+    rad_json_begin_array(w, RAD_JSON_INLINE);
+    rad_json_uint(w, s->row_begin);
+    rad_json_uint(w, s->row_end);
+    rad_json_end_array(w);
+    put_counters(w, &s->counters);
+    put_times(w, s);
+    rad_json_end_object(w);
+}
+
+static void put_run(rad_json_writer *w, const ff_run_info *run, const ff_rank_stats *ranks)
+{
+    ff_rank_stats all = overall(run, ranks);
+    /* Throughput over compute time (kernel + shadow rays; the GPU kernel on
+     * CUDA), not over the whole run, which includes start-up and I/O. */
+    double seconds = all.form_factors + all.visibility > 0 ? all.form_factors + all.visibility : 1e-9;
+    char fingerprint[17];
+    snprintf(fingerprint, sizeof fingerprint, "%016llx", (unsigned long long)run->fingerprint);
+    rad_json_begin_object(w, RAD_JSON_BLOCK);
+    put_name(w, "program", "formfactor");
+    put_name(w, "scene", run->scene);
+    put_name(w, "scene_fingerprint", fingerprint);
+    put_count(w, "patches", run->patch_count);
+    rad_json_key(w, "subdiv");
+    rad_json_int(w, run->subdiv);
+    put_name(w, "subdiv_only", run->subdiv_only); /* NULL: null */
+    put_count(w, "samples_per_pair", run->samples);
+    put_count(w, "shadow_rays_per_pair", run->shadow_rays);
+    put_count(w, "seed", run->seed);
+    put_name(w, "estimator", run->estimator);
+    put_name(w, "cull", run->cull);
+    put_name(w, "reciprocity", run->reciprocity);
+    put_name(w, "backend", run->backend);
+    put_name(w, "element", run->element);
+    put_name(w, "format", run->format);
+    put_name(w, "output", run->output);
+    rad_json_key(w, "ranks");
+    rad_json_int(w, run->ranks);
+    rad_json_key(w, "gpus_visible");
+    rad_json_int(w, run->gpus_visible);
+    put_counters(w, &all.counters);
+    rad_json_key(w, "rays_per_second");
+    rad_json_number_digits(w, all.counters.rays / seconds, FF_STATS_RATE_DIGITS);
+    rad_json_key(w, "samples_per_second");
+    rad_json_number_digits(w, all.counters.samples / seconds, FF_STATS_RATE_DIGITS);
+    rad_json_key(w, "row_sum");
+    rad_json_begin_object(w, RAD_JSON_INLINE);
+    put_value(w, "min", all.rows.row_sum_min);
+    put_value(w, "max", all.rows.row_sum_max);
+    put_value(w, "mean", run->patch_count ? all.rows.row_sum_total / run->patch_count : 0.0);
+    rad_json_end_object(w);
+    put_standard_error(w, run, &all.rows);
+    put_value(w, "target_error", run->target_error);
+    put_count(w, "max_samples_per_pair", run->max_samples);
+    put_times(w, &all);
+    rad_json_key(w, "per_rank");
+    rad_json_begin_array(w, RAD_JSON_BLOCK);
+    for (int r = 0; r < run->ranks; r++) put_rank(w, &ranks[r]);
+    rad_json_end_array(w);
+    rad_json_end_object(w);
 }
 
 rad_status ff_stats_write_json(const char *path, const ff_run_info *run, const ff_rank_stats *ranks)
@@ -76,53 +196,13 @@ rad_status ff_stats_write_json(const char *path, const ff_run_info *run, const f
     FILE *f = NULL;
     rad_status status = rad_fs_create_temp(path, temp, sizeof temp, &f);
     if (status != RAD_OK) return status;
-    ff_rank_stats all = overall(run, ranks);
-    /* Throughput over compute time (kernel + shadow rays; the GPU kernel on
-     * CUDA), not over the whole run, which includes start-up and I/O. */
-    double seconds = all.form_factors + all.visibility > 0 ? all.form_factors + all.visibility : 1e-9;
-    fprintf(f, "{\n  \"program\": \"formfactor\",\n  \"scene\": ");
-    write_string(f, run->scene);
-    fprintf(f, ",\n  \"scene_fingerprint\": \"%016llx\",\n", (unsigned long long)run->fingerprint);
-    fprintf(f, "  \"patches\": %u,\n  \"subdiv\": %d,\n  \"subdiv_only\": ", run->patch_count, run->subdiv);
-    if (run->subdiv_only) write_string(f, run->subdiv_only); else fputs("null", f);
-    fprintf(f, ",\n  \"samples_per_pair\": %u,\n  \"shadow_rays_per_pair\": %u,\n  \"seed\": %llu,\n",
-            run->samples, run->shadow_rays, (unsigned long long)run->seed);
-    fprintf(f, "  \"estimator\": \"%s\",\n  \"cull\": \"%s\",\n  \"reciprocity\": \"%s\",\n", run->estimator, run->cull,
-            run->reciprocity);
-    fprintf(f, "  \"backend\": \"%s\",\n  \"element\": \"%s\",\n  \"format\": \"%s\",\n  \"output\": ", run->backend,
-            run->element, run->format);
-    write_string(f, run->output);
-    fprintf(f, ",\n  \"ranks\": %d,\n  \"gpus_visible\": %d,\n  ", run->ranks, run->gpus_visible);
-    write_counters(f, &all.counters);
-    fprintf(f, ",\n  \"rays_per_second\": %.6g,\n  \"samples_per_second\": %.6g,\n",
-            all.counters.rays / seconds, all.counters.samples / seconds);
-    fprintf(f, "  \"row_sum\": {\"min\": %.9g, \"max\": %.9g, \"mean\": %.9g},\n", all.rows.row_sum_min, all.rows.row_sum_max,
-            run->patch_count ? all.rows.row_sum_total / run->patch_count : 0.0);
-    const ff_rows_summary *e = &all.rows;
-    if (!run->errors)
-        fprintf(f, "  \"standard_error\": null,\n");
-    else
-        fprintf(f,
-                "  \"standard_error\": {\"max\": %.9g, \"mean\": %.9g, \"mean_relative\": %.9g, \"entries\": %llu, "
-                "\"worst\": {\"row\": %u, \"column\": %u, \"F\": %.9g}},\n",
-                e->error_max, e->error_count ? e->error_sum / e->error_count : 0.0,
-                e->error_count ? e->error_relative_sum / e->error_count : 0.0, (unsigned long long)e->error_count,
-                e->error_max_row, e->error_max_column, e->error_max_value);
-    fprintf(f, "  \"target_error\": %.9g,\n  \"max_samples_per_pair\": %u,\n", run->target_error, run->max_samples);
-    fprintf(f, "  \"time_seconds\": ");
-    write_times(f, &all);
-    fprintf(f, ",\n  \"per_rank\": [\n");
-    for (int r = 0; r < run->ranks; r++) {
-        const ff_rank_stats *s = &ranks[r];
-        fprintf(f, "    {\"rank\": %d, \"threads\": %d, \"rows\": [%u, %u], ", s->rank, s->threads, s->row_begin,
-                s->row_end);
-        write_counters(f, &s->counters);
-        fprintf(f, ", \"time_seconds\": ");
-        write_times(f, s);
-        fprintf(f, "}%s\n", r + 1 < run->ranks ? "," : "");
-    }
-    fprintf(f, "  ]\n}\n");
-    return rad_fs_close_commit(f, temp, path);
+    rad_json_writer w;
+    rad_json_writer_init_file(&w, f);
+    put_run(&w, run, ranks);
+    rad_status written = rad_json_finish(&w);
+    /* A failed write left ferror(f) set: this logs it and removes the temporary. */
+    status = rad_fs_close_commit(f, temp, path);
+    return status != RAD_OK ? status : written;
 }
 
 void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)

@@ -5,6 +5,7 @@
  */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
+#include <getopt.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
@@ -24,16 +25,22 @@
 #include "tonemap.h"
 
 #define RENDER_DEFAULT_INPUT "radiosity"
-#define RENDER_DEFAULT_OUTPUT "cornell.png"
+#define RENDER_DEFAULT_EXTENSION ".png"
+#define RENDER_OUTPUT_NAME_MAX 4096 /* the default output's name, PATH_MAX on Linux */
 #define RENDER_MAX_EXPOSURE 64.0 /* |EV| beyond this is surely a typo */
 
 static const char usage_text[] =
-    "usage: render [RADIOSITY] [options]\n"
-    "Draws a radiosity solution (from solve) into a PNG or EXR image.\n"
+    "usage: render [options] [RADIOSITY]\n"
     "\n"
-    "  RADIOSITY            radiosity file to draw (default: " RENDER_DEFAULT_INPUT ")\n"
+    "Draws the radiosity solution RADIOSITY (from solve; default: " RENDER_DEFAULT_INPUT ")\n"
+    "into a PNG or EXR image.\n"
+    "\n"
+    "options:\n"
     "  -o, --output FILE    image to write; .png (8-bit sRGB) or .exr (linear half)\n"
-    "                       (default: " RENDER_DEFAULT_OUTPUT ")\n"
+    "                       (default: RADIOSITY's file name without its folder and\n"
+    "                       extension, with " RENDER_DEFAULT_EXTENSION ", in the current directory:\n"
+    "                       out/room.rad -> room.png, " RENDER_DEFAULT_INPUT " -> " RENDER_DEFAULT_INPUT
+    RENDER_DEFAULT_EXTENSION ")\n"
     "  --channels MODE      auto (default): one grey channel when the radiosity file\n"
     "                       says the scene was solved as grey (channel count 1), RGB\n"
     "                       otherwise; rgb: always R, G, B (grey scenes: R = G = B);\n"
@@ -55,12 +62,13 @@ static const char usage_text[] =
     "  --exposure EV        multiply the PNG's values by 2^EV (default: 0)\n"
     "  --no-auto-exposure   use 2^EV alone instead of 2^EV times the automatic scale\n"
     "  --shading MODE       smooth (Gouraud between patches, default) or flat (patches)\n"
-    "  -q, --quiet          report errors only\n"
-    "  -h, --help           show this help\n"
-    "  --version            print the version\n"
+    "  -q, --quiet          only errors on stderr\n"
+    "  -h, --help           this text\n"
+    "      --version        print the version\n"
     "\n"
     "PNG: sRGB(clamp(B * scale)); EXR: radiosity B per channel, unscaled.\n"
-    "Exit status: 0 success, 2 usage error (a bad option or value), 1 anything else.\n";
+    "\n"
+    "exit status: 0 success; 1 bad input or I/O error; 2 bad command line\n";
 
 typedef enum render_channels_mode {
     RENDER_CHANNELS_AUTO = 0, /* what the radiosity file says */
@@ -69,7 +77,9 @@ typedef enum render_channels_mode {
 } render_channels_mode;
 
 typedef struct render_cli {
-    const char *input, *output, *camera_path;
+    const char *input;       /* RENDER_DEFAULT_INPUT unless given */
+    const char *output;      /* NULL: the default name (render_default_output) */
+    const char *camera_path; /* NULL: the default camera; "auto": it without the sidecar */
     render_frame_options frame;
     int have_eye, have_look_at, have_up, have_fov;
     rad_vec3 eye, look_at, up;
@@ -111,106 +121,134 @@ static rad_status parse_vec3(const char *opt, const char *text, rad_vec3 *out)
     return RAD_OK;
 }
 
-/* Matches "--name VALUE" and "--name=VALUE"; *io_index advances past what
- * was consumed. Returns 1 on a match (with *out_value, or a logged usage
- * error in *out_status), 0 if argv[i] is another option. */
-static int match_value(int argc, char **argv, int *io_index, const char *name, const char *alias,
-                       const char **out_value, rad_status *out_status)
+static rad_status parse_exposure(const char *text, double *out)
 {
-    const char *arg = argv[*io_index];
-    size_t len = strlen(name);
-    if (strncmp(arg, name, len) == 0 && arg[len] == '=') {
-        *out_value = arg + len + 1;
-        return 1;
+    rad_status status = parse_double("--exposure", text, out);
+    if (status == RAD_OK && fabs(*out) > RENDER_MAX_EXPOSURE) {
+        rad_error("--exposure: %g stops is out of range (|EV| <= %g)", *out, RENDER_MAX_EXPOSURE);
+        status = RAD_ERR_USAGE;
     }
-    if (strcmp(arg, name) != 0 && !(alias && strcmp(arg, alias) == 0)) return 0;
-    if (*io_index + 1 >= argc) {
-        rad_error("%s needs a value (see --help)", arg);
-        *out_status = RAD_ERR_USAGE;
-        return 1;
-    }
-    *out_value = argv[++*io_index];
-    return 1;
+    return status;
 }
 
-static rad_status parse_args(int argc, char **argv, render_cli *cli)
+static rad_status parse_shading(const char *text, render_shading *out)
 {
+    if (strcmp(text, "smooth") == 0) {
+        *out = RENDER_SHADING_SMOOTH;
+    } else if (strcmp(text, "flat") == 0) {
+        *out = RENDER_SHADING_FLAT;
+    } else {
+        rad_error("--shading: '%s' is not smooth or flat", text);
+        return RAD_ERR_USAGE;
+    }
+    return RAD_OK;
+}
+
+static rad_status parse_channels(const char *text, render_channels_mode *out)
+{
+    if (strcmp(text, "auto") == 0) {
+        *out = RENDER_CHANNELS_AUTO;
+    } else if (strcmp(text, "rgb") == 0) {
+        *out = RENDER_CHANNELS_RGB;
+    } else if (strcmp(text, "grey") == 0) {
+        *out = RENDER_CHANNELS_GREY;
+    } else {
+        rad_error("--channels: '%s' is not auto, rgb or grey", text);
+        return RAD_ERR_USAGE;
+    }
+    return RAD_OK;
+}
+
+/* getopt_long, as formfactor and solve parse theirs: "--name VALUE",
+ * "--name=VALUE", unambiguous abbreviations, "-o VALUE" and "-oVALUE";
+ * options and the input in any order. */
+static rad_status parse_args(int argc, char **argv, render_cli *out)
+{
+    enum { O_WIDTH = 256, O_HEIGHT, O_SPP, O_CAMERA, O_EYE, O_LOOK_AT, O_UP, O_FOV, O_EXPOSURE, O_NO_AUTO_EXPOSURE,
+           O_SHADING, O_CHANNELS, O_VERSION };
+    static const struct option longs[] = {
+        {"output", required_argument, 0, 'o'},    {"width", required_argument, 0, O_WIDTH},
+        {"height", required_argument, 0, O_HEIGHT}, {"spp", required_argument, 0, O_SPP},
+        {"camera", required_argument, 0, O_CAMERA}, {"eye", required_argument, 0, O_EYE},
+        {"look-at", required_argument, 0, O_LOOK_AT}, {"up", required_argument, 0, O_UP},
+        {"fov", required_argument, 0, O_FOV},     {"exposure", required_argument, 0, O_EXPOSURE},
+        {"no-auto-exposure", no_argument, 0, O_NO_AUTO_EXPOSURE},
+        {"shading", required_argument, 0, O_SHADING}, {"channels", required_argument, 0, O_CHANNELS},
+        {"quiet", no_argument, 0, 'q'},           {"help", no_argument, 0, 'h'},
+        {"version", no_argument, 0, O_VERSION},   {0, 0, 0, 0}};
+    render_cli c;
+    memset(&c, 0, sizeof c);
+    c.input = RENDER_DEFAULT_INPUT;
+    c.frame.shading = RENDER_SHADING_SMOOTH;
+    c.auto_exposure = 1;
+    c.channels = RENDER_CHANNELS_AUTO;
     rad_status status = RAD_OK;
-    const render_cli defaults = {RENDER_DEFAULT_INPUT, RENDER_DEFAULT_OUTPUT, NULL, {0, 0, 0, RENDER_SHADING_SMOOTH, 0},
-                                 0, 0, 0, 0, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0.0, 0.0, 1, 0, 0, 0,
-                                 RENDER_CHANNELS_AUTO};
-    int have_input = 0;
-    *cli = defaults;
-    for (int i = 1; i < argc && status == RAD_OK; i++) {
-        const char *arg = argv[i], *v = NULL;
-        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            cli->help = 1;
-        } else if (strcmp(arg, "--version") == 0) {
-            cli->version = 1;
-        } else if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) {
-            cli->quiet = 1;
-        } else if (strcmp(arg, "--no-auto-exposure") == 0) {
-            cli->auto_exposure = 0;
-        } else if (match_value(argc, argv, &i, "--output", "-o", &v, &status)) {
-            if (v) cli->output = v;
-        } else if (match_value(argc, argv, &i, "--width", NULL, &v, &status)) {
-            if (v) status = parse_int("--width", v, 1, RENDER_MAX_SAMPLE_DIM, &cli->frame.width);
-        } else if (match_value(argc, argv, &i, "--height", NULL, &v, &status)) {
-            if (v) status = parse_int("--height", v, 1, RENDER_MAX_SAMPLE_DIM, &cli->frame.height);
-        } else if (match_value(argc, argv, &i, "--spp", NULL, &v, &status)) {
-            if (v) status = parse_int("--spp", v, 1, RENDER_MAX_SPP, &cli->frame.spp);
-        } else if (match_value(argc, argv, &i, "--camera", NULL, &v, &status)) {
-            if (v) cli->camera_path = v;
-        } else if (match_value(argc, argv, &i, "--eye", NULL, &v, &status)) {
-            if (v) status = parse_vec3("--eye", v, &cli->eye);
-            cli->have_eye = 1;
-        } else if (match_value(argc, argv, &i, "--look-at", NULL, &v, &status)) {
-            if (v) status = parse_vec3("--look-at", v, &cli->look_at);
-            cli->have_look_at = 1;
-        } else if (match_value(argc, argv, &i, "--up", NULL, &v, &status)) {
-            if (v) status = parse_vec3("--up", v, &cli->up);
-            cli->have_up = 1;
-        } else if (match_value(argc, argv, &i, "--fov", NULL, &v, &status)) {
-            if (v) status = parse_double("--fov", v, &cli->fov_y);
-            cli->have_fov = 1;
-        } else if (match_value(argc, argv, &i, "--exposure", NULL, &v, &status)) {
-            if (v) status = parse_double("--exposure", v, &cli->exposure);
-            if (status == RAD_OK && fabs(cli->exposure) > RENDER_MAX_EXPOSURE) {
-                rad_error("--exposure: %g stops is out of range (|EV| <= %g)", cli->exposure, RENDER_MAX_EXPOSURE);
-                status = RAD_ERR_USAGE;
-            }
-        } else if (match_value(argc, argv, &i, "--shading", NULL, &v, &status)) {
-            if (v && strcmp(v, "smooth") == 0) {
-                cli->frame.shading = RENDER_SHADING_SMOOTH;
-            } else if (v && strcmp(v, "flat") == 0) {
-                cli->frame.shading = RENDER_SHADING_FLAT;
-            } else if (v) {
-                rad_error("--shading: '%s' is not smooth or flat", v);
-                status = RAD_ERR_USAGE;
-            }
-        } else if (match_value(argc, argv, &i, "--channels", NULL, &v, &status)) {
-            if (v && strcmp(v, "auto") == 0) {
-                cli->channels = RENDER_CHANNELS_AUTO;
-            } else if (v && strcmp(v, "rgb") == 0) {
-                cli->channels = RENDER_CHANNELS_RGB;
-            } else if (v && strcmp(v, "grey") == 0) {
-                cli->channels = RENDER_CHANNELS_GREY;
-            } else if (v) {
-                rad_error("--channels: '%s' is not auto, rgb or grey", v);
-                status = RAD_ERR_USAGE;
-            }
-        } else if (arg[0] == '-' && arg[1] != 0) {
-            rad_error("unknown option '%s' (see --help)", arg);
+    int opt, at = 0, have_input = 0;
+    opterr = 0; /* our own messages */
+    optind = 1;
+    while (status == RAD_OK && (opt = getopt_long(argc, argv, ":o:qh", longs, &at)) != -1) {
+        const char *value = optarg;
+        switch (opt) {
+        case 'o': c.output = value; break;
+        case 'q': c.quiet = 1; break;
+        case 'h': c.help = 1; break;
+        case O_VERSION: c.version = 1; break;
+        case O_WIDTH: status = parse_int("--width", value, 1, RENDER_MAX_SAMPLE_DIM, &c.frame.width); break;
+        case O_HEIGHT: status = parse_int("--height", value, 1, RENDER_MAX_SAMPLE_DIM, &c.frame.height); break;
+        case O_SPP: status = parse_int("--spp", value, 1, RENDER_MAX_SPP, &c.frame.spp); break;
+        case O_CAMERA: c.camera_path = value; break;
+        case O_EYE: status = parse_vec3("--eye", value, &c.eye); c.have_eye = 1; break;
+        case O_LOOK_AT: status = parse_vec3("--look-at", value, &c.look_at); c.have_look_at = 1; break;
+        case O_UP: status = parse_vec3("--up", value, &c.up); c.have_up = 1; break;
+        case O_FOV: status = parse_double("--fov", value, &c.fov_y); c.have_fov = 1; break;
+        case O_EXPOSURE: status = parse_exposure(value, &c.exposure); break;
+        case O_NO_AUTO_EXPOSURE: c.auto_exposure = 0; break;
+        case O_SHADING: status = parse_shading(value, &c.frame.shading); break;
+        case O_CHANNELS: status = parse_channels(value, &c.channels); break;
+        case ':': /* a known option without its value */
+            rad_error("%s needs a value", argv[optind - 1]);
             status = RAD_ERR_USAGE;
-        } else if (have_input) {
-            rad_error("more than one radiosity file given ('%s' and '%s')", cli->input, arg);
+            break;
+        default:
+            rad_error("unknown option '%s' (see render --help)", argv[optind - 1]);
+            status = RAD_ERR_USAGE;
+        }
+    }
+    for (int i = optind; status == RAD_OK && i < argc; i++) {
+        if (have_input) {
+            rad_error("more than one radiosity file given ('%s' and '%s')", c.input, argv[i]);
             status = RAD_ERR_USAGE;
         } else {
-            cli->input = arg;
+            c.input = argv[i];
             have_input = 1;
         }
     }
+    if (status == RAD_OK) *out = c;
     return status;
+}
+
+/* The default image name: the input's file name without its folder and
+ * its extension (the last '.' and what follows, unless that '.' starts
+ * the name), with RENDER_DEFAULT_EXTENSION, in the current directory:
+ * "out/room.rad" -> "room.png", "radiosity" -> "radiosity.png". A name
+ * with nothing left ("dir/") gives RENDER_DEFAULT_INPUT's. */
+static rad_status render_default_output(const char *input, char *out, size_t out_size)
+{
+    const char *slash = strrchr(input, '/');
+    const char *name = slash ? slash + 1 : input;
+    const char *dot = strrchr(name, '.');
+    size_t stem = dot && dot != name ? (size_t)(dot - name) : strlen(name);
+    if (stem == 0) {
+        name = RENDER_DEFAULT_INPUT;
+        stem = strlen(name);
+    }
+    if (stem + sizeof RENDER_DEFAULT_EXTENSION > out_size) {
+        rad_error("%s: the name is too long to make the image's name from; give -o FILE", input);
+        return RAD_ERR_USAGE;
+    }
+    memcpy(out, name, stem);
+    memcpy(out + stem, RENDER_DEFAULT_EXTENSION, sizeof RENDER_DEFAULT_EXTENSION);
+    return RAD_OK;
 }
 
 static double seconds_now(void)
@@ -400,15 +438,24 @@ done:
 int main(int argc, char **argv)
 {
     render_cli cli;
+    char default_output[RENDER_OUTPUT_NAME_MAX];
     rad_log_set_program("render");
     rad_status status = parse_args(argc, argv, &cli);
-    if (status == RAD_OK && cli.version) {
+    if (status != RAD_OK) {
+        fputs("try 'render --help'\n", stderr);
+        return rad_status_exit_code(status);
+    }
+    if (cli.version) {
         printf("render %s\n", RAD_VERSION);
         return 0;
     }
-    if (status == RAD_OK && cli.help) {
+    if (cli.help) {
         fputs(usage_text, stdout);
         return 0;
+    }
+    if (!cli.output) {
+        status = render_default_output(cli.input, default_output, sizeof default_output);
+        cli.output = default_output;
     }
     if (status == RAD_OK) { /* before any work: docs/reliability.md, "Threat model: files on disk" */
         rad_fs_role roles[] = {{"the radiosity file", cli.input, 0}, {"--camera", cli.camera_path && strcmp(cli.camera_path, "auto") != 0 ? cli.camera_path : NULL, 0},

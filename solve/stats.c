@@ -1,108 +1,99 @@
 /* stats.c - writes the --stats JSON file. */
 #include "stats.h"
 
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
-#include <string.h>
 
 #include "rad_fs.h"
-#include "rad_log.h"
+#include "rad_json.h"
 
-/* A JSON string: quotes, backslashes and control characters escaped. */
-static void put_string(FILE *f, const char *s)
+/* The residual history: 6 significant digits (a convergence curve, not
+ * a result), 8 values a line. */
+#define SOLVE_STATS_HISTORY_DIGITS 6
+#define SOLVE_STATS_HISTORY_PER_LINE 8
+
+static void put_number(rad_json_writer *w, const char *key, double value)
 {
-    fputc('"', f);
-    for (const unsigned char *p = (const unsigned char *)s; *p; p++) {
-        if (*p == '"' || *p == '\\')
-            fprintf(f, "\\%c", *p);
-        else if (*p < 0x20)
-            fprintf(f, "\\u%04x", *p);
-        else
-            fputc(*p, f);
-    }
-    fputc('"', f);
+    rad_json_key(w, key);
+    rad_json_number(w, value); /* non-finite: null */
 }
 
-/* A JSON number; JSON has no infinity or NaN, so those become null. */
-static void put_number(FILE *f, double x)
+static void put_name(rad_json_writer *w, const char *key, const char *name)
 {
-    if (isfinite(x))
-        fprintf(f, "%.17g", x);
-    else
-        fputs("null", f);
+    rad_json_key(w, key);
+    rad_json_string(w, name); /* NULL: null */
 }
 
-static void put_channel(FILE *f, const char *name, const solve_report *r)
+static void put_count(rad_json_writer *w, const char *key, uint64_t count)
 {
-    fputs("    {\"channel\": ", f);
-    put_string(f, name);
-    fputs(", \"method\": ", f);
-    put_string(f, solve_method_name(r->method_used));
-    fputs(", \"fallback\": ", f);
-    if (r->fell_back)
-        put_string(f, r->fallback_reason);
-    else
-        fputs("null", f);
-    fprintf(f, ", \"iterations\": %u, \"converged\": %s, \"residual\": ", r->iterations,
-            r->converged ? "true" : "false");
-    put_number(f, r->residual);
-    fputs(", \"error_bound\": ", f);
-    put_number(f, r->error_bound);
-    fputs(", \"reciprocity\": ", f);
-    put_number(f, r->reciprocity >= 0 ? r->reciprocity : NAN);
-    fputs(", \"margin\": ", f);
-    put_number(f, r->margin);
-    fputs(",\n     \"energy\": {\"emitted\": ", f);
-    put_number(f, r->balance.emitted);
-    fputs(", \"absorbed\": ", f);
-    put_number(f, r->balance.absorbed);
-    fputs(", \"escaped\": ", f);
-    put_number(f, r->balance.escaped);
-    fputs(", \"imbalance\": ", f);
-    put_number(f, r->balance.imbalance);
-    fputs("}", f);
-    fputs(", \"seconds\": ", f);
-    put_number(f, r->seconds);
-    fputs(",\n     \"history\": [", f);
+    rad_json_key(w, key);
+    rad_json_uint(w, count);
+}
+
+static void put_flag(rad_json_writer *w, const char *key, int flag)
+{
+    rad_json_key(w, key);
+    rad_json_bool(w, flag);
+}
+
+static void put_channel(rad_json_writer *w, const char *name, const solve_report *r)
+{
+    rad_json_begin_object(w, RAD_JSON_INLINE);
+    put_name(w, "channel", name);
+    put_name(w, "method", solve_method_name(r->method_used));
+    put_name(w, "fallback", r->fell_back ? r->fallback_reason : NULL);
+    put_count(w, "iterations", r->iterations);
+    put_flag(w, "converged", r->converged);
+    put_number(w, "residual", r->residual);
+    put_number(w, "error_bound", r->error_bound);
+    put_number(w, "reciprocity", r->reciprocity >= 0 ? r->reciprocity : NAN); /* < 0: not measured */
+    put_number(w, "margin", r->margin);
+    rad_json_line_break(w);
+    rad_json_key(w, "energy");
+    rad_json_begin_object(w, RAD_JSON_INLINE);
+    put_number(w, "emitted", r->balance.emitted);
+    put_number(w, "absorbed", r->balance.absorbed);
+    put_number(w, "escaped", r->balance.escaped);
+    put_number(w, "imbalance", r->balance.imbalance);
+    rad_json_end_object(w);
+    put_number(w, "seconds", r->seconds);
+    rad_json_line_break(w);
+    rad_json_key(w, "history");
+    rad_json_begin_array(w, RAD_JSON_INLINE);
     for (size_t k = 0; k < r->history_count; k++) {
-        if (k) fputs(k % 8 ? ", " : ",\n       ", f);
-        fprintf(f, "%.6g", r->history[k]);
+        if (k > 0 && k % SOLVE_STATS_HISTORY_PER_LINE == 0) rad_json_line_break(w);
+        rad_json_number_digits(w, r->history[k], SOLVE_STATS_HISTORY_DIGITS);
     }
-    fputs("]}", f);
+    rad_json_end_array(w);
+    rad_json_end_object(w);
 }
 
-static void put_stats(FILE *f, const solve_stats *s)
+static void put_stats(rad_json_writer *w, const solve_stats *s)
 {
-    fputs("{\n  \"input\": ", f);
-    put_string(f, s->input);
-    fputs(",\n  \"output\": ", f);
-    put_string(f, s->output);
-    fputs(",\n  \"errors\": ", f);
-    if (s->errors)
-        put_string(f, s->errors);
-    else
-        fputs("null", f);
-    fputs(",\n  \"row_sums\": {\"max\": ", f);
-    put_number(f, s->row_sums.max);
-    fprintf(f, ", \"max_row\": %zu, \"warned\": %zu, \"rule\": \"%s\"}", s->row_sums.max_row,
-            s->row_sums.warned, s->row_sums.with_errors ? "errors" : "fixed");
-    fprintf(f, ",\n  \"patch_count\": %zu,\n  \"grey\": %s,\n  \"method\": ", s->patch_count,
-            s->channel_count == 1 ? "true" : "false");
-    put_string(f, solve_method_name(s->method));
-    fputs(",\n  \"tolerance\": ", f);
-    put_number(f, s->tolerance);
-    fprintf(f, ",\n  \"max_iterations\": %u,\n  \"converged\": %s,\n  \"load_seconds\": ", s->max_iterations,
-            s->converged ? "true" : "false");
-    put_number(f, s->load_seconds);
-    fputs(",\n  \"total_seconds\": ", f);
-    put_number(f, s->total_seconds);
-    fputs(",\n  \"channels\": [\n", f);
-    for (uint32_t c = 0; c < s->channel_count; c++) {
-        if (c) fputs(",\n", f);
-        put_channel(f, s->channel_names[c], s->reports[c]);
-    }
-    fputs("\n  ]\n}\n", f);
+    rad_json_begin_object(w, RAD_JSON_BLOCK);
+    put_name(w, "input", s->input);
+    put_name(w, "output", s->output);
+    put_name(w, "errors", s->errors);
+    rad_json_key(w, "row_sums");
+    rad_json_begin_object(w, RAD_JSON_INLINE);
+    put_number(w, "max", s->row_sums.max);
+    put_count(w, "max_row", s->row_sums.max_row);
+    put_count(w, "warned", s->row_sums.warned);
+    put_name(w, "rule", s->row_sums.with_errors ? "errors" : "fixed");
+    rad_json_end_object(w);
+    put_count(w, "patch_count", s->patch_count);
+    put_flag(w, "grey", s->channel_count == 1);
+    put_name(w, "method", solve_method_name(s->method));
+    put_number(w, "tolerance", s->tolerance);
+    put_count(w, "max_iterations", s->max_iterations);
+    put_flag(w, "converged", s->converged);
+    put_number(w, "load_seconds", s->load_seconds);
+    put_number(w, "total_seconds", s->total_seconds);
+    rad_json_key(w, "channels");
+    rad_json_begin_array(w, RAD_JSON_BLOCK);
+    for (uint32_t c = 0; c < s->channel_count; c++) put_channel(w, s->channel_names[c], s->reports[c]);
+    rad_json_end_array(w);
+    rad_json_end_object(w);
 }
 
 rad_status solve_stats_write(const char *path, const solve_stats *stats)
@@ -111,6 +102,11 @@ rad_status solve_stats_write(const char *path, const solve_stats *stats)
     FILE *f = NULL;
     rad_status status = rad_fs_create_temp(path, temp, sizeof temp, &f);
     if (status != RAD_OK) return status;
-    put_stats(f, stats);
-    return rad_fs_close_commit(f, temp, path);
+    rad_json_writer w;
+    rad_json_writer_init_file(&w, f);
+    put_stats(&w, stats);
+    rad_status written = rad_json_finish(&w);
+    /* A failed write left ferror(f) set: this logs it and removes the temporary. */
+    status = rad_fs_close_commit(f, temp, path);
+    return status != RAD_OK ? status : written;
 }

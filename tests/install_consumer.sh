@@ -12,7 +12,7 @@ rm -rf "$dir" && mkdir -p "$dir" || exit 1
 prefix=$dir/prefix
 "$cmake" --install "$build" --prefix "$prefix" > "$dir/install.log" 2>&1 || fail "cmake --install: $(cat "$dir/install.log")"
 
-for f in include/radiosity/rad_scene.h include/radiosity/rad_mesh.h include/radiosity/rad_ff_pair.h \
+for f in include/radiosity/rad_scene.h include/radiosity/rad_mesh.h include/radiosity/rad_ff_pair.h include/radiosity/rad_json.h \
          "$libdir/libradcore.a" "$libdir/cmake/radiosity/radiosityConfig.cmake" \
          "$libdir/cmake/radiosity/radiosityConfigVersion.cmake" "$libdir/pkgconfig/radiosity.pc" \
          share/radiosity/scenes/cornell_box.obj share/radiosity/scenes/cornell_box.mtl \

@@ -12,8 +12,12 @@
  *   test_render check-layout IMAGE NAMES TYPE
  *                                      channel names ("R,G,B") and pixel type
  *   test_render cli RENDER RADIOSITY DIR
- *                                      render's --channels option: help text,
- *                                      bad values (exit 2, message, no file)
+ *                                      render's command line: --channels
+ *                                      (help text, bad values: exit 2,
+ *                                      message, no file), the getopt forms
+ *                                      (-oFILE, --name=VALUE, any order),
+ *                                      unknown options, the default image
+ *                                      name (<input without extension>.png)
  */
 #define _POSIX_C_SOURCE 200809L
 #include <stdint.h>
@@ -896,18 +900,105 @@ static int check_layout_file(const char *path, const char *want_names, const cha
     return rad_test_finish();
 }
 
-/* Runs `RENDER ARGS > DIR/log.txt 2>&1`; returns the exit status (-1 if it
- * did not exit) and leaves the output in `log` (freed by the caller). */
-static int run_render(const char *render, const char *args, const char *dir, char **log)
+/* Runs `cd CWD && RENDER ARGS > DIR/log.txt 2>&1` (CWD NULL: here);
+ * returns the exit status (-1 if it did not exit) and leaves the output in
+ * `log` (freed by the caller). */
+static int run_render_in(const char *cwd, const char *render, const char *args, const char *dir, char **log)
 {
     char cmd[4096], log_path[1024];
     snprintf(log_path, sizeof log_path, "%s/log.txt", dir);
-    snprintf(cmd, sizeof cmd, "'%s' %s > '%s' 2>&1", render, args, log_path);
+    snprintf(cmd, sizeof cmd, "cd '%s' && '%s' %s > '%s' 2>&1", cwd ? cwd : ".", render, args, log_path);
     int rc = system(cmd);
     size_t n = 0;
     *log = NULL;
     if (rad_fs_read_all(log_path, log, &n) != RAD_OK) *log = NULL;
     return rc != -1 && WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+static int run_render(const char *render, const char *args, const char *dir, char **log)
+{
+    return run_render_in(NULL, render, args, dir, log);
+}
+
+/* Does DIR/NAME exist? */
+static int exists_in(const char *dir, const char *name)
+{
+    char path[2048];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    return access(path, F_OK) == 0;
+}
+
+/* The getopt forms, unknown options, the default image name. */
+static void check_cli_forms(const char *render, const char *radiosity, const char *dir)
+{
+    char cmd[4096], args[2048], out[1024];
+    char *log = NULL;
+    snprintf(out, sizeof out, "%s/out.png", dir);
+    /* -oFILE, --name=VALUE, options after the input. */
+    static const struct {
+        const char *before, *output, *after; /* before the input, -o and its value, after */
+    } forms[] = {{"", "-o", "-q --width=16 --height 16 --spp=1"},
+                 {"-q --width 16 --height=16 --spp 1 --shading=flat -o ", "", ""},
+                 {"", "--output=", "-q --wid 16 --hei 16 --spp 1 --exp=-1"}};
+    for (size_t i = 0; i < sizeof forms / sizeof forms[0]; i++) {
+        if (forms[i].before[0])
+            snprintf(args, sizeof args, "%s'%s' '%s' %s", forms[i].before, out, radiosity, forms[i].after);
+        else
+            snprintf(args, sizeof args, "'%s' %s'%s' %s", radiosity, forms[i].output, out, forms[i].after);
+        int rc = run_render(render, args, dir, &log);
+        if (rc != 0 || access(out, F_OK) != 0)
+            fprintf(stderr, "render %s: exit %d, output: %s\n", args, rc, log ? log : "(none)");
+        RAD_CHECK(rc == 0 && access(out, F_OK) == 0);
+        free(log);
+        remove(out);
+    }
+    /* Unknown options and bad values: exit 2, said, nothing written. */
+    static const struct {
+        const char *args, *message;
+    } bad[] = {
+        {"--bogus", "render: error: unknown option '--bogus' (see render --help)"},
+        {"-x", "unknown option '-x'"},
+        {"--width 0", "--width: '0' is not an integer in [1, "},
+        {"--eye 1,2", "--eye: '1,2' is not three numbers X,Y,Z"},
+        {"--shading", "--shading needs a value"},
+        {"-o", "-o needs a value"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        snprintf(args, sizeof args, "'%s' --width 16 --height 16 --spp 1 %s", radiosity, bad[i].args);
+        int rc = run_render_in(dir, render, args, dir, &log);
+        if (rc != 2 || !log || !strstr(log, bad[i].message))
+            fprintf(stderr, "render %s: exit %d, output: %s\n", args, rc, log ? log : "(none)");
+        RAD_CHECK(rc == 2 && log && strstr(log, bad[i].message) && strstr(log, "try 'render --help'"));
+        free(log);
+    }
+    /* The default name: the input's, without folder and extension, .png,
+     * in the current directory; an input without extension keeps its name. */
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s/in' && cp '%s' '%s/in/room.rad' && cp '%s' '%s/in/radiosity'", dir,
+             radiosity, dir, radiosity, dir);
+    RAD_CHECK(system(cmd) == 0);
+    static const struct {
+        const char *cwd, *input, *image;
+    } names[] = {{"", "in/room.rad", "room.png"},     /* out/room.rad -> room.png, here */
+                 {"", "in/radiosity", "radiosity.png"},
+                 {"/in", "", "radiosity.png"}};     /* no input: radiosity -> radiosity.png */
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
+        char cwd[1024];
+        snprintf(cwd, sizeof cwd, "%s%s", dir, names[i].cwd);
+        snprintf(args, sizeof args, "%s -q --width 16 --height 16 --spp 1", names[i].input);
+        int rc = run_render_in(cwd, render, args, dir, &log);
+        int made = exists_in(cwd, names[i].image);
+        if (rc != 0 || !made)
+            fprintf(stderr, "cd %s && render %s: exit %d, %s %s; output: %s\n", cwd, args, rc, names[i].image,
+                    made ? "made" : "missing", log ? log : "(none)");
+        RAD_CHECK(rc == 0 && made);
+        RAD_CHECK(!exists_in(dir, "cornell.png") && !exists_in(dir, "in/room.png"));
+        snprintf(cmd, sizeof cmd, "%s/%s", cwd, names[i].image);
+        remove(cmd);
+        free(log);
+    }
+    RAD_CHECK(run_render(render, "--help", dir, &log) == 0);
+    RAD_CHECK(log && strstr(log, "out/room.rad -> room.png") && strstr(log, "usage: render [options] [RADIOSITY]"));
+    free(log);
 }
 
 /* render's command line for --channels: the help documents it; bad values
@@ -952,6 +1043,7 @@ static int check_cli(const char *render, const char *radiosity, const char *dir)
         free(log);
         remove(out);
     }
+    check_cli_forms(render, radiosity, dir);
     return rad_test_finish();
 }
 
