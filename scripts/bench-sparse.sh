@@ -46,3 +46,4 @@ for s in ${SUBDIVS:-3 4 5}; do
   done
 done
 rm -rf "$work"
+tar czf "$out/logs.tgz" -C "$out" --exclude logs.tgz . 2>/dev/null
