@@ -13,6 +13,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "iterate.h"
 #include "rad_log.h"
@@ -76,8 +77,12 @@ solve_cg_check solve_cg_check_matrix(const solve_run *run)
     const size_t n = run->n;
     const double *F = run->F.dense, *A = run->area, *rho = run->rho;
     double *delta = run->work; /* sum_j |A_i F_ij - A_j F_ji| per row */
-    for (size_t i = 0; i < n; i++) delta[i] = 0;
-    int blocked = !F && sparse_skew(run, delta) == 0;
+    solve_skew_cache *cache = run->skew;
+    int cached = cache && cache->rho && cache->delta;
+    for (size_t i = 0; cached && i < n; i++) cached = (cache->rho[i] == 0) == (rho[i] == 0);
+    if (cached) memcpy(delta, cache->delta, n * sizeof *delta);
+    for (size_t i = 0; !cached && i < n; i++) delta[i] = 0;
+    int blocked = cached || (!F && sparse_skew(run, delta) == 0);
     for (size_t i0 = 0; !blocked && i0 < n; i0 += CG_TILE) {
         size_t i1 = i0 + CG_TILE < n ? i0 + CG_TILE : n;
         for (size_t j0 = i0; j0 < n; j0 += CG_TILE) {
@@ -94,6 +99,10 @@ solve_cg_check solve_cg_check_matrix(const solve_run *run)
                 }
             }
         }
+    }
+    if (cache && cache->delta && !cached) {
+        memcpy(cache->delta, delta, n * sizeof *delta);
+        cache->rho = rho;
     }
     solve_cg_check c = {.margin = INFINITY};
     for (size_t i = 0; i < n; i++) {

@@ -18,6 +18,14 @@
 #include "rad_status.h"
 #include "solver.h"
 
+/* The CG check's skew term delta (below) depends on F, A and which
+ * patches reflect, not on rho's values: channels that share those share
+ * it, and solve_channels computes it once for them. */
+typedef struct solve_skew_cache {
+    const double *rho; /* the channel it was computed for (its zero pattern); NULL: empty */
+    double *delta;     /* n values (owned by whoever made the cache) */
+} solve_skew_cache;
+
 typedef struct solve_run {
     /* the problem (borrowed) */
     size_t n;
@@ -27,6 +35,7 @@ typedef struct solve_run {
     const double *rho;      /* n, this channel */
     const double *E;        /* n, this channel */
     double e_norm;          /* ||E||_inf > 0 */
+    solve_skew_cache *skew; /* shared with other channels, or NULL */
     double tolerance;
     uint32_t max_iterations;
     /* state (owned by solver.c) */

@@ -159,7 +159,7 @@ static void channel_free(channel_solve *ch)
 }
 
 static rad_status channel_begin(const solve_system *system, const double *rho, const double *emission,
-                                const solve_params *params, channel_solve *ch)
+                                const solve_params *params, solve_skew_cache *skew, channel_solve *ch)
 {
     memset(ch, 0, sizeof *ch);
     ch->rep.reciprocity = -1;
@@ -173,6 +173,7 @@ static rad_status channel_begin(const solve_system *system, const double *rho, c
         .row_sum = system->row_sum,
         .rho = rho,
         .E = emission,
+        .skew = skew,
         .tolerance = params->tolerance > 0 ? params->tolerance : SOLVE_DEFAULT_TOLERANCE,
         .max_iterations = params->max_iterations ? params->max_iterations : SOLVE_DEFAULT_MAX_ITERATIONS,
         .label = params->label ? params->label : "channel",
@@ -273,11 +274,16 @@ rad_status solve_channels(const solve_system *system, size_t count, const double
         goto done;
     }
     /* Checks first, every channel: a refused one stops the lot before any
-     * iteration. */
+     * iteration. Channels where the same patches reflect share the CG
+     * check's skew term (without memory for it, each computes its own). */
+    solve_skew_cache skew = {.delta = count > 1 ? malloc(system->patch_count * sizeof(double)) : NULL};
     for (size_t c = 0; c < count; c++) {
         solve_params p = params[c];
-        if ((status = channel_begin(system, rho[c], emission[c], &p, &ch[c])) != RAD_OK) goto done;
+        if ((status = channel_begin(system, rho[c], emission[c], &p, &skew, &ch[c])) != RAD_OK) break;
     }
+    free(skew.delta);
+    for (size_t c = 0; c < count; c++) ch[c].run.skew = NULL;
+    if (status != RAD_OK) goto done;
     /* CG channels together, one pass over F per iteration for all. */
     size_t cg_count = 0;
     for (size_t c = 0; c < count; c++) {
