@@ -164,4 +164,23 @@ rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_
 rad_status rad_ff_read_row_tiles(rad_ff_file *file, uint64_t row, const uint32_t **out_tiles, uint32_t *out_count,
                                  const double **out_values);
 
+/* Sparse layout, for readers that decode rows on several threads: the
+ * records of rows [row_begin, row_begin + row_count) as stored, in one
+ * read, into `buffer` (rad_ff_record_offset(file, row_begin + row_count) -
+ * rad_ff_record_offset(file, row_begin) bytes); then each row's record,
+ * at buffer + rad_ff_record_offset(file, row) - rad_ff_record_offset(file,
+ * row_begin), goes through rad_ff_decode_record, which touches nothing
+ * but its outputs (any thread). Its counts come first from
+ * rad_ff_record_counts, so that the outputs can be placed. */
+uint64_t rad_ff_record_offset(const rad_ff_file *file, uint64_t row);
+rad_status rad_ff_read_records(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, unsigned char *buffer);
+/* Verifies row `row`'s record (checksum, tile list) and gives how many
+ * tiles and entries it stores; RAD_ERR_FORMAT (logged) if it is damaged. */
+rad_status rad_ff_record_counts(const rad_ff_file *file, uint64_t row, const unsigned char *record,
+                                uint32_t *out_tiles, uint64_t *out_values);
+/* Decodes a verified record: its tile numbers into tiles[] and entries
+ * into values[] (as many as rad_ff_record_counts said). */
+rad_status rad_ff_decode_record(const rad_ff_file *file, uint64_t row, const unsigned char *record, uint32_t *tiles,
+                                double *values);
+
 #endif

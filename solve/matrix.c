@@ -79,49 +79,143 @@ static rad_status grow_sparse(solve_matrix *m, size_t tiles, size_t values)
     return RAD_OK;
 }
 
-/* A sparse file, row by row, kept as its tiles (rows.h); each row checked
- * as a dense one is. */
+/* Records read per rad_ff_read_records call: about 64 MiB at a time. */
+#define MATRIX_RECORD_BYTES (64u << 20)
+
+/* Rows [begin, end) of a sparse file, as read into `records`: verified and
+ * decoded on the OpenMP threads, appended to m's tiles. A damaged row is
+ * named (the first, whatever the threads). `counts` holds 2 (end - begin)
+ * + 1 values of scratch. */
+static rad_status load_records(rad_ff_file *file, const char *path, solve_matrix *m, size_t begin, size_t end,
+                               const unsigned char *records, uint64_t *counts)
+{
+    const size_t rows = end - begin;
+    const uint64_t base = rad_ff_record_offset(file, begin);
+    uint64_t *tiles = counts, *values = counts + rows + 1;
+    size_t bad = SIZE_MAX;
+    /* Quiet on the threads; the first damaged row is named once, after. */
+    rad_log_level level = rad_log_get_level();
+    rad_log_set_level(RAD_LOG_NONE);
+#pragma omp parallel for schedule(dynamic, 64) reduction(min : bad)
+    for (size_t r = 0; r < rows; r++) {
+        uint32_t t = 0;
+        uint64_t v = 0;
+        if (rad_ff_record_counts(file, begin + r, records + (rad_ff_record_offset(file, begin + r) - base), &t, &v) !=
+            RAD_OK)
+            bad = r < bad ? r : bad;
+        tiles[r + 1] = t;
+        values[r] = v;
+    }
+    rad_log_set_level(level);
+    if (bad != SIZE_MAX) {
+        uint32_t t;
+        uint64_t v;
+        return rad_ff_record_counts(file, begin + bad, records + (rad_ff_record_offset(file, begin + bad) - base), &t,
+                                    &v);
+    }
+    tiles[0] = 0;
+    for (size_t r = 0; r < rows; r++) tiles[r + 1] += tiles[r];
+    size_t total = 0;
+    for (size_t r = 0; r < rows; r++) {
+        uint64_t v = values[r];
+        values[r] = total;
+        total += v;
+    }
+    if (grow_sparse(m, tiles[rows], total) != RAD_OK) {
+        rad_error("%s: out of memory for the stored tiles of %zu rows (%zu entries so far)", path, m->patch_count,
+                  m->value_count);
+        return RAD_ERR_NOMEM;
+    }
+    const size_t n = m->patch_count;
+    rad_log_set_level(RAD_LOG_NONE);
+#pragma omp parallel for schedule(dynamic, 64) reduction(min : bad)
+    for (size_t r = 0; r < rows; r++) {
+        uint32_t *column = m->tile_column + m->tile_count + tiles[r];
+        uint64_t *at = m->tile_value + m->tile_count + tiles[r];
+        uint64_t v = m->value_count + values[r];
+        if (rad_ff_decode_record(file, begin + r, records + (rad_ff_record_offset(file, begin + r) - base), column,
+                                 m->values + v) != RAD_OK) {
+            bad = r < bad ? r : bad;
+            continue;
+        }
+        for (uint64_t k = 0; k < tiles[r + 1] - tiles[r]; k++) { /* tile numbers -> first columns, entries */
+            size_t first = (size_t)column[k] * RAD_FF_TILE_COLUMNS;
+            column[k] = (uint32_t)first;
+            at[k] = v;
+            v += first + RAD_FF_TILE_COLUMNS < n ? RAD_FF_TILE_COLUMNS : n - first;
+        }
+    }
+    rad_log_set_level(level);
+    if (bad != SIZE_MAX)
+        return rad_ff_decode_record(file, begin + bad, records + (rad_ff_record_offset(file, begin + bad) - base),
+                                    m->tile_column + m->tile_count + tiles[bad],
+                                    m->values + m->value_count + values[bad]);
+    for (size_t r = 0; r < rows; r++) m->row_tiles[begin + r + 1] = m->tile_count + tiles[r + 1];
+    m->tile_count += tiles[rows];
+    m->value_count += total;
+    return RAD_OK;
+}
+
+/* A sparse file, in blocks of rows read at once and decoded on the
+ * threads, kept as its tiles (rows.h); each row checked as a dense one is. */
 static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix *m)
 {
     const size_t n = m->patch_count;
+    rad_status status = RAD_OK;
+    unsigned char *records = NULL;
+    uint64_t *counts = NULL;
+    size_t records_cap = 0, counts_cap = 0;
     m->row_tiles = malloc((n + 1) * sizeof *m->row_tiles);
     if (!m->row_tiles) {
         rad_error("%s: out of memory for %zu rows", path, n);
         return RAD_ERR_NOMEM;
     }
     m->row_tiles[0] = 0;
-    for (size_t i = 0; i < n; i++) {
-        const uint32_t *tiles;
-        const double *values;
-        uint32_t count;
-        rad_status status = rad_ff_read_row_tiles(file, i, &tiles, &count, &values);
-        if (status != RAD_OK) return status;
-        size_t stored = 0;
-        for (uint32_t k = 0; k < count; k++) {
-            size_t begin = (size_t)tiles[k] * RAD_FF_TILE_COLUMNS;
-            stored += (begin + RAD_FF_TILE_COLUMNS < n ? RAD_FF_TILE_COLUMNS : n - begin);
+    for (size_t begin = 0, end; begin < n && status == RAD_OK; begin = end) {
+        /* as many rows as fit in MATRIX_RECORD_BYTES, at least one */
+        uint64_t start = rad_ff_record_offset(file, begin);
+        for (end = begin + 1; end < n && rad_ff_record_offset(file, end + 1) - start <= MATRIX_RECORD_BYTES; end++) {
         }
-        if (grow_sparse(m, count, stored) != RAD_OK) {
-            rad_error("%s: out of memory for the stored tiles of %zu rows (%zu entries so far)", path, n,
-                      m->value_count);
-            return RAD_ERR_NOMEM;
+        size_t bytes = (size_t)(rad_ff_record_offset(file, end) - start), rows = end - begin;
+        if (bytes > records_cap || 2 * rows + 1 > counts_cap) {
+            free(records);
+            free(counts);
+            records_cap = bytes > records_cap ? bytes : records_cap;
+            counts_cap = 2 * rows + 1 > counts_cap ? 2 * rows + 1 : counts_cap;
+            records = malloc(records_cap ? records_cap : 1);
+            counts = malloc(counts_cap * sizeof *counts);
+            if (!records || !counts) {
+                rad_error("%s: out of memory reading rows", path);
+                status = RAD_ERR_NOMEM;
+                break;
+            }
         }
-        size_t at = m->value_count;
-        for (uint32_t k = 0; k < count; k++) {
-            size_t begin = (size_t)tiles[k] * RAD_FF_TILE_COLUMNS;
-            m->tile_column[m->tile_count + k] = (uint32_t)begin;
-            m->tile_value[m->tile_count + k] = at;
-            at += begin + RAD_FF_TILE_COLUMNS < n ? RAD_FF_TILE_COLUMNS : n - begin;
-        }
-        memcpy(m->values + m->value_count, values, stored * sizeof *values);
-        m->tile_count += count;
-        m->value_count += stored;
-        m->row_tiles[i + 1] = m->tile_count;
+        status = rad_ff_read_records(file, begin, rows, records);
+        if (status == RAD_OK) status = load_records(file, path, m, begin, end, records, counts);
     }
+    free(records);
+    free(counts);
+    if (status != RAD_OK) return status;
     m->rows = (solve_rows){.n = n, .row_tiles = m->row_tiles, .tile_column = m->tile_column,
                            .tile_value = m->tile_value, .values = m->values};
-    for (size_t i = 0; i < n; i++)
-        if (check_row(path, &m->rows, i, &m->row_sum[i]) != RAD_OK) return RAD_ERR_INVALID;
+    /* Every row's entries and sum, on the threads; the first bad row named. */
+    size_t bad = SIZE_MAX;
+#pragma omp parallel for schedule(dynamic, 64) reduction(min : bad)
+    for (size_t i = 0; i < n; i++) {
+        double sum = 0;
+        int ok = 1;
+        for (size_t k = 0; k < solve_row_span_count(&m->rows, i); k++) {
+            solve_span sp = solve_row_span(&m->rows, i, k);
+            for (size_t j = sp.begin; j < sp.end; j++) {
+                double f = sp.values[j - sp.begin];
+                ok &= isfinite(f) && f >= -SOLVE_NEGATIVE_TOLERANCE;
+                sum += f;
+            }
+        }
+        m->row_sum[i] = sum;
+        if (!ok || !(sum <= SOLVE_ROW_SUM_LIMIT)) bad = i < bad ? i : bad;
+    }
+    if (bad != SIZE_MAX) return check_row(path, &m->rows, bad, &m->row_sum[bad]);
     return RAD_OK;
 }
 
