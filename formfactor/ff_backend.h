@@ -2,7 +2,7 @@
  *
  * A backend computes whole matrix rows for a committed setup (patches +
  * occluder triangles). The CPU backend (Embree) is the reference; the CUDA
- * backend must agree with it. The driver (main.c) picks one at run time:
+ * backend must agree with it. The driver (ff_driver.c) picks one at run time:
  *
  *     const ff_backend *b = &ff_backend_cpu;
  *     void *state;

@@ -35,9 +35,18 @@ struct ff_output {
 
 void ff_output_set_threads(ff_output *output, int threads) { output->threads = threads > 0 ? threads : 1; }
 
-uint32_t ff_output_max_rows(const ff_output *output)
+/* Bytes one row can take as stored: the dense row, or the largest sparse record; at least 1. */
+static uint64_t record_max_of(uint64_t patch_count, ff_format format, rad_element_type element)
 {
-    uint64_t rows = FF_OUTPUT_MAX_BYTES / output->record_max;
+    if (format == FF_FORMAT_PAPER) element = RAD_ELEMENT_F64;
+    uint64_t bytes = format == FF_FORMAT_SPARSE ? rad_ff_row_record_max(patch_count, element)
+                                                : patch_count * (element == RAD_ELEMENT_F32 ? 4 : 8);
+    return bytes ? bytes : 1;
+}
+
+uint32_t ff_output_max_rows(uint64_t patch_count, ff_format format, rad_element_type element)
+{
+    uint64_t rows = FF_OUTPUT_MAX_BYTES / record_max_of(patch_count, format, element);
     return rows ? (uint32_t)rows : 1;
 }
 
@@ -59,9 +68,7 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
         o->info.layout = format == FF_FORMAT_SPARSE ? RAD_FF_LAYOUT_SPARSE : RAD_FF_LAYOUT_DENSE;
         o->info.matrix_bytes = 0;
         o->layout = rad_ff_layout_of(&o->info);
-        o->record_max = format == FF_FORMAT_SPARSE ? rad_ff_row_record_max(info->patch_count, o->info.element_type)
-                                                   : o->layout.row_bytes;
-        if (!o->record_max) o->record_max = 1;
+        o->record_max = record_max_of(info->patch_count, format, (rad_element_type)info->element_type);
         snprintf(o->path, sizeof o->path, "%s", path);
         if (ff_comm_rank(comm) == 0) status = rad_fs_check_output("-o", path);
         /* Rank 0 creates the temporary (exclusively, guarded); the others

@@ -40,8 +40,9 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
                           const rad_mesh *mesh, ff_output **out_output);
 /* Threads (OpenMP) that convert, encode and checksum the rows of a write (default 1). */
 void ff_output_set_threads(ff_output *output, int threads);
-/* Largest number of rows one write may carry (keeps a collective write in one MPI piece). */
-uint32_t ff_output_max_rows(const ff_output *output);
+/* Largest number of rows one write may carry (keeps a collective write in
+ * one MPI piece) in a file of this format; known before it is opened (ff_plan.h). */
+uint32_t ff_output_max_rows(uint64_t patch_count, ff_format format, rad_element_type element);
 /* Collective, sparse format, optional, before the first write: this
  * rank's rows, all of them (row_count x N, as they will be written), so
  * that the records can be placed in row order. Other formats: nothing. */

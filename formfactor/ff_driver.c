@@ -1,0 +1,642 @@
+/* ff_driver.c - one formfactor run (ff_driver.h): load and check the
+ * scene, set up the backend, the estimate line, the rounds of rows and
+ * their collective writes, the order in which the files are committed,
+ * progress lines and the stats. */
+#define _GNU_SOURCE /* sched_getaffinity */
+#include "ff_driver.h"
+
+#include <inttypes.h>
+#include <math.h>
+#include <sched.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/statvfs.h>
+#include <unistd.h>
+
+#include "ff_backend.h"
+#include "ff_cuda.h"
+#include "ff_output.h"
+#include "ff_plan.h"
+#include "ff_rows.h"
+#include "ff_setup.h"
+#include "ff_stats.h"
+#include "rad_ffile.h"
+#include "rad_fs.h"
+#include "rad_log.h"
+#include "rad_mesh.h"
+#include "rad_scene.h"
+
+/* Shared by every rank: what the run computes with. */
+typedef struct ff_run {
+    ff_comm *comm;
+    ff_options opt;
+    rad_scene scene;
+    rad_mesh mesh;
+    rad_ff_patch *patches;
+    float *triangles;
+    uint32_t *triangle_face, triangle_count;
+    uint32_t *row_begin; /* ranks + 1 */
+    const ff_backend *backend;
+    void *backend_state;
+    /* check_limits (rank 0, before the mesh), then setup (every rank,
+     * after the split; pairs_once the same on every rank). */
+    ff_plan plan;
+    int gpus;        /* CUDA devices this process sees; 0 with --backend cpu (not asked) */
+    int want_errors; /* standard errors computed (not --no-errors) */
+    ff_rank_stats stats;
+    double start;
+    /* Progress (report_progress): this rank's rows done before the current
+     * backend call, the rows it has added to the shared counter, when, and
+     * (rank 0) when it last reported, every how many seconds, and whether
+     * to a terminal (one line that updates). calibrating: no reports. */
+    uint32_t progress_base;
+    uint64_t progress_added;
+    double progress_added_at, progress_said_at, progress_every, compute_start;
+    double estimated_seconds; /* estimate(): the calibration's forecast, or -1 */
+    int progress_tty, calibrating;
+} ff_run;
+
+/* The files of a run: the matrix, and its standard errors on request. */
+typedef struct ff_files {
+    ff_output *matrix;
+    ff_output *errors; /* NULL without --errors */
+} ff_files;
+
+/* "1.2 s", "3 min 20 s", "33 h 10 min". */
+static const char *format_seconds(double s, char *out, size_t size)
+{
+    if (!(s < 1e9)) snprintf(out, size, "longer than 30 years");
+    else if (s < 0.01) snprintf(out, size, "%.1f ms", 1e3 * s);
+    else if (s < 60) snprintf(out, size, "%.2g s", s);
+    else if (s < 3600) snprintf(out, size, "%d min %d s", (int)(s / 60), (int)fmod(s, 60));
+    else snprintf(out, size, "%d h %d min", (int)(s / 3600), (int)fmod(s / 60, 60));
+    return out;
+}
+
+/* "1.23 GiB": bytes as double, since refused sizes overflow 64 bits. */
+static const char *format_bytes(double bytes, char *out, size_t size)
+{
+    static const char *const units[] = {"bytes", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB", "ZiB"};
+    int u = 0;
+    while (bytes >= 1024 && u < 7) bytes /= 1024, u++;
+    snprintf(out, size, u ? "%.3g %s" : "%.0f %s", bytes, units[u]);
+    return out;
+}
+
+/* The backends' progress callback, on every rank: adds this rank's rows to
+ * the shared counter at most once a second; rank 0 reports the whole run's
+ * rows every progress_every seconds (about 40 lines per run, at least
+ * 2 s apart; on a terminal one line, updated twice a second). */
+static void report_progress(void *user, uint64_t rows_done)
+{
+    ff_run *run = user;
+    if (run->calibrating) return;
+    double t = ff_comm_time();
+    uint64_t done = run->progress_base + rows_done;
+    uint32_t mine = run->row_begin[ff_comm_rank(run->comm) + 1] - run->row_begin[ff_comm_rank(run->comm)];
+    if (done > run->progress_added && (t - run->progress_added_at >= 1.0 || done == mine)) {
+        ff_comm_progress_add(run->comm, done - run->progress_added);
+        run->progress_added = done;
+        run->progress_added_at = t;
+    }
+    if (ff_comm_rank(run->comm) != 0 || t - run->progress_said_at < run->progress_every) return;
+    run->progress_said_at = t;
+    double fraction = (double)ff_comm_progress_read(run->comm) / (double)(run->mesh.patch_count ? run->mesh.patch_count : 1);
+    double elapsed = t - run->compute_start;
+    /* The first rows say little about the rest: until 5 % are done, the
+     * calibration's forecast (which sampled the whole matrix) holds. */
+    double to_go = fraction > 0 ? elapsed * (1 - fraction) / fraction : -1;
+    if (fraction < 0.05 && run->estimated_seconds >= 0)
+        to_go = run->estimated_seconds > elapsed ? run->estimated_seconds - elapsed : 0;
+    char took[32], left[32];
+    const char *format = run->progress_tty ? "\r%s%.1f%% of the rows (%d rank(s)), %s elapsed, about %s to go\033[K"
+                                           : "%s%.1f%% of the rows (%d rank(s)), %s elapsed, about %s to go";
+    char line[256];
+    snprintf(line, sizeof line, format, run->progress_tty ? "formfactor: " : "", 100 * fraction, ff_comm_size(run->comm),
+             format_seconds(elapsed, took, sizeof took),
+             to_go >= 0 ? format_seconds(to_go, left, sizeof left) : "?");
+    if (run->progress_tty && rad_log_get_level() >= RAD_LOG_INFO) {
+        fputs(line, stderr); /* the one line that updates; ended before the next message (run_formfactor) */
+        fflush(stderr);
+    } else {
+        rad_info("%s", line);
+    }
+}
+
+static int default_threads(const ff_run *run)
+{
+    if (run->opt.threads > 0) return run->opt.threads;
+    const char *env = getenv("OMP_NUM_THREADS");
+    if (env && atoi(env) > 0) return atoi(env);
+    /* The cores this rank may run on (mpirun binds ranks to cores by
+     * default), and no more than its share of the node. */
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    long t = cores / ff_comm_node_size(run->comm);
+    cpu_set_t mask;
+    if (sched_getaffinity(0, sizeof mask, &mask) == 0 && CPU_COUNT(&mask) < t) t = CPU_COUNT(&mask);
+    return t > 0 ? (int)t : 1;
+}
+
+/* Physical memory of this node divided among the ranks on it (bytes). */
+static double memory_per_rank(const ff_run *run)
+{
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    int node_ranks = ff_comm_node_size(run->comm) > 0 ? ff_comm_node_size(run->comm) : 1;
+    return pages > 0 && page > 0 ? (double)pages * (double)page / node_ranks : INFINITY;
+}
+
+static ff_plan_choices plan_choices(const ff_options *o)
+{
+    return (ff_plan_choices){.element = o->element, .format = o->format, .errors_file = o->errors_path != NULL,
+                             .standard_errors = !o->no_errors, .reciprocity = o->reciprocity,
+                             .backend = o->backend, .max_bytes = o->max_bytes};
+}
+
+/* Rank 0, before the mesh is built: plans the run and refuses, with the
+ * numbers, one whose patch count exceeds the format, whose file would not
+ * fit in the free space of the output's file system or under --max-bytes,
+ * or whose memory per rank would exceed this node's memory per rank. */
+static rad_status check_limits(ff_run *run)
+{
+    rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
+    uint64_t n = rad_mesh_count_patches(&run->scene, &mo);
+    char dir[4096];
+    const char *slash = strrchr(run->opt.output, '/');
+    if (slash)
+        snprintf(dir, sizeof dir, "%.*s", slash == run->opt.output ? 1 : (int)(slash - run->opt.output), run->opt.output);
+    else
+        snprintf(dir, sizeof dir, ".");
+    struct statvfs fs; /* no answer: opening the output fails later and says why */
+    double free_bytes = statvfs(dir, &fs) == 0 ? (double)fs.f_bavail * (double)fs.f_frsize : INFINITY;
+    double per_rank = memory_per_rank(run);
+    ff_plan_limits limits = {.patch_count = n, .ranks = ff_comm_size(run->comm), .rank = 0,
+                             .memory_per_rank = per_rank, .free_bytes = free_bytes,
+                             .max_rows_per_write = ff_output_max_rows(n, run->opt.format, run->opt.element)};
+    ff_plan_choices choices = plan_choices(&run->opt);
+    ff_plan_make(&limits, &choices, &run->plan);
+    const ff_plan *plan = &run->plan;
+    char why[4200] = "", have[32];
+    switch (plan->refusal) {
+    case FF_PLAN_ACCEPTED: return RAD_OK;
+    case FF_PLAN_TOO_MANY_PATCHES:
+        snprintf(why, sizeof why, "more than the format's limit of %" PRIu64 " patches", FF_MAX_PATCHES);
+        break;
+    case FF_PLAN_DISK:
+        snprintf(why, sizeof why, "%s has %s free", dir, format_bytes(free_bytes, have, sizeof have));
+        break;
+    case FF_PLAN_MAX_BYTES:
+        snprintf(why, sizeof why, "--max-bytes is %s", format_bytes(run->opt.max_bytes, have, sizeof have));
+        break;
+    case FF_PLAN_MEMORY:
+        snprintf(why, sizeof why, "this node has %s per rank (%d rank(s) on it)",
+                 format_bytes(per_rank, have, sizeof have),
+                 ff_comm_node_size(run->comm) > 0 ? ff_comm_node_size(run->comm) : 1);
+        break;
+    }
+    char need[32], mem[32];
+    rad_error("--subdiv %d: %" PRIu64 " patches: %s would need %s (N^2 x %.0f bytes) and each rank about %s "
+              "of memory, but %s; refused (--element f32 halves the file; each --subdiv level less divides it by 16)",
+              run->opt.subdiv, n, run->opt.output, format_bytes(plan->file_bytes, need, sizeof need),
+              plan->element_bytes, format_bytes(plan->memory_bytes, mem, sizeof mem), why);
+    return RAD_ERR_NOMEM;
+}
+
+/* The loader reads the OBJ and each mtllib through here: none of them may
+ * be an output of this run (`-o scene.mtl` would replace the scene's
+ * materials). */
+static rad_status read_scene_file(const char *path, char **out_data, size_t *out_size, void *user)
+{
+    const ff_options *o = user;
+    rad_fs_role roles[] = {{"the scene's file", path, 0}, {"-o", o->output, 1}, {"--stats", o->stats_path, 1},
+                           {"--errors", o->errors_path, 1}};
+    *out_data = NULL;
+    if (rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]) != RAD_OK) return RAD_ERR_USAGE;
+    return rad_fs_read_all(path, out_data, out_size);
+}
+
+static rad_status load(ff_run *run)
+{
+    double t0 = ff_comm_time();
+    rad_scene_options loader = {.read_file = read_scene_file, .read_file_user = &run->opt,
+                                .clamp_rho = run->opt.clamp_rho, .flip_normals = run->opt.flip_normals};
+    rad_status st = run->opt.scene_path ? rad_scene_load_file(run->opt.scene_path, &loader, &run->scene)
+                                        : rad_scene_load_default(&run->scene);
+    double t1 = ff_comm_time();
+    if (st == RAD_OK && ff_comm_rank(run->comm) == 0) st = check_limits(run);
+    if (st == RAD_OK) {
+        rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
+        st = rad_mesh_build(&run->scene, &mo, &run->mesh);
+    }
+    if (st == RAD_OK && run->mesh.patch_count == 0) {
+        rad_error("%s: the scene has no faces", run->scene.path);
+        st = RAD_ERR_INVALID;
+    }
+    run->stats.load = t1 - t0;
+    run->stats.subdivide = ff_comm_time() - t1;
+    return st;
+}
+
+/* Collective: plans the run on every rank once its rows are split (a rank
+ * whose split failed plans as if its rows were split evenly: it still
+ * takes part), makes the ranks agree on pairs_once - where one rank's
+ * block does not fit, every rank streams - and picks the backend the plan
+ * names. */
+static void plan_after_split(ff_run *run, rad_status split)
+{
+    ff_plan_limits limits = {.patch_count = run->mesh.patch_count, .ranks = ff_comm_size(run->comm),
+                             .rank = ff_comm_rank(run->comm), .row_begin = split == RAD_OK ? run->row_begin : NULL,
+                             .memory_per_rank = memory_per_rank(run),
+                             .free_bytes = INFINITY, /* the disk was checked before the mesh */
+                             .gpus_visible = run->gpus,
+                             .max_rows_per_write = ff_output_max_rows(run->mesh.patch_count, run->opt.format,
+                                                                      run->opt.element)};
+    ff_plan_choices choices = plan_choices(&run->opt);
+    ff_plan_make(&limits, &choices, &run->plan);
+    uint64_t some_rank_streams = ff_comm_max_u64(run->comm, !run->plan.pairs_once);
+    if (some_rank_streams && run->plan.pairs_once) {
+        choices.reciprocity = FF_RECIPROCITY_OFF;
+        ff_plan_make(&limits, &choices, &run->plan);
+    }
+    run->backend = run->plan.gpu ? &ff_backend_cuda : &ff_backend_cpu;
+}
+
+static rad_status setup(ff_run *run)
+{
+    double t0 = ff_comm_time();
+    int ranks = ff_comm_size(run->comm);
+    uint32_t n = (uint32_t)run->mesh.patch_count;
+    double centre[3];
+    ff_frame_centre(&run->mesh, centre);
+    rad_status st = ff_patches_build(&run->mesh, centre, &run->patches);
+    if (st == RAD_OK)
+        st = ff_occluders_build(&run->scene, centre, &run->triangles, &run->triangle_face, &run->triangle_count);
+    run->row_begin = calloc((size_t)ranks + 1, sizeof *run->row_begin);
+    if (st == RAD_OK && !run->row_begin) st = RAD_ERR_NOMEM;
+    double eps = ff_plane_eps(&run->mesh);
+    int convex = run->opt.cull == FF_CULL_ALL && ff_scene_is_convex_enclosure(&run->scene, eps);
+    if (st == RAD_OK) st = ff_partition_rows(run->patches, n, eps, ranks, run->row_begin);
+    run->want_errors = !run->opt.no_errors;
+    plan_after_split(run, st); /* collective, so every rank plans, even one that failed above */
+    run->stats.threads = default_threads(run);
+    if (st == RAD_OK) {
+        ff_setup su = {.patches = run->patches, .patch_count = n, .triangles = run->triangles,
+                       .triangle_face = run->triangle_face, .triangle_count = run->triangle_count,
+                       .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
+                       .estimator = run->opt.estimator, .quad_rtol = run->opt.quad_rtol,
+                       .quad_atol = run->opt.quad_atol, .target_error = run->opt.target_error,
+                       .max_samples = run->opt.max_samples, .errors = run->want_errors,
+                       .cull = run->opt.cull == FF_CULL_ALL, .scene_convex = convex,
+                       .cull_margin = ff_cull_margin(&run->mesh, centre, eps), .plane_eps = eps,
+                       .pairs_once = run->plan.pairs_once, .threads = run->stats.threads,
+                       .device = ff_comm_rank(run->comm), .progress = report_progress, .progress_user = run};
+        st = run->backend->create(&su, &run->backend_state);
+    }
+    run->stats.setup = ff_comm_time() - t0;
+    return st;
+}
+
+/* Round `round` of a rank's rows [begin, end): its first row (end once the
+ * rows are used up) and, returned, its row count (0 then). */
+static uint32_t round_rows(uint32_t begin, uint32_t end, uint32_t per_round, uint64_t round, uint32_t *r0)
+{
+    uint64_t first = begin + round * per_round;
+    *r0 = first < end ? (uint32_t)first : end;
+    return end - *r0 < per_round ? end - *r0 : per_round;
+}
+
+/* Collective: rows [r0, r0 + count) of this rank into each file (count may be 0). */
+static rad_status write_round(ff_run *run, const ff_files *files, uint32_t r0, uint32_t count, const double *rows,
+                              const double *errors)
+{
+    double t0 = ff_comm_time();
+    rad_status st = ff_output_write_rows(files->matrix, r0, count, rows);
+    if (files->errors) {
+        rad_status e = ff_output_write_rows(files->errors, r0, count, errors);
+        if (st == RAD_OK) st = e;
+    }
+    run->stats.io += ff_comm_time() - t0;
+    return st;
+}
+
+/* A buffer of `count` doubles, from the backend up to FF_BACKEND_BUFFER_MAX (ff_plan.h). */
+static double *alloc_buffer(ff_run *run, size_t count)
+{
+    if (count == 0) count = 1;
+    return count * sizeof(double) <= FF_BACKEND_BUFFER_MAX ? run->backend->alloc_rows(run->backend_state, count)
+                                                           : malloc(count * sizeof(double));
+}
+
+static void free_buffer(ff_run *run, size_t count, double *buffer)
+{
+    if (count == 0) count = 1;
+    if (count * sizeof(double) <= FF_BACKEND_BUFFER_MAX)
+        run->backend->free_rows(run->backend_state, buffer);
+    else
+        free(buffer);
+}
+
+/* Rank 0, before any row is written: one line with what the run will
+ * take - the outputs' size, the memory per rank and the time. The time
+ * comes from a calibration: FF_CALIBRATION_CHUNKS chunks of rows spread
+ * over the matrix, together about 1/64 of it, computed by the run's own
+ * backend (and computed again later: 1.6 % more work) and scaled to all
+ * rows, divided among the ranks. A GPU's chunks of a small scene are
+ * mostly launch latency, so small runs are overestimated; runs of fewer
+ * than FF_CALIBRATION_MIN patches take seconds and are not calibrated.
+ * Sets the progress lines' cadence from the estimate. */
+#define FF_CALIBRATION_CHUNKS 4
+#define FF_CALIBRATION_MIN 1024
+static void estimate(ff_run *run)
+{
+    uint32_t n = (uint32_t)run->mesh.patch_count;
+    double seconds = -1, calibration = 0;
+    uint32_t chunk = n / 64 / FF_CALIBRATION_CHUNKS > 2 ? n / 64 / FF_CALIBRATION_CHUNKS : 2;
+    if (n >= FF_CALIBRATION_MIN) {
+        double *rows = alloc_buffer(run, (size_t)chunk * n);
+        double *errors = run->want_errors ? alloc_buffer(run, (size_t)chunk * n) : NULL;
+        if (rows && (errors || !run->want_errors)) {
+            ff_counters scratch = {0};
+            rad_status st = RAD_OK;
+            run->calibrating = 1;
+            double t0 = ff_comm_time();
+            for (uint32_t k = 0; k < FF_CALIBRATION_CHUNKS && st == RAD_OK; k++) {
+                uint64_t centre = (uint64_t)n * (2 * k + 1) / (2 * FF_CALIBRATION_CHUNKS);
+                uint32_t r0 = centre > chunk / 2 ? (uint32_t)(centre - chunk / 2) : 0;
+                if (r0 + chunk > n) r0 = n - chunk;
+                st = run->backend->compute_rows(run->backend_state, r0, chunk, rows, errors, &scratch);
+            }
+            calibration = ff_comm_time() - t0;
+            run->calibrating = 0;
+            if (st == RAD_OK)
+                seconds = calibration * ((double)n / (FF_CALIBRATION_CHUNKS * chunk)) / ff_comm_size(run->comm);
+        }
+        if (rows) free_buffer(run, (size_t)chunk * n, rows);
+        if (errors) free_buffer(run, (size_t)chunk * n, errors);
+    }
+    char bytes[32], memory[32], time[32], took[32];
+    /* The sparse format's size is known once written: the dense size bounds it. */
+    const char *bound = run->opt.format == FF_FORMAT_SPARSE ? "at most " : "";
+    if (seconds >= 0)
+        rad_info("estimate: %s%s to write, about %s of memory per rank, about %s of form factors on %d rank(s) "
+                 "(calibrated on %u of %u rows in %s)",
+                 bound, format_bytes(run->plan.file_bytes, bytes, sizeof bytes),
+                 format_bytes(run->plan.memory_bytes, memory, sizeof memory),
+                 format_seconds(seconds, time, sizeof time), ff_comm_size(run->comm), FF_CALIBRATION_CHUNKS * chunk,
+                 n, format_seconds(calibration, took, sizeof took));
+    else
+        rad_info("estimate: %s%s to write, about %s of memory per rank, seconds of form factors", bound,
+                 format_bytes(run->plan.file_bytes, bytes, sizeof bytes),
+                 format_bytes(run->plan.memory_bytes, memory, sizeof memory));
+    run->estimated_seconds = seconds;
+    run->progress_every = seconds / 40 > 2.0 ? seconds / 40 : 2.0;
+    if (run->progress_tty) run->progress_every = 0.5;
+    /* Tests ask for lines at a cadence of their own. */
+    const char *every = getenv("RAD_PROGRESS_SECONDS");
+    if (every && atof(every) > 0) run->progress_every = atof(every);
+}
+
+/* Row buffers of `count` doubles, for the values and (if wanted) the
+ * standard errors; collective: fails on every rank if it fails on one. */
+static rad_status alloc_buffers(ff_run *run, size_t count, double **rows, double **errors)
+{
+    *rows = alloc_buffer(run, count);
+    *errors = run->want_errors ? alloc_buffer(run, count) : NULL;
+    rad_status st = ff_comm_agree(run->comm, *rows && (*errors || !run->want_errors) ? RAD_OK : RAD_ERR_NOMEM);
+    if (st != RAD_OK) {
+        if (*rows) free_buffer(run, count, *rows);
+        if (*errors) free_buffer(run, count, *errors);
+        *rows = *errors = NULL;
+    }
+    return st;
+}
+
+/* pairs_once: fills in the entries that other rows computed - of this
+ * rank's block, then from other ranks' - once every rank has computed its
+ * rows (collective; `st` is this rank's status so far). */
+static rad_status complete_block(ff_run *run, double *block, double *errors, ff_counters *counters, rad_status st)
+{
+    int rank = ff_comm_rank(run->comm);
+    uint32_t n = (uint32_t)run->mesh.patch_count;
+    uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
+    st = ff_comm_agree(run->comm, st);
+    if (st != RAD_OK) return st;
+    double t0 = ff_comm_time();
+    counters->pairs_mirrored += ff_rows_mirror_local(n, begin, end, block, run->stats.threads);
+    st = ff_rows_exchange(run->comm, run->row_begin, n, block, &counters->pairs_mirrored);
+    if (errors) {
+        ff_rows_mirror_local(n, begin, end, errors, run->stats.threads);
+        if (st == RAD_OK) st = ff_rows_exchange(run->comm, run->row_begin, n, errors, NULL);
+    }
+    run->stats.mirror = ff_comm_time() - t0;
+    return st;
+}
+
+/* This rank's rows, in the plan's rounds, computed and written
+ * collectively. Streamed (--reciprocity off), the buffers hold one round:
+ * each round is computed, scaled and written before the next. With
+ * pairs_once they hold the rank's whole block: each round is computed
+ * into its place, the block is completed from the other rows' entries,
+ * scaled, and written in the same rounds. Every rank joins every
+ * collective write, with no rows after a failure. */
+static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters *counters)
+{
+    const ff_plan *plan = &run->plan;
+    int rank = ff_comm_rank(run->comm);
+    uint32_t n = (uint32_t)run->mesh.patch_count;
+    uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
+    double *rows = NULL, *errors = NULL;
+    rad_status st = alloc_buffers(run, plan->buffer_doubles, &rows, &errors);
+    if (st != RAD_OK) {
+        if (plan->pairs_once)
+            rad_error("out of memory for this rank's %u rows of %u form factors (try --reciprocity off)", end - begin,
+                      n);
+        else
+            rad_error("out of memory for %u rows of %u form factors", plan->rows_per_round, n);
+        return st;
+    }
+    uint32_t r0, count;
+    for (uint64_t round = 0; round < plan->rounds; round++) {
+        count = round_rows(begin, end, plan->rows_per_round, round, &r0);
+        size_t at = plan->pairs_once ? (size_t)(r0 - begin) * n : 0;
+        if (st == RAD_OK && count > 0) {
+            run->progress_base = r0 - begin;
+            st = run->backend->compute_rows(run->backend_state, r0, count, rows + at, errors ? errors + at : NULL,
+                                            counters);
+        }
+        if (plan->pairs_once) continue; /* written once the block is complete */
+        if (st == RAD_OK) ff_rows_finish(run->patches, n, r0, count, rows, errors, run->stats.threads, &run->stats.rows);
+        rad_status w = write_round(run, files, r0, st == RAD_OK ? count : 0, rows, errors);
+        if (st == RAD_OK) st = w;
+    }
+    if (plan->pairs_once) {
+        st = complete_block(run, rows, errors, counters, st);
+        if (st == RAD_OK)
+            ff_rows_finish(run->patches, n, begin, end - begin, rows, errors, run->stats.threads, &run->stats.rows);
+        /* The sparse format places all the rank's records in row order (the
+         * same bytes for any rank count); collective, so every rank joins. */
+        uint32_t reserve = st == RAD_OK ? end - begin : 0;
+        if (files->matrix) ff_output_reserve(files->matrix, reserve, rows);
+        if (files->errors) ff_output_reserve(files->errors, reserve, errors);
+        if (st == RAD_OK) {
+            for (uint64_t round = 0; round < plan->rounds; round++) {
+                count = round_rows(begin, end, plan->rows_per_round, round, &r0);
+                size_t at = (size_t)(r0 - begin) * n;
+                rad_status w = write_round(run, files, r0, st == RAD_OK ? count : 0, rows + at, errors ? errors + at : NULL);
+                if (st == RAD_OK) st = w;
+            }
+        }
+    }
+    free_buffer(run, plan->buffer_doubles, rows);
+    if (errors) free_buffer(run, plan->buffer_doubles, errors);
+    return st;
+}
+
+/* Computes this rank's rows and writes them collectively. */
+static rad_status compute_and_write(ff_run *run, const ff_files *files)
+{
+    int rank = ff_comm_rank(run->comm);
+    run->stats.row_begin = run->row_begin[rank];
+    run->stats.row_end = run->row_begin[rank + 1];
+    ff_counters counters = {0};
+    rad_status st = compute_rounds(run, files, &counters);
+    run->stats.counters = counters;
+    run->stats.form_factors = counters.kernel_seconds;
+    run->stats.visibility = counters.visibility_seconds;
+    run->stats.gpu_memory = counters.memory_seconds;
+    return st;
+}
+
+static rad_status write_stats(ff_run *run)
+{
+    int rank = ff_comm_rank(run->comm), ranks = ff_comm_size(run->comm);
+    ff_rank_stats *all = rank == 0 ? calloc((size_t)ranks, sizeof *all) : NULL;
+    rad_status st = ff_comm_agree(run->comm, rank == 0 && !all ? RAD_ERR_NOMEM : RAD_OK);
+    if (st != RAD_OK) return st;
+    run->stats.rank = rank;
+    ff_comm_gather(run->comm, &run->stats, sizeof run->stats, all, 0);
+    if (rank == 0) {
+        const char *scene = run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name;
+        ff_run_info info = {.scene = scene, .fingerprint = run->scene.fingerprint,
+                            .patch_count = (uint32_t)run->mesh.patch_count, .subdiv = run->opt.subdiv,
+                            .subdiv_only = run->opt.subdiv_only, .samples = run->opt.samples,
+                            .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
+                            .estimator = rad_estimator_name(run->opt.estimator),
+                            .cull = ff_cull_name(run->opt.cull),
+                            .reciprocity = ff_reciprocity_name(run->plan.pairs_once ? FF_RECIPROCITY_ON
+                                                                                     : FF_RECIPROCITY_OFF),
+                            .target_error = run->opt.target_error, .max_samples = run->opt.max_samples,
+                            .errors = run->want_errors, .backend = run->backend->name,
+                            .element = ff_element_name(run->opt.element), .format = ff_format_name(run->opt.format),
+                            .output = run->opt.output, .ranks = ranks, .gpus_visible = run->gpus};
+        ff_stats_log_summary(&info, all);
+        if (run->opt.stats_path) st = ff_stats_write_json(run->opt.stats_path, &info, all);
+    }
+    free(all);
+    return ff_comm_agree(run->comm, st);
+}
+
+/* Opens the outputs (collective): the matrix, and the --errors file
+ * (float32; sparse with the matrix, else native) beside it. */
+static rad_status open_outputs(ff_run *run, ff_files *files)
+{
+    rad_ff_info info = {.patch_count = run->mesh.patch_count, .vertex_count = run->mesh.vertex_count,
+                        .element_type = run->opt.element, .estimator = run->opt.estimator,
+                        .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
+                        .scene_fingerprint = run->scene.fingerprint, .subdiv = run->opt.subdiv,
+                        .flags = run->opt.subdiv_only ? RAD_FF_FLAG_PARTIAL_SUBDIV : 0,
+                        .group_count = (uint32_t)run->mesh.group_count};
+    snprintf(info.scene_name, sizeof info.scene_name, "%s",
+             run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name);
+    rad_status st = ff_output_open(run->comm, run->opt.output, run->opt.format, &info, &run->mesh, &files->matrix);
+    if (st == RAD_OK && run->opt.errors_path) {
+        rad_ff_info error_info = info;
+        error_info.element_type = RAD_ELEMENT_F32;
+        error_info.flags |= RAD_FF_FLAG_STANDARD_ERRORS;
+        ff_format format = run->opt.format == FF_FORMAT_SPARSE ? FF_FORMAT_SPARSE : FF_FORMAT_NATIVE;
+        st = ff_output_open(run->comm, run->opt.errors_path, format, &error_info, &run->mesh, &files->errors);
+        if (st != RAD_OK) files->errors = NULL;
+    }
+    if (files->matrix) ff_output_set_threads(files->matrix, run->stats.threads);
+    if (files->errors) ff_output_set_threads(files->errors, run->stats.threads);
+    return st;
+}
+
+/* Collective: both files are written and closed before either is renamed;
+ * the errors file is renamed first, so a failure there leaves the old
+ * matrix in place too. (Both destinations were checked up front.) */
+static rad_status commit_outputs(const ff_files *files, rad_status st)
+{
+    if (files->matrix) st = ff_output_close(files->matrix, st);
+    if (files->errors) st = ff_output_close(files->errors, st);
+    if (files->errors) st = ff_output_commit(files->errors, st);
+    if (files->matrix) st = ff_output_commit(files->matrix, st);
+    return st;
+}
+
+static rad_status run_formfactor(ff_run *run)
+{
+    int rank = ff_comm_rank(run->comm);
+    run->start = ff_comm_time();
+    /* Loading is deterministic, so rank 0 alone reports its errors. */
+    rad_log_level level = rad_log_get_level();
+    if (rank != 0) rad_log_set_level(RAD_LOG_NONE);
+    rad_status st = ff_comm_agree(run->comm, load(run));
+    if (rank != 0) rad_log_set_level(level);
+    if (st != RAD_OK) return st;
+    if (run->mesh.patch_count > UINT32_MAX / 2) {
+        if (rank == 0) rad_error("%zu patches: more than this format's 2^31 limit", run->mesh.patch_count);
+        return RAD_ERR_NOMEM;
+    }
+    /* Asking CUDA starts its driver (~0.5 s); a CPU run does not need it. */
+    run->gpus = run->opt.backend != FF_BACKEND_CPU ? ff_cuda_device_count() : 0;
+    if ((st = ff_comm_agree(run->comm, setup(run))) != RAD_OK) return st;
+    if (rank == 0)
+        rad_info("%s: %zu patches from %zu faces, %u samples and %u shadow rays per pair, %d rank(s) x %d thread(s), "
+                 "backend %s",
+                 run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name, run->mesh.patch_count,
+                 run->scene.face_count, run->opt.samples, run->opt.shadow_rays, ff_comm_size(run->comm),
+                 run->stats.threads, run->backend->name);
+    run->progress_every = 2.0;
+    run->estimated_seconds = -1;
+    run->progress_tty = rank == 0 && isatty(STDERR_FILENO) && rad_log_get_level() >= RAD_LOG_INFO;
+    if (rank == 0 && rad_log_get_level() >= RAD_LOG_INFO) estimate(run);
+
+    ff_files files = {0};
+    double t0 = ff_comm_time();
+    st = open_outputs(run, &files);
+    run->stats.io += ff_comm_time() - t0;
+    ff_comm_progress_open(run->comm);
+    run->compute_start = ff_comm_time();
+    run->progress_said_at = run->compute_start;
+    if (st == RAD_OK) st = compute_and_write(run, &files);
+    ff_comm_progress_close(run->comm);
+    if (run->progress_tty && run->progress_said_at > run->compute_start) fputc('\n', stderr); /* end the updating line */
+    t0 = ff_comm_time();
+    st = commit_outputs(&files, st);
+    run->stats.io += ff_comm_time() - t0;
+    run->stats.total = ff_comm_time() - run->start;
+    if (st != RAD_OK) return st;
+    if (rank == 0) rad_info("wrote %s%s%s", run->opt.output, run->opt.errors_path ? " and " : "",
+                            run->opt.errors_path ? run->opt.errors_path : "");
+    return write_stats(run);
+}
+
+static void run_free(ff_run *run)
+{
+    if (run->backend && run->backend_state) run->backend->destroy(run->backend_state);
+    free(run->patches);
+    free(run->triangles);
+    free(run->triangle_face);
+    free(run->row_begin);
+    rad_mesh_free(&run->mesh);
+    rad_scene_free(&run->scene);
+}
+
+rad_status ff_driver_run(ff_comm *comm, const ff_options *options)
+{
+    ff_run run = {.comm = comm, .opt = *options};
+    rad_status status = run_formfactor(&run);
+    run_free(&run);
+    return status;
+}

@@ -1,0 +1,308 @@
+/* ff_options.c - formfactor's command line (ff_options.h): getopt_long,
+ * the name tables of the options' values, the checks of the options
+ * together, and the --help text. */
+#include "ff_options.h"
+
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rad_ff_quad.h"
+#include "rad_fs.h"
+#include "rad_log.h"
+#include "rad_parse.h"
+
+const char ff_options_help[] =
+    "usage: mpirun -n P formfactor [options] [SCENE.obj]\n"
+    "       formfactor [options] [SCENE.obj]          (one rank)\n"
+    "\n"
+    "Computes the form factor F_ij of every patch pair of SCENE.obj (default: the\n"
+    "built-in Cornell box) and writes the N x N matrix with the patch table.\n"
+    "\n"
+    "  -o, --output FILE        output file (default: formfactors)\n"
+    "      --subdiv S           split every face into 4^S patches (default: 0)\n"
+    "      --subdiv-only GROUP  subdivide only faces of OBJ group GROUP (the paper's\n"
+    "                           code subdivided only the box: --subdiv-only box)\n"
+    "      --flip-normals       wind every face the other way round: for scenes whose\n"
+    "                           faces all point away from where the light is (a closed\n"
+    "                           object used as a room, faces wound against their vn)\n"
+    "      --clamp-rho R        set every Kd value above R (0 < R < 1) to R, saying which,\n"
+    "                           instead of refusing Kd >= 1 (Blender's white is Kd 1)\n"
+    "      --samples K          point pairs per patch pair (default: 512)\n"
+    "      --shadow-rays R      of those, pairs that carry a shadow ray (default: 32;\n"
+    "                           0 = no occlusion)\n"
+    "      --seed N             random seed (default: 1); same seed, same bytes\n"
+    "      --target-error E     keep sampling each pair (batches that double the samples\n"
+    "                           and shadow rays) until the standard error of F_ij and\n"
+    "                           F_ji is at most E, or --max-samples is reached\n"
+    "      --max-samples M      cap per pair for --target-error (default: 64 x --samples)\n"
+    "      --errors FILE        also write each entry's standard error (float32, same\n"
+    "                           layout as the form factors; docs/formats.md)\n"
+    "      --no-errors          do not estimate standard errors (no summary in the stats;\n"
+    "                           saves GPU kernel time and host memory)\n"
+    "      --estimator E        quadrature | auto | mc | qmc | analytic (default: quadrature:\n"
+    "                           the unoccluded factor by adaptive quadrature to --quad-rtol,\n"
+    "                           and, where something might block the pair, its visible\n"
+    "                           fraction from R stratified shadow rays; the others are\n"
+    "                           Monte Carlo: auto: pairs closer than twice their radii use\n"
+    "                           the contour-integral near-field estimator with K/8 samples;\n"
+    "                           mc: random point pairs everywhere, as the paper; qmc:\n"
+    "                           shifted-Halton point pairs; analytic: the contour estimator\n"
+    "                           for every pair)\n"
+    "      --quad-rtol R        quadrature: relative tolerance of each unoccluded factor\n"
+    "                           (default: 1e-8; its error estimate is conservative)\n"
+    "      --quad-atol A        quadrature: absolute tolerance, in units of F (default: 1e-13)\n"
+    "      --backend B          auto | cpu | cuda (default: auto)\n"
+    "      --element T          f64 | f32 matrix element type (default: f64)\n"
+    "      --format F           native | sparse | paper (sparse: only each row's non-zero\n"
+    "                           tiles of 64 entries; paper: int32 N + N*N float64 only)\n"
+    "      --cull C             all | none: skip shadow rays where nothing can lie between\n"
+    "                           the two patches (default: all; the same matrix)\n"
+    "      --reciprocity M      auto | on | off: on computes each unordered pair once and\n"
+    "                           copies the other entry (A_i F_ij = A_j F_ji), holding the\n"
+    "                           rank's rows in memory; off computes both and streams rows;\n"
+    "                           auto: on when the rows take at most a quarter of this\n"
+    "                           node's memory per rank, and on the GPU at most 1 GiB\n"
+    "                           (default). Same bytes either way.\n"
+    "      --threads T          CPU threads per rank (default: cores / ranks per node)\n"
+    "      --stats FILE.json    write counts and phase times (per rank and total)\n"
+    "      --max-bytes SIZE     refuse, before any work, a run whose output (with --errors)\n"
+    "                           would be larger (e.g. 20G, 512Mi); runs larger than the\n"
+    "                           free space of the output's file system are always refused\n"
+    "  -q, --quiet              only errors on stderr\n"
+    "  -h, --help               this help\n"
+    "      --version            print the version\n"
+    "\n"
+    "File layout: docs/formats.md. Estimator: docs/architecture.md.\n";
+
+/* One enum's names, in the order --help lists them. */
+typedef struct ff_name {
+    int value;
+    const char *name;
+} ff_name;
+
+#define FF_NAMES_COUNT(table) (sizeof table / sizeof table[0])
+
+static const ff_name backend_names[] = {
+    {FF_BACKEND_AUTO, "auto"}, {FF_BACKEND_CPU, "cpu"}, {FF_BACKEND_CUDA, "cuda"}};
+static const ff_name cull_names[] = {{FF_CULL_ALL, "all"}, {FF_CULL_NONE, "none"}};
+static const ff_name reciprocity_names[] = {
+    {FF_RECIPROCITY_AUTO, "auto"}, {FF_RECIPROCITY_ON, "on"}, {FF_RECIPROCITY_OFF, "off"}};
+static const ff_name element_names[] = {{RAD_ELEMENT_F64, "f64"}, {RAD_ELEMENT_F32, "f32"}};
+static const ff_name format_names[] = {
+    {FF_FORMAT_NATIVE, "native"}, {FF_FORMAT_SPARSE, "sparse"}, {FF_FORMAT_PAPER, "paper"}};
+/* The estimators in --help's order; their names are rad_estimator_name's. */
+static const rad_estimator_id estimator_order[] = {RAD_ESTIMATOR_QUADRATURE, RAD_ESTIMATOR_AUTO, RAD_ESTIMATOR_MC,
+                                                   RAD_ESTIMATOR_QMC, RAD_ESTIMATOR_ANALYTIC};
+
+static const char *name_of(const ff_name *table, size_t count, int value)
+{
+    for (size_t k = 0; k < count; k++)
+        if (table[k].value == value) return table[k].name;
+    return "unknown";
+}
+
+const char *ff_backend_choice_name(ff_backend_choice backend)
+{
+    return name_of(backend_names, FF_NAMES_COUNT(backend_names), (int)backend);
+}
+
+const char *ff_cull_name(ff_cull cull)
+{
+    return name_of(cull_names, FF_NAMES_COUNT(cull_names), (int)cull);
+}
+
+const char *ff_reciprocity_name(ff_reciprocity reciprocity)
+{
+    return name_of(reciprocity_names, FF_NAMES_COUNT(reciprocity_names), (int)reciprocity);
+}
+
+const char *ff_element_name(rad_element_type element)
+{
+    return name_of(element_names, FF_NAMES_COUNT(element_names), (int)element);
+}
+
+const char *ff_format_name(ff_format format)
+{
+    return name_of(format_names, FF_NAMES_COUNT(format_names), (int)format);
+}
+
+/* The value `text` names in `table`; otherwise RAD_ERR_USAGE with the
+ * names listed: "--cull: expected all or none, got 'some'". */
+static rad_status parse_name(const char *flag, const char *text, const ff_name *table, size_t count, int *out)
+{
+    for (size_t k = 0; k < count; k++) {
+        if (strcmp(text, table[k].name) == 0) {
+            *out = table[k].value;
+            return RAD_OK;
+        }
+    }
+    char expected[256] = "";
+    size_t used = 0;
+    for (size_t k = 0; k < count && used < sizeof expected; k++)
+        used += (size_t)snprintf(expected + used, sizeof expected - used, "%s%s",
+                                 k == 0 ? "" : k + 1 < count ? ", " : " or ", table[k].name);
+    rad_error("%s: expected %s, got '%s'", flag, expected, text);
+    return RAD_ERR_USAGE;
+}
+
+static rad_status parse_estimator(const char *text, rad_estimator_id *out)
+{
+    ff_name table[FF_NAMES_COUNT(estimator_order)];
+    for (size_t k = 0; k < FF_NAMES_COUNT(estimator_order); k++)
+        table[k] = (ff_name){(int)estimator_order[k], rad_estimator_name(estimator_order[k])};
+    int value = 0;
+    rad_status status = parse_name("--estimator", text, table, FF_NAMES_COUNT(table), &value);
+    if (status == RAD_OK) *out = (rad_estimator_id)value;
+    return status;
+}
+
+/* A tolerance: a finite number in (0, 1). */
+static rad_status parse_tolerance(const char *flag, const char *text, double *out)
+{
+    return rad_parse_real(flag, text, 0, 0, 1, 0, out);
+}
+
+/* argv into *o, one option at a time; the first bad one is reported. */
+static rad_status parse_argv(int argc, char **argv, ff_options *o)
+{
+    enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
+           O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
+           O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES };
+    static const struct option longs[] = {
+        {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
+        {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
+        {"shadow-rays", required_argument, 0, O_RAYS}, {"seed", required_argument, 0, O_SEED},
+        {"backend", required_argument, 0, O_BACKEND}, {"element", required_argument, 0, O_ELEMENT},
+        {"format", required_argument, 0, O_FORMAT},   {"threads", required_argument, 0, O_THREADS},
+        {"stats", required_argument, 0, O_STATS},     {"quiet", no_argument, 0, 'q'},
+        {"help", no_argument, 0, 'h'},                {"version", no_argument, 0, O_VERSION},
+        {"estimator", required_argument, 0, O_ESTIMATOR}, {"cull", required_argument, 0, O_CULL},
+        {"reciprocity", required_argument, 0, O_RECIPROCITY}, {"target-error", required_argument, 0, O_TARGET},
+        {"max-samples", required_argument, 0, O_MAX_SAMPLES}, {"errors", required_argument, 0, O_ERRORS},
+        {"no-errors", no_argument, 0, O_NO_ERRORS}, {"quad-rtol", required_argument, 0, O_QUAD_RTOL},
+        {"quad-atol", required_argument, 0, O_QUAD_ATOL},
+        {"flip-normals", no_argument, 0, O_FLIP_NORMALS}, {"clamp-rho", required_argument, 0, O_CLAMP_RHO},
+        {"max-bytes", required_argument, 0, O_MAX_BYTES},
+        {0, 0, 0, 0}};
+    uint64_t v = 0;
+    int named = 0; /* an option's value read through a name table */
+    rad_status st = RAD_OK;
+    int c;
+    opterr = 0;
+    while (st == RAD_OK && (c = getopt_long(argc, argv, "o:qh", longs, NULL)) != -1) {
+        switch (c) {
+        case 'o': o->output = optarg; break;
+        case 'q': o->quiet = 1; break;
+        case 'h': o->help = 1; break;
+        case O_VERSION: o->version = 1; break;
+        case O_SUBDIV: st = rad_parse_uint("--subdiv", optarg, 0, 12, &v); o->subdiv = (int)v; break;
+        case O_ONLY: o->subdiv_only = optarg; break;
+        case O_SAMPLES: st = rad_parse_uint("--samples", optarg, 1, 1u << 24, &v); o->samples = (uint32_t)v; break;
+        case O_RAYS: st = rad_parse_uint("--shadow-rays", optarg, 0, 1u << 24, &v); o->shadow_rays = (uint32_t)v; break;
+        case O_SEED: st = rad_parse_uint("--seed", optarg, 0, UINT64_MAX, &v); o->seed = v; break;
+        case O_THREADS: st = rad_parse_uint("--threads", optarg, 1, 1024, &v); o->threads = (int)v; break;
+        case O_STATS: o->stats_path = optarg; break;
+        case O_BACKEND:
+            st = parse_name("--backend", optarg, backend_names, FF_NAMES_COUNT(backend_names), &named);
+            if (st == RAD_OK) o->backend = (ff_backend_choice)named;
+            break;
+        case O_ELEMENT:
+            st = parse_name("--element", optarg, element_names, FF_NAMES_COUNT(element_names), &named);
+            if (st == RAD_OK) o->element = (rad_element_type)named;
+            break;
+        case O_ESTIMATOR: st = parse_estimator(optarg, &o->estimator); break;
+        case O_QUAD_RTOL: st = parse_tolerance("--quad-rtol", optarg, &o->quad_rtol); break;
+        case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
+        case O_FLIP_NORMALS: o->flip_normals = 1; break;
+        case O_MAX_BYTES: st = rad_parse_bytes("--max-bytes", optarg, &o->max_bytes); break;
+        case O_CLAMP_RHO: st = rad_parse_real("--clamp-rho", optarg, 0, 0, 1, 0, &o->clamp_rho); break;
+        case O_CULL:
+            st = parse_name("--cull", optarg, cull_names, FF_NAMES_COUNT(cull_names), &named);
+            if (st == RAD_OK) o->cull = (ff_cull)named;
+            break;
+        case O_TARGET: {
+            char *end = NULL;
+            o->target_error = optarg && *optarg ? strtod(optarg, &end) : 0;
+            if (!end || *end || !(o->target_error > 0) || !isfinite(o->target_error)) {
+                rad_error("--target-error: expected a positive number, got '%s'", optarg);
+                st = RAD_ERR_USAGE;
+            }
+            break;
+        }
+        case O_MAX_SAMPLES:
+            st = rad_parse_uint("--max-samples", optarg, 1, 1u << 30, &v);
+            o->max_samples = (uint32_t)v;
+            break;
+        case O_ERRORS: o->errors_path = optarg; break;
+        case O_NO_ERRORS: o->no_errors = 1; break;
+        case O_RECIPROCITY:
+            st = parse_name("--reciprocity", optarg, reciprocity_names, FF_NAMES_COUNT(reciprocity_names), &named);
+            if (st == RAD_OK) o->reciprocity = (ff_reciprocity)named;
+            break;
+        case O_FORMAT:
+            st = parse_name("--format", optarg, format_names, FF_NAMES_COUNT(format_names), &named);
+            if (st == RAD_OK) o->format = (ff_format)named;
+            break;
+        default:
+            rad_error("unknown or incomplete option '%s' (see --help)", argv[optind - 1]);
+            st = RAD_ERR_USAGE;
+        }
+    }
+    if (st != RAD_OK) return st;
+    if (optind < argc) o->scene_path = argv[optind++];
+    if (optind < argc) {
+        rad_error("unexpected argument '%s' (one scene at a time)", argv[optind]);
+        return RAD_ERR_USAGE;
+    }
+    return RAD_OK;
+}
+
+/* The options together: contradictions, the --max-samples default, and
+ * the output files. */
+static rad_status check_options(ff_options *o)
+{
+    if (o->samples == 0) {
+        rad_error("--samples must be at least 1");
+        return RAD_ERR_USAGE;
+    }
+    if (o->shadow_rays > o->samples && o->estimator != RAD_ESTIMATOR_QUADRATURE) {
+        rad_error("--shadow-rays %u exceeds --samples %u (rays are cast along sample pairs)", o->shadow_rays,
+                  o->samples);
+        return RAD_ERR_USAGE;
+    }
+    if (o->max_samples == 0) o->max_samples = o->samples <= (1u << 30) / 64 ? 64 * o->samples : 1u << 30;
+    if (o->max_samples < o->samples) {
+        rad_error("--max-samples %u is below --samples %u", o->max_samples, o->samples);
+        return RAD_ERR_USAGE;
+    }
+    if (o->no_errors && o->errors_path) {
+        rad_error("--no-errors and --errors %s contradict each other", o->errors_path);
+        return RAD_ERR_USAGE;
+    }
+    /* Files: outputs are new, regular or character devices, and no two
+     * roles name one file (docs/reliability.md, "Threat model: files on
+     * disk"); the scene's MTL files are checked as the loader opens them. */
+    rad_fs_role roles[] = {{"the scene", o->scene_path, 0}, {"-o", o->output, 1}, {"--stats", o->stats_path, 1},
+                           {"--errors", o->errors_path, 1}};
+    for (size_t k = 1; k < sizeof roles / sizeof roles[0]; k++)
+        if (rad_fs_check_output(roles[k].option, roles[k].path) != RAD_OK) return RAD_ERR_USAGE;
+    if (rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]) != RAD_OK) return RAD_ERR_USAGE;
+    if (o->format == FF_FORMAT_PAPER && o->element != RAD_ELEMENT_F64) {
+        rad_error("--format paper stores float64 only; drop --element f32");
+        return RAD_ERR_USAGE;
+    }
+    return RAD_OK;
+}
+
+rad_status ff_options_parse(int argc, char **argv, ff_options *out)
+{
+    /* Zero is the default for the enums (auto, all, auto, native). */
+    *out = (ff_options){.output = "formfactors", .samples = 512, .shadow_rays = 32, .seed = 1,
+                        .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE,
+                        .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL};
+    rad_status status = parse_argv(argc, argv, out);
+    return status == RAD_OK ? check_options(out) : status;
+}

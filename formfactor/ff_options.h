@@ -1,0 +1,81 @@
+/* ff_options.h - formfactor's command line: the options, the names of
+ * their values, and --help.
+ *
+ *     ff_options options;
+ *     rad_status status = ff_options_parse(argc, argv, &options); // logs what is wrong
+ *     if (status == RAD_OK && options.help) fputs(ff_options_help, stdout);
+ *
+ * Each option with a fixed set of values is one enum with one name table:
+ * the parser reads the names through it, the stats and messages print them
+ * through it (ff_*_name). The estimator's table is core's
+ * (rad_estimator_name, rad_ff_kernel.h), shared with the kernels.
+ */
+#ifndef FF_OPTIONS_H
+#define FF_OPTIONS_H
+
+#include <stdint.h>
+
+#include "ff_output.h"
+#include "rad_ff_kernel.h"
+#include "rad_ffile.h"
+#include "rad_status.h"
+
+/* --backend: auto = the GPU when this process sees one, else the CPU. */
+typedef enum ff_backend_choice { FF_BACKEND_AUTO, FF_BACKEND_CPU, FF_BACKEND_CUDA } ff_backend_choice;
+
+/* --cull: all = skip shadow rays where nothing can lie between the two
+ * patches (the same matrix); none = cast them all. */
+typedef enum ff_cull { FF_CULL_ALL, FF_CULL_NONE } ff_cull;
+
+/* --reciprocity: compute each unordered pair once and copy the other
+ * entry (which needs the rank's rows in memory), or compute both (rows
+ * stream through a round buffer); auto decides by memory (ff_plan.h). The
+ * bytes are the same. */
+typedef enum ff_reciprocity { FF_RECIPROCITY_AUTO, FF_RECIPROCITY_ON, FF_RECIPROCITY_OFF } ff_reciprocity;
+
+/* The names as the command line and the stats spell them ("auto", "cpu",
+ * ...); "unknown" for a value outside the enum. */
+const char *ff_backend_choice_name(ff_backend_choice backend);
+const char *ff_cull_name(ff_cull cull);
+const char *ff_reciprocity_name(ff_reciprocity reciprocity);
+const char *ff_element_name(rad_element_type element); /* "f64", "f32" */
+const char *ff_format_name(ff_format format);          /* "native", "sparse", "paper" */
+
+typedef struct ff_options {
+    const char *scene_path;  /* NULL = built-in Cornell box */
+    const char *output;      /* "formfactors" */
+    const char *stats_path;  /* NULL = none */
+    const char *errors_path; /* --errors: standard errors of F as a second file; NULL = none */
+    int no_errors;           /* --no-errors: skip them (GPU: about N % less kernel time) */
+    double target_error;     /* --target-error; 0 = one batch */
+    uint32_t max_samples;    /* --max-samples; resolved: 64 x samples when not given */
+    const char *subdiv_only; /* --subdiv-only GROUP; NULL = every face */
+    ff_backend_choice backend;
+    int subdiv;
+    uint32_t samples, shadow_rays;
+    uint64_t seed;
+    rad_element_type element;
+    rad_estimator_id estimator;
+    double quad_rtol, quad_atol; /* --quad-rtol, --quad-atol */
+    double clamp_rho;        /* --clamp-rho: Kd above it set to it; 0 = refuse Kd >= 1 */
+    double max_bytes;        /* --max-bytes: refuse a larger output; 0 = only the disk's free space */
+    int flip_normals;        /* --flip-normals: every face wound the other way */
+    ff_format format;
+    int threads;             /* 0 = cores / ranks on this node */
+    ff_cull cull;
+    ff_reciprocity reciprocity;
+    int quiet;
+    int help, version;
+} ff_options;
+
+/* Parses argv (getopt_long: "--name VALUE", "--name=VALUE", unambiguous
+ * abbreviations, "-oFILE") into *out, defaults filled in, and checks the
+ * options together: contradictions, and the output files (new, regular
+ * or character devices, no two roles naming one file; docs/reliability.md,
+ * "Threat model: files on disk"). RAD_ERR_USAGE, logged, otherwise. */
+rad_status ff_options_parse(int argc, char **argv, ff_options *out);
+
+/* The --help text (for stdout). */
+extern const char ff_options_help[];
+
+#endif

@@ -1,0 +1,82 @@
+/* ff_plan.c - limits and choices to decisions (ff_plan.h); no I/O. */
+#include "ff_plan.h"
+
+#include <math.h>
+
+#include "rad_ff_kernel.h"
+#include "rad_mesh.h"
+
+/* a * b, or SIZE_MAX where that does not fit (an allocation that fails). */
+static size_t product_or_max(uint64_t a, uint64_t b)
+{
+    return b != 0 && a > SIZE_MAX / b ? SIZE_MAX : (size_t)(a * b);
+}
+
+/* Rows per round: FF_ROUND_BYTES of doubles, at least 16 rows, at most
+ * what one collective write carries. */
+static uint32_t rows_per_round(uint64_t n, uint32_t max_rows_per_write)
+{
+    uint64_t by_memory = FF_ROUND_BYTES / (sizeof(double) * (n ? n : 1));
+    if (by_memory < 16) by_memory = 16;
+    if (by_memory > UINT32_MAX) by_memory = UINT32_MAX;
+    return max_rows_per_write && max_rows_per_write < by_memory ? max_rows_per_write : (uint32_t)by_memory;
+}
+
+/* The outputs' size and the memory per rank (ff_plan.h says what counts). */
+static void plan_sizes(const ff_plan_limits *limits, const ff_plan_choices *choices, ff_plan *plan)
+{
+    double dn = (double)limits->patch_count;
+    double element = plan->element_bytes;
+    double tables = RAD_FF_HEADER_BYTES + dn * (sizeof(rad_patch) + 24 + 8);
+    plan->file_bytes = tables + dn * dn * element + (choices->errors_file ? tables + dn * dn * 4 : 0);
+    /* A round here is capped at N rows; the rounds themselves are not
+     * (rows_per_round): an estimate of what is touched, not allocated. */
+    double round_rows = fmax(16, fmin(dn, (double)FF_ROUND_BYTES / (8 * fmax(dn, 1))));
+    if (choices->reciprocity == FF_RECIPROCITY_ON) round_rows = fmax(round_rows, ceil(dn / fmax(limits->ranks, 1)));
+    int errors = choices->standard_errors != 0;
+    plan->memory_bytes = dn * (2 * sizeof(rad_patch) + 2 * 24 + sizeof(rad_ff_patch) + 16) +
+                         round_rows * dn * ((8 + element) + errors * (8 + 4));
+}
+
+static ff_plan_refusal refusal_of(const ff_plan_limits *limits, const ff_plan_choices *choices, const ff_plan *plan)
+{
+    if (limits->patch_count > FF_MAX_PATCHES) return FF_PLAN_TOO_MANY_PATCHES;
+    if (plan->file_bytes > limits->free_bytes) return FF_PLAN_DISK;
+    if (choices->max_bytes > 0 && plan->file_bytes > choices->max_bytes) return FF_PLAN_MAX_BYTES;
+    if (plan->memory_bytes > limits->memory_per_rank) return FF_PLAN_MEMORY;
+    return FF_PLAN_ACCEPTED;
+}
+
+void ff_plan_make(const ff_plan_limits *limits, const ff_plan_choices *choices, ff_plan *out_plan)
+{
+    ff_plan plan = {0};
+    uint64_t n = limits->patch_count;
+    int ranks = limits->ranks > 0 ? limits->ranks : 1;
+    plan.element_bytes = choices->format == FF_FORMAT_PAPER || choices->element == RAD_ELEMENT_F64 ? 8 : 4;
+    plan_sizes(limits, choices, &plan);
+    plan.refusal = refusal_of(limits, choices, &plan);
+    plan.gpu = choices->backend == FF_BACKEND_CUDA || (choices->backend == FF_BACKEND_AUTO && limits->gpus_visible > 0);
+
+    /* This rank's rows and the largest block; before the split, an even share. */
+    uint64_t even = (n + (uint64_t)ranks - 1) / (uint64_t)ranks, rank_rows = even, most_rows = even;
+    if (limits->row_begin) {
+        rank_rows = limits->row_begin[limits->rank + 1] - limits->row_begin[limits->rank];
+        most_rows = 0;
+        for (int r = 0; r < ranks; r++) {
+            uint64_t rows = limits->row_begin[r + 1] - limits->row_begin[r];
+            if (rows > most_rows) most_rows = rows;
+        }
+    }
+
+    double rows_bytes = (double)rank_rows * (double)n * (double)sizeof(double);
+    double block_bytes = (1 + (choices->standard_errors != 0)) * rows_bytes; /* values and errors */
+    int block_fits = !(block_bytes > limits->memory_per_rank / 4) &&
+                     !(plan.gpu && rows_bytes > (double)FF_BACKEND_BUFFER_MAX);
+    plan.pairs_once = choices->reciprocity == FF_RECIPROCITY_ON || (choices->reciprocity == FF_RECIPROCITY_AUTO && block_fits);
+
+    plan.rows_per_round = rows_per_round(n, limits->max_rows_per_write);
+    plan.rounds = (most_rows + plan.rows_per_round - 1) / plan.rows_per_round;
+    plan.buffer_doubles = product_or_max(plan.pairs_once ? rank_rows : plan.rows_per_round, n);
+    if (plan.buffer_doubles == 0) plan.buffer_doubles = 1;
+    *out_plan = plan;
+}

@@ -1,0 +1,253 @@
+/* test_plan.c - formfactor's plan (ff_plan.h) on made-up machines: no
+ * MPI, no files, no scene; built from ff_plan.c alone.
+ *
+ *   a small scene: accepted, each pair once, one round holding every row
+ *   a memory-limited run: auto streams, 267 rows per round (96 MiB of
+ *     doubles at N = 47104), 45 rounds for a quarter of the rows; with
+ *     more memory the block is kept; on the GPU a block beyond 1 GiB streams
+ *   refusals: --max-bytes, the disk before it, the format's patch limit,
+ *     the memory with --reciprocity on
+ *   edges: one patch, more ranks than rows, a write cap below 16 rows
+ *   the plan before the split (rank 0, before the mesh) and after it
+ *     agree on the sizes the estimate line prints
+ */
+#include <math.h>
+#include <stdio.h>
+
+#include "ff_plan.h"
+#include "rad_test.h"
+
+#define GiB (1024.0 * 1024.0 * 1024.0)
+
+static ff_plan make(const ff_plan_limits *limits, const ff_plan_choices *choices)
+{
+    ff_plan plan;
+    ff_plan_make(limits, choices, &plan);
+    return plan;
+}
+
+/* The file: a 256-byte header, per patch its 128-byte record, a vertex
+ * bound (24 bytes) and a row checksum (8), and the N x N matrix. */
+static double file_bytes(double n, double element)
+{
+    return 256 + n * (128 + 24 + 8) + n * n * element;
+}
+
+static void small_scene(void)
+{
+    /* The built-in Cornell box: 20 patches, one rank; "6.5 KiB to write". */
+    ff_plan_limits limits = {.patch_count = 20, .ranks = 1, .row_begin = (const uint32_t[]){0, 20},
+                             .memory_per_rank = 8 * GiB, .free_bytes = INFINITY};
+    ff_plan_choices choices = {.element = RAD_ELEMENT_F64, .standard_errors = 1};
+    ff_plan p = make(&limits, &choices);
+    RAD_CHECK(p.refusal == FF_PLAN_ACCEPTED);
+    RAD_CHECK(p.element_bytes == 8);
+    RAD_CHECK(p.file_bytes == 6656 && p.file_bytes == file_bytes(20, 8));
+    RAD_CHECK(p.gpu == 0);
+    RAD_CHECK(p.pairs_once == 1);
+    RAD_CHECK(p.rows_per_round == (96u << 20) / (8 * 20)); /* FF_ROUND_BYTES of doubles */
+    RAD_CHECK(p.rounds == 1);
+    RAD_CHECK(p.buffer_doubles == 20 * 20); /* the whole block */
+
+    /* --errors adds a float32 file of the same layout. */
+    choices.errors_file = 1;
+    ff_plan e = make(&limits, &choices);
+    RAD_CHECK(e.file_bytes == file_bytes(20, 8) + file_bytes(20, 4));
+    /* --no-errors: no errors buffer, 12 bytes less per entry of a round (its double and float). */
+    choices.standard_errors = 0;
+    ff_plan q = make(&limits, &choices);
+    RAD_CHECK_NEAR(p.memory_bytes - q.memory_bytes, 20 * 20 * 12, 1e-9);
+    /* --element f32 halves the matrix; the paper format stores float64 anyway. */
+    choices = (ff_plan_choices){.element = RAD_ELEMENT_F32, .standard_errors = 1};
+    RAD_CHECK(make(&limits, &choices).file_bytes == file_bytes(20, 4));
+    choices.format = FF_FORMAT_PAPER;
+    RAD_CHECK(make(&limits, &choices).element_bytes == 8);
+    /* --reciprocity off: the rows stream, the buffer holds one round. */
+    choices = (ff_plan_choices){.element = RAD_ELEMENT_F64, .standard_errors = 1, .reciprocity = FF_RECIPROCITY_OFF};
+    ff_plan s = make(&limits, &choices);
+    RAD_CHECK(s.pairs_once == 0);
+    RAD_CHECK(s.rounds == 1);
+    RAD_CHECK(s.buffer_doubles == (size_t)s.rows_per_round * 20);
+}
+
+static void memory_limited(void)
+{
+    /* N = 47104 on 4 ranks of 16 GiB each: a rank's block of values and
+     * errors is 11776 x 47104 x 16 bytes = 8.3 GiB, over a quarter of its
+     * memory, so auto streams. */
+    const uint32_t split[] = {0, 11776, 23552, 35328, 47104};
+    ff_plan_limits limits = {.patch_count = 47104, .ranks = 4, .rank = 1, .row_begin = split,
+                             .memory_per_rank = 16 * GiB, .free_bytes = INFINITY};
+    ff_plan_choices choices = {.element = RAD_ELEMENT_F64, .standard_errors = 1};
+    ff_plan p = make(&limits, &choices);
+    RAD_CHECK(p.refusal == FF_PLAN_ACCEPTED);
+    RAD_CHECK(p.pairs_once == 0);
+    RAD_CHECK(p.rows_per_round == 267);          /* floor(96 MiB / (8 x 47104)) */
+    RAD_CHECK(p.rounds == 45);                   /* ceil(11776 / 267) */
+    RAD_CHECK(p.buffer_doubles == (size_t)267 * 47104);
+    /* Without standard errors the block (4.1 GiB) fits in a quarter of 32 GiB, with them not. */
+    limits.memory_per_rank = 32 * GiB;
+    RAD_CHECK(make(&limits, &choices).pairs_once == 0);
+    choices.standard_errors = 0;
+    RAD_CHECK(make(&limits, &choices).pairs_once == 1);
+    /* With 64 GiB per rank the block is kept: one buffer for the rank's rows. */
+    choices.standard_errors = 1;
+    limits.memory_per_rank = 64 * GiB;
+    ff_plan once = make(&limits, &choices);
+    RAD_CHECK(once.pairs_once == 1);
+    RAD_CHECK(once.rows_per_round == 267 && once.rounds == 45); /* computed and written in the same rounds */
+    RAD_CHECK(once.buffer_doubles == (size_t)11776 * 47104);
+    /* On the GPU a block beyond the page-locked limit streams. */
+    choices.backend = FF_BACKEND_CUDA;
+    RAD_CHECK(make(&limits, &choices).pairs_once == 0);
+    choices.backend = FF_BACKEND_AUTO;
+    limits.gpus_visible = 1;
+    ff_plan gpu = make(&limits, &choices);
+    RAD_CHECK(gpu.gpu == 1 && gpu.pairs_once == 0);
+    /* --reciprocity on and off are obeyed, whatever the memory. */
+    choices.reciprocity = FF_RECIPROCITY_ON;
+    RAD_CHECK(make(&limits, &choices).pairs_once == 1);
+    limits.gpus_visible = 0;
+    choices.reciprocity = FF_RECIPROCITY_OFF;
+    RAD_CHECK(make(&limits, &choices).pairs_once == 0);
+    /* One collective write takes 712 float64 rows here (256 MiB): not the limit. */
+    limits.max_rows_per_write = 712;
+    RAD_CHECK(make(&limits, &choices).rows_per_round == 267);
+}
+
+static void backend_choice(void)
+{
+    ff_plan_limits limits = {.patch_count = 20, .ranks = 1, .memory_per_rank = INFINITY, .free_bytes = INFINITY};
+    ff_plan_choices choices = {.element = RAD_ELEMENT_F64};
+    RAD_CHECK(make(&limits, &choices).gpu == 0); /* auto, no GPU */
+    limits.gpus_visible = 2;
+    RAD_CHECK(make(&limits, &choices).gpu == 1); /* auto, GPUs */
+    choices.backend = FF_BACKEND_CPU;
+    RAD_CHECK(make(&limits, &choices).gpu == 0);
+    limits.gpus_visible = 0;
+    choices.backend = FF_BACKEND_CUDA;
+    RAD_CHECK(make(&limits, &choices).gpu == 1); /* asked for: the backend then says there is none */
+}
+
+static void refusals(void)
+{
+    /* cornell_sphere --subdiv 3: N = 2944, 66.6 MiB (tests/long_runs.sh). */
+    ff_plan_limits limits = {.patch_count = 2944, .ranks = 1, .memory_per_rank = 8 * GiB, .free_bytes = INFINITY};
+    ff_plan_choices choices = {.element = RAD_ELEMENT_F64, .standard_errors = 1, .max_bytes = 10e6};
+    ff_plan p = make(&limits, &choices);
+    RAD_CHECK(p.file_bytes == 69808384 && p.file_bytes == file_bytes(2944, 8));
+    RAD_CHECK(p.refusal == FF_PLAN_MAX_BYTES);
+    choices.max_bytes = 67.0 * 1024 * 1024;
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_ACCEPTED);
+    choices.max_bytes = 69808384; /* exactly the size: allowed */
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_ACCEPTED);
+    choices.element = RAD_ELEMENT_F32; /* halves the file */
+    choices.max_bytes = 40e6;
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_ACCEPTED);
+    /* The disk is checked before --max-bytes. */
+    choices = (ff_plan_choices){.element = RAD_ELEMENT_F64, .max_bytes = 10e6};
+    limits.free_bytes = 50e6;
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_DISK);
+    /* The format's limit before everything. */
+    limits.patch_count = (uint64_t)1 << 31;
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_TOO_MANY_PATCHES);
+    limits.patch_count = FF_MAX_PATCHES;
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_DISK);
+    /* cluttered_room --subdiv 4 --reciprocity on on one rank of 23.5 GiB:
+     * the whole block in memory (about 60 GiB); auto would stream. */
+    limits = (ff_plan_limits){.patch_count = 47872, .ranks = 1, .memory_per_rank = 23.5 * GiB,
+                              .free_bytes = 100 * GiB};
+    choices = (ff_plan_choices){.element = RAD_ELEMENT_F64, .standard_errors = 1,
+                                .reciprocity = FF_RECIPROCITY_ON};
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_MEMORY);
+    choices.reciprocity = FF_RECIPROCITY_AUTO;
+    ff_plan a = make(&limits, &choices);
+    RAD_CHECK(a.refusal == FF_PLAN_ACCEPTED);
+    RAD_CHECK(a.pairs_once == 0);
+    /* Unknown memory and disk (INFINITY) refuse nothing. */
+    limits.memory_per_rank = limits.free_bytes = INFINITY;
+    choices.reciprocity = FF_RECIPROCITY_ON;
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_ACCEPTED);
+}
+
+static void edges(void)
+{
+    /* One patch: "424 bytes to write", one round of one row. */
+    ff_plan_limits limits = {.patch_count = 1, .ranks = 1, .row_begin = (const uint32_t[]){0, 1},
+                             .memory_per_rank = 8 * GiB, .free_bytes = INFINITY};
+    ff_plan_choices choices = {.element = RAD_ELEMENT_F64, .standard_errors = 1};
+    ff_plan one = make(&limits, &choices);
+    RAD_CHECK(one.refusal == FF_PLAN_ACCEPTED);
+    RAD_CHECK(one.file_bytes == 424);
+    RAD_CHECK(one.pairs_once == 1 && one.rounds == 1 && one.buffer_doubles == 1);
+
+    /* Two patches on three ranks: rank 2 has no rows, and still joins the
+     * one collective write, with a buffer of at least one double. */
+    const uint32_t split[] = {0, 1, 2, 2};
+    limits = (ff_plan_limits){.patch_count = 2, .ranks = 3, .rank = 2, .row_begin = split,
+                              .memory_per_rank = 8 * GiB, .free_bytes = INFINITY};
+    for (int reciprocity = FF_RECIPROCITY_AUTO; reciprocity <= FF_RECIPROCITY_OFF; reciprocity++) {
+        choices.reciprocity = (ff_reciprocity)reciprocity;
+        ff_plan idle = make(&limits, &choices);
+        RAD_CHECK(idle.refusal == FF_PLAN_ACCEPTED);
+        RAD_CHECK(idle.rounds == 1);
+        RAD_CHECK(idle.buffer_doubles >= 1);
+        RAD_CHECK(idle.pairs_once == (reciprocity != FF_RECIPROCITY_OFF));
+    }
+    limits.rank = 0;
+    choices.reciprocity = FF_RECIPROCITY_AUTO;
+    RAD_CHECK(make(&limits, &choices).buffer_doubles == 2);
+
+    /* N = 4 000 000: 96 MiB holds fewer than 16 rows, so 16; but one
+     * collective write (256 MiB) takes only 8 float64 rows of it. */
+    limits = (ff_plan_limits){.patch_count = 4000000, .ranks = 1, .memory_per_rank = INFINITY,
+                              .free_bytes = INFINITY, .max_rows_per_write = 8};
+    choices = (ff_plan_choices){.element = RAD_ELEMENT_F64, .reciprocity = FF_RECIPROCITY_OFF};
+    ff_plan big = make(&limits, &choices);
+    RAD_CHECK(big.rows_per_round == 8);
+    RAD_CHECK(big.rounds == 500000);
+    RAD_CHECK(big.buffer_doubles == (size_t)8 * 4000000);
+    limits.max_rows_per_write = 15;
+    RAD_CHECK(make(&limits, &choices).rows_per_round == 15);
+    limits.max_rows_per_write = 17; /* the 16-row floor is below the cap */
+    RAD_CHECK(make(&limits, &choices).rows_per_round == 16);
+    limits.max_rows_per_write = 1; /* a row beyond one write: one row per round */
+    RAD_CHECK(make(&limits, &choices).rows_per_round == 1);
+
+    /* No patches (the driver refuses such a scene first): no rounds, no crash. */
+    limits = (ff_plan_limits){.patch_count = 0, .ranks = 2, .row_begin = (const uint32_t[]){0, 0, 0}};
+    ff_plan none = make(&limits, &choices);
+    RAD_CHECK(none.rounds == 0 && none.buffer_doubles == 1);
+}
+
+static void before_and_after_the_split(void)
+{
+    /* Rank 0 plans before the mesh (no split: an even share assumed) and
+     * again after it; the estimate line prints sizes from the second, the
+     * refusal message from the first: they must agree. */
+    const uint32_t split[] = {0, 700, 2944};
+    for (int reciprocity = FF_RECIPROCITY_AUTO; reciprocity <= FF_RECIPROCITY_OFF; reciprocity++) {
+        ff_plan_limits limits = {.patch_count = 2944, .ranks = 2, .memory_per_rank = 8 * GiB,
+                                 .free_bytes = INFINITY};
+        ff_plan_choices choices = {.element = RAD_ELEMENT_F32, .standard_errors = 1, .errors_file = 1,
+                                   .reciprocity = (ff_reciprocity)reciprocity};
+        ff_plan before = make(&limits, &choices);
+        limits.row_begin = split;
+        ff_plan after = make(&limits, &choices);
+        RAD_CHECK(before.file_bytes == after.file_bytes);
+        RAD_CHECK(before.memory_bytes == after.memory_bytes);
+        RAD_CHECK(after.rounds == 1);
+        RAD_CHECK(after.buffer_doubles == (after.pairs_once ? (size_t)700 * 2944 : (size_t)after.rows_per_round * 2944));
+    }
+}
+
+int main(void)
+{
+    small_scene();
+    memory_limited();
+    backend_choice();
+    refusals();
+    edges();
+    before_and_after_the_split();
+    return rad_test_finish();
+}
