@@ -553,7 +553,7 @@ static rad_status open_outputs(ff_run *run, ff_files *files)
         rad_ff_info error_info = info;
         error_info.element_type = RAD_ELEMENT_F32;
         error_info.flags |= RAD_FF_FLAG_STANDARD_ERRORS;
-        ff_format format = run->opt.format == FF_FORMAT_SPARSE ? FF_FORMAT_SPARSE : FF_FORMAT_NATIVE;
+        ff_format format = run->opt.format == FF_FORMAT_SPARSE ? FF_FORMAT_SPARSE : FF_FORMAT_DENSE;
         st = ff_output_open(run->comm, run->opt.errors_path, format, &error_info, &run->mesh, &files->errors);
         if (st != RAD_OK) files->errors = NULL;
     }

@@ -56,8 +56,9 @@ const char ff_options_help[] =
     "      --quad-atol A        quadrature: absolute tolerance, in units of F (default: 1e-13)\n"
     "      --backend B          auto | cpu | cuda (default: auto)\n"
     "      --element T          f64 | f32 matrix element type (default: f64)\n"
-    "      --format F           native | sparse | paper (sparse: only each row's non-zero\n"
-    "                           tiles of 64 entries; paper: int32 N + N*N float64 only)\n"
+    "      --format F           sparse | dense | paper (default: sparse, only each row's\n"
+    "                           non-zero tiles of 64 entries; dense: all N*N entries;\n"
+    "                           paper: int32 N + N*N float64 only)\n"
     "      --cull C             all | none: skip shadow rays where nothing can lie between\n"
     "                           the two patches (default: all; the same matrix)\n"
     "      --reciprocity M      auto | on | off: on computes each unordered pair once and\n"
@@ -92,7 +93,7 @@ static const ff_name reciprocity_names[] = {
     {FF_RECIPROCITY_AUTO, "auto"}, {FF_RECIPROCITY_ON, "on"}, {FF_RECIPROCITY_OFF, "off"}};
 static const ff_name element_names[] = {{RAD_ELEMENT_F64, "f64"}, {RAD_ELEMENT_F32, "f32"}};
 static const ff_name format_names[] = {
-    {FF_FORMAT_NATIVE, "native"}, {FF_FORMAT_SPARSE, "sparse"}, {FF_FORMAT_PAPER, "paper"}};
+    {FF_FORMAT_SPARSE, "sparse"}, {FF_FORMAT_DENSE, "dense"}, {FF_FORMAT_PAPER, "paper"}};
 /* The estimators in --help's order; their names are rad_estimator_name's. */
 static const rad_estimator_id estimator_order[] = {RAD_ESTIMATOR_QUADRATURE, RAD_ESTIMATOR_AUTO, RAD_ESTIMATOR_MC,
                                                    RAD_ESTIMATOR_QMC, RAD_ESTIMATOR_ANALYTIC};
@@ -299,7 +300,7 @@ static rad_status check_options(ff_options *o)
 
 rad_status ff_options_parse(int argc, char **argv, ff_options *out)
 {
-    /* Zero is the default for the enums (auto, all, auto, native). */
+    /* Zero is the default for the enums (auto, all, auto, sparse). */
     *out = (ff_options){.output = "formfactors", .samples = 512, .shadow_rays = 32, .seed = 1,
                         .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE,
                         .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL};

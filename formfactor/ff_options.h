@@ -39,7 +39,7 @@ const char *ff_backend_choice_name(ff_backend_choice backend);
 const char *ff_cull_name(ff_cull cull);
 const char *ff_reciprocity_name(ff_reciprocity reciprocity);
 const char *ff_element_name(rad_element_type element); /* "f64", "f32" */
-const char *ff_format_name(ff_format format);          /* "native", "sparse", "paper" */
+const char *ff_format_name(ff_format format);          /* "sparse", "dense", "paper" */
 
 typedef struct ff_options {
     const char *scene_path;  /* NULL = built-in Cornell box */

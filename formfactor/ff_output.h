@@ -1,7 +1,7 @@
 /* ff_output.h - the form-factor file, written by all ranks at once.
  *
  *     ff_output *out;
- *     ff_output_open(comm, path, FF_FORMAT_NATIVE, &info, &mesh, &out);   // collective
+ *     ff_output_open(comm, path, FF_FORMAT_SPARSE, &info, &mesh, &out);   // collective
  *     for each round: ff_output_write_rows(out, row0, rows, data);         // collective
  *     status = ff_output_close(out, status);                               // collective
  *     status = ff_output_commit(out, status);                              // collective
@@ -29,9 +29,9 @@
 #include "rad_ffile.h"
 
 typedef enum ff_format {
-    FF_FORMAT_NATIVE = 0, /* docs/formats.md */
-    FF_FORMAT_PAPER = 1,  /* int32 N, then N*N float64, row-major; nothing else */
-    FF_FORMAT_SPARSE = 2  /* docs/formats.md, version 3: only the non-zero tiles of each row */
+    FF_FORMAT_SPARSE = 0, /* docs/formats.md, version 3: only the non-zero tiles of each row (the default) */
+    FF_FORMAT_DENSE = 1,  /* docs/formats.md, version 2: every entry */
+    FF_FORMAT_PAPER = 2   /* int32 N, then N*N float64, row-major; nothing else */
 } ff_format;
 
 typedef struct ff_output ff_output;

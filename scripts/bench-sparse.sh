@@ -31,7 +31,7 @@ t() { # label, command...: wall seconds and max RSS
 }
 for s in ${SUBDIVS:-3 4 5}; do
   el=""; [ "$s" -gt 3 ] && el="--element f32"
-  for f in native sparse; do
+  for f in dense sparse; do
     rm -f "$work/ff"
     t "s${s}_ff_$f" "$build/formfactor" scenes/cornell_sphere.obj --subdiv $s $el --backend ${BACKEND:-cuda} --format $f \
       -o "$work/ff" --stats "$out/s${s}_ff_$f.json"

@@ -11,7 +11,7 @@ mkdir -p "$dir" && cd "$dir" && rm -f ./*.ff ./*.err ./*.rad ./*.csv
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 fail() { echo "FAIL: $*"; exit 1; }
 args="$scene --subdiv 2 -q"
-"$ff" $args -o dense.ff --errors dense.err
+"$ff" $args --format dense -o dense.ff --errors dense.err
 "$ff" $args --format sparse -o sparse.ff --errors sparse.err --stats sparse.json
 grep -q '"format": "sparse"' sparse.json || fail "stats do not record the format"
 for p in 2 3; do

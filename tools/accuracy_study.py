@@ -194,8 +194,9 @@ class Runner:
 
     def formfactor(self, scene, args, backend, out):
         stats = os.path.join(self.work, "stats.json")
+        # dense files: write_matrix_like rewrites their rows in place
         cmd = [self.prog("formfactor"), scene, "-q", "--threads", str(self.threads), "--backend", backend,
-               "-o", out, "--stats", stats] + [str(a) for a in args]
+               "--format", "dense", "-o", out, "--stats", stats] + [str(a) for a in args]
         t = time.monotonic()
         p = subprocess.run(cmd, capture_output=True, text=True, env=self.env)
         wall = time.monotonic() - t

@@ -39,12 +39,12 @@ cd "$out/work"
 printf 'mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nusemtl lit\nf 1 2 3 4\nusemtl grey\nf 1 5 6 2\nf 2 6 3\n' > two.obj
 printf 'newmtl lit\nKd 0.5 0.5 0.5\nKe 1 1 1\nnewmtl grey\nKd 0.25 0.5 0.75\n' > two.mtl
 ff=$bin/formfactor solve=$bin/solve
-"$ff" -q two.obj -o "$out/ffile/two_f64" --samples 16 --shadow-rays 4
+"$ff" -q two.obj -o "$out/ffile/two_f64" --format dense --samples 16 --shadow-rays 4
 "$ff" -q two.obj -o "$out/ffile/two_f32" --element f32 --samples 16 --shadow-rays 4 --estimator mc
 "$ff" -q two.obj -o "$out/ffile/two_paper" --format paper --samples 16 --shadow-rays 4
 "$ff" -q two.obj -o "$out/ffile/two_sub1" --subdiv 1 --samples 8 --shadow-rays 0
 "$ff" -q "$src/scenes/closed_box.obj" -o "$out/ffile/closed_box" --samples 64
-"$ff" -q -o "$out/ffile/cornell_box_f32" --element f32 --samples 16 --shadow-rays 8
+"$ff" -q -o "$out/ffile/cornell_box_f32" --format dense --element f32 --samples 16 --shadow-rays 8
 "$ff" -q two.obj -o "$out/ffile/two_sparse" --format sparse --subdiv 1 --shadow-rays 0
 "$ff" -q "$src/scenes/closed_box.obj" -o "$out/ffile/closed_box_sparse_f32" --format sparse --element f32 --subdiv 1
 for f in two_f64 two_f32 two_sub1 closed_box cornell_box_f32; do
