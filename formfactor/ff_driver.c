@@ -177,6 +177,12 @@ static rad_status check_limits(ff_run *run)
     ff_plan_make(&limits, &choices, &run->plan);
     const ff_plan *plan = &run->plan;
     char why[4200] = "", have[32];
+    if (plan->refusal == FF_PLAN_ACCEPTED && run->opt.format == FF_FORMAT_SPARSE && plan->file_bytes > free_bytes) {
+        char bound[32];
+        rad_warn("%s has %s free and the sparse file may need up to %s (all N^2 entries); most scenes need a "
+                 "tenth of that, and a full disk stops the run with nothing left behind",
+                 dir, format_bytes(free_bytes, have, sizeof have), format_bytes(plan->file_bytes, bound, sizeof bound));
+    }
     switch (plan->refusal) {
     case FF_PLAN_ACCEPTED: return RAD_OK;
     case FF_PLAN_TOO_MANY_PATCHES:

@@ -41,7 +41,10 @@ static void plan_sizes(const ff_plan_limits *limits, const ff_plan_choices *choi
 static ff_plan_refusal refusal_of(const ff_plan_limits *limits, const ff_plan_choices *choices, const ff_plan *plan)
 {
     if (limits->patch_count > FF_MAX_PATCHES) return FF_PLAN_TOO_MANY_PATCHES;
-    if (plan->file_bytes > limits->free_bytes) return FF_PLAN_DISK;
+    /* A sparse file's size is known once written: file_bytes, the dense
+     * size, only bounds it, so the disk does not refuse it (the driver
+     * warns; a full disk fails the write, which removes the file). */
+    if (choices->format != FF_FORMAT_SPARSE && plan->file_bytes > limits->free_bytes) return FF_PLAN_DISK;
     if (choices->max_bytes > 0 && plan->file_bytes > choices->max_bytes) return FF_PLAN_MAX_BYTES;
     if (plan->memory_bytes > limits->memory_per_rank) return FF_PLAN_MEMORY;
     return FF_PLAN_ACCEPTED;

@@ -73,8 +73,8 @@ typedef struct ff_plan_choices {
 typedef enum ff_plan_refusal {
     FF_PLAN_ACCEPTED = 0,
     FF_PLAN_TOO_MANY_PATCHES, /* N > FF_MAX_PATCHES */
-    FF_PLAN_DISK,             /* file_bytes > free_bytes */
-    FF_PLAN_MAX_BYTES,        /* file_bytes > --max-bytes */
+    FF_PLAN_DISK,             /* file_bytes > free_bytes (not for the sparse format: file_bytes bounds it) */
+    FF_PLAN_MAX_BYTES,        /* file_bytes > --max-bytes (sparse: its bound) */
     FF_PLAN_MEMORY            /* memory_bytes > memory_per_rank */
 } ff_plan_refusal;
 

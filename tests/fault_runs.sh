@@ -131,9 +131,14 @@ kill)
 disk-full)
   mount_tmpfs full 256k
   cp good.ff full/out.ff
+  $mpirun "$ff" --subdiv 3 --format dense -o full/out.ff > err.txt 2>&1; rc=$?
+  expect_failed "formfactor --subdiv 3 --format dense into a 256 KiB file system (refused up front)" $rc err.txt \
+    full/out.ff good.ff "1280 patches: full/out.ff would need .* but full has .* free; refused"
+  # The sparse default's size is only bounded: a warning, then the write fails.
   $mpirun "$ff" --subdiv 3 -o full/out.ff > err.txt 2>&1; rc=$?
-  expect_failed "formfactor --subdiv 3 into a 256 KiB file system (refused up front)" $rc err.txt full/out.ff good.ff \
-    "1280 patches: full/out.ff would need .* but full has .* free; refused"
+  expect_failed "formfactor --subdiv 3 (sparse) into a 256 KiB file system" $rc err.txt full/out.ff good.ff \
+    "full/out.ff.tmp-[0-9a-f]+: (short write|write failed)"
+  grep -q "full has .* free and the sparse file may need up to" err.txt || fail "no warning: $(cat err.txt)"
   umount full && mounted=
   mount_tmpfs full 16m
   cp good.ff full/out.ff

@@ -144,10 +144,16 @@ static void refusals(void)
     choices.element = RAD_ELEMENT_F32; /* halves the file */
     choices.max_bytes = 40e6;
     RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_ACCEPTED);
-    /* The disk is checked before --max-bytes. */
-    choices = (ff_plan_choices){.element = RAD_ELEMENT_F64, .max_bytes = 10e6};
+    /* The disk is checked before --max-bytes, for the dense formats; the
+     * sparse file's size is only bounded, so the disk does not refuse it. */
+    choices = (ff_plan_choices){.element = RAD_ELEMENT_F64, .format = FF_FORMAT_DENSE, .max_bytes = 10e6};
     limits.free_bytes = 50e6;
     RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_DISK);
+    choices.format = FF_FORMAT_SPARSE;
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_MAX_BYTES);
+    choices.max_bytes = 0;
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_ACCEPTED);
+    choices = (ff_plan_choices){.element = RAD_ELEMENT_F64, .format = FF_FORMAT_DENSE, .max_bytes = 10e6};
     /* The format's limit before everything. */
     limits.patch_count = (uint64_t)1 << 31;
     RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_TOO_MANY_PATCHES);
