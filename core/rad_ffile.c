@@ -12,8 +12,9 @@
 #include "rad_fs.h"
 #include "rad_hash.h"
 #include "rad_log.h"
+#include "rad_patch_table.h"
 
-_Static_assert(sizeof(rad_patch) == 128, "rad_patch must match the 128-byte file record");
+_Static_assert(RAD_PATCH_RECORD_BYTES == 128, "the patch table's records are 128 bytes (rad_patch_table.h)");
 
 /* Header field offsets (docs/formats.md). */
 enum {
@@ -60,7 +61,7 @@ rad_ff_layout rad_ff_layout_of(const rad_ff_info *info)
     l.row_bytes = n * l.element_bytes;
     l.vertex_offset = RAD_FF_HEADER_BYTES;
     l.patch_offset = rad_align_up(l.vertex_offset + info->vertex_count * 24, RAD_FF_ALIGN);
-    uint64_t patches_end = l.patch_offset + n * sizeof(rad_patch);
+    uint64_t patches_end = l.patch_offset + n * RAD_PATCH_RECORD_BYTES;
     if (info->group_count) {
         l.group_offset = rad_align_up(patches_end, RAD_FF_ALIGN);
         l.patch_group_offset = l.group_offset + (uint64_t)info->group_count * RAD_NAME_MAX;
@@ -258,8 +259,7 @@ rad_status rad_ff_prologue_encode(const rad_ff_info *info, const rad_mesh *mesh,
                   (unsigned long long)l.matrix_offset);
         return RAD_ERR_NOMEM;
     }
-    memcpy(bytes + l.vertex_offset, mesh->positions, mesh->vertex_count * 24);
-    memcpy(bytes + l.patch_offset, mesh->patches, mesh->patch_count * sizeof(rad_patch));
+    rad_patch_table_encode(mesh, bytes + l.vertex_offset, bytes + l.patch_offset);
     for (size_t g = 0; g < mesh->group_count; g++) {
         const char *name = mesh->group_names[g];
         memcpy(bytes + l.group_offset + g * RAD_NAME_MAX, name, strnlen(name, RAD_NAME_MAX - 1));
@@ -381,40 +381,6 @@ struct rad_ff_file {
     uint64_t next_row;       /* the row the file position is at (sparse reads) */
 };
 
-
-static rad_status validate_patches(const char *path, const rad_mesh *mesh)
-{
-    for (size_t i = 0; i < 3 * mesh->vertex_count; i++)
-        if (!isfinite(mesh->positions[i])) {
-            rad_error("%s: vertex %zu: coordinate is not finite", path, i / 3);
-            return RAD_ERR_FORMAT;
-        }
-    for (size_t i = 0; i < mesh->patch_count; i++) {
-        const rad_patch *p = &mesh->patches[i];
-        const char *why = NULL;
-        double nlen = rad_v3_length(p->normal);
-        if (p->vertex_count != 3 && p->vertex_count != 4)
-            why = "vertex count is not 3 or 4";
-        else if (p->vertex_count == 3 && p->v[3] != RAD_NO_VERTEX)
-            why = "triangle has a fourth vertex";
-        else if (!(p->area > 0) || !isfinite(p->area))
-            why = "area is not positive and finite";
-        else if (!(fabs(nlen - 1) < 1e-6))
-            why = "normal is not a unit vector";
-        for (uint32_t k = 0; !why && k < p->vertex_count; k++)
-            if (p->v[k] >= mesh->vertex_count) why = "vertex index out of range";
-        if (!why && !rad_patch_centroid_inside(p, mesh->positions)) why = "centroid is not inside the patch";
-        for (int c = 0; !why && c < 3; c++) {
-            if (!(p->rho[c] >= 0 && p->rho[c] < 1)) why = "reflectance outside [0,1)";
-            if (!(p->emission[c] >= 0) || !isfinite(p->emission[c])) why = "emission negative or not finite";
-        }
-        if (why) {
-            rad_error("%s: patch %zu: %s", path, i, why);
-            return RAD_ERR_FORMAT;
-        }
-    }
-    return RAD_OK;
-}
 
 /* The group table (G names, then each patch's group), from the tables as
  * read (which start at byte RAD_FF_HEADER_BYTES of the file). */
@@ -614,11 +580,11 @@ rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
             goto done;
         }
     }
-    memcpy(ff->mesh.positions, tables + (l->vertex_offset - RAD_FF_HEADER_BYTES), v * 24);
-    memcpy(ff->mesh.patches, tables + (l->patch_offset - RAD_FF_HEADER_BYTES), n * sizeof(rad_patch));
     ff->mesh.vertex_count = v;
     ff->mesh.patch_count = n;
-    if ((status = validate_patches(path, &ff->mesh)) != RAD_OK) goto done;
+    rad_patch_table_decode(tables + (l->vertex_offset - RAD_FF_HEADER_BYTES),
+                           tables + (l->patch_offset - RAD_FF_HEADER_BYTES), &ff->mesh);
+    if ((status = rad_patch_table_check(path, &ff->mesh)) != RAD_OK) goto done;
     if ((status = decode_groups(path, tables, l, &ff->mesh, ff->info.group_count)) != RAD_OK) goto done;
     *out_file = ff;
     ff = NULL;

@@ -16,6 +16,7 @@
 #include "rad_fs.h"
 #include "rad_hash.h"
 #include "rad_log.h"
+#include "rad_patch_table.h"
 
 /* Header field offsets (see the table in rad_rfile.h). */
 enum {
@@ -43,7 +44,6 @@ enum {
 
 /* A unit normal may be off by this much in length (float rounding of the
  * mesh builder is far smaller). */
-#define RF_NORMAL_TOLERANCE 1e-6
 /* Refuse patch or vertex counts above this (the mesh uses uint32 indices). */
 #define RF_MAX_COUNT ((uint64_t)UINT32_MAX - 1)
 
@@ -60,31 +60,6 @@ static rf_layout rf_layout_of(uint64_t patch_count, uint64_t vertex_count)
     l.radiosity_offset = rad_align_up(l.patch_offset + patch_count * RAD_RF_PATCH_BYTES, RAD_RF_ALIGN);
     l.file_bytes = l.radiosity_offset + patch_count * 24;
     return l;
-}
-
-static void encode_patch(unsigned char *p, const rad_patch *patch)
-{
-    rad_put_u32(p + 0, patch->vertex_count);
-    for (int k = 0; k < 4; k++) rad_put_u32(p + 4 + 4 * k, patch->v[k]);
-    rad_put_u32(p + 20, patch->source_face);
-    rad_put_f64(p + 24, patch->area);
-    const double vec[6] = {patch->normal.x,   patch->normal.y,   patch->normal.z,
-                           patch->centroid.x, patch->centroid.y, patch->centroid.z};
-    for (int k = 0; k < 6; k++) rad_put_f64(p + 32 + 8 * k, vec[k]);
-    for (int c = 0; c < 3; c++) rad_put_f64(p + 80 + 8 * c, patch->rho[c]);
-    for (int c = 0; c < 3; c++) rad_put_f64(p + 104 + 8 * c, patch->emission[c]);
-}
-
-static void decode_patch(const unsigned char *p, rad_patch *patch)
-{
-    patch->vertex_count = rad_get_u32(p + 0);
-    for (int k = 0; k < 4; k++) patch->v[k] = rad_get_u32(p + 4 + 4 * k);
-    patch->source_face = rad_get_u32(p + 20);
-    patch->area = rad_get_f64(p + 24);
-    patch->normal = rad_v3(rad_get_f64(p + 32), rad_get_f64(p + 40), rad_get_f64(p + 48));
-    patch->centroid = rad_v3(rad_get_f64(p + 56), rad_get_f64(p + 64), rad_get_f64(p + 72));
-    for (int c = 0; c < 3; c++) patch->rho[c] = rad_get_f64(p + 80 + 8 * c);
-    for (int c = 0; c < 3; c++) patch->emission[c] = rad_get_f64(p + 104 + 8 * c);
 }
 
 static int valid_method(uint32_t m) { return m >= RAD_SOLVE_JACOBI && m <= RAD_SOLVE_CG; }
@@ -111,9 +86,7 @@ static rad_status rf_encode(const char *path, const rad_radiosity *r, unsigned c
         rad_error("%s: out of memory for %llu bytes", path, (unsigned long long)l.file_bytes);
         return RAD_ERR_NOMEM;
     }
-    for (size_t i = 0; i < 3 * mesh->vertex_count; i++) rad_put_f64(b + l.vertex_offset + 8 * i, mesh->positions[i]);
-    for (size_t i = 0; i < mesh->patch_count; i++)
-        encode_patch(b + l.patch_offset + RAD_RF_PATCH_BYTES * i, &mesh->patches[i]);
+    rad_patch_table_encode(mesh, b + l.vertex_offset, b + l.patch_offset);
     for (size_t i = 0; i < 3 * mesh->patch_count; i++) rad_put_f64(b + l.radiosity_offset + 8 * i, r->radiosity[i]);
 
     memcpy(b + RF_OFF_MAGIC, RAD_RF_MAGIC, 8);
@@ -283,50 +256,12 @@ static rad_status check_header(const char *path, const unsigned char *b, size_t 
 }
 
 
-/* `positions` (finite, checked before) are the mesh's vertices. */
-static rad_status check_patch(const char *path, size_t i, const rad_patch *p, const double *positions,
-                              size_t vertex_count)
-{
-    int ok = (p->vertex_count == 3 || p->vertex_count == 4);
-    for (uint32_t k = 0; ok && k < p->vertex_count; k++) ok = p->v[k] < vertex_count;
-    if (ok && p->vertex_count == 3) ok = p->v[3] == RAD_NO_VERTEX;
-    if (!ok) {
-        rad_error("%s: patch %zu: bad vertex count or index (count %u, %zu vertices)", path, i, p->vertex_count,
-                  vertex_count);
-        return RAD_ERR_INVALID;
-    }
-    double nlen = rad_v3_length(p->normal);
-    if (!(isfinite(p->area) && p->area > 0) || !(fabs(nlen - 1) <= RF_NORMAL_TOLERANCE) ||
-        !rad_patch_centroid_inside(p, positions)) {
-        rad_error("%s: patch %zu: bad geometry (area %g, normal length %g, centroid %g %g %g)", path, i, p->area,
-                  nlen, p->centroid.x, p->centroid.y, p->centroid.z);
-        return RAD_ERR_INVALID;
-    }
-    for (int c = 0; c < 3; c++) {
-        if (!(p->rho[c] >= 0 && p->rho[c] < 1) || !(isfinite(p->emission[c]) && p->emission[c] >= 0)) {
-            rad_error("%s: patch %zu: reflectance %g must lie in [0, 1) and emission %g be finite and >= 0", path,
-                      i, p->rho[c], p->emission[c]);
-            return RAD_ERR_INVALID;
-        }
-    }
-    return RAD_OK;
-}
-
 static rad_status decode_body(const char *path, const unsigned char *b, const rf_layout *l, rad_radiosity *r)
 {
     rad_mesh *mesh = &r->mesh;
-    for (size_t i = 0; i < 3 * mesh->vertex_count; i++) {
-        mesh->positions[i] = rad_get_f64(b + l->vertex_offset + 8 * i);
-        if (!isfinite(mesh->positions[i])) {
-            rad_error("%s: vertex %zu: coordinate is not finite", path, i / 3);
-            return RAD_ERR_INVALID;
-        }
-    }
-    for (size_t i = 0; i < mesh->patch_count; i++) {
-        decode_patch(b + l->patch_offset + RAD_RF_PATCH_BYTES * i, &mesh->patches[i]);
-        rad_status status = check_patch(path, i, &mesh->patches[i], mesh->positions, mesh->vertex_count);
-        if (status != RAD_OK) return status;
-    }
+    rad_patch_table_decode(b + l->vertex_offset, b + l->patch_offset, mesh);
+    rad_status status = rad_patch_table_check(path, mesh);
+    if (status != RAD_OK) return status;
     for (size_t i = 0; i < 3 * mesh->patch_count; i++) {
         r->radiosity[i] = rad_get_f64(b + l->radiosity_offset + 8 * i);
         if (!isfinite(r->radiosity[i])) {

@@ -64,7 +64,7 @@
 #define RAD_RF_VERSION 1u
 #define RAD_RF_HEADER_BYTES 256u
 #define RAD_RF_ALIGN 64u
-#define RAD_RF_PATCH_BYTES 128u
+#define RAD_RF_PATCH_BYTES 128u /* RAD_PATCH_RECORD_BYTES (rad_patch_table.h) */
 
 typedef enum rad_solve_method {
     RAD_SOLVE_JACOBI = 1,
