@@ -19,85 +19,72 @@
 #include "rad_log.h"
 #include "solver.h"
 
-/* Rows of the reciprocity check handled together, for cache reuse. */
-#define CG_TILE 64
-
-static int compare_u64(const void *a, const void *b)
+/* delta_i = sum_j |A_i F_ij - A_j F_ji| over reflecting i != j, dense or
+ * sparse alike: by blocks of 64 x 64 entries (a tile and its transpose),
+ * one block of rows per task on the OpenMP threads. A block of rows takes
+ * its partner blocks in ascending order and only it writes its rows'
+ * delta_i, so each delta_i is summed in one fixed order, whatever the
+ * number of threads. A sparse matrix visits only the blocks where a tile
+ * or its transpose is stored (a bitmap of blocks); the others add |0 - 0|.
+ * 0 on success, -1 out of memory. */
+static int skew_terms(const solve_run *run, double *delta)
 {
-    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return x < y ? -1 : x > y;
-}
-
-/* delta_i = sum_j |A_i F_ij - A_j F_ji| over reflecting i, j, for a
- * sparse matrix: block by block of 64 x 64 entries (a tile and its
- * transpose), only the blocks where either is stored, in the order of the
- * dense loop below - so the same bits as over the expanded matrix, as
- * blocks left out add |0 - 0|. 0 on success, -1 out of memory (the caller
- * then goes through every pair entry by entry). */
-static int sparse_skew(const solve_run *run, double *delta)
-{
-    const size_t n = run->n, tiles = (size_t)run->F.row_tiles[n], T = RAD_FF_TILE_COLUMNS;
-    const size_t blocks = (n + T - 1) / T;
+    const size_t n = run->n, T = RAD_FF_TILE_COLUMNS, blocks = (n + T - 1) / T;
     const solve_rows *F = &run->F;
     const double *A = run->area, *rho = run->rho;
-    uint64_t *pairs = malloc((tiles ? tiles : 1) * sizeof *pairs);
-    if (!pairs) return -1;
-    size_t count = 0;
-    for (size_t i = 0; i < n; i++)
-        for (uint64_t t = F->row_tiles[i]; t < F->row_tiles[i + 1]; t++) {
-            uint64_t I = i / T, J = F->tile_column[t] / T;
-            pairs[count++] = I <= J ? I * blocks + J : J * blocks + I;
-        }
-    qsort(pairs, count, sizeof *pairs, compare_u64);
-    const double *row_i[RAD_FF_TILE_COLUMNS], *row_j[RAD_FF_TILE_COLUMNS];
-    for (size_t k = 0; k < count; k++) {
-        if (k > 0 && pairs[k] == pairs[k - 1]) continue;
-        size_t i0 = (size_t)(pairs[k] / blocks) * T, j0 = (size_t)(pairs[k] % blocks) * T;
-        size_t i1 = i0 + T < n ? i0 + T : n, j1 = j0 + T < n ? j0 + T : n;
-        for (size_t i = i0; i < i1; i++) row_i[i - i0] = solve_row_tile(F, i, j0);
-        for (size_t j = j0; j < j1; j++) row_j[j - j0] = solve_row_tile(F, j, i0);
-        for (size_t i = i0; i < i1; i++) {
-            if (rho[i] == 0) continue;
-            for (size_t j = (j0 > i + 1 ? j0 : i + 1); j < j1; j++) {
-                if (rho[j] == 0) continue;
-                double fij = row_i[i - i0] ? row_i[i - i0][j - j0] : 0;
-                double fji = row_j[j - j0] ? row_j[j - j0][i - i0] : 0;
-                double d = fabs(A[i] * fij - A[j] * fji);
-                delta[i] += d;
-                delta[j] += d;
+    unsigned char *stored = NULL; /* bit I * blocks + J: block (I, J) has a stored tile or transpose */
+    if (!F->dense) {
+        stored = calloc((blocks * blocks + 7) / 8, 1);
+        if (!stored) return -1;
+        for (size_t i = 0; i < n; i++)
+            for (uint64_t t = F->row_tiles[i]; t < F->row_tiles[i + 1]; t++) {
+                size_t I = i / T, J = F->tile_column[t] / T;
+                stored[(I * blocks + J) / 8] |= (unsigned char)(1u << ((I * blocks + J) % 8));
+                stored[(J * blocks + I) / 8] |= (unsigned char)(1u << ((J * blocks + I) % 8));
+            }
+    }
+#pragma omp parallel for schedule(dynamic, 1) if (n >= SOLVE_PARALLEL_MIN_ROWS)
+    for (size_t I = 0; I < blocks; I++) {
+        const double *row_i[RAD_FF_TILE_COLUMNS], *row_j[RAD_FF_TILE_COLUMNS];
+        size_t i0 = I * T, i1 = i0 + T < n ? i0 + T : n;
+        for (size_t i = i0; i < i1; i++) delta[i] = 0;
+        for (size_t J = 0; J < blocks; J++) {
+            if (stored && !(stored[(I * blocks + J) / 8] & (1u << ((I * blocks + J) % 8)))) continue;
+            size_t j0 = J * T, j1 = j0 + T < n ? j0 + T : n;
+            for (size_t i = i0; i < i1; i++) row_i[i - i0] = solve_row_tile(F, i, j0);
+            for (size_t j = j0; j < j1; j++) row_j[j - j0] = solve_row_tile(F, j, i0);
+            for (size_t i = i0; i < i1; i++) {
+                if (rho[i] == 0) continue;
+                double sum = delta[i];
+                for (size_t j = j0; j < j1; j++) {
+                    if (j == i || rho[j] == 0) continue;
+                    double fij = row_i[i - i0] ? row_i[i - i0][j - j0] : 0;
+                    double fji = row_j[j - j0] ? row_j[j - j0][i - i0] : 0;
+                    sum += fabs(A[i] * fij - A[j] * fji);
+                }
+                delta[i] = sum;
             }
         }
     }
-    free(pairs);
+    free(stored);
     return 0;
 }
 
 solve_cg_check solve_cg_check_matrix(const solve_run *run)
 {
     const size_t n = run->n;
-    const double *F = run->F.dense, *A = run->area, *rho = run->rho;
+    const double *A = run->area, *rho = run->rho;
     double *delta = run->work; /* sum_j |A_i F_ij - A_j F_ji| per row */
     solve_skew_cache *cache = run->skew;
     int cached = cache && cache->rho && cache->delta;
     for (size_t i = 0; cached && i < n; i++) cached = (cache->rho[i] == 0) == (rho[i] == 0);
     if (cached) memcpy(delta, cache->delta, n * sizeof *delta);
-    for (size_t i = 0; !cached && i < n; i++) delta[i] = 0;
-    int blocked = cached || (!F && sparse_skew(run, delta) == 0);
-    for (size_t i0 = 0; !blocked && i0 < n; i0 += CG_TILE) {
-        size_t i1 = i0 + CG_TILE < n ? i0 + CG_TILE : n;
-        for (size_t j0 = i0; j0 < n; j0 += CG_TILE) {
-            size_t j1 = j0 + CG_TILE < n ? j0 + CG_TILE : n;
-            for (size_t i = i0; i < i1; i++) {
-                if (rho[i] == 0) continue;
-                for (size_t j = (j0 > i + 1 ? j0 : i + 1); j < j1; j++) {
-                    if (rho[j] == 0) continue;
-                    double fij = F ? F[i * n + j] : solve_row_entry(&run->F, i, j);
-                    double fji = F ? F[j * n + i] : solve_row_entry(&run->F, j, i);
-                    double d = fabs(A[i] * fij - A[j] * fji);
-                    delta[i] += d;
-                    delta[j] += d;
-                }
-            }
+    if (!cached && skew_terms(run, delta) != 0) { /* no memory for the block map: entry by entry */
+        for (size_t i = 0; i < n; i++) {
+            delta[i] = 0;
+            for (size_t j = 0; rho[i] != 0 && j < n; j++)
+                if (j != i && rho[j] != 0)
+                    delta[i] += fabs(A[i] * solve_row_entry(&run->F, i, j) - A[j] * solve_row_entry(&run->F, j, i));
         }
     }
     if (cache && cache->delta && !cached) {

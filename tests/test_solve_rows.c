@@ -1,7 +1,7 @@
 /* test_solve_rows.c - solve on a sparse matrix (solve/rows.h) against the
  * same matrix dense.
  *
- * A matrix of N = 200 patches (four tiles of 64 columns, the last 8 wide)
+ * A matrix of N = 300 patches (five tiles of 64 columns, the last 44 wide)
  * where whole 64 x 64 blocks are zero, some only on one side of the
  * diagonal (F_ij stored, F_ji not), rows are not reciprocal (so the CG
  * check's skew term is not 0), a few patches do not reflect, and one row
@@ -13,12 +13,16 @@
 #include <stdlib.h>
 #include <string.h>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 #include "iterate.h"
 #include "rad_test.h"
 #include "rows.h"
 #include "solver.h"
 
-#define N 200
+#define N 300
 #define T RAD_FF_TILE_COLUMNS
 
 static double F[N * N], area[N], row_sum[N], rho[N], emission[N];
@@ -107,6 +111,17 @@ int main(void)
     sparse_run.F = sparse;
     solve_cg_check sc = solve_cg_check_matrix(&sparse_run);
     fprintf(stderr, "CG check: ratio %.17g (row %zu), margin %.17g\n", dc.ratio, dc.ratio_row, dc.margin);
+#ifdef _OPENMP
+    /* ... whatever the number of threads (each row's skew term is summed
+     * by one thread, in one order). */
+    int threads = omp_get_max_threads();
+    omp_set_num_threads(1);
+    solve_cg_check single = solve_cg_check_matrix(&sparse_run);
+    omp_set_num_threads(5);
+    solve_cg_check five = solve_cg_check_matrix(&dense_run);
+    omp_set_num_threads(threads);
+    RAD_CHECK(same_bits(&single.ratio, &dc.ratio, 1) && same_bits(&five.ratio, &dc.ratio, 1));
+#endif
     RAD_CHECK(dc.ratio > 0 && same_bits(&dc.ratio, &sc.ratio, 1) && dc.ratio_row == sc.ratio_row);
     RAD_CHECK(same_bits(&dc.margin, &sc.margin, 1) && dc.margin_row == sc.margin_row);
 
