@@ -77,12 +77,17 @@ double solve_run_residual(const solve_run *run, const double *B)
 {
     const size_t n = run->n;
     double rmax = 0;
+    int not_finite = 0;
+    /* max is the same whatever the order; each row is summed by one thread */
+#pragma omp parallel for schedule(dynamic, 64) reduction(max : rmax) reduction(| : not_finite) \
+    if (n >= SOLVE_PARALLEL_MIN_ROWS)
     for (size_t i = 0; i < n; i++) {
         double gathered = run->E[i] + run->rho[i] * solve_row_dot(&run->F, i, B, 0, n);
         double a = solve_patch_residual(gathered - B[i], gathered, run->e_norm);
-        if (!(a <= rmax)) rmax = a; /* keeps NaN */
+        if (a > rmax) rmax = a;
+        not_finite |= isnan(a);
     }
-    return rmax;
+    return not_finite ? NAN : rmax; /* a NaN anywhere is the answer */
 }
 
 /* Picks the method to start with; CG only if the reciprocity check passes. */
