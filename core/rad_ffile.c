@@ -378,7 +378,6 @@ struct rad_ff_file {
     unsigned char *row_buffer;
     uint32_t *tile_buffer;   /* sparse: one row's tile numbers */
     double *value_buffer;    /* sparse: one row's stored entries */
-    uint64_t next_row;       /* the row the file position is at (sparse reads) */
 };
 
 
@@ -549,7 +548,6 @@ rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
     ff->row_buffer = malloc(sparse ? record_max : l->row_bytes);
     ff->tile_buffer = malloc(sparse ? 4 * tile_count_of(n) : 4);
     ff->value_buffer = malloc(sparse ? 8 * n : 8);
-    ff->next_row = UINT64_MAX;
     if (!tables || !ff->mesh.positions || !ff->mesh.patches || !ff->index || !ff->row_buffer || !ff->tile_buffer ||
         !ff->value_buffer) {
         rad_error("%s: out of memory for N = %llu", path, (unsigned long long)n);
@@ -619,7 +617,6 @@ rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_
                   (unsigned long long)(row_begin + row_count), (unsigned long long)n);
         return RAD_ERR_INVALID;
     }
-    file->next_row = UINT64_MAX;
     uint64_t start = file->row_offsets ? file->row_offsets[row_begin] : row_begin * l->row_bytes;
     if (row_count && fseeko(file->f, (off_t)(l->matrix_offset + start), SEEK_SET) != 0) {
         rad_error("%s: cannot seek: %s", file->path, strerror(errno));
@@ -662,42 +659,6 @@ rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_
     return RAD_OK;
 }
 
-rad_status rad_ff_read_row_tiles(rad_ff_file *file, uint64_t row, const uint32_t **out_tiles, uint32_t *out_count,
-                                 const double **out_values)
-{
-    uint64_t n = file->info.patch_count;
-    if (!file->row_offsets || row >= n) {
-        rad_error("%s: row %llu: %s", file->path, (unsigned long long)row,
-                  row >= n ? "out of range" : "not a sparse file");
-        return RAD_ERR_INVALID;
-    }
-    uint64_t at = file->row_offsets[row], size = file->row_offsets[row + 1] - at;
-    if (row != file->next_row && fseeko(file->f, (off_t)(file->layout.matrix_offset + at), SEEK_SET) != 0) {
-        rad_error("%s: cannot seek: %s", file->path, strerror(errno));
-        return RAD_ERR_IO;
-    }
-    file->next_row = UINT64_MAX;
-    if (fread(file->row_buffer, 1, size, file->f) != size) {
-        rad_error("%s: row %llu: read error", file->path, (unsigned long long)row);
-        return RAD_ERR_IO;
-    }
-    if (rad_ff_row_checksum(file->row_buffer, size) != file->row_checksums[row]) {
-        rad_error("%s: row %llu: checksum mismatch: the matrix is corrupted", file->path, (unsigned long long)row);
-        return RAD_ERR_FORMAT;
-    }
-    uint64_t stored;
-    const char *why = decode_record(file->row_buffer, size, n, file->info.element_type, file->tile_buffer, out_count,
-                                    file->value_buffer, &stored);
-    if (why) {
-        rad_error("%s: row %llu: %s", file->path, (unsigned long long)row, why);
-        return RAD_ERR_FORMAT;
-    }
-    file->next_row = row + 1;
-    *out_tiles = file->tile_buffer;
-    *out_values = file->value_buffer;
-    return RAD_OK;
-}
-
 uint64_t rad_ff_record_offset(const rad_ff_file *file, uint64_t row)
 {
     return file->row_offsets && row <= file->info.patch_count ? file->row_offsets[row] : 0;
@@ -712,7 +673,6 @@ rad_status rad_ff_read_records(rad_ff_file *file, uint64_t row_begin, uint64_t r
         return RAD_ERR_INVALID;
     }
     uint64_t at = file->row_offsets[row_begin], size = file->row_offsets[row_begin + row_count] - at;
-    file->next_row = UINT64_MAX;
     if (size && (fseeko(file->f, (off_t)(file->layout.matrix_offset + at), SEEK_SET) != 0 ||
                  fread(buffer, 1, size, file->f) != size)) {
         rad_error("%s: rows %llu..%llu: read error", file->path, (unsigned long long)row_begin,

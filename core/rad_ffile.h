@@ -155,15 +155,6 @@ const rad_mesh *rad_ff_file_mesh(const rad_ff_file *file);
  * record's structure). Errors name the file and the first bad row. */
 rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, double *out);
 
-/* Sparse layout only (info->layout): row `row`'s stored tiles without
- * expanding them: *out_count tile numbers (ascending; tile t is columns
- * [64 t, min(64 t + 64, N))) and their entries, tile after tile, as
- * doubles. Both arrays belong to the file and hold until its next read.
- * Verified as rad_ff_read_rows verifies; reading rows in order reads the
- * file sequentially. */
-rad_status rad_ff_read_row_tiles(rad_ff_file *file, uint64_t row, const uint32_t **out_tiles, uint32_t *out_count,
-                                 const double **out_values);
-
 /* Sparse layout, for readers that decode rows on several threads: the
  * records of rows [row_begin, row_begin + row_count) as stored, in one
  * read, into `buffer` (rad_ff_record_offset(file, row_begin + row_count) -

@@ -245,26 +245,27 @@ void rad_json_number(rad_json_writer *w, double value)
     rad_json_number_digits(w, value, 17);
 }
 
-void rad_json_number_digits(rad_json_writer *w, double value, int significant_digits)
+/* A finite number as %.*g or %.*f, else null. */
+static void put_number(rad_json_writer *w, double value, int fixed, int precision)
 {
-    assert(significant_digits >= 1 && significant_digits <= 17);
     char text[RAD_JSON_NUMBER_MAX];
     if (isfinite(value))
-        snprintf(text, sizeof text, "%.*g", significant_digits, value);
+        snprintf(text, sizeof text, fixed ? "%.*f" : "%.*g", precision, value);
     else
         snprintf(text, sizeof text, "null");
     put_scalar(w, text);
 }
 
+void rad_json_number_digits(rad_json_writer *w, double value, int significant_digits)
+{
+    assert(significant_digits >= 1 && significant_digits <= 17);
+    put_number(w, value, 0, significant_digits);
+}
+
 void rad_json_number_fixed(rad_json_writer *w, double value, int decimals)
 {
     assert(decimals >= 0 && decimals <= 17);
-    char text[RAD_JSON_NUMBER_MAX];
-    if (isfinite(value))
-        snprintf(text, sizeof text, "%.*f", decimals, value);
-    else
-        snprintf(text, sizeof text, "null");
-    put_scalar(w, text);
+    put_number(w, value, 1, decimals);
 }
 
 void rad_json_int(rad_json_writer *w, int64_t value)

@@ -34,6 +34,7 @@ typedef struct ff_run {
     rad_scene scene;
     rad_mesh mesh;
     rad_ff_patch *patches;
+    double *area; /* the patches' areas, contiguous: ff_rows_finish reads one per entry */
     float *triangles;
     uint32_t *triangle_face, triangle_count;
     uint32_t *row_begin; /* ranks + 1 */
@@ -275,6 +276,8 @@ static rad_status setup(ff_run *run)
     double centre[3];
     ff_frame_centre(&run->mesh, centre);
     rad_status st = ff_patches_build(&run->mesh, centre, &run->patches);
+    if (st == RAD_OK && !(run->area = malloc((n ? n : 1) * sizeof *run->area))) st = RAD_ERR_NOMEM;
+    for (uint32_t j = 0; st == RAD_OK && j < n; j++) run->area[j] = run->patches[j].area;
     if (st == RAD_OK)
         st = ff_occluders_build(&run->scene, centre, &run->triangles, &run->triangle_face, &run->triangle_count);
     run->row_begin = calloc((size_t)ranks + 1, sizeof *run->row_begin);
@@ -471,14 +474,14 @@ static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters
                                             counters);
         }
         if (plan->pairs_once) continue; /* written once the block is complete */
-        if (st == RAD_OK) ff_rows_finish(run->patches, n, r0, count, rows, errors, run->stats.threads, &run->stats.rows);
+        if (st == RAD_OK) ff_rows_finish(run->area, n, r0, count, rows, errors, run->stats.threads, &run->stats.rows);
         rad_status w = write_round(run, files, r0, st == RAD_OK ? count : 0, rows, errors);
         if (st == RAD_OK) st = w;
     }
     if (plan->pairs_once) {
         st = complete_block(run, rows, errors, counters, st);
         if (st == RAD_OK)
-            ff_rows_finish(run->patches, n, begin, end - begin, rows, errors, run->stats.threads, &run->stats.rows);
+            ff_rows_finish(run->area, n, begin, end - begin, rows, errors, run->stats.threads, &run->stats.rows);
         /* The sparse format places all the rank's records in row order (the
          * same bytes for any rank count); collective, so every rank joins. */
         uint32_t reserve = st == RAD_OK ? end - begin : 0;
@@ -632,6 +635,7 @@ static void run_free(ff_run *run)
 {
     if (run->backend && run->backend_state) run->backend->destroy(run->backend_state);
     free(run->patches);
+    free(run->area);
     free(run->triangles);
     free(run->triangle_face);
     free(run->row_begin);

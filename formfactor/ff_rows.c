@@ -31,9 +31,7 @@ void ff_rows_summary_merge(ff_rows_summary *into, const ff_rows_summary *from)
     }
 }
 
-/* One row: scale, sum, and its errors' share of the summary. `area`:
- * the patches' areas, contiguous (read once per entry: from the 192-byte
- * patch records it would be a cache line per entry). */
+/* One row: scale, sum, and its errors' share of the summary. */
 static void finish_row(const double *area, uint32_t n, uint32_t i, double *row, double *err, ff_rows_summary *s)
 {
     double sum = 0;
@@ -60,26 +58,13 @@ static void finish_row(const double *area, uint32_t n, uint32_t i, double *row, 
     ff_rows_summary_merge(s, &one);
 }
 
-void ff_rows_finish(const rad_ff_patch *patches, uint32_t n, uint32_t row_begin, uint32_t row_count, double *rows,
+void ff_rows_finish(const double *area, uint32_t n, uint32_t row_begin, uint32_t row_count, double *rows,
                     double *errors, int threads, ff_rows_summary *summary)
 {
     enum { MAX_THREADS = 256 };
     ff_rows_summary part[MAX_THREADS] = {{0}};
     if (threads < 1) threads = 1;
     if (threads > MAX_THREADS) threads = MAX_THREADS;
-    double *area = malloc((n ? n : 1) * sizeof *area);
-    if (!area) { /* cannot happen at sizes where the rows fit; stay correct anyway */
-        for (uint32_t r = 0; r < row_count; r++) {
-            double *row = rows + (size_t)r * n, *err = errors ? errors + (size_t)r * n : NULL;
-            for (uint32_t j = 0; j < n; j++) {
-                row[j] *= patches[j].area;
-                if (err) err[j] *= patches[j].area;
-            }
-        }
-        rad_error("out of memory for %u areas: the stats' row sums and errors are left out", n);
-        return;
-    }
-    for (uint32_t j = 0; j < n; j++) area[j] = patches[j].area;
     /* Static blocks of rows per thread, merged in thread order: the
      * summary does not depend on timing. */
 #pragma omp parallel for num_threads(threads) schedule(static)
@@ -90,7 +75,6 @@ void ff_rows_finish(const rad_ff_patch *patches, uint32_t n, uint32_t row_begin,
             finish_row(area, n, row_begin + r, rows + (size_t)r * n, errors ? errors + (size_t)r * n : NULL,
                        &part[t]);
     }
-    free(area);
     for (int t = 0; t < threads; t++) ff_rows_summary_merge(summary, &part[t]);
 }
 

@@ -9,7 +9,7 @@
  *     compute the rank's rows [begin, end) into one block (rows x N)
  *     ff_rows_mirror_local(n, begin, end, block)       pairs inside the block
  *     ff_rows_exchange(comm, row_begin, n, block, ...)  pairs with other ranks
- *     ff_rows_finish(patches, n, begin, ..., block, ...) couplings -> F, stats
+ *     ff_rows_finish(area, n, begin, ..., block, ...)    couplings -> F, stats
  *
  * The copied entry is the very double the other row computed, so the
  * matrix is byte-identical to computing every entry (tested).
@@ -37,9 +37,10 @@ typedef struct ff_rows_summary {
 void ff_rows_summary_merge(ff_rows_summary *into, const ff_rows_summary *from);
 
 /* Scales rows [row_begin, row_begin + row_count) held in `rows` and, if not
- * NULL, their standard errors into form factors (F_ij = c_ij A_j) and adds
- * them to *summary; one pass over the memory, `threads` OpenMP threads. */
-void ff_rows_finish(const rad_ff_patch *patches, uint32_t n, uint32_t row_begin, uint32_t row_count, double *rows,
+ * NULL, their standard errors into form factors (F_ij = c_ij A_j, `area`:
+ * the N patch areas, contiguous) and adds them to *summary; one pass over
+ * the memory, `threads` OpenMP threads. */
+void ff_rows_finish(const double *area, uint32_t n, uint32_t row_begin, uint32_t row_count, double *rows,
                     double *errors, int threads, ff_rows_summary *summary);
 
 /* Fills the entries (i, j), i and j both in [begin, end), that row j

@@ -25,9 +25,9 @@
  * its partner blocks in ascending order and only it writes its rows'
  * delta_i, so each delta_i is summed in one fixed order, whatever the
  * number of threads. A sparse matrix visits only the blocks where a tile
- * or its transpose is stored (a bitmap of blocks); the others add |0 - 0|.
- * 0 on success, -1 out of memory. */
-static int skew_terms(const solve_run *run, double *delta)
+ * or its transpose is stored (a bitmap of blocks; without memory for it,
+ * every block); the others add |0 - 0|. */
+static void skew_terms(const solve_run *run, double *delta)
 {
     const size_t n = run->n, T = RAD_FF_TILE_COLUMNS, blocks = (n + T - 1) / T;
     const solve_rows *F = &run->F;
@@ -35,8 +35,7 @@ static int skew_terms(const solve_run *run, double *delta)
     unsigned char *stored = NULL; /* bit I * blocks + J: block (I, J) has a stored tile or transpose */
     if (!F->dense) {
         stored = calloc((blocks * blocks + 7) / 8, 1);
-        if (!stored) return -1;
-        for (size_t i = 0; i < n; i++)
+        for (size_t i = 0; stored && i < n; i++)
             for (uint64_t t = F->row_tiles[i]; t < F->row_tiles[i + 1]; t++) {
                 size_t I = i / T, J = F->tile_column[t] / T;
                 stored[(I * blocks + J) / 8] |= (unsigned char)(1u << ((I * blocks + J) % 8));
@@ -67,7 +66,6 @@ static int skew_terms(const solve_run *run, double *delta)
         }
     }
     free(stored);
-    return 0;
 }
 
 solve_cg_check solve_cg_check_matrix(const solve_run *run)
@@ -79,14 +77,7 @@ solve_cg_check solve_cg_check_matrix(const solve_run *run)
     int cached = cache && cache->rho && cache->delta;
     for (size_t i = 0; cached && i < n; i++) cached = (cache->rho[i] == 0) == (rho[i] == 0);
     if (cached) memcpy(delta, cache->delta, n * sizeof *delta);
-    if (!cached && skew_terms(run, delta) != 0) { /* no memory for the block map: entry by entry */
-        for (size_t i = 0; i < n; i++) {
-            delta[i] = 0;
-            for (size_t j = 0; rho[i] != 0 && j < n; j++)
-                if (j != i && rho[j] != 0)
-                    delta[i] += fabs(A[i] * solve_row_entry(&run->F, i, j) - A[j] * solve_row_entry(&run->F, j, i));
-        }
-    }
+    if (!cached) skew_terms(run, delta);
     if (cache && cache->delta && !cached) {
         memcpy(cache->delta, delta, n * sizeof *delta);
         cache->rho = rho;

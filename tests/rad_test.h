@@ -5,6 +5,7 @@
  *   RAD_CHECK_REL(a, b, rel)         |a - b| <= rel * |b|
  *   rad_test_capture_log()           route the logger into a buffer
  *   rad_test_log_contains("text")    was "text" in a captured message?
+ *   rad_test_read_file / rad_test_write_file   a file's bytes, whole
  *   return rad_test_finish();        exit code: 0 pass, 1 fail
  */
 #ifndef RAD_TEST_H
@@ -12,6 +13,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "rad_log.h"
@@ -56,6 +58,32 @@ static inline void rad_test_capture_log(void)
 static inline int rad_test_log_contains(const char *text)
 {
     return strstr(rad_test_log, text) != NULL;
+}
+
+/* A whole file's bytes (freed by the caller), or NULL; *size gets its length. */
+static inline unsigned char *rad_test_read_file(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    *size = (size_t)ftell(f);
+    rewind(f);
+    unsigned char *data = malloc(*size ? *size : 1);
+    if (data && fread(data, 1, *size, f) != *size) {
+        free(data);
+        data = NULL;
+    }
+    fclose(f);
+    return data;
+}
+
+/* Writes `size` bytes as the whole of `path` (tests make damaged copies so). */
+static inline void rad_test_write_file(const char *path, const unsigned char *data, size_t size)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) return;
+    if (size) fwrite(data, 1, size, f);
+    fclose(f);
 }
 
 static inline int rad_test_finish(void)

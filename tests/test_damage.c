@@ -46,30 +46,6 @@ static void small_mesh(rad_patch patches[3], rad_mesh *mesh)
     *mesh = (rad_mesh){.positions = positions, .vertex_count = 5, .patches = patches, .patch_count = 3};
 }
 
-static unsigned char *read_whole(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    *size = (size_t)ftell(f);
-    rewind(f);
-    unsigned char *data = malloc(*size ? *size : 1);
-    if (data && fread(data, 1, *size, f) != *size) {
-        free(data);
-        data = NULL;
-    }
-    fclose(f);
-    return data;
-}
-
-static void write_whole(const char *path, const unsigned char *data, size_t size)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f) return;
-    if (size) fwrite(data, 1, size, f);
-    fclose(f);
-}
-
 /* Like rad_test_capture_log, without echoing thousands of expected
  * refusals to stderr. */
 static void quiet_sink(rad_log_level level, const char *message, void *user)
@@ -118,13 +94,13 @@ static void test_radiosity_damage(void)
     const char *path = "test_damage.rad", *damaged = "test_damage.damaged.rad";
     RAD_CHECK(rad_rf_write(path, &r) == RAD_OK);
     size_t size = 0;
-    unsigned char *bytes = read_whole(path, &size);
+    unsigned char *bytes = rad_test_read_file(path, &size);
     RAD_CHECK(bytes && size == 840);
     if (!bytes) return;
 
     int accepted = 0, unnamed = 0;
     for (size_t len = 0; len < size; len++) {
-        write_whole(damaged, bytes, len);
+        rad_test_write_file(damaged, bytes, len);
         accepted += rf_accepts(damaged, &unnamed);
     }
     RAD_CHECK(accepted == 0 && unnamed == 0);
@@ -137,7 +113,7 @@ static void test_radiosity_damage(void)
     for (size_t k = 0; k < size; k++)
         for (size_t p = 0; p < sizeof patterns; p++) {
             bytes[k] ^= patterns[p];
-            write_whole(damaged, bytes, size);
+            rad_test_write_file(damaged, bytes, size);
             bytes[k] ^= patterns[p];
             accepted += rf_accepts(damaged, &unnamed);
             flips++;
@@ -150,7 +126,7 @@ static void test_radiosity_damage(void)
     unsigned char *longer = calloc(1, size + 64);
     if (longer) {
         memcpy(longer, bytes, size);
-        write_whole(damaged, longer, size + 64);
+        rad_test_write_file(damaged, longer, size + 64);
         RAD_CHECK(!rf_accepts(damaged, &unnamed) && rad_test_log_contains("trailing"));
         free(longer);
     }
@@ -158,7 +134,7 @@ static void test_radiosity_damage(void)
     /* A future version, checksums valid: named as a version problem. */
     rad_put_u32(bytes + 8, 2);
     rad_put_u64(bytes + 248, rad_hash64(RAD_HASH_SEED, bytes, 248));
-    write_whole(damaged, bytes, size);
+    rad_test_write_file(damaged, bytes, size);
     RAD_CHECK(!rf_accepts(damaged, &unnamed) && rad_test_log_contains("version 2"));
 
     /* Intact file still reads back exactly. */
@@ -194,7 +170,7 @@ static void test_form_factor_header_limits(void)
     const char *path = "test_damage.ff", *damaged = "test_damage.damaged.ff";
     RAD_CHECK(rad_ff_write_serial(path, &info, &mesh, matrix) == RAD_OK);
     size_t size = 0;
-    unsigned char *bytes = read_whole(path, &size);
+    unsigned char *bytes = rad_test_read_file(path, &size);
     RAD_CHECK(bytes != NULL);
     if (!bytes) return;
     unsigned char h[RAD_FF_HEADER_BYTES];
@@ -205,7 +181,7 @@ static void test_form_factor_header_limits(void)
     rad_put_u32(h + 8, RAD_FF_VERSION + 1); /* 4 */
     ff_reseal(h);
     memcpy(bytes, h, sizeof h);
-    write_whole(damaged, bytes, size);
+    rad_test_write_file(damaged, bytes, size);
     RAD_CHECK(ff_open_status(damaged) == RAD_ERR_FORMAT && rad_test_log_contains("format version 4"));
 
     /* N = 2^31 (the format's limit) with float64: N^2 * 8 = 2^65 bytes

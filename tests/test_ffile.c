@@ -67,29 +67,6 @@ static rad_ff_info small_info(rad_element_type element)
 
 static const double matrix[9] = {0, 0.25, 0.125, 0.5, 0, 1.0 / 3.0, 0.1, 0.2, 0};
 
-static unsigned char *read_whole(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    *size = (size_t)ftell(f);
-    rewind(f);
-    unsigned char *data = malloc(*size);
-    if (data && fread(data, 1, *size, f) != *size) {
-        free(data);
-        data = NULL;
-    }
-    fclose(f);
-    return data;
-}
-
-static void write_whole(const char *path, const unsigned char *data, size_t size)
-{
-    FILE *f = fopen(path, "wb");
-    if (size) fwrite(data, 1, size, f);
-    fclose(f);
-}
-
 /* 1 if the file opens and every row reads back equal to `expect`. */
 static int reads_back(const char *path, const double *expect)
 {
@@ -140,12 +117,12 @@ int main(void)
 
     /* Every truncation is refused at open. */
     size_t size = 0;
-    unsigned char *bytes = read_whole(path, &size);
+    unsigned char *bytes = rad_test_read_file(path, &size);
     RAD_CHECK(bytes && size > 700);
     int accepted = 0;
     rad_test_capture_log();
     for (size_t len = 0; bytes && len < size; len++) {
-        write_whole(damaged, bytes, len);
+        rad_test_write_file(damaged, bytes, len);
         accepted += reads_back(damaged, matrix);
     }
     RAD_CHECK(accepted == 0);
@@ -157,7 +134,7 @@ int main(void)
     int silently_wrong = 0, refused = 0;
     for (size_t k = 0; bytes && k < size; k++) {
         bytes[k] ^= 0x5a;
-        write_whole(damaged, bytes, size);
+        rad_test_write_file(damaged, bytes, size);
         rad_ff_file *d = NULL;
         if (rad_ff_open(damaged, &d) != RAD_OK) {
             refused++;
@@ -188,13 +165,13 @@ int main(void)
         rad_test_capture_log();
         rad_put_u32(bytes + lay.patch_group_offset + 4, 2);
         reseal(bytes);
-        write_whole(damaged, bytes, size);
+        rad_test_write_file(damaged, bytes, size);
         RAD_CHECK(rad_ff_open(damaged, &ff) == RAD_ERR_FORMAT && ff == NULL);
         RAD_CHECK(rad_test_log_contains("patch 1: group 2 out of range (2 groups)"));
         rad_put_u32(bytes + lay.patch_group_offset + 4, 1);
         memset(bytes + lay.group_offset + RAD_NAME_MAX, 'x', RAD_NAME_MAX);
         reseal(bytes);
-        write_whole(damaged, bytes, size);
+        rad_test_write_file(damaged, bytes, size);
         RAD_CHECK(rad_ff_open(damaged, &ff) == RAD_ERR_FORMAT && ff == NULL);
         RAD_CHECK(rad_test_log_contains("group 1: name not NUL-terminated"));
     }
@@ -207,13 +184,13 @@ int main(void)
     RAD_CHECK(rad_ff_write_serial("test_ffile.plain", &plain_info, &plain, matrix) == RAD_OK);
     RAD_CHECK(rad_ff_layout_of(&plain_info).matrix_offset == 256 + 128 + 3 * 128);
     size_t plain_size = 0;
-    unsigned char *old = read_whole("test_ffile.plain", &plain_size);
+    unsigned char *old = rad_test_read_file("test_ffile.plain", &plain_size);
     RAD_CHECK(old != NULL && plain_size < size);
     if (old) {
         RAD_CHECK(rad_get_u32(old + 8) == RAD_FF_VERSION_DENSE && rad_get_u64(old + 224) == 0 && rad_get_u32(old + 232) == 0);
         rad_put_u32(old + 8, 1);
         reseal(old);
-        write_whole("test_ffile.v1", old, plain_size);
+        rad_test_write_file("test_ffile.v1", old, plain_size);
         RAD_CHECK(reads_back("test_ffile.v1", matrix));
         RAD_CHECK(rad_ff_open("test_ffile.v1", &ff) == RAD_OK);
         if (ff) {
@@ -224,7 +201,7 @@ int main(void)
         /* A version-1 file whose reserved bytes say "groups" has none. */
         rad_put_u32(old + 232, 2);
         reseal(old);
-        write_whole("test_ffile.v1", old, plain_size);
+        rad_test_write_file("test_ffile.v1", old, plain_size);
         RAD_CHECK(reads_back("test_ffile.v1", matrix));
         free(old);
     }
@@ -235,11 +212,11 @@ int main(void)
 
     /* A foreign file and a paper-format file are named as such. */
     rad_test_capture_log();
-    write_whole(damaged, (const unsigned char *)"hello, world, this is not a matrix", 34);
+    rad_test_write_file(damaged, (const unsigned char *)"hello, world, this is not a matrix", 34);
     RAD_CHECK(rad_ff_open(damaged, &ff) == RAD_ERR_FORMAT);
     RAD_CHECK(rad_test_log_contains("not a form-factor file"));
     unsigned char paper[4 + 8 * 4] = {2, 0, 0, 0};
-    write_whole(damaged, paper, sizeof paper);
+    rad_test_write_file(damaged, paper, sizeof paper);
     RAD_CHECK(rad_ff_open(damaged, &ff) == RAD_ERR_FORMAT);
     RAD_CHECK(rad_test_log_contains("paper-format"));
     RAD_CHECK(rad_ff_open("no/such/file", &ff) == RAD_ERR_IO);

@@ -48,29 +48,6 @@ static rad_ff_info info_of(size_t n, rad_element_type element, rad_ff_layout_kin
     return info;
 }
 
-static unsigned char *read_whole(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    *size = (size_t)ftell(f);
-    rewind(f);
-    unsigned char *data = malloc(*size ? *size : 1);
-    if (data && fread(data, 1, *size, f) != *size) {
-        free(data);
-        data = NULL;
-    }
-    fclose(f);
-    return data;
-}
-
-static void write_whole(const char *path, const unsigned char *data, size_t size)
-{
-    FILE *f = fopen(path, "wb");
-    if (size) fwrite(data, 1, size, f);
-    fclose(f);
-}
-
 /* 1 if `path` opens and its n rows read back bitwise equal to `expect`. */
 static int reads_back(const char *path, const double *expect, size_t n)
 {
@@ -86,7 +63,7 @@ static int reads_back(const char *path, const double *expect, size_t n)
 static size_t file_size(const char *path)
 {
     size_t size = 0;
-    free(read_whole(path, &size));
+    free(rad_test_read_file(path, &size));
     return size;
 }
 
@@ -130,7 +107,7 @@ int main(void)
         rad_ff_close(ff);
     }
     size_t dsize = 0;
-    unsigned char *d = read_whole("sparse.dense", &dsize);
+    unsigned char *d = rad_test_read_file("sparse.dense", &dsize);
     RAD_CHECK(d && rad_get_u32(d + 8) == RAD_FF_VERSION_DENSE); /* dense files stay version 2 */
     free(d);
 
@@ -154,18 +131,18 @@ int main(void)
     RAD_CHECK(rad_ff_write_serial("sparse.small", &info3, &mesh3, small) == RAD_OK);
     RAD_CHECK(reads_back("sparse.small", small, 3));
     size_t size = 0;
-    unsigned char *bytes = read_whole("sparse.small", &size);
+    unsigned char *bytes = rad_test_read_file("sparse.small", &size);
     RAD_CHECK(bytes != NULL);
     rad_test_capture_log();
     int accepted = 0, refused = 0, silently_wrong = 0;
     for (size_t len = 0; bytes && len < size; len++) {
-        write_whole("sparse.damaged", bytes, len);
+        rad_test_write_file("sparse.damaged", bytes, len);
         accepted += reads_back("sparse.damaged", small, 3);
     }
     RAD_CHECK(accepted == 0);
     for (size_t k = 0; bytes && k < size; k++) {
         bytes[k] ^= 0x5a;
-        write_whole("sparse.damaged", bytes, size);
+        rad_test_write_file("sparse.damaged", bytes, size);
         rad_ff_file *f = NULL;
         double rows[9];
         if (rad_ff_open("sparse.damaged", &f) != RAD_OK || rad_ff_read_rows(f, 0, 3, rows) != RAD_OK)
@@ -189,7 +166,7 @@ int main(void)
         index[3 + 1 + 2] = rad_hash64(RAD_HASH_SEED, row2, index[3] - index[2]);
         rad_put_u64(bytes + 120, rad_hash64(RAD_HASH_SEED, index, 7 * 8));
         rad_put_u64(bytes + 248, rad_hash64(RAD_HASH_SEED, bytes, 248));
-        write_whole("sparse.damaged", bytes, size);
+        rad_test_write_file("sparse.damaged", bytes, size);
         rad_test_capture_log();
         RAD_CHECK(rad_ff_open("sparse.damaged", &ff) == RAD_OK);
         if (ff) {
