@@ -905,7 +905,7 @@ static int check_layout_file(const char *path, const char *want_names, const cha
  * `log` (freed by the caller). */
 static int run_render_in(const char *cwd, const char *render, const char *args, const char *dir, char **log)
 {
-    char cmd[4096], log_path[1024];
+    char cmd[8192], log_path[1024];
     snprintf(log_path, sizeof log_path, "%s/log.txt", dir);
     snprintf(cmd, sizeof cmd, "cd '%s' && '%s' %s > '%s' 2>&1", cwd ? cwd : ".", render, args, log_path);
     int rc = system(cmd);
