@@ -17,6 +17,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "ff_rows.h"
 #include "rad_ff_kernel.h"
 #include "rad_status.h"
 
@@ -102,6 +103,15 @@ typedef struct ff_counters {
     double memory_seconds;   /* CUDA: device allocation and transfers */
 } ff_counters;
 
+/* Rows as the sparse format stores them (rad_ff_row_encode's records),
+ * back to back: row r's record is bytes[at[r], at[r + 1]). A view into
+ * the backend's buffers. */
+typedef struct ff_records {
+    const unsigned char *bytes;
+    const uint64_t *at; /* rows + 1 */
+    uint32_t rows;
+} ff_records;
+
 typedef struct ff_backend {
     const char *name;
     rad_status (*create)(const ff_setup *setup, void **out_state);
@@ -117,6 +127,16 @@ typedef struct ff_backend {
      * failure. Freed with free_rows before destroy. */
     double *(*alloc_rows)(void *state, size_t count);
     void (*free_rows)(void *state, double *rows);
+    /* Optional (NULL where a backend has none): compute_rows' rows,
+     * finished where they were computed - scaled into form factors (the
+     * very doubles ff_rows_finish makes), added to *summary, encoded as
+     * sparse records of `element` into *values and, when `errors` is not
+     * NULL, their standard errors as float32 records into *errors - so
+     * that only the stored bytes come back. Not for pairs_once setups (the
+     * mirror needs the rows). The views are valid until the next call. */
+    rad_status (*compute_records)(void *state, uint32_t row_begin, uint32_t row_count, uint32_t element,
+                                  ff_records *values, ff_records *errors, ff_rows_summary *summary,
+                                  ff_counters *counters);
 } ff_backend;
 
 extern const ff_backend ff_backend_cpu;

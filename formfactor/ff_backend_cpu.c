@@ -294,4 +294,5 @@ static void cpu_free_rows(void *state, double *rows)
     free(rows);
 }
 
-const ff_backend ff_backend_cpu = {"cpu", cpu_create, cpu_compute_rows, cpu_destroy, cpu_alloc_rows, cpu_free_rows};
+const ff_backend ff_backend_cpu = {"cpu",          cpu_create,    cpu_compute_rows, cpu_destroy,
+                                   cpu_alloc_rows, cpu_free_rows, NULL};

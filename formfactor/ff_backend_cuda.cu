@@ -19,7 +19,9 @@
  * borderline ray hits (Moller-Trumbore here, Embree there) differ.
  */
 #include <cuda_runtime.h>
+#include <pthread.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
@@ -29,6 +31,7 @@ extern "C" {
 #include "ff_cuda.h"
 #include "rad_log.h"
 }
+#include "ff_cuda_records.h"
 
 /* The tracer the shared per-pair procedure calls: the flat BVH. */
 struct cuda_tracer {
@@ -165,6 +168,8 @@ struct cuda_state {
     size_t out_capacity; /* doubles */
     unsigned long long *d_counters;
     cudaEvent_t start, middle, stop;
+    double *d_area;             /* the patches' areas, contiguous (compute_records) */
+    ff_cuda_records *records;   /* compute_records' buffers; NULL until its first call */
 };
 
 static double now_seconds(void)
@@ -363,7 +368,12 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_RAY_MIN_BLOCKS) 
     if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
 }
 
-extern "C" int ff_cuda_device_count(void)
+/* The prestart thread (ff_cuda.h) and what it found. */
+static pthread_t prestart_thread;
+static int prestart_running, prestart_rank;
+static int prestart_devices = -1; /* -1: not asked */
+
+static int count_devices(void)
 {
     int count = 0;
     if (cudaGetDeviceCount(&count) != cudaSuccess) {
@@ -371,6 +381,38 @@ extern "C" int ff_cuda_device_count(void)
         return 0;
     }
     return count;
+}
+
+static void *prestart_main(void *unused)
+{
+    (void)unused;
+    int count = count_devices();
+    /* cudaFree(0) creates the device's primary context, which the main
+     * thread's cudaSetDevice then finds made. */
+    if (count > 0 && cudaSetDevice(prestart_rank % count) == cudaSuccess) cudaFree(0);
+    cudaGetLastError();
+    prestart_devices = count;
+    return NULL;
+}
+
+extern "C" void ff_cuda_prestart(int rank)
+{
+    if (prestart_running) return;
+    prestart_rank = rank > 0 ? rank : 0;
+    prestart_running = pthread_create(&prestart_thread, NULL, prestart_main, NULL) == 0;
+}
+
+extern "C" void ff_cuda_prestart_join(void)
+{
+    if (!prestart_running) return;
+    pthread_join(prestart_thread, NULL);
+    prestart_running = 0;
+}
+
+extern "C" int ff_cuda_device_count(void)
+{
+    ff_cuda_prestart_join();
+    return prestart_devices >= 0 ? prestart_devices : count_devices();
 }
 
 static void cuda_destroy(void *state)
@@ -387,6 +429,8 @@ static void cuda_destroy(void *state)
     cudaFree(s->d_pair_counts);
     cudaFree(s->d_ray_pairs);
     cudaFree(s->d_counters);
+    cudaFree(s->d_area);
+    ff_cuda_records_free(s->records);
     if (s->start) cudaEventDestroy(s->start);
     if (s->middle) cudaEventDestroy(s->middle);
     if (s->stop) cudaEventDestroy(s->stop);
@@ -417,6 +461,20 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
     CUDA_TRY(cudaMalloc(&s->d_pair_counts, 4 * sizeof(uint32_t)));
     CUDA_TRY(cudaMemcpy(s->d_patches, setup->patches, sizeof(rad_ff_patch) * setup->patch_count,
                         cudaMemcpyHostToDevice));
+    {
+        double *area = (double *)malloc(sizeof(double) * (setup->patch_count ? setup->patch_count : 1));
+        if (!area) {
+            rad_error("out of memory for %u patch areas", setup->patch_count);
+            status = RAD_ERR_NOMEM;
+            goto done;
+        }
+        for (uint32_t j = 0; j < setup->patch_count; j++) area[j] = setup->patches[j].area;
+        cudaError_t err = cudaMalloc(&s->d_area, sizeof(double) * (setup->patch_count ? setup->patch_count : 1));
+        if (err == cudaSuccess)
+            err = cudaMemcpy(s->d_area, area, sizeof(double) * setup->patch_count, cudaMemcpyHostToDevice);
+        free(area);
+        CUDA_TRY(err);
+    }
     if (bvh.node_count)
         CUDA_TRY(cudaMemcpy(s->d_nodes, bvh.nodes, sizeof(ff_bvh_node) * bvh.node_count, cudaMemcpyHostToDevice));
     if (bvh.tri_count)
@@ -442,10 +500,12 @@ done:
     return RAD_OK;
 }
 
-static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t row_count, double *out,
-                                    double *errors, ff_counters *counters)
+/* Rows [row_begin, row_begin + row_count) into s->d_out (and their
+ * standard errors into s->d_errors when `errors`), on the device; the
+ * counters added to *counters. */
+static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_count, int errors,
+                              ff_counters *counters)
 {
-    cuda_state *s = (cuda_state *)state;
     const ff_setup *su = &s->setup;
     rad_status status = RAD_OK;
     size_t need = (size_t)row_count * su->patch_count, ray_room;
@@ -561,11 +621,7 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     CUDA_TRY(cudaEventElapsedTime(&rays_ms, s->middle, s->stop));
     CUDA_TRY(cudaEventElapsedTime(&kernel_ms, s->start, s->stop));
 
-    t_mem = now_seconds();
-    CUDA_TRY(cudaMemcpy(out, s->d_out, sizeof(double) * need, cudaMemcpyDeviceToHost));
-    if (errors) CUDA_TRY(cudaMemcpy(errors, s->d_errors, sizeof(double) * need, cudaMemcpyDeviceToHost));
     CUDA_TRY(cudaMemcpy(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost));
-    counters->memory_seconds += now_seconds() - t_mem;
     computed = need;
     if (su->pairs_once) {
         computed = 0;
@@ -591,8 +647,52 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
         ray_share = counts[C_CYCLES] ? (double)counts[C_RAY_CYCLES] / (double)counts[C_CYCLES] : 0.0;
     counters->kernel_seconds += kernel_ms * 1e-3 * (1.0 - ray_share);
     counters->visibility_seconds += kernel_ms * 1e-3 * ray_share;
-    if (su->progress) su->progress(su->progress_user, row_count);
 done:
+    return status;
+}
+
+static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t row_count, double *out,
+                                    double *errors, ff_counters *counters)
+{
+    cuda_state *s = (cuda_state *)state;
+    size_t need = (size_t)row_count * s->setup.patch_count;
+    rad_status status = run_kernels(s, row_begin, row_count, errors != NULL, counters);
+    if (status != RAD_OK || need == 0) return status;
+    double t_mem = now_seconds();
+    CUDA_TRY(cudaMemcpy(out, s->d_out, sizeof(double) * need, cudaMemcpyDeviceToHost));
+    if (errors) CUDA_TRY(cudaMemcpy(errors, s->d_errors, sizeof(double) * need, cudaMemcpyDeviceToHost));
+    counters->memory_seconds += now_seconds() - t_mem;
+    if (s->setup.progress) s->setup.progress(s->setup.progress_user, row_count);
+done:
+    return status;
+}
+
+/* compute_rows, then finished and encoded on the device (ff_cuda_records.h):
+ * only the records come back. */
+static rad_status cuda_compute_records(void *state, uint32_t row_begin, uint32_t row_count, uint32_t element,
+                                       ff_records *values, ff_records *errors, ff_rows_summary *summary,
+                                       ff_counters *counters)
+{
+    cuda_state *s = (cuda_state *)state;
+    int want_errors = s->setup.errors;
+    *values = ff_records{NULL, NULL, 0};
+    if (errors) *errors = ff_records{NULL, NULL, 0};
+    if (s->setup.pairs_once) {
+        rad_error("internal: compute_records cannot mirror pairs (pairs_once)");
+        return RAD_ERR_INVALID;
+    }
+    if (!s->records && !(s->records = ff_cuda_records_new())) {
+        rad_error("out of memory");
+        return RAD_ERR_NOMEM;
+    }
+    rad_status status = run_kernels(s, row_begin, row_count, want_errors, counters);
+    if (status != RAD_OK || row_count == 0) return status;
+    double t_mem = now_seconds();
+    status = ff_cuda_records_make(s->records, s->d_out, want_errors ? s->d_errors : NULL, s->d_area,
+                                  s->setup.patch_count, row_begin, row_count, element, values,
+                                  want_errors ? errors : NULL, summary);
+    counters->memory_seconds += now_seconds() - t_mem;
+    if (status == RAD_OK && s->setup.progress) s->setup.progress(s->setup.progress_user, row_count);
     return status;
 }
 
@@ -614,5 +714,5 @@ static void cuda_free_rows(void *state, double *rows)
     if (rows) cudaFreeHost(rows);
 }
 
-extern "C" const ff_backend ff_backend_cuda = {"cuda", cuda_create, cuda_compute_rows, cuda_destroy,
-                                               cuda_alloc_rows, cuda_free_rows};
+extern "C" const ff_backend ff_backend_cuda = {"cuda",          cuda_create,    cuda_compute_rows, cuda_destroy,
+                                               cuda_alloc_rows, cuda_free_rows, cuda_compute_records};

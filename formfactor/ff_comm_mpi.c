@@ -46,6 +46,16 @@ static int launched_by_mpi(void)
     return 0;
 }
 
+int ff_comm_launcher_rank(void)
+{
+    static const char *const vars[] = {"OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"};
+    for (size_t k = 0; k < sizeof vars / sizeof vars[0]; k++) {
+        const char *v = getenv(vars[k]);
+        if (v && *v >= '0' && *v <= '9') return atoi(v);
+    }
+    return 0;
+}
+
 /* MPI counts are int: large writes go in pieces of at most this many bytes. */
 #define FF_MPI_MAX_BYTES ((size_t)1 << 30)
 

@@ -5,6 +5,8 @@
 #include "rad_log.h"
 
 int ff_cuda_device_count(void) { return 0; }
+void ff_cuda_prestart(int rank) { (void)rank; }
+void ff_cuda_prestart_join(void) {}
 
 static rad_status none_create(const ff_setup *setup, void **out_state)
 {
@@ -31,5 +33,5 @@ static double *none_alloc_rows(void *state, size_t count)
 
 static void none_free_rows(void *state, double *rows) { (void)state, (void)rows; }
 
-const ff_backend ff_backend_cuda = {"cuda", none_create, none_compute_rows, none_destroy, none_alloc_rows,
-                                    none_free_rows};
+const ff_backend ff_backend_cuda = {"cuda",          none_create,    none_compute_rows, none_destroy,
+                                    none_alloc_rows, none_free_rows, NULL};

@@ -328,6 +328,58 @@ static rad_status write_round(ff_run *run, const ff_files *files, uint32_t r0, u
     return st;
 }
 
+/* The same for rows the backend encoded (compute_records). */
+static rad_status write_records_round(ff_run *run, const ff_files *files, uint32_t r0, uint32_t count,
+                                      const ff_records *values, const ff_records *errors)
+{
+    double t0 = ff_comm_time();
+    rad_status st = ff_output_write_records(files->matrix, r0, count, values);
+    if (files->errors) {
+        rad_status e = ff_output_write_records(files->errors, r0, count, errors);
+        if (st == RAD_OK) st = e;
+    }
+    run->stats.io += ff_comm_time() - t0;
+    return st;
+}
+
+/* Whether rounds come back from the backend finished and encoded
+ * (compute_records: the CUDA backend scales and encodes on the GPU and
+ * returns only the stored bytes) instead of as rows the CPU finishes:
+ * for streamed rounds (not pairs_once, whose mirror needs the rows) of the
+ * sparse format. RAD_FF_FINISH=host turns it off (tests compare the two:
+ * the same bytes). */
+static int records_from_backend(const ff_run *run)
+{
+    const char *finish = getenv("RAD_FF_FINISH");
+    return run->backend->compute_records && !run->plan.pairs_once && run->opt.format == FF_FORMAT_SPARSE &&
+           !(finish && strcmp(finish, "host") == 0);
+}
+
+/* Streamed rounds finished by the backend: the rank's rows, round by
+ * round, computed, finished and encoded by the backend, and written
+ * collectively. Every rank joins every write, with no rows after a
+ * failure. */
+static rad_status compute_record_rounds(ff_run *run, const ff_files *files, ff_counters *counters)
+{
+    const ff_plan *plan = &run->plan;
+    int rank = ff_comm_rank(run->comm);
+    uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1], r0, count;
+    uint32_t element = run->opt.element;
+    rad_status st = RAD_OK;
+    for (uint64_t round = 0; round < plan->rounds; round++) {
+        count = round_rows(begin, end, plan->rows_per_round, round, &r0);
+        ff_records values = {0}, errors = {0};
+        if (st == RAD_OK && count > 0) {
+            run->progress_base = r0 - begin;
+            st = run->backend->compute_records(run->backend_state, r0, count, element, &values,
+                                               files->errors ? &errors : NULL, &run->stats.rows, counters);
+        }
+        rad_status w = write_records_round(run, files, r0, st == RAD_OK ? count : 0, &values, &errors);
+        if (st == RAD_OK) st = w;
+    }
+    return st;
+}
+
 /* A buffer of `count` doubles, from the backend up to FF_BACKEND_BUFFER_MAX (ff_plan.h). */
 static double *alloc_buffer(ff_run *run, size_t count)
 {
@@ -450,6 +502,7 @@ static rad_status complete_block(ff_run *run, double *block, double *errors, ff_
  * collective write, with no rows after a failure. */
 static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters *counters)
 {
+    if (records_from_backend(run)) return compute_record_rounds(run, files, counters);
     const ff_plan *plan = &run->plan;
     int rank = ff_comm_rank(run->comm);
     uint32_t n = (uint32_t)run->mesh.patch_count;

@@ -307,3 +307,23 @@ rad_status ff_options_parse(int argc, char **argv, ff_options *out)
     rad_status status = parse_argv(argc, argv, out);
     return status == RAD_OK ? check_options(out) : status;
 }
+
+/* "--backend" as getopt_long takes it: the whole name or an unambiguous
+ * abbreviation ("--back"; "--b" alone is not: --b could be --by-...). */
+static int names_backend(const char *arg, size_t len)
+{
+    return len >= 4 && len <= 9 && strncmp(arg, "--backend", len) == 0;
+}
+
+int ff_options_may_use_gpu(int argc, char **argv)
+{
+    for (int k = 1; k < argc; k++) {
+        const char *a = argv[k];
+        if (strcmp(a, "--") == 0) break;
+        if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0 || strcmp(a, "--version") == 0) return 0;
+        const char *eq = strchr(a, '=');
+        if (eq && names_backend(a, (size_t)(eq - a)) && strcmp(eq + 1, "cpu") == 0) return 0;
+        if (!eq && names_backend(a, strlen(a)) && k + 1 < argc && strcmp(argv[k + 1], "cpu") == 0) return 0;
+    }
+    return 1;
+}

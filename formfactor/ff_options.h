@@ -75,6 +75,12 @@ typedef struct ff_options {
  * "Threat model: files on disk"). RAD_ERR_USAGE, logged, otherwise. */
 rad_status ff_options_parse(int argc, char **argv, ff_options *out);
 
+/* 0 when argv says the run will not touch a GPU (--backend cpu, --help,
+ * --version), else 1: a quick look before MPI starts and the options are
+ * parsed, so that CUDA can start early (ff_cuda.h). A wrong 1 only costs
+ * the start of CUDA. */
+int ff_options_may_use_gpu(int argc, char **argv);
+
 /* The --help text (for stdout). */
 extern const char ff_options_help[];
 

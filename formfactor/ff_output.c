@@ -126,6 +126,9 @@ rad_status ff_output_reserve(ff_output *o, uint32_t row_count, const double *row
     return RAD_OK;
 }
 
+static rad_status place_and_write(ff_output *o, uint32_t row_begin, uint64_t first, uint64_t bytes, const void *data,
+                                  rad_status status);
+
 static rad_status grow_row_tables(ff_output *o, uint32_t row_count)
 {
     if (o->checksum_count + row_count <= o->checksum_cap) return RAD_OK;
@@ -200,10 +203,46 @@ rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_c
         o->row_checksums[first + r] = rad_ff_row_checksum(dst, at[r + 1] - at[r]);
     }
     o->checksum_count += row_count;
-    uint64_t bytes = row_count ? at[row_count] : 0;
+    return place_and_write(o, row_begin, first, row_count ? at[row_count] : 0, o->convert, status);
+}
+
+rad_status ff_output_write_records(ff_output *o, uint32_t row_begin, uint32_t row_count, const ff_records *records)
+{
+    rad_status status = RAD_OK;
+    if (o->format != FF_FORMAT_SPARSE || (row_count && records->rows != row_count)) {
+        rad_error("internal: %u encoded rows for a %s file", row_count,
+                  o->format == FF_FORMAT_SPARSE ? "different number of" : "file that is not sparse:");
+        status = RAD_ERR_INVALID;
+        row_count = 0;
+    }
+    if (status == RAD_OK && (status = grow_row_tables(o, row_count)) != RAD_OK) row_count = 0;
+    uint64_t first = o->checksum_count;
+    int64_t count = row_count;
+#pragma omp parallel for num_threads(o->threads) schedule(dynamic, 16)
+    for (int64_t r = 0; r < count; r++) {
+        const uint64_t *at = records->at;
+        o->row_offsets[first + r] = at[r] - at[0]; /* from this write's start, fixed below */
+        o->row_checksums[first + r] = rad_ff_row_checksum(records->bytes + at[r], at[r + 1] - at[r]);
+    }
+    o->checksum_count += row_count;
+    const unsigned char *data = row_count ? records->bytes + records->at[0] : NULL;
+    return place_and_write(o, row_begin, first, row_count ? records->at[row_count] - records->at[0] : 0, data,
+                           status);
+}
+
+/* The end of every write (collective): where this rank's `bytes` of rows
+ * [row_begin, ...) go - their place in the dense layout, or (sparse) after
+ * the records written so far, by an exclusive scan of the ranks' sizes,
+ * which also turns the offsets of the row index entries from `first` on
+ * into the file's - and the write itself. Returns `status` if it is not
+ * RAD_OK. */
+static rad_status place_and_write(ff_output *o, uint32_t row_begin, uint64_t first, uint64_t bytes, const void *data,
+                                  rad_status status)
+{
+    uint64_t rb = o->layout.row_bytes;
     uint64_t offset = o->format == FF_FORMAT_PAPER ? 4 + (uint64_t)row_begin * rb
                                                   : o->layout.matrix_offset + (uint64_t)row_begin * rb;
-    if (sparse) {
+    if (o->format == FF_FORMAT_SPARSE) {
         /* Every rank takes part in the scan, as in the write below. */
         uint64_t base;
         if (o->reserved) {
@@ -218,7 +257,7 @@ rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_c
         offset = o->layout.matrix_offset + base;
     }
     /* Every rank takes part in the collective write, even with nothing to write. */
-    rad_status written = ff_comm_file_write_all(o->file, offset, o->convert, (size_t)bytes);
+    rad_status written = ff_comm_file_write_all(o->file, offset, data, (size_t)bytes);
     return status != RAD_OK ? status : written;
 }
 

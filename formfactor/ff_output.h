@@ -25,6 +25,7 @@
 
 #include <stdint.h>
 
+#include "ff_backend.h"
 #include "ff_comm.h"
 #include "rad_ffile.h"
 
@@ -49,6 +50,10 @@ uint32_t ff_output_max_rows(uint64_t patch_count, ff_format format, rad_element_
 rad_status ff_output_reserve(ff_output *output, uint32_t row_count, const double *rows);
 /* Collective: this rank's rows [row_begin, row_begin + row_count) (row_count may be 0). */
 rad_status ff_output_write_rows(ff_output *output, uint32_t row_begin, uint32_t row_count, const double *rows);
+/* Collective, sparse format: the same as ff_output_write_rows for rows
+ * that are already encoded (a backend's compute_records, ff_backend.h). */
+rad_status ff_output_write_records(ff_output *output, uint32_t row_begin, uint32_t row_count,
+                                   const ff_records *records);
 /* Collective, in two steps so that several files can appear together:
  * close writes the header and closes the file under its temporary name;
  * commit renames it to its final name, or removes it if `status` is not

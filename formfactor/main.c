@@ -10,6 +10,7 @@
 #include <stdio.h>
 
 #include "ff_comm.h"
+#include "ff_cuda.h"
 #include "ff_driver.h"
 #include "ff_options.h"
 #include "rad_log.h"
@@ -19,9 +20,15 @@
 int main(int argc, char **argv)
 {
     rad_log_set_program("formfactor");
+    /* CUDA starts while MPI and the scene do (ff_cuda.h), unless the run
+     * will not use it. */
+    if (ff_options_may_use_gpu(argc, argv)) ff_cuda_prestart(ff_comm_launcher_rank());
     ff_comm *comm = NULL;
     rad_status st = ff_comm_init(&argc, &argv, &comm);
-    if (st != RAD_OK) return rad_status_exit_code(st);
+    if (st != RAD_OK) {
+        ff_cuda_prestart_join();
+        return rad_status_exit_code(st);
+    }
     int rank = ff_comm_rank(comm);
     ff_options options;
     rad_log_level level = rad_log_get_level();
@@ -40,6 +47,7 @@ int main(int argc, char **argv)
     } else if (rank == 0) {
         fprintf(stderr, "formfactor: try --help\n");
     }
+    ff_cuda_prestart_join();
     ff_comm_finalize(comm);
     return rad_status_exit_code(st);
 }
