@@ -85,6 +85,11 @@ typedef struct rad_ff_info {
 
 #define RAD_FF_FLAG_PARTIAL_SUBDIV 1u /* only one group was subdivided */
 #define RAD_FF_FLAG_STANDARD_ERRORS 2u /* the matrix holds standard errors of F (--errors), not F */
+/* F_ij = c_ij A_j with c_ij = c_ji to the bit (rad_ff_kernel.h): the matrix
+ * is reciprocal but for the rounding of the two products and of the stored
+ * element type. formfactor sets it; solve then bounds the CG check's skew
+ * term by that rounding instead of measuring it (docs/solve.md). */
+#define RAD_FF_FLAG_RECIPROCAL 4u
 
 /* Byte offsets of each section, derived from N, V, G and the element type. */
 typedef struct rad_ff_layout {

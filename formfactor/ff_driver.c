@@ -606,7 +606,7 @@ static rad_status open_outputs(ff_run *run, ff_files *files)
                         .element_type = run->opt.element, .estimator = run->opt.estimator,
                         .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
                         .scene_fingerprint = run->scene.fingerprint, .subdiv = run->opt.subdiv,
-                        .flags = run->opt.subdiv_only ? RAD_FF_FLAG_PARTIAL_SUBDIV : 0,
+                        .flags = (run->opt.subdiv_only ? RAD_FF_FLAG_PARTIAL_SUBDIV : 0) | RAD_FF_FLAG_RECIPROCAL,
                         .group_count = (uint32_t)run->mesh.group_count};
     snprintf(info.scene_name, sizeof info.scene_name, "%s",
              run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name);
@@ -614,7 +614,7 @@ static rad_status open_outputs(ff_run *run, ff_files *files)
     if (st == RAD_OK && run->opt.errors_path) {
         rad_ff_info error_info = info;
         error_info.element_type = RAD_ELEMENT_F32;
-        error_info.flags |= RAD_FF_FLAG_STANDARD_ERRORS;
+        error_info.flags = (error_info.flags & ~RAD_FF_FLAG_RECIPROCAL) | RAD_FF_FLAG_STANDARD_ERRORS;
         ff_format format = run->opt.format == FF_FORMAT_SPARSE ? FF_FORMAT_SPARSE : FF_FORMAT_DENSE;
         st = ff_output_open(run->comm, run->opt.errors_path, format, &error_info, &run->mesh, &files->errors);
         if (st != RAD_OK) files->errors = NULL;
@@ -651,7 +651,9 @@ static rad_status run_formfactor(ff_run *run)
         return RAD_ERR_NOMEM;
     }
     /* Asking CUDA starts its driver (~0.5 s); a CPU run does not need it. */
+    double t_cuda = ff_comm_time();
     run->gpus = run->opt.backend != FF_BACKEND_CPU ? ff_cuda_device_count() : 0;
+    run->stats.cuda_start = ff_comm_time() - t_cuda;
     if ((st = ff_comm_agree(run->comm, setup(run))) != RAD_OK) return st;
     if (rank == 0)
         rad_info("%s: %zu patches from %zu faces, %u samples and %u shadow rays per pair, %d rank(s) x %d thread(s), "
@@ -662,7 +664,9 @@ static rad_status run_formfactor(ff_run *run)
     run->progress_every = 2.0;
     run->estimated_seconds = -1;
     run->progress_tty = rank == 0 && isatty(STDERR_FILENO) && rad_log_get_level() >= RAD_LOG_INFO;
+    double t_estimate = ff_comm_time();
     if (rank == 0 && rad_log_get_level() >= RAD_LOG_INFO) estimate(run);
+    run->stats.estimate = ff_comm_time() - t_estimate;
 
     ff_files files = {0};
     double t0 = ff_comm_time();

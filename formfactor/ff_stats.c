@@ -17,6 +17,7 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
 #define FF_MAX(field) all.field = s->field > all.field ? s->field : all.field
         FF_MAX(load); FF_MAX(subdivide); FF_MAX(setup); FF_MAX(form_factors);
         FF_MAX(visibility); FF_MAX(io); FF_MAX(total); FF_MAX(gpu_memory); FF_MAX(mirror);
+        FF_MAX(cuda_start); FF_MAX(estimate);
 #undef FF_MAX
         all.counters.pairs += s->counters.pairs;
         all.counters.pairs_mirrored += s->counters.pairs_mirrored;
@@ -76,6 +77,8 @@ static void put_times(rad_json_writer *w, const ff_rank_stats *s)
     put_time(w, "visibility", s->visibility);
     put_time(w, "gpu_memory", s->gpu_memory);
     put_time(w, "mirror", s->mirror);
+    put_time(w, "cuda_start", s->cuda_start);
+    put_time(w, "estimate", s->estimate);
     put_time(w, "io", s->io);
     put_time(w, "total", s->total);
     rad_json_end_object(w);

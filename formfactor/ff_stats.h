@@ -17,6 +17,8 @@ typedef struct ff_rank_stats {
     double load, subdivide, setup, form_factors, visibility, io, total;
     double mirror;     /* --reciprocity on: copying entries between rows and ranks */
     double gpu_memory; /* CUDA: allocation + transfers (form_factors is then the GPU kernel) */
+    double cuda_start; /* waiting for CUDA's driver and context (what ff_cuda_prestart did not hide) */
+    double estimate;   /* the estimate line's calibration (rank 0) */
     ff_counters counters;
     ff_rows_summary rows; /* row sums and standard errors of this rank's rows */
 } ff_rank_stats;
