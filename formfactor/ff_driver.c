@@ -344,15 +344,14 @@ static rad_status write_records_round(ff_run *run, const ff_files *files, uint32
 
 /* Whether rounds come back from the backend finished and encoded
  * (compute_records: the CUDA backend scales and encodes on the GPU and
- * returns only the stored bytes) instead of as rows the CPU finishes:
- * for streamed rounds (not pairs_once, whose mirror needs the rows) of the
- * sparse format. RAD_FF_FINISH=host turns it off (tests compare the two:
- * the same bytes). */
+ * returns only the stored bytes) instead of as rows the CPU finishes: where
+ * the plan says so (streamed rounds of a sparse file on the GPU) and the
+ * backend can. RAD_FF_FINISH=host turns it off (tests compare the two: the
+ * same bytes); the plan's larger rounds then come back as rows. */
 static int records_from_backend(const ff_run *run)
 {
     const char *finish = getenv("RAD_FF_FINISH");
-    return run->backend->compute_records && !run->plan.pairs_once && run->opt.format == FF_FORMAT_SPARSE &&
-           !(finish && strcmp(finish, "host") == 0);
+    return run->plan.device_records && run->backend->compute_records && !(finish && strcmp(finish, "host") == 0);
 }
 
 /* Streamed rounds finished by the backend: the rank's rows, round by
@@ -508,7 +507,9 @@ static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters
     uint32_t n = (uint32_t)run->mesh.patch_count;
     uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
     double *rows = NULL, *errors = NULL;
-    rad_status st = alloc_buffers(run, plan->buffer_doubles, &rows, &errors);
+    /* Rounds the plan meant for the backend to finish (RAD_FF_FINISH=host) come back as rows. */
+    size_t buffer_doubles = plan->device_records ? (size_t)plan->rows_per_round * n : plan->buffer_doubles;
+    rad_status st = alloc_buffers(run, buffer_doubles, &rows, &errors);
     if (st != RAD_OK) {
         if (plan->pairs_once)
             rad_error("out of memory for this rank's %u rows of %u form factors (try --reciprocity off)", end - begin,
@@ -549,8 +550,8 @@ static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters
             }
         }
     }
-    free_buffer(run, plan->buffer_doubles, rows);
-    if (errors) free_buffer(run, plan->buffer_doubles, errors);
+    free_buffer(run, buffer_doubles, rows);
+    if (errors) free_buffer(run, buffer_doubles, errors);
     return st;
 }
 

@@ -12,11 +12,11 @@ static size_t product_or_max(uint64_t a, uint64_t b)
     return b != 0 && a > SIZE_MAX / b ? SIZE_MAX : (size_t)(a * b);
 }
 
-/* Rows per round: FF_ROUND_BYTES of doubles, at least 16 rows, at most
+/* Rows per round: round_bytes of doubles, at least 16 rows, at most
  * what one collective write carries. */
-static uint32_t rows_per_round(uint64_t n, uint32_t max_rows_per_write)
+static uint32_t rows_per_round(uint64_t n, uint64_t round_bytes, uint32_t max_rows_per_write)
 {
-    uint64_t by_memory = FF_ROUND_BYTES / (sizeof(double) * (n ? n : 1));
+    uint64_t by_memory = round_bytes / (sizeof(double) * (n ? n : 1));
     if (by_memory < 16) by_memory = 16;
     if (by_memory > UINT32_MAX) by_memory = UINT32_MAX;
     return max_rows_per_write && max_rows_per_write < by_memory ? max_rows_per_write : (uint32_t)by_memory;
@@ -77,9 +77,11 @@ void ff_plan_make(const ff_plan_limits *limits, const ff_plan_choices *choices, 
                      !(plan.gpu && rows_bytes > (double)FF_BACKEND_BUFFER_MAX);
     plan.pairs_once = choices->reciprocity == FF_RECIPROCITY_ON || (choices->reciprocity == FF_RECIPROCITY_AUTO && block_fits);
 
-    plan.rows_per_round = rows_per_round(n, limits->max_rows_per_write);
+    plan.device_records = plan.gpu && !plan.pairs_once && choices->format == FF_FORMAT_SPARSE;
+    plan.rows_per_round = rows_per_round(n, plan.device_records ? FF_DEVICE_ROUND_BYTES : FF_ROUND_BYTES,
+                                         limits->max_rows_per_write);
     plan.rounds = (most_rows + plan.rows_per_round - 1) / plan.rows_per_round;
-    plan.buffer_doubles = product_or_max(plan.pairs_once ? rank_rows : plan.rows_per_round, n);
+    plan.buffer_doubles = plan.device_records ? 1 : product_or_max(plan.pairs_once ? rank_rows : plan.rows_per_round, n);
     if (plan.buffer_doubles == 0) plan.buffer_doubles = 1;
     *out_plan = plan;
 }

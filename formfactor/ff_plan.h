@@ -38,6 +38,11 @@
  * enough that a GPU launch fills the device (N = 2944 is one round), small
  * enough that a streamed run's memory stays O(N), not O(N^2). */
 #define FF_ROUND_BYTES ((uint64_t)96 << 20)
+/* The same where the GPU streams rows into a sparse file: the rows stay on
+ * the device and only their records come back (compute_records), so a
+ * round can be larger - fewer launches, copies and collective writes
+ * (N = 47 104: 1425 rows, capped by one write, instead of 267). */
+#define FF_DEVICE_ROUND_BYTES ((uint64_t)1 << 30)
 /* Buffers up to this size come from the backend (page-locked for CUDA, so
  * results stream back by DMA); larger ones - a whole rank's rows with
  * --reciprocity on - from malloc. */
@@ -102,6 +107,11 @@ typedef struct ff_plan {
      * agree: where one rank's plan streams, all must (the driver then plans
      * again with FF_RECIPROCITY_OFF). */
     int pairs_once;
+    /* Streamed rounds of a sparse file on the GPU come back finished and
+     * encoded (the backend's compute_records; the driver falls back to
+     * finishing on the CPU where the backend has none): rounds of
+     * FF_DEVICE_ROUND_BYTES, and no row buffers on the host. */
+    int device_records;
     uint32_t rows_per_round; /* rows computed, and written in one collective write, together */
     uint64_t rounds;         /* rounds of the largest block: every rank joins every round's write */
     /* Doubles in each row buffer (values; errors too when standard_errors):

@@ -104,9 +104,22 @@ static void memory_limited(void)
     limits.gpus_visible = 1;
     ff_plan gpu = make(&limits, &choices);
     RAD_CHECK(gpu.gpu == 1 && gpu.pairs_once == 0);
+    /* ... and its rounds come back as records (the sparse default):
+     * FF_DEVICE_ROUND_BYTES of doubles, 2849 rows, capped by one write;
+     * no row buffers on the host. Dense files come back as rows. */
+    RAD_CHECK(gpu.device_records == 1 && gpu.buffer_doubles == 1);
+    RAD_CHECK(gpu.rows_per_round == 2849 && gpu.rounds == 5); /* floor(1 GiB / (8 x 47104)); ceil(11776 / 2849) */
+    limits.max_rows_per_write = 1425;
+    RAD_CHECK(make(&limits, &choices).rows_per_round == 1425);
+    limits.max_rows_per_write = 0;
+    choices.format = FF_FORMAT_DENSE;
+    ff_plan dense = make(&limits, &choices);
+    RAD_CHECK(dense.device_records == 0 && dense.rows_per_round == 267 && dense.buffer_doubles == (size_t)267 * 47104);
+    choices.format = FF_FORMAT_SPARSE;
     /* --reciprocity on and off are obeyed, whatever the memory. */
     choices.reciprocity = FF_RECIPROCITY_ON;
     RAD_CHECK(make(&limits, &choices).pairs_once == 1);
+    RAD_CHECK(make(&limits, &choices).device_records == 0); /* the mirror needs the rows */
     limits.gpus_visible = 0;
     choices.reciprocity = FF_RECIPROCITY_OFF;
     RAD_CHECK(make(&limits, &choices).pairs_once == 0);
