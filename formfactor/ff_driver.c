@@ -615,7 +615,7 @@ static rad_status open_outputs(ff_run *run, ff_files *files)
     if (st == RAD_OK && run->opt.errors_path) {
         rad_ff_info error_info = info;
         error_info.element_type = RAD_ELEMENT_F32;
-        error_info.flags = (error_info.flags & ~RAD_FF_FLAG_RECIPROCAL) | RAD_FF_FLAG_STANDARD_ERRORS;
+        error_info.flags |= RAD_FF_FLAG_STANDARD_ERRORS; /* the matrix's flags besides: solve matches them */
         ff_format format = run->opt.format == FF_FORMAT_SPARSE ? FF_FORMAT_SPARSE : FF_FORMAT_DENSE;
         st = ff_output_open(run->comm, run->opt.errors_path, format, &error_info, &run->mesh, &files->errors);
         if (st != RAD_OK) files->errors = NULL;
