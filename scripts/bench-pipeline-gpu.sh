@@ -5,8 +5,10 @@
 # $OUT.
 #   . .devdeps/setup.sh && scripts/bench-pipeline-gpu.sh
 # SUBDIVS: the sizes of the large runs (default "5": N = 47104; 6 is
-# N = 188416, about 2 min); TESTS=0 skips the tests; SOLVE_ARGS are added
-# to every solve (e.g. "--backend cuda").
+# N = 188416, about 2 min); TESTS=0 skips the tests; SOLVE_BACKENDS the
+# solve backends timed (default "cpu"); SOLVE_RANKS, FF_RANKS rank counts
+# for mpirun runs of solve and formfactor (several ranks on the one GPU);
+# SOLVE_ARGS are added to every solve.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out=${OUT:-bench-out}; mkdir -p "$out"
@@ -42,8 +44,18 @@ PY
 }
 ff="$build/formfactor"; solve="$build/solve"; scene=scenes/cornell_sphere.obj
 echo "--- fixed costs, N = 2944"
+nvidia-smi --query-gpu=persistence_mode --format=csv,noheader | sed 's/^/persistence mode: /'
+if nvcc -O2 -o "$work/cuda_start_cost" tools/cuda_start_cost.cu > "$out/cuda_start_cost.build.log" 2>&1; then
+  for r in 1 2; do
+    t cuda_start_return "$work/cuda_start_cost"; sed 's/^/    /' "$out/cuda_start_return.log" | head -1
+    t cuda_start__exit "$work/cuda_start_cost" _exit; sed 's/^/    /' "$out/cuda_start__exit.log" | head -1
+  done
+fi
 t ff_version "$ff" --version
 t ff_version_cpu "$ff" --version --backend cpu
+t n20_ff "$ff" --backend cuda -q -o "$work/ff0" --stats "$out/n20_ff.json"; phases "$out/n20_ff.json"
+t n2944_ff_streamed "$ff" $scene --subdiv 3 --backend cuda --reciprocity off -q -o "$work/ff3s" \
+  --stats "$out/n2944_ff_streamed.json"; phases "$out/n2944_ff_streamed.json"
 for r in 1 2 3; do
   t "n2944_ff_$r" "$ff" $scene --subdiv 3 --backend cuda -q -o "$work/ff3" --stats "$out/n2944_ff_$r.json"
   phases "$out/n2944_ff_$r.json"
@@ -62,8 +74,23 @@ for s in ${SUBDIVS:-5}; do
     [ "${HOST_TOO:-1}" = 1 ] || break
   done
   sync
-  t "s${s}_solve" "$solve" "$work/ff$s" -o "$work/rad$s" ${SOLVE_ARGS:-} --stats "$out/s${s}_solve.json"
-  grep -E "load|CG|iterations|seconds|backend" "$out/s${s}_solve.log" | head -12 | sed 's/^/    /'
-  rm -f "$work/ff$s" "$work/rad$s"
+  for b in ${SOLVE_BACKENDS:-cpu}; do
+    t "s${s}_solve_$b" "$solve" "$work/ff$s" -o "$work/rad$s.$b" --backend $b ${SOLVE_ARGS:-} --stats "$out/s${s}_solve_$b.json"
+    grep -E "load|CG|iterations|backend|round" "$out/s${s}_solve_$b.log" | head -12 | sed 's/^/    /'
+  done
+  for k in ${SOLVE_RANKS:-}; do
+    t "s${s}_solve_mpi$k" mpirun --oversubscribe -n $k "$solve" "$work/ff$s" -o "$work/rad$s.mpi$k" --backend cpu \
+      ${SOLVE_ARGS:-} --stats "$out/s${s}_solve_mpi$k.json"
+    grep -E "load|CG|iterations|rank" "$out/s${s}_solve_mpi$k.log" | head -6 | sed 's/^/    /'
+  done
+  for k in ${FF_RANKS:-}; do   # several ranks sharing the one GPU
+    t "s${s}_ff_mpi$k" mpirun --oversubscribe -n $k "$ff" $scene --subdiv $s --element f32 --backend cuda -q \
+      -o "$work/ff$s.mpi$k" --stats "$out/s${s}_ff_mpi$k.json"
+    phases "$out/s${s}_ff_mpi$k.json"
+    cmp -s "$work/ff$s" "$work/ff$s.mpi$k" && echo "    same bytes as 1 rank" || echo "    DIFFERENT bytes from 1 rank"
+    rm -f "$work/ff$s.mpi$k"
+  done
+  rm -f "$work/ff$s" "$work/rad$s"*
 done
 rm -rf "$work"
+tar czf "$out/all.tgz" -C "$out" --exclude all.tgz . 2>/dev/null  # more than the files limit comes back in one
