@@ -153,6 +153,7 @@ typedef struct channel_solve {
     double *buffers;
     solve_method method;
     int trivial;       /* nothing emits: B = 0, no iteration */
+    double verified;   /* omega of run.B already verified (the GPU's rounds); NAN: not yet */
 } channel_solve;
 
 static void channel_free(channel_solve *ch)
@@ -167,6 +168,7 @@ static rad_status channel_begin(const solve_system *system, const double *rho, c
                                 const solve_params *params, solve_skew_cache *skew, channel_solve *ch)
 {
     memset(ch, 0, sizeof *ch);
+    ch->verified = NAN;
     ch->rep.reciprocity = -1;
     ch->rep.margin = NAN;
     const size_t n = system->patch_count;
@@ -225,7 +227,7 @@ static rad_status channel_end(const solve_system *system, channel_solve *ch, dou
     solve_run *run = &ch->run;
     solve_report *rep = &ch->rep;
     if (!ch->trivial) {
-        rep->residual = solve_run_residual(run, run->B);
+        rep->residual = isnan(ch->verified) ? solve_run_residual(run, run->B) : ch->verified;
         if (!isfinite(rep->residual)) {
             rad_error("%s: the solution is not finite (overflow: is some emission near the largest double?)",
                       run->label);
@@ -272,8 +274,9 @@ rad_status solve_channels(const solve_system *system, size_t count, const double
     char **cg_why = calloc(count, sizeof *cg_why);
     int *cg_stopped = calloc(count, sizeof *cg_stopped);
     size_t *cg_channel = calloc(count, sizeof *cg_channel);
+    solve_gpu_channel *lanes = calloc(count, sizeof *lanes);
     memset(out_result, 0, sizeof *out_result);
-    if (!ch || !cg_runs || !cg_why || !cg_stopped || !cg_channel) {
+    if (!ch || !cg_runs || !cg_why || !cg_stopped || !cg_channel || !lanes) {
         rad_error("out of memory for %zu channels", count);
         status = RAD_ERR_NOMEM;
         goto done;
@@ -289,37 +292,55 @@ rad_status solve_channels(const solve_system *system, size_t count, const double
     free(skew.delta);
     for (size_t c = 0; c < count; c++) ch[c].run.skew = NULL;
     if (status != RAD_OK) goto done;
-    /* CG channels together, one pass over F per iteration for all. */
+    /* CG channels together, one pass over F per iteration for all; on the
+     * GPU Jacobi channels too, in rounds verified with the double matrix. */
     size_t cg_count = 0;
     for (size_t c = 0; c < count; c++) {
-        if (ch[c].trivial || ch[c].method != SOLVE_CG) continue;
-        ch[c].rep.method_used = SOLVE_CG;
+        int on_gpu = system->gpu && ch[c].method == SOLVE_JACOBI;
+        if (ch[c].trivial || (ch[c].method != SOLVE_CG && !on_gpu)) continue;
+        ch[c].rep.method_used = ch[c].method;
+        lanes[cg_count] = (solve_gpu_channel){.run = &ch[c].run, .method = ch[c].method,
+                                              .why = ch[c].rep.fallback_reason,
+                                              .why_size = sizeof ch[0].rep.fallback_reason};
         cg_runs[cg_count] = &ch[c].run;
         cg_why[cg_count] = ch[c].rep.fallback_reason;
         cg_channel[cg_count++] = c;
     }
     if (cg_count) {
         double t = solve_now();
-        status = solve_cg_many(cg_runs, cg_count, cg_stopped, cg_why, sizeof ch[0].rep.fallback_reason);
+        if (system->gpu) {
+            status = solve_gpu_channels(system->gpu, lanes, cg_count);
+            for (size_t k = 0; k < cg_count; k++) {
+                cg_stopped[k] = lanes[k].stopped;
+                ch[cg_channel[k]].rep.rounds = lanes[k].rounds;
+                if (!lanes[k].stopped) ch[cg_channel[k]].verified = lanes[k].verified;
+            }
+        } else {
+            status = solve_cg_many(cg_runs, cg_count, NULL, cg_stopped, cg_why, sizeof ch[0].rep.fallback_reason);
+        }
         out_result->lockstep_channels = cg_count;
         out_result->lockstep_seconds = solve_now() - t;
         if (status != RAD_OK) goto done;
     }
-    /* The rest one by one: other methods, and CG channels that stopped
-     * (finished by Gauss-Seidel from where CG left them). */
+    /* The rest one by one on the CPU: other methods, and CG channels that
+     * stopped (finished by Gauss-Seidel from where CG left them). */
     for (size_t k = 0, c = 0; c < count; c++) {
         channel_solve *h = &ch[c];
         if (h->trivial) continue;
-        int was_cg = k < cg_count && cg_channel[k] == c;
-        if (was_cg) {
+        int was_lane = k < cg_count && cg_channel[k] == c;
+        if (was_lane) {
             int stopped = cg_stopped[k++];
             if (!stopped) continue;
             h->rep.fell_back = 1;
-            rad_warn("%s: %s; continuing with gauss-seidel from iteration %u", h->run.label, h->rep.fallback_reason,
-                     h->run.iterations);
+            rad_warn("%s: %s; continuing with gauss-seidel from iteration %u%s", h->run.label, h->rep.fallback_reason,
+                     h->run.iterations, system->gpu ? " (on the CPU)" : "");
             h->rep.method_used = SOLVE_GAUSS_SEIDEL;
             status = solve_gauss_seidel(&h->run);
         } else {
+            if (system->gpu)
+                rad_info("%s: gauss-seidel is sequential, row after row: it runs on the CPU (the GPU runs cg and "
+                         "jacobi)",
+                         h->run.label);
             status = run_methods(&h->run, h->method, &h->rep);
         }
         if (status != RAD_OK) goto done;
@@ -342,6 +363,7 @@ done:
     free(cg_why);
     free(cg_stopped);
     free(cg_channel);
+    free(lanes);
     return status;
 }
 
