@@ -128,8 +128,12 @@ typedef struct solve_gpu_channel {
  * tolerances solve allows (docs/solve.md). */
 #define SOLVE_GPU_MAX_ROUNDS 4
 /* Rounds after the first aim this much below the tolerance, so that the
- * host's verification, which sums in another order, agrees. */
-#define SOLVE_GPU_ROUND_MARGIN 0.1
+ * host's verification, which sums in another order, agrees: where B is
+ * large against E (rho near 1) the two omegas differ by ~1e-12, and a slow
+ * Jacobi can stop within 1 % of the tolerance (measured: emulated, a
+ * sphere at rho = 0.99). It costs log(0.5)/log(rate) more iterations, and
+ * only when a second round is needed anyway. */
+#define SOLVE_GPU_ROUND_MARGIN 0.5
 
 rad_status solve_gpu_channels(solve_gpu *gpu, solve_gpu_channel *channels, size_t count);
 

@@ -81,7 +81,7 @@ rad_status solve_gpu_channels(solve_gpu *gpu, solve_gpu_channel *channels, size_
                     refined_emission(run, emission[c], run->B, refined + c * n);
                     run->E = refined + c * n;
                 }
-                rad_info("%s: verified residual %.3g > %.3g with the double matrix: refinement round %u on the GPU",
+                rad_info("%s: verified residual %.4g > %.4g with the double matrix: refinement round %u on the GPU",
                          run->label, ch->verified, tolerance[c], round);
             }
             if (ch->method == SOLVE_CG) {
