@@ -5,8 +5,11 @@
  *
  * Usage (the iteration control stays on the host: cg.c, stationary.c,
  * rounds.c; docs/solve.md, "On the GPU"):
+ *     solve_gpu_tiles tiles;
+ *     solve_gpu_tiles_make(&rows, &tiles);          // F as float tiles, on the host
  *     solve_gpu *gpu;
- *     solve_gpu_create(&rows, area, &gpu);          // copies F once, as f32 tiles
+ *     solve_gpu_create(&tiles, area, &gpu);         // copies them once
+ *     solve_gpu_tiles_free(&tiles);
  *     solve_gpu_lanes_load(gpu, 3, rho, E, B, e_norm);
  *     for (;;) {
  *         solve_gpu_lanes_iterate(gpu, ops, omega); // one pass over F for all lanes
@@ -18,7 +21,8 @@
  * The matrix: the 64-column tiles of a sparse file as they are stored
  * (row_tiles, tile_column), a dense matrix as all the tiles of each row,
  * every tile padded to 64 entries; entries as float (exact when the file
- * stores f32), products summed in double. Vectors are double. Every
+ * stores f32), products summed in double. gpu_tiles.c builds that on the
+ * host (plain C, OpenMP); gpu_cuda.cu copies it. Vectors are double. Every
  * reduction (a row's product, a dot product, a maximum) runs in a fixed
  * order for a given N: the same inputs give the same bits, run after run.
  */
@@ -26,6 +30,7 @@
 #define SOLVE_GPU_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "rad_status.h"
 #include "rows.h"
@@ -41,11 +46,28 @@ int solve_gpu_built(void);
  * an error: --backend auto then picks the CPU). */
 int solve_gpu_device_count(void);
 
-/* Copies the matrix F (n = F->n rows; area: n patch areas) to device 0 as
- * float tiles, with F's diagonal in double. Errors (no device, not enough
- * GPU memory, a failed CUDA call) are logged; *out_gpu is set only on
- * success. */
-rad_status solve_gpu_create(const solve_rows *F, const double *area, solve_gpu **out_gpu);
+/* The matrix as the device stores it: flat arrays and counts. */
+typedef struct solve_gpu_tiles {
+    size_t n, tile_count;
+    uint64_t *row_tiles;   /* n + 1: row i's tiles are [row_tiles[i], row_tiles[i + 1]) */
+    uint32_t *tile_column; /* tile_count: each tile's first column (a multiple of 64) */
+    float *values;         /* tile_count * RAD_FF_TILE_COLUMNS: F_ij rounded to float, zero-padded */
+    double *diag;          /* n: F_ii in double (Jacobi's divisor, CG's preconditioner) */
+    int exact;             /* 1 when every float is its double (an f32 file) */
+} solve_gpu_tiles;
+
+/* Rows per OpenMP thread pass, as SOLVE_PARALLEL_MIN_ROWS (iterate.h). */
+#define SOLVE_GPU_PARALLEL_MIN_ROWS 256
+
+/* Builds the tiles of F on the host threads (gpu_tiles.c; no CUDA).
+ * Out of memory: logged, RAD_ERR_NOMEM, *out_tiles untouched. */
+rad_status solve_gpu_tiles_make(const solve_rows *F, solve_gpu_tiles *out_tiles);
+void solve_gpu_tiles_free(solve_gpu_tiles *tiles); /* safe on zeroed */
+
+/* Copies `tiles` (area: n patch areas) to device 0. Errors (no device, not
+ * enough GPU memory, a failed CUDA call) are logged; *out_gpu is set only
+ * on success. */
+rad_status solve_gpu_create(const solve_gpu_tiles *tiles, const double *area, solve_gpu **out_gpu);
 void solve_gpu_destroy(solve_gpu *gpu); /* safe on NULL */
 
 /* 1 when every entry of F is a float exactly (f32 files): the device

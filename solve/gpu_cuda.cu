@@ -41,10 +41,6 @@ extern "C" {
 /* Blocks of the vector kernels, at most: each leaves one partial result
  * per quantity; 512 blocks of 256 threads keep an H100's 132 SMs busy. */
 #define GPU_PARTIALS 512
-/* The matrix goes up in chunks of at most this many entries (256 MiB as
- * double) and tiles, converted to float on the device. */
-#define GPU_STAGE_VALUES ((size_t)1 << 25)
-#define GPU_STAGE_TILES ((size_t)1 << 20)
 /* Vectors per lane: B, next, r, z, p, q, y, rho, E. */
 #define GPU_LANE_VECTORS 9
 
@@ -165,23 +161,6 @@ __device__ static void gpu_store_partials(const gpu_lanes &L, unsigned c, double
         L.partial[(2 * c) * GPU_PARTIALS + blockIdx.x] = worst;
         L.partial[(2 * c + 1) * GPU_PARTIALS + blockIdx.x] = sum;
     }
-}
-
-/* Tiles [t0, t0 + tiles) of the matrix from a staged chunk of doubles
- * (tile k's entries from stage[offset[k]]), as floats padded to GPU_TILE;
- * *inexact = 1 where a float is not the double. */
-__global__ void gpu_convert_kernel(float *values, const uint32_t *tile_column, size_t n, size_t t0, size_t tiles,
-                                   const double *stage, const uint32_t *offset, int *inexact)
-{
-    size_t k = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
-    if (k >= tiles * GPU_TILE) return;
-    size_t t = k / GPU_TILE, e = k % GPU_TILE;
-    size_t column = tile_column[t0 + t];
-    size_t width = n - column < GPU_TILE ? n - column : GPU_TILE;
-    double v = e < width ? stage[offset[t] + e] : 0.0;
-    float f = (float)v;
-    values[(t0 + t) * GPU_TILE + e] = f;
-    if ((double)f != v) *inexact = 1;
 }
 
 /* y_k = F x_k for k < K: a warp per row (above). x_k hold n_pad entries,
@@ -382,120 +361,10 @@ extern "C" void solve_gpu_destroy(solve_gpu *gpu)
     free(gpu);
 }
 
-/* The host's tiles as the device stores them: a sparse matrix's own
- * arrays, or for a dense one every tile of every row (made here; freed by
- * host_tiles_free). */
-struct host_tiles {
-    size_t count;
-    const uint64_t *row_tiles;
-    const uint32_t *column;
-    const double *values; /* tile t's entries from values + value_at(t) */
-    const uint64_t *value_at;
-    uint64_t *made_rows;
-    uint32_t *made_columns;
-    uint64_t *made_values;
-};
-
-static void host_tiles_free(host_tiles *h)
-{
-    free(h->made_rows);
-    free(h->made_columns);
-    free(h->made_values);
-}
-
-static rad_status host_tiles_of(const solve_rows *F, host_tiles *out)
-{
-    const size_t n = F->n, per_row = (n + GPU_TILE - 1) / GPU_TILE;
-    memset(out, 0, sizeof *out);
-    if (!F->dense) {
-        out->count = (size_t)F->row_tiles[n];
-        out->row_tiles = F->row_tiles;
-        out->column = F->tile_column;
-        out->values = F->values;
-        out->value_at = F->tile_value;
-        return RAD_OK;
-    }
-    out->count = n * per_row;
-    out->made_rows = (uint64_t *)malloc((n + 1) * sizeof(uint64_t));
-    out->made_columns = (uint32_t *)malloc(out->count * sizeof(uint32_t));
-    out->made_values = (uint64_t *)malloc(out->count * sizeof(uint64_t));
-    if (!out->made_rows || !out->made_columns || !out->made_values) {
-        host_tiles_free(out);
-        rad_error("out of memory for the tile index of a %zu x %zu matrix", n, n);
-        return RAD_ERR_NOMEM;
-    }
-    for (size_t i = 0; i <= n; i++) out->made_rows[i] = i * per_row;
-    for (size_t i = 0; i < n; i++)
-        for (size_t k = 0; k < per_row; k++) {
-            out->made_columns[i * per_row + k] = (uint32_t)(k * GPU_TILE);
-            out->made_values[i * per_row + k] = i * n + k * GPU_TILE;
-        }
-    out->row_tiles = out->made_rows;
-    out->column = out->made_columns;
-    out->values = F->dense;
-    out->value_at = out->made_values;
-    return RAD_OK;
-}
-
-/* Entries of tile t (its last column may end before GPU_TILE). */
-static size_t tile_width(const host_tiles *h, size_t n, size_t t)
-{
-    size_t column = h->column[t];
-    return n - column < GPU_TILE ? n - column : GPU_TILE;
-}
-
-/* Uploads the tiles' entries chunk by chunk (a chunk's tiles are stored
- * one after the other on the host) and converts them to float on the
- * device; *out_exact = 1 if every float is the double. */
-static rad_status upload_values(solve_gpu *g, const host_tiles *h, int *out_exact)
+extern "C" rad_status solve_gpu_create(const solve_gpu_tiles *tiles, const double *area, solve_gpu **out_gpu)
 {
     rad_status status = RAD_OK;
-    double *stage = NULL;
-    uint32_t *offset = NULL, *host_offset = NULL;
-    int *inexact = NULL, host_inexact = 0;
-    host_offset = (uint32_t *)malloc(GPU_STAGE_TILES * sizeof(uint32_t));
-    if (!host_offset) {
-        rad_error("out of memory staging the matrix for the GPU");
-        return RAD_ERR_NOMEM;
-    }
-    GPU_TRY(cudaMalloc(&stage, GPU_STAGE_VALUES * sizeof(double)));
-    GPU_TRY(cudaMalloc(&offset, GPU_STAGE_TILES * sizeof(uint32_t)));
-    GPU_TRY(cudaMalloc(&inexact, sizeof(int)));
-    GPU_TRY(cudaMemset(inexact, 0, sizeof(int)));
-    for (size_t t0 = 0, t1; t0 < h->count; t0 = t1) {
-        const uint64_t first = h->value_at[t0];
-        uint64_t end = first;
-        for (t1 = t0; t1 < h->count && t1 - t0 < GPU_STAGE_TILES; t1++) {
-            uint64_t tile_end = h->value_at[t1] + tile_width(h, g->n, t1);
-            if (tile_end - first > GPU_STAGE_VALUES) break;
-            host_offset[t1 - t0] = (uint32_t)(h->value_at[t1] - first);
-            end = tile_end;
-        }
-        GPU_TRY(cudaMemcpy(stage, h->values + first, (size_t)(end - first) * sizeof(double), cudaMemcpyHostToDevice));
-        GPU_TRY(cudaMemcpy(offset, host_offset, (t1 - t0) * sizeof(uint32_t), cudaMemcpyHostToDevice));
-        size_t threads = (t1 - t0) * GPU_TILE;
-        gpu_convert_kernel<<<(unsigned)((threads + GPU_BLOCK - 1) / GPU_BLOCK), GPU_BLOCK>>>(
-            g->values, g->tile_column, g->n, t0, t1 - t0, stage, offset, inexact);
-        GPU_TRY(cudaGetLastError());
-        GPU_TRY(cudaDeviceSynchronize()); /* the stage is reused */
-    }
-    GPU_TRY(cudaMemcpy(&host_inexact, inexact, sizeof(int), cudaMemcpyDeviceToHost));
-    *out_exact = !host_inexact;
-done:
-    cudaFree(stage);
-    cudaFree(offset);
-    cudaFree(inexact);
-    free(host_offset);
-    return status;
-}
-
-extern "C" rad_status solve_gpu_create(const solve_rows *F, const double *area, solve_gpu **out_gpu)
-{
-    rad_status status = RAD_OK;
-    const size_t n = F->n;
-    host_tiles h;
-    memset(&h, 0, sizeof h);
-    double *diag = NULL;
+    const size_t n = tiles->n, count = tiles->tile_count;
     solve_gpu *g = (solve_gpu *)calloc(1, sizeof *g);
     if (!g) {
         rad_error("out of memory");
@@ -507,11 +376,11 @@ extern "C" rad_status solve_gpu_create(const solve_rows *F, const double *area, 
         status = RAD_ERR_BACKEND;
         goto done;
     }
-    if ((status = host_tiles_of(F, &h)) != RAD_OK) goto done;
     g->n = n;
     g->n_pad = (n + GPU_TILE - 1) / GPU_TILE * GPU_TILE;
-    g->tile_count = h.count;
-    g->matrix_bytes = h.count * (GPU_TILE * sizeof(float) + sizeof(uint32_t)) + (n + 1) * sizeof(uint64_t);
+    g->tile_count = count;
+    g->exact = tiles->exact;
+    g->matrix_bytes = count * (GPU_TILE * sizeof(float) + sizeof(uint32_t)) + (n + 1) * sizeof(uint64_t);
     {
         cudaDeviceProp prop;
         GPU_TRY(cudaSetDevice(0));
@@ -520,37 +389,32 @@ extern "C" rad_status solve_gpu_create(const solve_rows *F, const double *area, 
         size_t free_bytes = 0, total_bytes = 0;
         GPU_TRY(cudaMemGetInfo(&free_bytes, &total_bytes));
         size_t need = g->matrix_bytes + SOLVE_GPU_LANES * GPU_LANE_VECTORS * g->n_pad * sizeof(double) +
-                      2 * n * sizeof(double) + GPU_STAGE_VALUES * sizeof(double) + GPU_STAGE_TILES * sizeof(uint32_t);
+                      2 * n * sizeof(double);
         if (need > free_bytes) {
             rad_error("--backend cuda: the matrix needs %.2f GiB on the GPU (%zu tiles of %d floats and the "
                       "vectors), %s has %.2f GiB free",
-                      need / 1073741824.0, h.count, GPU_TILE, g->name, free_bytes / 1073741824.0);
+                      need / 1073741824.0, count, GPU_TILE, g->name, free_bytes / 1073741824.0);
             status = RAD_ERR_NOMEM;
             goto done;
         }
     }
     GPU_TRY(cudaMalloc(&g->row_tiles, (n + 1) * sizeof(uint64_t)));
-    GPU_TRY(cudaMalloc(&g->tile_column, (h.count ? h.count : 1) * sizeof(uint32_t)));
-    GPU_TRY(cudaMalloc(&g->values, (h.count ? h.count : 1) * GPU_TILE * sizeof(float)));
+    GPU_TRY(cudaMalloc(&g->tile_column, (count ? count : 1) * sizeof(uint32_t)));
+    GPU_TRY(cudaMalloc(&g->values, (count ? count : 1) * GPU_TILE * sizeof(float)));
     GPU_TRY(cudaMalloc(&g->area, n * sizeof(double)));
     GPU_TRY(cudaMalloc(&g->diag, n * sizeof(double)));
     GPU_TRY(cudaMalloc(&g->vectors, SOLVE_GPU_LANES * GPU_LANE_VECTORS * g->n_pad * sizeof(double)));
     GPU_TRY(cudaMalloc(&g->partial, SOLVE_GPU_LANES * 2 * GPU_PARTIALS * sizeof(double)));
     GPU_TRY(cudaMalloc(&g->scalars, SOLVE_GPU_LANES * sizeof(gpu_scalars)));
+    /* zero vectors: the padding beyond n stays zero (kernels write rows < n only) */
     GPU_TRY(cudaMemset(g->vectors, 0, SOLVE_GPU_LANES * GPU_LANE_VECTORS * g->n_pad * sizeof(double)));
     GPU_TRY(cudaMemset(g->scalars, 0, SOLVE_GPU_LANES * sizeof(gpu_scalars)));
-    GPU_TRY(cudaMemcpy(g->row_tiles, h.row_tiles, (n + 1) * sizeof(uint64_t), cudaMemcpyHostToDevice));
-    if (h.count)
-        GPU_TRY(cudaMemcpy(g->tile_column, h.column, h.count * sizeof(uint32_t), cudaMemcpyHostToDevice));
-    if ((status = upload_values(g, &h, &g->exact)) != RAD_OK) goto done;
-    diag = (double *)malloc(n * sizeof(double));
-    if (!diag) {
-        rad_error("out of memory");
-        status = RAD_ERR_NOMEM;
-        goto done;
+    GPU_TRY(cudaMemcpy(g->row_tiles, tiles->row_tiles, (n + 1) * sizeof(uint64_t), cudaMemcpyHostToDevice));
+    if (count) {
+        GPU_TRY(cudaMemcpy(g->tile_column, tiles->tile_column, count * sizeof(uint32_t), cudaMemcpyHostToDevice));
+        GPU_TRY(cudaMemcpy(g->values, tiles->values, count * GPU_TILE * sizeof(float), cudaMemcpyHostToDevice));
     }
-    for (size_t i = 0; i < n; i++) diag[i] = solve_row_entry(F, i, i);
-    GPU_TRY(cudaMemcpy(g->diag, diag, n * sizeof(double), cudaMemcpyHostToDevice));
+    GPU_TRY(cudaMemcpy(g->diag, tiles->diag, n * sizeof(double), cudaMemcpyHostToDevice));
     GPU_TRY(cudaMemcpy(g->area, area, n * sizeof(double), cudaMemcpyHostToDevice));
     for (size_t c = 0; c < SOLVE_GPU_LANES; c++) {
         double *v = g->vectors + c * GPU_LANE_VECTORS * g->n_pad;
@@ -560,8 +424,6 @@ extern "C" rad_status solve_gpu_create(const solve_rows *F, const double *area, 
     *out_gpu = g;
     g = NULL;
 done:
-    free(diag);
-    host_tiles_free(&h);
     solve_gpu_destroy(g);
     return status;
 }

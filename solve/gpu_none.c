@@ -7,9 +7,9 @@
 int solve_gpu_built(void) { return 0; }
 int solve_gpu_device_count(void) { return 0; }
 
-rad_status solve_gpu_create(const solve_rows *F, const double *area, solve_gpu **out_gpu)
+rad_status solve_gpu_create(const solve_gpu_tiles *tiles, const double *area, solve_gpu **out_gpu)
 {
-    (void)F, (void)area, (void)out_gpu;
+    (void)tiles, (void)area, (void)out_gpu;
     rad_error("--backend cuda: this build of solve has no CUDA (nvcc was not found when it was configured)");
     return RAD_ERR_UNSUPPORTED;
 }

@@ -151,7 +151,12 @@ static rad_status upload_matrix(stage_state *s, const char *input, solve_backend
     double t = solve_now();
     *out_seconds = 0;
     if (*backend != SOLVE_BACKEND_CUDA) return RAD_OK;
-    rad_status status = solve_gpu_create(&s->matrix.rows, s->matrix.area, &s->gpu);
+    solve_gpu_tiles tiles;
+    rad_status status = solve_gpu_tiles_make(&s->matrix.rows, &tiles);
+    if (status == RAD_OK) {
+        status = solve_gpu_create(&tiles, s->matrix.area, &s->gpu);
+        solve_gpu_tiles_free(&tiles);
+    }
     if (status != RAD_OK) {
         if (asked == SOLVE_BACKEND_CUDA) return status;
         rad_warn("%s: the matrix could not go to the GPU (above): --backend auto solves on the CPU", input);

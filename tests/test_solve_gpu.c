@@ -52,7 +52,11 @@ static void check_product(const char *path, int expect_exact)
     RAD_CHECK(solve_matrix_load(file, path, &m) == RAD_OK);
     const size_t n = m.patch_count;
     solve_gpu *gpu = NULL;
-    RAD_CHECK(solve_gpu_create(&m.rows, m.area, &gpu) == RAD_OK);
+    solve_gpu_tiles tiles;
+    memset(&tiles, 0, sizeof tiles);
+    RAD_CHECK(solve_gpu_tiles_make(&m.rows, &tiles) == RAD_OK);
+    RAD_CHECK(solve_gpu_create(&tiles, m.area, &gpu) == RAD_OK);
+    solve_gpu_tiles_free(&tiles);
     double *x = malloc(3 * n * sizeof(double)), *y = malloc(3 * n * sizeof(double)),
            *again = malloc(3 * n * sizeof(double));
     if (gpu && x && y && again) {
