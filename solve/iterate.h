@@ -64,8 +64,13 @@ typedef enum solve_verdict {
  * go on. */
 solve_verdict solve_run_record(solve_run *run, double residual);
 
-/* omega of B (see solve_patch_residual), computed afresh. */
-double solve_run_residual(const solve_run *run, const double *B);
+/* omega of B (see solve_patch_residual) from FB = F·B (solve_rows_multiply);
+ * NaN if some patch's share is NaN. */
+double solve_run_residual_of(const solve_run *run, const double *B, const double *FB);
+
+/* y_c = F x_c for c < count, n values each, in one pass over F on the
+ * threads (products.c); each y_c[i] summed as solve_row_dot. */
+void solve_rows_multiply(const solve_rows *F, size_t count, const double *const *x, double *const *y);
 
 /* solve_patch_residual and SOLVE_SCALE_FLOOR: residual.h (shared with the GPU). */
 
@@ -110,7 +115,7 @@ rad_status solve_jacobi_many(solve_run *const *runs, size_t count, solve_gpu *gp
 
 /* The GPU backend's solve of `count` channels (rounds.c; docs/solve.md,
  * "On the GPU"): CG or Jacobi lanes on the device, each result verified on
- * the host with the double matrix (solve_run_residual), and rounds of
+ * the host with the double matrix (solve_rows_multiply), and rounds of
  * mixed-precision refinement until the verified omega meets the
  * tolerance. */
 typedef struct solve_gpu_channel {
@@ -120,6 +125,7 @@ typedef struct solve_gpu_channel {
     size_t why_size;
     int stopped;           /* out: CG stopped; run->B is its best effort, for Gauss-Seidel to finish */
     double verified;       /* out: omega of run->B with the double matrix; NAN if not measured */
+    double *product;       /* n values (the caller's): F·B with the double matrix, of the B verified */
     uint32_t rounds;       /* out: rounds on the GPU */
 } solve_gpu_channel;
 

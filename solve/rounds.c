@@ -53,8 +53,10 @@ rad_status solve_gpu_channels(solve_gpu *gpu, solve_gpu_channel *channels, size_
     const double **emission = calloc(count, sizeof *emission);
     double *tolerance = calloc(count, sizeof *tolerance);
     double *refined = exact ? NULL : malloc(count * n * sizeof *refined);
+    const double **product_x = calloc(count, sizeof *product_x);
+    double **product_y = calloc(count, sizeof *product_y);
     if (!cg_runs || !jacobi_runs || !cg_why || !cg_stopped || !pending || !cg_channel || !emission || !tolerance ||
-        (!exact && !refined)) {
+        !product_x || !product_y || (!exact && !refined)) {
         rad_error("%s: out of memory for %zu channels of %zu patches", channels[0].run->label, count, n);
         status = RAD_ERR_NOMEM;
         goto done;
@@ -104,11 +106,18 @@ rad_status solve_gpu_channels(solve_gpu *gpu, solve_gpu_channel *channels, size_
             channels[cg_channel[k]].stopped = 1; /* Gauss-Seidel on the host finishes it */
             pending[cg_channel[k]] = 0;
         }
-        size_t left = 0;
+        /* verified with the double matrix, every channel in one pass over F */
+        size_t left = 0, verify = 0;
+        for (size_t c = 0; c < count; c++) {
+            if (!pending[c]) continue;
+            product_x[verify] = channels[c].run->B;
+            product_y[verify++] = channels[c].product;
+        }
+        solve_rows_multiply(&channels[0].run->F, verify, product_x, product_y);
         for (size_t c = 0; c < count; c++) {
             if (!pending[c]) continue;
             solve_run *run = channels[c].run;
-            double verified = solve_run_residual(run, run->B);
+            double verified = solve_run_residual_of(run, run->B, channels[c].product);
             channels[c].verified = verified;
             pending[c] = verified > run->tolerance && run->iterations < run->max_iterations; /* NaN: done */
             left += pending[c] != 0;
@@ -125,5 +134,7 @@ done:
     free(emission);
     free(tolerance);
     free(refined);
+    free(product_x);
+    free(product_y);
     return status;
 }

@@ -118,6 +118,9 @@ typedef struct solve_balance {
  * Rows are summed in a fixed order, so it does not depend on threads. */
 solve_balance solve_balance_compute(const solve_system *system, const double *rho, const double *emission,
                                     const double *radiosity, double *scratch);
+/* The same from H = F·B (n values), already computed. */
+solve_balance solve_balance_of(const solve_system *system, const double *rho, const double *emission,
+                               const double *radiosity, const double *H);
 
 typedef struct solve_report {
     solve_method method_used;  /* the method that produced B */
