@@ -21,6 +21,13 @@ solve_balance solve_balance_compute(const solve_system *system, const double *rh
     double *H = scratch;
 #pragma omp parallel for schedule(static) if (n >= SOLVE_PARALLEL_MIN_ROWS)
     for (size_t i = 0; i < n; i++) H[i] = solve_row_dot(&F, i, radiosity, 0, n);
+    return solve_balance_of(system, rho, emission, radiosity, H);
+}
+
+solve_balance solve_balance_of(const solve_system *system, const double *rho, const double *emission,
+                               const double *radiosity, const double *H)
+{
+    const size_t n = system->patch_count;
     solve_balance b = {0};
     for (size_t i = 0; i < n; i++) {
         const double A = system->area[i];

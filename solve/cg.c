@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "gpu.h"
 #include "iterate.h"
 #include "rad_log.h"
 #include "solver.h"
@@ -270,40 +271,43 @@ static void cg_restart_direction(cg_lane *l)
     l->rz = cg_dot(l->r, l->z, n);
 }
 
-/* Takes the product the lane asked for and runs its CG logic up to the
- * next product it needs (or to its end). */
-static void cg_advance(cg_lane *l)
+/* omega of the iterate the lane's product measured: CG's residual of B
+ * (start, checking) or a step along p (NAN: p.Kp <= 0). */
+static double cg_measure(cg_lane *l) { return l->phase == CG_STEPPING ? cg_step(l) : cg_residual(l); }
+
+/* The lane's control, shared by the CPU and the GPU: takes the omega its
+ * product measured and decides what comes next. Returns 1 when the lane
+ * needs a fresh search direction (p = z, rz = r.z) before its next
+ * product. */
+static int cg_take(cg_lane *l, double residual)
 {
     solve_run *run = l->run;
-    double residual;
+    int fresh = 0;
     if (l->phase == CG_START) {
-        residual = cg_residual(l);
-        cg_restart_direction(l);
+        fresh = 1;
         l->best = INFINITY;
         l->best_at = run->iterations;
     } else if (l->phase == CG_CHECKING) {
         /* the recurrence may drift from the true residual: checked */
-        residual = cg_residual(l);
         if (residual <= run->tolerance) {
             l->phase = CG_DONE;
-            return;
+            return 0;
         }
         if (++l->restarts > SOLVE_CG_MAX_RESTARTS) {
             snprintf(l->why, l->why_size, "CG residual recurrence drifted (true residual %.3g) after %d restarts",
                      residual, SOLVE_CG_MAX_RESTARTS);
             l->stopped = 1;
             l->phase = CG_DONE;
-            return;
+            return 0;
         }
-        cg_restart_direction(l); /* then records the true residual of the same iterate */
+        fresh = 1; /* and records the true residual of the same iterate */
     } else {
-        residual = cg_step(l);
         if (isnan(residual)) {
             snprintf(l->why, l->why_size,
                      "CG met non-positive curvature at iteration %u (matrix not positive definite)", run->iterations);
             l->stopped = 1;
             l->phase = CG_DONE;
-            return;
+            return 0;
         }
         run->iterations++;
     }
@@ -327,34 +331,79 @@ static void cg_advance(cg_lane *l)
     } else {
         l->phase = CG_STEPPING;
     }
+    return fresh && l->phase != CG_DONE;
 }
 
-rad_status solve_cg_many(solve_run *const *runs, size_t count, int *out_stopped, char *const *why,
-                         size_t why_size)
+/* The vector work of one lockstep iteration: every active lane's product
+ * (one pass over F) and what it measures, into residual[c]. On the GPU
+ * (gpu.h) the vectors stay on the device; the CPU does the same
+ * arithmetic in the same order per lane, so a lane's bits do not depend
+ * on the others. */
+static rad_status cg_iterate(cg_lane *lanes, size_t count, solve_gpu *gpu, double *residual)
+{
+    if (gpu) {
+        solve_gpu_op ops[SOLVE_GPU_LANES] = {SOLVE_GPU_IDLE};
+        for (size_t c = 0; c < count; c++)
+            ops[c] = lanes[c].phase == CG_DONE       ? SOLVE_GPU_IDLE
+                     : lanes[c].phase == CG_STEPPING ? SOLVE_GPU_CG_STEP
+                                                     : SOLVE_GPU_CG_RESIDUAL;
+        return solve_gpu_lanes_iterate(gpu, ops, residual);
+    }
+    cg_products(lanes, count);
+    for (size_t c = 0; c < count; c++)
+        if (lanes[c].phase != CG_DONE) residual[c] = cg_measure(&lanes[c]);
+    return RAD_OK;
+}
+
+/* p = z, rz = r.z for the lanes with fresh[c] set. */
+static rad_status cg_refresh(cg_lane *lanes, size_t count, solve_gpu *gpu, const int *fresh)
+{
+    if (gpu) return solve_gpu_cg_restart(gpu, fresh);
+    for (size_t c = 0; c < count; c++)
+        if (fresh[c]) cg_restart_direction(&lanes[c]);
+    return RAD_OK;
+}
+
+/* Up to SOLVE_GPU_LANES lanes on the GPU, any number on the CPU. */
+static rad_status cg_lockstep(solve_run *const *runs, size_t count, solve_gpu *gpu, int *out_stopped,
+                              char *const *why, size_t why_size)
 {
     rad_status status = RAD_OK;
-    if (count == 0) return RAD_OK;
     const size_t n = runs[0]->n;
     cg_lane *lanes = calloc(count, sizeof *lanes);
-    double *block = calloc(5 * n * count, sizeof(double));
-    if (!lanes || !block) {
+    double *residual = calloc(count, sizeof *residual);
+    int *fresh = calloc(count > SOLVE_GPU_LANES ? count : SOLVE_GPU_LANES, sizeof *fresh);
+    /* on the GPU the vectors live there; the host keeps only the scalars */
+    double *block = gpu ? NULL : calloc(5 * n * count, sizeof(double));
+    if (!lanes || !residual || !fresh || (!gpu && !block)) {
         rad_error("%s: out of memory for the CG vectors (%zu patches)", runs[0]->label, n);
         status = RAD_ERR_NOMEM;
         goto done;
     }
     for (size_t c = 0; c < count; c++) {
         cg_lane *l = &lanes[c];
-        double *b = block + 5 * n * c;
-        *l = (cg_lane){.run = runs[c], .r = b, .z = b + n, .p = b + 2 * n, .q = b + 3 * n, .y = b + 4 * n,
-                       .phase = CG_START, .status = RAD_OK, .why = why[c], .why_size = why_size};
+        double *b = block ? block + 5 * n * c : NULL;
+        *l = (cg_lane){.run = runs[c], .phase = CG_START, .status = RAD_OK, .why = why[c], .why_size = why_size};
+        if (b) l->r = b, l->z = b + n, l->p = b + 2 * n, l->q = b + 3 * n, l->y = b + 4 * n;
+    }
+    if (gpu) {
+        const double *rho[SOLVE_GPU_LANES], *E[SOLVE_GPU_LANES], *B[SOLVE_GPU_LANES];
+        double e_norm[SOLVE_GPU_LANES];
+        for (size_t c = 0; c < count; c++)
+            rho[c] = runs[c]->rho, E[c] = runs[c]->E, B[c] = runs[c]->B, e_norm[c] = runs[c]->e_norm;
+        if ((status = solve_gpu_lanes_load(gpu, count, rho, E, B, e_norm)) != RAD_OK) goto done;
     }
     for (;;) {
         size_t active = 0;
         for (size_t c = 0; c < count; c++) active += lanes[c].phase != CG_DONE;
         if (!active) break;
-        cg_products(lanes, count);
-        for (size_t c = 0; c < count; c++)
-            if (lanes[c].phase != CG_DONE) cg_advance(&lanes[c]);
+        if ((status = cg_iterate(lanes, count, gpu, residual)) != RAD_OK) break;
+        for (size_t c = 0; c < count; c++) fresh[c] = lanes[c].phase != CG_DONE && cg_take(&lanes[c], residual[c]);
+        if ((status = cg_refresh(lanes, count, gpu, fresh)) != RAD_OK) break;
+    }
+    for (size_t c = 0; gpu && c < count; c++) {
+        rad_status stored = solve_gpu_lanes_store(gpu, c, runs[c]->B);
+        if (status == RAD_OK) status = stored;
     }
     for (size_t c = 0; c < count; c++) {
         out_stopped[c] = lanes[c].stopped;
@@ -362,11 +411,26 @@ rad_status solve_cg_many(solve_run *const *runs, size_t count, int *out_stopped,
     }
 done:
     free(block);
+    free(fresh);
+    free(residual);
     free(lanes);
+    return status;
+}
+
+rad_status solve_cg_many(solve_run *const *runs, size_t count, solve_gpu *gpu, int *out_stopped, char *const *why,
+                         size_t why_size)
+{
+    rad_status status = RAD_OK;
+    /* the GPU serves SOLVE_GPU_LANES lanes per pass over F: groups of them */
+    size_t group = gpu ? SOLVE_GPU_LANES : count;
+    for (size_t c = 0; c < count && status == RAD_OK; c += group) {
+        size_t k = count - c < group ? count - c : group;
+        status = cg_lockstep(runs + c, k, gpu, out_stopped + c, why + c, why_size);
+    }
     return status;
 }
 
 rad_status solve_cg(solve_run *run, int *out_stopped, char *why, size_t why_size)
 {
-    return solve_cg_many(&run, 1, out_stopped, &why, why_size);
+    return solve_cg_many(&run, 1, NULL, out_stopped, &why, why_size);
 }

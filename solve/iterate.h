@@ -15,7 +15,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "gpu.h"
 #include "rad_status.h"
+#include "residual.h"
 #include "solver.h"
 
 /* The CG check's skew term delta (below) depends on F, A and which
@@ -62,27 +64,15 @@ typedef enum solve_verdict {
  * go on. */
 solve_verdict solve_run_record(solve_run *run, double residual);
 
-/* omega of B (see solve_patch_residual), computed afresh. */
-double solve_run_residual(const solve_run *run, const double *B);
+/* omega of B (see solve_patch_residual) from FB = F·B (solve_rows_multiply);
+ * NaN if some patch's share is NaN. */
+double solve_run_residual_of(const solve_run *run, const double *B, const double *FB);
 
-/* The stopping rule measures each patch's residual against the smaller of
- * ||E||_inf and the radiosity it gathers, s_i = E_i + rho_i sum_j F_ij B_j
- * (= B_i + r_i): omega = max_i |r_i| / min(||E||_inf, s_i) (docs/solve.md,
- * "Stopping rule"). The ||E|| part keeps the normwise bound of the error;
- * the s_i part holds a dim patch (a 1e-6 light in a room of its own beside
- * a 1e6 one) to its own brightness. s_i is floored at
- * SOLVE_SCALE_FLOOR * ||E||_inf so omega stays finite where s_i <= 0 (CG
- * iterates may be negative mid-way) - only patches 150 decades dimmer than
- * the brightest emitter fall back to the normwise rule. */
-#define SOLVE_SCALE_FLOOR 1e-150
+/* y_c = F x_c for c < count, n values each, in one pass over F on the
+ * threads (products.c); each y_c[i] summed as solve_row_dot. */
+void solve_rows_multiply(const solve_rows *F, size_t count, const double *const *x, double *const *y);
 
-/* |r| / min(||E||_inf, s) for one patch: its share of omega. */
-static inline double solve_patch_residual(double r, double gathered, double e_norm)
-{
-    double lowest = SOLVE_SCALE_FLOOR * e_norm;
-    double scale = gathered < e_norm ? gathered : e_norm;
-    return fabs(r) / (scale > lowest ? scale : lowest);
-}
+/* solve_patch_residual and SOLVE_SCALE_FLOOR: residual.h (shared with the GPU). */
 
 /* Row loops (Jacobi sweeps, CG's K·p) run on OpenMP threads only from this
  * many rows up. Below it a pass over F costs less than waking the threads:
@@ -112,9 +102,46 @@ rad_status solve_gauss_seidel(solve_run *run);
 rad_status solve_cg(solve_run *run, int *out_stopped, char *why, size_t why_size);
 /* The same for `count` channels of one matrix in lockstep: one pass over F
  * per iteration for all of them (cg.c). out_stopped[c] and why[c] (each
- * why_size bytes) per channel; a failure status if any channel failed. */
-rad_status solve_cg_many(solve_run *const *runs, size_t count, int *out_stopped, char *const *why,
+ * why_size bytes) per channel; a failure status if any channel failed.
+ * With `gpu` (not NULL) the vector work runs there, SOLVE_GPU_LANES
+ * channels at a time, from and back into run->B; the control (stopping,
+ * restarts, stalls) is the same code as on the CPU. */
+rad_status solve_cg_many(solve_run *const *runs, size_t count, solve_gpu *gpu, int *out_stopped, char *const *why,
                          size_t why_size);
+/* Jacobi for `count` channels on the GPU in lockstep (stationary.c), one
+ * pass over F per sweep for SOLVE_GPU_LANES channels; each stops on its
+ * own, as solve_jacobi. Without `gpu`, solve_jacobi one by one. */
+rad_status solve_jacobi_many(solve_run *const *runs, size_t count, solve_gpu *gpu);
+
+/* The GPU backend's solve of `count` channels (rounds.c; docs/solve.md,
+ * "On the GPU"): CG or Jacobi lanes on the device, each result verified on
+ * the host with the double matrix (solve_rows_multiply), and rounds of
+ * mixed-precision refinement until the verified omega meets the
+ * tolerance. */
+typedef struct solve_gpu_channel {
+    solve_run *run;
+    solve_method method;   /* SOLVE_CG or SOLVE_JACOBI */
+    char *why;             /* CG: why it stopped, why_size bytes */
+    size_t why_size;
+    int stopped;           /* out: CG stopped; run->B is its best effort, for Gauss-Seidel to finish */
+    double verified;       /* out: omega of run->B with the double matrix; NAN if not measured */
+    double *product;       /* n values (the caller's): F·B with the double matrix, of the B verified */
+    uint32_t rounds;       /* out: rounds on the GPU */
+} solve_gpu_channel;
+
+/* Rounds at most; each costs a pass over the double matrix on the host
+ * (two when the device's floats are not exact). Two suffice for the
+ * tolerances solve allows (docs/solve.md). */
+#define SOLVE_GPU_MAX_ROUNDS 4
+/* Rounds after the first aim this much below the tolerance, so that the
+ * host's verification, which sums in another order, agrees: where B is
+ * large against E (rho near 1) the two omegas differ by ~1e-12, and a slow
+ * Jacobi can stop within 1 % of the tolerance (measured: emulated, a
+ * sphere at rho = 0.99). It costs log(0.5)/log(rate) more iterations, and
+ * only when a second round is needed anyway. */
+#define SOLVE_GPU_ROUND_MARGIN 0.5
+
+rad_status solve_gpu_channels(solve_gpu *gpu, solve_gpu_channel *channels, size_t count);
 
 /* The check that decides whether CG may run (SOLVE_CG_RECIPROCITY in
  * solver.h), over patches with rho > 0:

@@ -27,6 +27,14 @@ static const char usage_text[] =
     "                      is <= X min(||E||inf, E_i + rho_i (F B)_i)\n"
     "                      (default: 1e-10; see docs/solve.md)\n"
     "  --max-iter N        iteration limit per channel (default: 100000)\n"
+    "  --backend B         auto | cpu | cuda (default: auto = cuda when this\n"
+    "                      build has CUDA and a GPU is visible, else cpu). cuda\n"
+    "                      keeps the matrix on the GPU as float and runs cg and\n"
+    "                      jacobi there, every channel in one pass over it;\n"
+    "                      gauss-seidel runs on the CPU. Every result is\n"
+    "                      verified on the CPU with the matrix as stored and,\n"
+    "                      for f64 files, refined until it meets --tol\n"
+    "                      (docs/solve.md, \"On the GPU\")\n"
     "  --errors FILE       the standard errors of the form factors (the file\n"
     "                      formfactor --errors wrote beside them): warn only\n"
     "                      about rows summing above 1 beyond 3 standard errors\n"
@@ -45,7 +53,8 @@ static const char usage_text[] =
     "Refuses (exit 1, nothing written) a matrix in which some patch has\n"
     "rho * (row sum of F) >= 1: it would reflect more light than it receives.\n"
     "\n"
-    "exit status: 0 solved; 1 bad input or I/O error; 2 bad command line;\n"
+    "exit status: 0 solved; 1 bad input, I/O error, or --backend cuda without\n"
+    "a GPU; 2 bad command line (--backend cuda in a build without CUDA);\n"
     "3 not converged (the output is still written, marked unconverged)\n";
 
 typedef struct cli {
@@ -70,13 +79,14 @@ static rad_status parse_count(const char *text, uint32_t *out)
  * "--name=VALUE", "-o VALUE"; options and the input in any order. */
 static rad_status parse_args(int argc, char **argv, cli *out)
 {
-    enum { O_METHOD = 256, O_TOL, O_MAX_ITER, O_STATS, O_ERRORS, O_BY_GROUP, O_VERSION };
+    enum { O_METHOD = 256, O_TOL, O_MAX_ITER, O_STATS, O_ERRORS, O_BY_GROUP, O_VERSION, O_BACKEND };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},       {"method", required_argument, 0, O_METHOD},
         {"tol", required_argument, 0, O_TOL},         {"max-iter", required_argument, 0, O_MAX_ITER},
         {"stats", required_argument, 0, O_STATS},     {"errors", required_argument, 0, O_ERRORS},
         {"by-group", required_argument, 0, O_BY_GROUP}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'},                {"version", no_argument, 0, O_VERSION},
+        {"backend", required_argument, 0, O_BACKEND},
         {0, 0, 0, 0}};
     cli c;
     memset(&c, 0, sizeof c);
@@ -92,6 +102,7 @@ static rad_status parse_args(int argc, char **argv, cli *out)
         case 'h': c.help = 1; break;
         case O_VERSION: c.version = 1; break;
         case O_METHOD: status = solve_method_parse(value, &c.options.params.method); break;
+        case O_BACKEND: status = solve_backend_parse(value, &c.options.backend); break;
         case O_TOL: status = parse_tolerance(value, &c.options.params.tolerance); break;
         case O_MAX_ITER: status = parse_count(value, &c.options.params.max_iterations); break;
         case O_STATS: c.options.stats = value; break;

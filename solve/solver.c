@@ -73,16 +73,12 @@ solve_verdict solve_run_record(solve_run *run, double residual)
     return SOLVE_CONTINUE;
 }
 
-double solve_run_residual(const solve_run *run, const double *B)
+double solve_run_residual_of(const solve_run *run, const double *B, const double *FB)
 {
-    const size_t n = run->n;
     double rmax = 0;
     int not_finite = 0;
-    /* max is the same whatever the order; each row is summed by one thread */
-#pragma omp parallel for schedule(dynamic, 64) reduction(max : rmax) reduction(| : not_finite) \
-    if (n >= SOLVE_PARALLEL_MIN_ROWS)
-    for (size_t i = 0; i < n; i++) {
-        double gathered = run->E[i] + run->rho[i] * solve_row_dot(&run->F, i, B, 0, n);
+    for (size_t i = 0; i < run->n; i++) {
+        double gathered = run->E[i] + run->rho[i] * FB[i];
         double a = solve_patch_residual(gathered - B[i], gathered, run->e_norm);
         if (a > rmax) rmax = a;
         not_finite |= isnan(a);
@@ -153,6 +149,7 @@ typedef struct channel_solve {
     double *buffers;
     solve_method method;
     int trivial;       /* nothing emits: B = 0, no iteration */
+    int has_product;   /* the caller's product holds F·run.B already (the GPU's rounds verified it) */
 } channel_solve;
 
 static void channel_free(channel_solve *ch)
@@ -219,13 +216,14 @@ static rad_status channel_begin(const solve_system *system, const double *rho, c
     return RAD_OK;
 }
 
-static rad_status channel_end(const solve_system *system, channel_solve *ch, double *out_radiosity,
-                              solve_report *out_report)
+/* `product` holds F·run.B with the double matrix (solve_rows_multiply). */
+static rad_status channel_end(const solve_system *system, channel_solve *ch, const double *product,
+                              double *out_radiosity, solve_report *out_report)
 {
     solve_run *run = &ch->run;
     solve_report *rep = &ch->rep;
     if (!ch->trivial) {
-        rep->residual = solve_run_residual(run, run->B);
+        rep->residual = solve_run_residual_of(run, run->B, product);
         if (!isfinite(rep->residual)) {
             rad_error("%s: the solution is not finite (overflow: is some emission near the largest double?)",
                       run->label);
@@ -234,7 +232,7 @@ static rad_status channel_end(const solve_system *system, channel_solve *ch, dou
         run->history[run->iterations] = rep->residual; /* the verified value */
     }
     rep->error_bound = rep->residual * run->e_norm / (1 - ch->c);
-    rep->balance = solve_balance_compute(system, run->rho, run->E, run->B, run->work);
+    rep->balance = solve_balance_of(system, run->rho, run->E, run->B, product);
     rep->iterations = run->iterations;
     rep->converged = rep->residual <= run->tolerance;
     rep->seconds = solve_now() - run->start_time;
@@ -272,8 +270,13 @@ rad_status solve_channels(const solve_system *system, size_t count, const double
     char **cg_why = calloc(count, sizeof *cg_why);
     int *cg_stopped = calloc(count, sizeof *cg_stopped);
     size_t *cg_channel = calloc(count, sizeof *cg_channel);
+    solve_gpu_channel *lanes = calloc(count, sizeof *lanes);
+    const size_t n = system->patch_count;
+    double *products = malloc(count * n * sizeof *products); /* channel c's F·B at c * n */
+    const double **product_x = calloc(count, sizeof *product_x);
+    double **product_y = calloc(count, sizeof *product_y);
     memset(out_result, 0, sizeof *out_result);
-    if (!ch || !cg_runs || !cg_why || !cg_stopped || !cg_channel) {
+    if (!ch || !cg_runs || !cg_why || !cg_stopped || !cg_channel || !lanes || !products || !product_x || !product_y) {
         rad_error("out of memory for %zu channels", count);
         status = RAD_ERR_NOMEM;
         goto done;
@@ -289,43 +292,72 @@ rad_status solve_channels(const solve_system *system, size_t count, const double
     free(skew.delta);
     for (size_t c = 0; c < count; c++) ch[c].run.skew = NULL;
     if (status != RAD_OK) goto done;
-    /* CG channels together, one pass over F per iteration for all. */
+    /* CG channels together, one pass over F per iteration for all; on the
+     * GPU Jacobi channels too, in rounds verified with the double matrix. */
     size_t cg_count = 0;
     for (size_t c = 0; c < count; c++) {
-        if (ch[c].trivial || ch[c].method != SOLVE_CG) continue;
-        ch[c].rep.method_used = SOLVE_CG;
+        int on_gpu = system->gpu && ch[c].method == SOLVE_JACOBI;
+        if (ch[c].trivial || (ch[c].method != SOLVE_CG && !on_gpu)) continue;
+        ch[c].rep.method_used = ch[c].method;
+        lanes[cg_count] = (solve_gpu_channel){.run = &ch[c].run, .method = ch[c].method,
+                                              .why = ch[c].rep.fallback_reason,
+                                              .why_size = sizeof ch[0].rep.fallback_reason,
+                                              .product = products + c * n};
         cg_runs[cg_count] = &ch[c].run;
         cg_why[cg_count] = ch[c].rep.fallback_reason;
         cg_channel[cg_count++] = c;
     }
     if (cg_count) {
         double t = solve_now();
-        status = solve_cg_many(cg_runs, cg_count, cg_stopped, cg_why, sizeof ch[0].rep.fallback_reason);
+        if (system->gpu) {
+            status = solve_gpu_channels(system->gpu, lanes, cg_count);
+            for (size_t k = 0; k < cg_count; k++) {
+                cg_stopped[k] = lanes[k].stopped;
+                ch[cg_channel[k]].rep.rounds = lanes[k].rounds;
+                ch[cg_channel[k]].has_product = !lanes[k].stopped && !isnan(lanes[k].verified);
+            }
+        } else {
+            status = solve_cg_many(cg_runs, cg_count, NULL, cg_stopped, cg_why, sizeof ch[0].rep.fallback_reason);
+        }
         out_result->lockstep_channels = cg_count;
         out_result->lockstep_seconds = solve_now() - t;
         if (status != RAD_OK) goto done;
     }
-    /* The rest one by one: other methods, and CG channels that stopped
-     * (finished by Gauss-Seidel from where CG left them). */
+    /* The rest one by one on the CPU: other methods, and CG channels that
+     * stopped (finished by Gauss-Seidel from where CG left them). */
     for (size_t k = 0, c = 0; c < count; c++) {
         channel_solve *h = &ch[c];
         if (h->trivial) continue;
-        int was_cg = k < cg_count && cg_channel[k] == c;
-        if (was_cg) {
+        int was_lane = k < cg_count && cg_channel[k] == c;
+        if (was_lane) {
             int stopped = cg_stopped[k++];
             if (!stopped) continue;
             h->rep.fell_back = 1;
-            rad_warn("%s: %s; continuing with gauss-seidel from iteration %u", h->run.label, h->rep.fallback_reason,
-                     h->run.iterations);
+            rad_warn("%s: %s; continuing with gauss-seidel from iteration %u%s", h->run.label, h->rep.fallback_reason,
+                     h->run.iterations, system->gpu ? " (on the CPU)" : "");
             h->rep.method_used = SOLVE_GAUSS_SEIDEL;
             status = solve_gauss_seidel(&h->run);
         } else {
+            if (system->gpu)
+                rad_info("%s: gauss-seidel is sequential, row after row: it runs on the CPU (the GPU runs cg and "
+                         "jacobi)",
+                         h->run.label);
             status = run_methods(&h->run, h->method, &h->rep);
         }
         if (status != RAD_OK) goto done;
     }
+    /* F·B of every channel not verified yet, in one pass over F: the final
+     * verification and the energy balance both come from it */
+    size_t todo = 0;
     for (size_t c = 0; c < count; c++) {
-        rad_status st = channel_end(system, &ch[c], out_radiosity[c], &out_reports[c]);
+        if (ch[c].has_product) continue;
+        product_x[todo] = ch[c].run.B;
+        product_y[todo++] = products + c * n;
+    }
+    solve_rows multiplied = solve_system_rows(system);
+    solve_rows_multiply(&multiplied, todo, product_x, product_y);
+    for (size_t c = 0; c < count; c++) {
+        rad_status st = channel_end(system, &ch[c], products + c * n, out_radiosity[c], &out_reports[c]);
         if (st == RAD_ERR_NOT_CONVERGED && status == RAD_OK) {
             status = st;
         } else if (st != RAD_OK && st != RAD_ERR_NOT_CONVERGED) {
@@ -342,6 +374,10 @@ done:
     free(cg_why);
     free(cg_stopped);
     free(cg_channel);
+    free(lanes);
+    free(products);
+    free(product_x);
+    free(product_y);
     return status;
 }
 

@@ -37,6 +37,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "gpu.h"
 #include "rad_rfile.h"
 #include "rad_status.h"
 #include "rows.h"
@@ -89,6 +90,8 @@ typedef struct solve_system {
     const double *area;          /* N patch areas (> 0) */
     const double *row_sum;       /* N row sums of F */
     const solve_rows *sparse;    /* the stored tiles of a sparse file (rows.h), or NULL */
+    solve_gpu *gpu;              /* the same matrix resident on a GPU (gpu.h), or NULL: iterate on
+                                    the CPU. Verification stays on the CPU with the matrix above. */
 } solve_system;
 
 /* The rows of `system` (rows.h): its sparse tiles, or its dense matrix. */
@@ -115,6 +118,9 @@ typedef struct solve_balance {
  * Rows are summed in a fixed order, so it does not depend on threads. */
 solve_balance solve_balance_compute(const solve_system *system, const double *rho, const double *emission,
                                     const double *radiosity, double *scratch);
+/* The same from H = F·B (n values), already computed. */
+solve_balance solve_balance_of(const solve_system *system, const double *rho, const double *emission,
+                               const double *radiosity, const double *H);
 
 typedef struct solve_report {
     solve_method method_used;  /* the method that produced B */
@@ -128,6 +134,7 @@ typedef struct solve_report {
     double margin;             /* min_i m_i over patches with rho > 0 (<= 0: K not diagonally
                                   dominant there, CG refused); NAN if not measured */
     double error_bound;        /* bound on ||B - B_exact||_inf: residual·||E||/(1 - max rho·rowsum) */
+    uint32_t rounds;           /* rounds on the GPU (mixed-precision refinement, docs/solve.md); 0 on the CPU */
     solve_balance balance;     /* of the returned B */
     double *history;           /* history[k] = omega of iterate k,
                                   k = 0..iterations (owned) */
@@ -158,6 +165,9 @@ typedef struct solve_channels_result {
  * channels that use CG iterate in lockstep, one pass over F per iteration
  * for all of them (the same bits as one at a time); the others, and CG
  * channels that stopped and finish with Gauss-Seidel, follow one by one.
+ * With system->gpu, CG and Jacobi channels iterate on the GPU in lockstep
+ * and are verified (and refined) with the double matrix on the CPU
+ * (solve_gpu_channels, iterate.h); Gauss-Seidel runs on the CPU.
  * Status: as solve_channel's, the worst over the channels; on
  * RAD_ERR_NOT_CONVERGED every channel's outputs are filled. A report's
  * seconds run from its channel's start to its end. */

@@ -24,6 +24,19 @@
 #define SOLVE_DEFAULT_INPUT "formfactors"
 #define SOLVE_DEFAULT_OUTPUT "radiosity"
 
+/* Where the iterations run (docs/solve.md, "On the GPU"). */
+typedef enum solve_backend {
+    SOLVE_BACKEND_AUTO = 0, /* cuda when this build has CUDA and a GPU is visible, else cpu */
+    SOLVE_BACKEND_CPU,
+    SOLVE_BACKEND_CUDA      /* cg and jacobi on the GPU; gauss-seidel and every verification on the CPU */
+} solve_backend;
+
+/* "auto", "cpu", "cuda". */
+const char *solve_backend_name(solve_backend backend);
+/* Parses one of those names; RAD_ERR_USAGE (logged) otherwise, and for
+ * "cuda" in a build without CUDA. */
+rad_status solve_backend_parse(const char *name, solve_backend *out_backend);
+
 typedef struct solve_options {
     const char *input;   /* form-factor file; NULL = SOLVE_DEFAULT_INPUT */
     const char *output;  /* radiosity file; NULL = SOLVE_DEFAULT_OUTPUT */
@@ -32,6 +45,7 @@ typedef struct solve_options {
                             row sums are then judged by a fixed threshold (matrix.h) */
     const char *by_group; /* results per OBJ group, .csv or .npy (groups.h); NULL = none. The
                              form-factor file must have a group table (version 2) */
+    solve_backend backend; /* 0 = auto. cuda without a visible GPU: RAD_ERR_BACKEND before anything is read */
     solve_params params; /* zero = defaults (solver.h) */
 } solve_options;
 

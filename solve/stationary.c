@@ -87,3 +87,49 @@ rad_status solve_gauss_seidel(solve_run *run)
         run->iterations++;
     }
 }
+
+/* Up to SOLVE_GPU_LANES channels on the GPU: one pass over F per sweep
+ * for all; a lane that stops keeps the iterate it measured. */
+static rad_status jacobi_lockstep(solve_run *const *runs, size_t count, solve_gpu *gpu)
+{
+    rad_status status = RAD_OK;
+    const double *rho[SOLVE_GPU_LANES], *E[SOLVE_GPU_LANES], *B[SOLVE_GPU_LANES];
+    double e_norm[SOLVE_GPU_LANES], omega[SOLVE_GPU_LANES];
+    solve_gpu_op ops[SOLVE_GPU_LANES] = {SOLVE_GPU_IDLE};
+    for (size_t c = 0; c < count; c++) {
+        rho[c] = runs[c]->rho, E[c] = runs[c]->E, B[c] = runs[c]->B, e_norm[c] = runs[c]->e_norm;
+        ops[c] = SOLVE_GPU_JACOBI;
+    }
+    if ((status = solve_gpu_lanes_load(gpu, count, rho, E, B, e_norm)) != RAD_OK) return status;
+    for (size_t active = count; active > 0 && status == RAD_OK;) {
+        if ((status = solve_gpu_lanes_iterate(gpu, ops, omega)) != RAD_OK) break;
+        for (size_t c = 0; c < count; c++) {
+            if (ops[c] == SOLVE_GPU_IDLE) continue;
+            solve_verdict v = solve_run_record(runs[c], omega[c]);
+            if (v == SOLVE_CONTINUE) {
+                solve_gpu_jacobi_accept(gpu, c);
+                runs[c]->iterations++;
+                continue;
+            }
+            ops[c] = SOLVE_GPU_IDLE; /* B is the measured iterate */
+            active--;
+            if (v == SOLVE_FAILED) status = RAD_ERR_INVALID;
+        }
+    }
+    for (size_t c = 0; c < count; c++) {
+        rad_status stored = solve_gpu_lanes_store(gpu, c, runs[c]->B);
+        if (status == RAD_OK) status = stored;
+    }
+    return status;
+}
+
+rad_status solve_jacobi_many(solve_run *const *runs, size_t count, solve_gpu *gpu)
+{
+    rad_status status = RAD_OK;
+    for (size_t c = 0; c < count && status == RAD_OK;) {
+        size_t k = gpu ? (count - c < SOLVE_GPU_LANES ? count - c : SOLVE_GPU_LANES) : 1;
+        status = gpu ? jacobi_lockstep(runs + c, k, gpu) : solve_jacobi(runs[c]);
+        c += k;
+    }
+    return status;
+}

@@ -46,6 +46,7 @@ static void put_channel(rad_json_writer *w, const char *name, const solve_report
     put_flag(w, "converged", r->converged);
     put_number(w, "residual", r->residual);
     put_number(w, "error_bound", r->error_bound);
+    put_count(w, "rounds", r->rounds);
     put_number(w, "reciprocity", r->reciprocity >= 0 ? r->reciprocity : NAN); /* < 0: not measured */
     put_number(w, "margin", r->margin);
     rad_json_line_break(w);
@@ -87,6 +88,14 @@ static void put_stats(rad_json_writer *w, const solve_stats *s)
     put_number(w, "tolerance", s->tolerance);
     put_count(w, "max_iterations", s->max_iterations);
     put_flag(w, "converged", s->converged);
+    put_name(w, "backend", s->backend);
+    put_name(w, "device", s->device);
+    rad_json_key(w, "device_exact");
+    if (s->device_exact < 0)
+        rad_json_null(w);
+    else
+        rad_json_bool(w, s->device_exact);
+    put_number(w, "upload_seconds", s->upload_seconds);
     put_number(w, "load_seconds", s->load_seconds);
     put_number(w, "total_seconds", s->total_seconds);
     rad_json_key(w, "channels");

@@ -20,6 +20,10 @@ typedef struct solve_stats {
     double tolerance;
     uint32_t max_iterations;
     double load_seconds;          /* reading and validating the matrix */
+    const char *backend;          /* "cpu" or "cuda": where the iterations ran (auto resolved) */
+    const char *device;           /* the GPU's name; NULL on the CPU */
+    int device_exact;             /* the GPU's float matrix is the file's (1) or rounded (0); -1 on the CPU */
+    double upload_seconds;        /* copying the matrix to the GPU; 0 on the CPU */
     double total_seconds;
     int converged;                /* every channel */
     uint32_t channel_count;       /* 1 (grey) or 3 */

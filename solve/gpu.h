@@ -1,0 +1,113 @@
+/* gpu.h - the C-callable face of solve's CUDA code: the form-factor matrix
+ * resident on one GPU, and the vector work of up to SOLVE_GPU_LANES
+ * channels iterating in lockstep on it. No CUDA types here; gpu_cuda.cu
+ * implements it, gpu_none.c (builds without nvcc) says there is no GPU.
+ *
+ * Usage (the iteration control stays on the host: cg.c, stationary.c,
+ * rounds.c; docs/solve.md, "On the GPU"):
+ *     solve_gpu_tiles tiles;
+ *     solve_gpu_tiles_make(&rows, &tiles);          // F as float tiles, on the host
+ *     solve_gpu *gpu;
+ *     solve_gpu_create(&tiles, area, &gpu);         // copies them once
+ *     solve_gpu_tiles_free(&tiles);
+ *     solve_gpu_lanes_load(gpu, 3, rho, E, B, e_norm);
+ *     for (;;) {
+ *         solve_gpu_lanes_iterate(gpu, ops, omega); // one pass over F for all lanes
+ *         ... decide on the host; solve_gpu_cg_restart / solve_gpu_jacobi_accept ...
+ *     }
+ *     solve_gpu_lanes_store(gpu, c, B);
+ *     solve_gpu_destroy(gpu);
+ *
+ * The matrix: the 64-column tiles of a sparse file as they are stored
+ * (row_tiles, tile_column), a dense matrix as all the tiles of each row,
+ * every tile padded to 64 entries; entries as float (exact when the file
+ * stores f32), products summed in double. gpu_tiles.c builds that on the
+ * host (plain C, OpenMP); gpu_cuda.cu copies it. Vectors are double. Every
+ * reduction (a row's product, a dot product, a maximum) runs in a fixed
+ * order for a given N: the same inputs give the same bits, run after run.
+ */
+#ifndef SOLVE_GPU_H
+#define SOLVE_GPU_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rad_status.h"
+#include "rows.h"
+
+/* Channels one pass over the matrix serves (a scene's red, green, blue). */
+#define SOLVE_GPU_LANES 3
+
+typedef struct solve_gpu solve_gpu; /* opaque */
+
+/* 1 when this build has the CUDA backend (nvcc found at configure time). */
+int solve_gpu_built(void);
+/* CUDA devices usable by this process; 0 with no GPU or no driver (never
+ * an error: --backend auto then picks the CPU). */
+int solve_gpu_device_count(void);
+
+/* The matrix as the device stores it: flat arrays and counts. */
+typedef struct solve_gpu_tiles {
+    size_t n, tile_count;
+    uint64_t *row_tiles;   /* n + 1: row i's tiles are [row_tiles[i], row_tiles[i + 1]) */
+    uint32_t *tile_column; /* tile_count: each tile's first column (a multiple of 64) */
+    float *values;         /* tile_count * RAD_FF_TILE_COLUMNS: F_ij rounded to float, zero-padded */
+    double *diag;          /* n: F_ii in double (Jacobi's divisor, CG's preconditioner) */
+    int exact;             /* 1 when every float is its double (an f32 file) */
+} solve_gpu_tiles;
+
+/* Rows per OpenMP thread pass, as SOLVE_PARALLEL_MIN_ROWS (iterate.h). */
+#define SOLVE_GPU_PARALLEL_MIN_ROWS 256
+
+/* Builds the tiles of F on the host threads (gpu_tiles.c; no CUDA).
+ * Out of memory: logged, RAD_ERR_NOMEM, *out_tiles untouched. */
+rad_status solve_gpu_tiles_make(const solve_rows *F, solve_gpu_tiles *out_tiles);
+void solve_gpu_tiles_free(solve_gpu_tiles *tiles); /* safe on zeroed */
+
+/* Copies `tiles` (area: n patch areas) to device 0. Errors (no device, not
+ * enough GPU memory, a failed CUDA call) are logged; *out_gpu is set only
+ * on success. */
+rad_status solve_gpu_create(const solve_gpu_tiles *tiles, const double *area, solve_gpu **out_gpu);
+void solve_gpu_destroy(solve_gpu *gpu); /* safe on NULL */
+
+/* 1 when every entry of F is a float exactly (f32 files): the device
+ * matrix is F itself. Otherwise it is F rounded to float. */
+int solve_gpu_exact(const solve_gpu *gpu);
+/* The device's name, e.g. "NVIDIA H100 80GB HBM3". */
+const char *solve_gpu_device_name(const solve_gpu *gpu);
+/* Bytes of device memory the matrix takes. */
+size_t solve_gpu_matrix_bytes(const solve_gpu *gpu);
+
+/* y_c = F x_c for c < count (count <= SOLVE_GPU_LANES), host vectors of n
+ * doubles each, through the lanes' vectors (their contents are lost). */
+rad_status solve_gpu_multiply(solve_gpu *gpu, size_t count, const double *const *x, double *const *y);
+
+/* Loads `count` (<= SOLVE_GPU_LANES) lanes: lane c iterates on
+ * (I - diag(rho[c]) F) B = E[c] from B[c], its stopping rule scaled by
+ * e_norm[c] (iterate.h). Host arrays of n doubles; copied. */
+rad_status solve_gpu_lanes_load(solve_gpu *gpu, size_t count, const double *const *rho, const double *const *E,
+                                const double *const *B, const double *e_norm);
+/* Copies lane c's current B (n doubles) to the host. */
+rad_status solve_gpu_lanes_store(solve_gpu *gpu, size_t lane, double *out_B);
+
+/* What a lane does with its pass over F (docs/solve.md, "On the GPU"). */
+typedef enum solve_gpu_op {
+    SOLVE_GPU_IDLE = 0,
+    SOLVE_GPU_CG_RESIDUAL, /* y = F B: r = diag(A/rho)(E + rho y - B), z = r / K_ii (cg.c cg_residual) */
+    SOLVE_GPU_CG_STEP,     /* y = F p: q = K p; if p.q > 0 one CG update of B, r, z, p (cg.c cg_step) */
+    SOLVE_GPU_JACOBI       /* y = F B: next = B + r / (1 - rho F_ii) (stationary.c jacobi_sweep) */
+} solve_gpu_op;
+
+/* One pass over F for every lane whose ops[c] is not idle, then each
+ * lane's op. out_omega[c]: omega of the iterate measured (CG residual,
+ * Jacobi: of B; CG step: of the new B, from the recurrence), or NAN for a
+ * CG step that met p.Kp <= 0 (then nothing changed). Idle lanes' entries
+ * are left alone. Waits for the device. */
+rad_status solve_gpu_lanes_iterate(solve_gpu *gpu, const solve_gpu_op *ops, double *out_omega);
+/* For every lane c with restart[c] != 0: p = z and rz = r.z (a fresh
+ * search direction). Does not wait. */
+rad_status solve_gpu_cg_restart(solve_gpu *gpu, const int *restart);
+/* Lane c takes the iterate its last Jacobi op computed (B = next). */
+void solve_gpu_jacobi_accept(solve_gpu *gpu, size_t lane);
+
+#endif

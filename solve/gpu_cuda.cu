@@ -1,0 +1,579 @@
+/* gpu_cuda.cu - solve's CUDA code (gpu.h). No OpenMP or MPI here, only
+ * CUDA; the iteration control (when to stop, restart, fall back) stays on
+ * the host, in cg.c, stationary.c and rounds.c.
+ *
+ * The matrix lives on the device as 64-column tiles padded to 64 floats
+ * (a sparse file's stored tiles; a dense row as all its tiles), with
+ * row_tiles and tile_column as the file has them. The product kernel
+ * gives each row a warp: lane k takes entries 2k and 2k + 1 of every tile
+ * of the row (one 256-byte load of the tile per warp), multiplies them by
+ * the operand of each lane (up to three channels: the matrix is read once
+ * for all of them), sums in double, and the warp adds its 32 partial sums
+ * with an xor butterfly. The vector kernels (CG's updates, Jacobi's) run
+ * over a fixed grid whose blocks leave one partial maximum and one partial
+ * sum each; a second kernel adds those in a fixed order. No atomics: a
+ * given N gives the same bits, run after run.
+ *
+ * Compiled with --fmad=false (solve/CMakeLists.txt), so the vector
+ * updates round as the host code they mirror (cg.c, stationary.c); only
+ * the order of the sums differs from the CPU.
+ */
+#include <cuda_runtime.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+extern "C" {
+#include "gpu.h"
+#include "rad_log.h"
+#include "residual.h"
+}
+
+/* Threads per block of every kernel; the product kernel's rows per block
+ * are its warps. */
+#define GPU_BLOCK 256
+#define GPU_WARPS (GPU_BLOCK / 32)
+/* Tile width: the file's (docs/formats.md); a warp covers it in two
+ * entries per lane. */
+#define GPU_TILE 64
+/* Blocks of the vector kernels, at most: each leaves one partial result
+ * per quantity; 512 blocks of 256 threads keep an H100's 132 SMs busy. */
+#define GPU_PARTIALS 512
+/* Vectors per lane: B, next, r, z, p, q, y, rho, E. */
+#define GPU_LANE_VECTORS 9
+
+static_assert(RAD_FF_TILE_COLUMNS == GPU_TILE, "the tile width of the file format");
+static_assert(sizeof(uint64_t) == sizeof(unsigned long long), "row_tiles as the file has them");
+
+/* An op beyond solve_gpu_op's, for solve_gpu_cg_restart. */
+#define GPU_RESTART 100
+
+/* What finishes a vector kernel's partial results into a lane's scalars. */
+enum gpu_finish { FINISH_OMEGA, FINISH_CURVATURE, FINISH_UPDATE, FINISH_RESTART };
+
+/* One lane's scalars, on the device (host copies after each pass). */
+struct gpu_scalars {
+    double rz;    /* r.z of the current search direction */
+    double pq;    /* p.Kp of the last step */
+    double alpha; /* rz / pq */
+    double beta;  /* the new rz / the old */
+    double omega; /* omega of the last measured iterate */
+    int ok;       /* pq > 0: the last step was taken */
+    int pad;
+};
+
+/* One lane's vectors on the device, each n_pad doubles (zero beyond n). */
+struct gpu_lane {
+    double *B, *next, *r, *z, *p, *q, *y;
+    double *rho, *E;
+    double e_norm;
+};
+
+/* The kernels' view of every lane and what it does in this launch. */
+struct gpu_lanes {
+    gpu_lane lane[SOLVE_GPU_LANES];
+    int op[SOLVE_GPU_LANES]; /* solve_gpu_op, or GPU_RESTART */
+    const double *area, *diag;
+    size_t n;
+    double *partial;      /* [lane][max, sum][GPU_PARTIALS] */
+    gpu_scalars *scalars; /* [lane] */
+    unsigned blocks;      /* of the vector kernels, <= GPU_PARTIALS */
+};
+
+/* The product's operands: x[k] in, y[k] out, for k < the template's K. */
+struct gpu_operands {
+    const double *x[SOLVE_GPU_LANES];
+    double *y[SOLVE_GPU_LANES];
+};
+
+struct gpu_matrix {
+    size_t n;
+    const unsigned long long *row_tiles; /* n + 1 */
+    const uint32_t *tile_column;         /* per tile: its first column */
+    const float *values;                 /* per tile: GPU_TILE entries, zero-padded */
+};
+
+struct solve_gpu {
+    char name[256];
+    int exact;
+    size_t n, n_pad, tile_count, matrix_bytes;
+    unsigned long long *row_tiles;
+    uint32_t *tile_column;
+    float *values;
+    double *area, *diag; /* n each */
+    double *vectors;     /* SOLVE_GPU_LANES * GPU_LANE_VECTORS * n_pad */
+    double *partial;
+    gpu_scalars *scalars;
+    gpu_scalars host_scalars[SOLVE_GPU_LANES];
+    gpu_lane lane[SOLVE_GPU_LANES];
+    size_t lane_count;
+};
+
+/* Logs a failed CUDA call with its place and returns RAD_ERR_BACKEND. */
+static rad_status gpu_check(cudaError_t err, const char *what, int line)
+{
+    if (err == cudaSuccess) return RAD_OK;
+    rad_error("cuda: %s (gpu_cuda.cu:%d): %s", what, line, cudaGetErrorString(err));
+    return RAD_ERR_BACKEND;
+}
+#define GPU_TRY(call)                                                          \
+    do {                                                                       \
+        if ((status = gpu_check((call), #call, __LINE__)) != RAD_OK) goto done; \
+    } while (0)
+
+/* ---- kernels ---- */
+
+/* The larger of two residuals; NaN wins (a NaN anywhere is the answer). */
+__device__ static inline double gpu_max(double a, double b)
+{
+    if (isnan(a)) return a;
+    if (isnan(b)) return b;
+    return a > b ? a : b;
+}
+
+/* Reduces one value of each kind over the block (a fixed tree); thread 0
+ * gets the results. */
+__device__ static void gpu_block_reduce(double *worst, double *sum)
+{
+    __shared__ double s_max[GPU_BLOCK], s_sum[GPU_BLOCK];
+    unsigned t = threadIdx.x;
+    s_max[t] = *worst;
+    s_sum[t] = *sum;
+    __syncthreads();
+    for (unsigned half = GPU_BLOCK / 2; half > 0; half >>= 1) {
+        if (t < half) {
+            s_max[t] = gpu_max(s_max[t], s_max[t + half]);
+            s_sum[t] += s_sum[t + half];
+        }
+        __syncthreads();
+    }
+    *worst = s_max[0];
+    *sum = s_sum[0];
+}
+
+/* This block's partial maximum and sum for lane c. */
+__device__ static void gpu_store_partials(const gpu_lanes &L, unsigned c, double worst, double sum)
+{
+    gpu_block_reduce(&worst, &sum);
+    if (threadIdx.x == 0) {
+        L.partial[(2 * c) * GPU_PARTIALS + blockIdx.x] = worst;
+        L.partial[(2 * c + 1) * GPU_PARTIALS + blockIdx.x] = sum;
+    }
+}
+
+/* y_k = F x_k for k < K: a warp per row (above). x_k hold n_pad entries,
+ * zero beyond n, so a padded tile needs no bounds test. */
+template <int K> __global__ void __launch_bounds__(GPU_BLOCK) gpu_product_kernel(gpu_matrix m, gpu_operands v)
+{
+    size_t row = (blockIdx.x * (size_t)blockDim.x + threadIdx.x) / 32;
+    unsigned lane = threadIdx.x & 31u;
+    if (row >= m.n) return; /* the whole warp */
+    double s[K];
+#pragma unroll
+    for (int k = 0; k < K; k++) s[k] = 0;
+    const unsigned long long end = m.row_tiles[row + 1];
+#pragma unroll 4
+    for (unsigned long long t = m.row_tiles[row]; t < end; t++) {
+        float2 f = reinterpret_cast<const float2 *>(m.values + t * GPU_TILE)[lane];
+        size_t column = (size_t)m.tile_column[t] + 2 * lane;
+#pragma unroll
+        for (int k = 0; k < K; k++) {
+            double2 x = *reinterpret_cast<const double2 *>(v.x[k] + column);
+            s[k] += (double)f.x * x.x;
+            s[k] += (double)f.y * x.y;
+        }
+    }
+#pragma unroll
+    for (int k = 0; k < K; k++)
+        for (int offset = 16; offset > 0; offset >>= 1) s[k] += __shfl_xor_sync(0xffffffffu, s[k], offset);
+    if (lane == 0) {
+#pragma unroll
+        for (int k = 0; k < K; k++) v.y[k][row] = s[k];
+    }
+}
+
+#define GPU_ROWS_OF_THIS_THREAD(i, n) \
+    for (size_t i = blockIdx.x * (size_t)blockDim.x + threadIdx.x; i < (n); i += (size_t)gridDim.x * blockDim.x)
+
+/* After y = F B: CG's residual (cg.c cg_residual) or a Jacobi update
+ * (stationary.c jacobi_sweep), and omega of B. Lane = blockIdx.y. */
+__global__ void gpu_measure_kernel(gpu_lanes L)
+{
+    unsigned c = blockIdx.y;
+    int op = L.op[c];
+    if (op != SOLVE_GPU_CG_RESIDUAL && op != SOLVE_GPU_JACOBI) return; /* the whole block */
+    gpu_lane l = L.lane[c];
+    double worst = 0, none = 0;
+    GPU_ROWS_OF_THIS_THREAD(i, L.n)
+    {
+        double rho = l.rho[i];
+        if (rho == 0) {
+            if (op == SOLVE_GPU_JACOBI)
+                l.next[i] = l.B[i];
+            else
+                l.r[i] = l.z[i] = 0;
+            continue;
+        }
+        double gathered = l.E[i] + rho * l.y[i];
+        double r = gathered - l.B[i];
+        if (op == SOLVE_GPU_JACOBI) {
+            l.next[i] = l.B[i] + r / (1 - rho * L.diag[i]);
+        } else {
+            l.r[i] = L.area[i] / rho * r;
+            l.z[i] = l.r[i] / (L.area[i] * (1 / rho - L.diag[i]));
+        }
+        worst = gpu_max(worst, solve_patch_residual(r, gathered, l.e_norm));
+    }
+    gpu_store_partials(L, c, worst, none);
+}
+
+/* After y = F p: q = K p and the partial sums of p.q (cg.c cg_step). */
+__global__ void gpu_curvature_kernel(gpu_lanes L)
+{
+    unsigned c = blockIdx.y;
+    if (L.op[c] != SOLVE_GPU_CG_STEP) return;
+    gpu_lane l = L.lane[c];
+    double none = 0, pq = 0;
+    GPU_ROWS_OF_THIS_THREAD(i, L.n)
+    {
+        double rho = l.rho[i];
+        double q = rho == 0 ? 0 : L.area[i] * (l.p[i] / rho - l.y[i]);
+        l.q[i] = q;
+        pq += l.p[i] * q;
+    }
+    gpu_store_partials(L, c, none, pq);
+}
+
+/* When p.q > 0: B += alpha p, r -= alpha q, z = r / K_ii; omega of the
+ * new B (from the recurrence) and the partial sums of r.z. */
+__global__ void gpu_update_kernel(gpu_lanes L)
+{
+    unsigned c = blockIdx.y;
+    if (L.op[c] != SOLVE_GPU_CG_STEP || !L.scalars[c].ok) return;
+    gpu_lane l = L.lane[c];
+    const double alpha = L.scalars[c].alpha;
+    double worst = 0, rz = 0;
+    GPU_ROWS_OF_THIS_THREAD(i, L.n)
+    {
+        double rho = l.rho[i];
+        if (rho == 0) continue; /* r = z = p = 0 there */
+        l.B[i] += alpha * l.p[i];
+        l.r[i] -= alpha * l.q[i];
+        l.z[i] = l.r[i] / (L.area[i] * (1 / rho - L.diag[i]));
+        double r = l.r[i] * rho / L.area[i];
+        worst = gpu_max(worst, solve_patch_residual(r, l.B[i] + r, l.e_norm));
+        rz += l.r[i] * l.z[i];
+    }
+    gpu_store_partials(L, c, worst, rz);
+}
+
+/* When p.q > 0: p = z + beta p. */
+__global__ void gpu_direction_kernel(gpu_lanes L)
+{
+    unsigned c = blockIdx.y;
+    if (L.op[c] != SOLVE_GPU_CG_STEP || !L.scalars[c].ok) return;
+    gpu_lane l = L.lane[c];
+    const double beta = L.scalars[c].beta;
+    GPU_ROWS_OF_THIS_THREAD(i, L.n) l.p[i] = l.z[i] + beta * l.p[i];
+}
+
+/* p = z and the partial sums of r.z (cg.c cg_restart_direction). */
+__global__ void gpu_restart_kernel(gpu_lanes L)
+{
+    unsigned c = blockIdx.y;
+    if (L.op[c] != GPU_RESTART) return;
+    gpu_lane l = L.lane[c];
+    double none = 0, rz = 0;
+    GPU_ROWS_OF_THIS_THREAD(i, L.n)
+    {
+        l.p[i] = l.z[i];
+        rz += l.r[i] * l.z[i];
+    }
+    gpu_store_partials(L, c, none, rz);
+}
+
+/* Adds the partial results of lane blockIdx.x in a fixed order and sets
+ * its scalars. */
+__global__ void gpu_finish_kernel(gpu_lanes L, int finish)
+{
+    unsigned c = blockIdx.x;
+    int op = L.op[c];
+    int applies = finish == FINISH_OMEGA ? op == SOLVE_GPU_CG_RESIDUAL || op == SOLVE_GPU_JACOBI
+                  : finish == FINISH_RESTART ? op == GPU_RESTART
+                                             : op == SOLVE_GPU_CG_STEP;
+    if (!applies || (finish == FINISH_UPDATE && !L.scalars[c].ok)) return;
+    const double *worst_of = L.partial + (2 * c) * GPU_PARTIALS, *sum_of = worst_of + GPU_PARTIALS;
+    double worst = 0, sum = 0;
+    for (unsigned b = threadIdx.x; b < L.blocks; b += blockDim.x) {
+        worst = gpu_max(worst, worst_of[b]);
+        sum += sum_of[b];
+    }
+    gpu_block_reduce(&worst, &sum);
+    if (threadIdx.x != 0) return;
+    gpu_scalars *s = &L.scalars[c];
+    switch (finish) {
+    case FINISH_OMEGA: s->omega = worst; break;
+    case FINISH_CURVATURE:
+        s->pq = sum;
+        s->ok = sum > 0;
+        s->alpha = s->ok ? s->rz / sum : 0;
+        break;
+    case FINISH_UPDATE:
+        s->omega = worst;
+        s->beta = sum / s->rz;
+        s->rz = sum;
+        break;
+    default: s->rz = sum; break;
+    }
+}
+
+/* ---- host ---- */
+
+extern "C" int solve_gpu_built(void) { return 1; }
+
+extern "C" int solve_gpu_device_count(void)
+{
+    int count = 0;
+    if (cudaGetDeviceCount(&count) != cudaSuccess) {
+        cudaGetLastError(); /* clear the "no device" error */
+        return 0;
+    }
+    return count;
+}
+
+extern "C" int solve_gpu_exact(const solve_gpu *gpu) { return gpu->exact; }
+extern "C" const char *solve_gpu_device_name(const solve_gpu *gpu) { return gpu->name; }
+extern "C" size_t solve_gpu_matrix_bytes(const solve_gpu *gpu) { return gpu->matrix_bytes; }
+
+extern "C" void solve_gpu_destroy(solve_gpu *gpu)
+{
+    if (!gpu) return;
+    cudaFree(gpu->row_tiles);
+    cudaFree(gpu->tile_column);
+    cudaFree(gpu->values);
+    cudaFree(gpu->area);
+    cudaFree(gpu->diag);
+    cudaFree(gpu->vectors);
+    cudaFree(gpu->partial);
+    cudaFree(gpu->scalars);
+    free(gpu);
+}
+
+extern "C" rad_status solve_gpu_create(const solve_gpu_tiles *tiles, const double *area, solve_gpu **out_gpu)
+{
+    rad_status status = RAD_OK;
+    const size_t n = tiles->n, count = tiles->tile_count;
+    solve_gpu *g = (solve_gpu *)calloc(1, sizeof *g);
+    if (!g) {
+        rad_error("out of memory");
+        return RAD_ERR_NOMEM;
+    }
+    if (solve_gpu_device_count() == 0) {
+        rad_error("--backend cuda: no CUDA device is visible (no GPU, no driver, or CUDA_VISIBLE_DEVICES hides "
+                  "them); --backend auto or cpu solves on the CPU");
+        status = RAD_ERR_BACKEND;
+        goto done;
+    }
+    g->n = n;
+    g->n_pad = (n + GPU_TILE - 1) / GPU_TILE * GPU_TILE;
+    g->tile_count = count;
+    g->exact = tiles->exact;
+    g->matrix_bytes = count * (GPU_TILE * sizeof(float) + sizeof(uint32_t)) + (n + 1) * sizeof(uint64_t);
+    {
+        cudaDeviceProp prop;
+        GPU_TRY(cudaSetDevice(0));
+        GPU_TRY(cudaGetDeviceProperties(&prop, 0));
+        snprintf(g->name, sizeof g->name, "%s", prop.name);
+        size_t free_bytes = 0, total_bytes = 0;
+        GPU_TRY(cudaMemGetInfo(&free_bytes, &total_bytes));
+        size_t need = g->matrix_bytes + SOLVE_GPU_LANES * GPU_LANE_VECTORS * g->n_pad * sizeof(double) +
+                      2 * n * sizeof(double);
+        if (need > free_bytes) {
+            rad_error("--backend cuda: the matrix needs %.2f GiB on the GPU (%zu tiles of %d floats and the "
+                      "vectors), %s has %.2f GiB free",
+                      need / 1073741824.0, count, GPU_TILE, g->name, free_bytes / 1073741824.0);
+            status = RAD_ERR_NOMEM;
+            goto done;
+        }
+    }
+    GPU_TRY(cudaMalloc(&g->row_tiles, (n + 1) * sizeof(uint64_t)));
+    GPU_TRY(cudaMalloc(&g->tile_column, (count ? count : 1) * sizeof(uint32_t)));
+    GPU_TRY(cudaMalloc(&g->values, (count ? count : 1) * GPU_TILE * sizeof(float)));
+    GPU_TRY(cudaMalloc(&g->area, n * sizeof(double)));
+    GPU_TRY(cudaMalloc(&g->diag, n * sizeof(double)));
+    GPU_TRY(cudaMalloc(&g->vectors, SOLVE_GPU_LANES * GPU_LANE_VECTORS * g->n_pad * sizeof(double)));
+    GPU_TRY(cudaMalloc(&g->partial, SOLVE_GPU_LANES * 2 * GPU_PARTIALS * sizeof(double)));
+    GPU_TRY(cudaMalloc(&g->scalars, SOLVE_GPU_LANES * sizeof(gpu_scalars)));
+    /* zero vectors: the padding beyond n stays zero (kernels write rows < n only) */
+    GPU_TRY(cudaMemset(g->vectors, 0, SOLVE_GPU_LANES * GPU_LANE_VECTORS * g->n_pad * sizeof(double)));
+    GPU_TRY(cudaMemset(g->scalars, 0, SOLVE_GPU_LANES * sizeof(gpu_scalars)));
+    GPU_TRY(cudaMemcpy(g->row_tiles, tiles->row_tiles, (n + 1) * sizeof(uint64_t), cudaMemcpyHostToDevice));
+    if (count) {
+        GPU_TRY(cudaMemcpy(g->tile_column, tiles->tile_column, count * sizeof(uint32_t), cudaMemcpyHostToDevice));
+        GPU_TRY(cudaMemcpy(g->values, tiles->values, count * GPU_TILE * sizeof(float), cudaMemcpyHostToDevice));
+    }
+    GPU_TRY(cudaMemcpy(g->diag, tiles->diag, n * sizeof(double), cudaMemcpyHostToDevice));
+    GPU_TRY(cudaMemcpy(g->area, area, n * sizeof(double), cudaMemcpyHostToDevice));
+    for (size_t c = 0; c < SOLVE_GPU_LANES; c++) {
+        double *v = g->vectors + c * GPU_LANE_VECTORS * g->n_pad;
+        g->lane[c] = gpu_lane{v, v + g->n_pad, v + 2 * g->n_pad, v + 3 * g->n_pad, v + 4 * g->n_pad,
+                              v + 5 * g->n_pad, v + 6 * g->n_pad, v + 7 * g->n_pad, v + 8 * g->n_pad, 1.0};
+    }
+    *out_gpu = g;
+    g = NULL;
+done:
+    solve_gpu_destroy(g);
+    return status;
+}
+
+/* The kernels' argument for `ops` (NULL entries: idle). */
+static gpu_lanes lanes_arg(const solve_gpu *g, const int *ops)
+{
+    gpu_lanes L;
+    memset(&L, 0, sizeof L);
+    for (size_t c = 0; c < g->lane_count; c++) {
+        L.lane[c] = g->lane[c];
+        L.op[c] = ops[c];
+    }
+    L.area = g->area;
+    L.diag = g->diag;
+    L.n = g->n;
+    L.partial = g->partial;
+    L.scalars = g->scalars;
+    size_t blocks = (g->n + GPU_BLOCK - 1) / GPU_BLOCK;
+    L.blocks = (unsigned)(blocks < GPU_PARTIALS ? blocks : GPU_PARTIALS);
+    return L;
+}
+
+/* y_k = F x_k for k < count, one pass over F. */
+static rad_status launch_product(const solve_gpu *g, const gpu_operands *v, int count)
+{
+    rad_status status = RAD_OK;
+    gpu_matrix m = {g->n, g->row_tiles, g->tile_column, g->values};
+    unsigned blocks = (unsigned)((g->n + GPU_WARPS - 1) / GPU_WARPS);
+    if (count == 1) gpu_product_kernel<1><<<blocks, GPU_BLOCK>>>(m, *v);
+    if (count == 2) gpu_product_kernel<2><<<blocks, GPU_BLOCK>>>(m, *v);
+    if (count == 3) gpu_product_kernel<3><<<blocks, GPU_BLOCK>>>(m, *v);
+    GPU_TRY(cudaGetLastError());
+done:
+    return status;
+}
+
+extern "C" rad_status solve_gpu_lanes_load(solve_gpu *g, size_t count, const double *const *rho,
+                                           const double *const *E, const double *const *B, const double *e_norm)
+{
+    rad_status status = RAD_OK;
+    const size_t bytes = g->n * sizeof(double);
+    if (count > SOLVE_GPU_LANES) {
+        rad_error("solve_gpu_lanes_load: %zu lanes, at most %d", count, SOLVE_GPU_LANES);
+        return RAD_ERR_INVALID;
+    }
+    for (size_t c = 0; c < count; c++) {
+        GPU_TRY(cudaMemcpy(g->lane[c].rho, rho[c], bytes, cudaMemcpyHostToDevice));
+        GPU_TRY(cudaMemcpy(g->lane[c].E, E[c], bytes, cudaMemcpyHostToDevice));
+        GPU_TRY(cudaMemcpy(g->lane[c].B, B[c], bytes, cudaMemcpyHostToDevice));
+        g->lane[c].e_norm = e_norm[c];
+    }
+    g->lane_count = count;
+done:
+    return status;
+}
+
+extern "C" rad_status solve_gpu_lanes_store(solve_gpu *g, size_t lane, double *out_B)
+{
+    rad_status status = RAD_OK;
+    GPU_TRY(cudaMemcpy(out_B, g->lane[lane].B, g->n * sizeof(double), cudaMemcpyDeviceToHost));
+done:
+    return status;
+}
+
+extern "C" void solve_gpu_jacobi_accept(solve_gpu *g, size_t lane)
+{
+    double *t = g->lane[lane].B;
+    g->lane[lane].B = g->lane[lane].next;
+    g->lane[lane].next = t;
+}
+
+extern "C" rad_status solve_gpu_multiply(solve_gpu *g, size_t count, const double *const *x, double *const *y)
+{
+    rad_status status = RAD_OK;
+    const size_t bytes = g->n * sizeof(double);
+    gpu_operands v;
+    memset(&v, 0, sizeof v);
+    if (count > SOLVE_GPU_LANES) {
+        rad_error("solve_gpu_multiply: %zu vectors, at most %d", count, SOLVE_GPU_LANES);
+        return RAD_ERR_INVALID;
+    }
+    for (size_t c = 0; c < count; c++) {
+        GPU_TRY(cudaMemcpy(g->lane[c].B, x[c], bytes, cudaMemcpyHostToDevice));
+        v.x[c] = g->lane[c].B;
+        v.y[c] = g->lane[c].y;
+    }
+    if (count == 0) return RAD_OK;
+    if ((status = launch_product(g, &v, (int)count)) != RAD_OK) goto done;
+    for (size_t c = 0; c < count; c++) GPU_TRY(cudaMemcpy(y[c], g->lane[c].y, bytes, cudaMemcpyDeviceToHost));
+done:
+    return status;
+}
+
+extern "C" rad_status solve_gpu_lanes_iterate(solve_gpu *g, const solve_gpu_op *ops, double *out_omega)
+{
+    rad_status status = RAD_OK;
+    int op[SOLVE_GPU_LANES] = {0}, count = 0, measure = 0, step = 0;
+    gpu_operands v;
+    memset(&v, 0, sizeof v);
+    for (size_t c = 0; c < g->lane_count; c++) {
+        op[c] = ops[c];
+        if (ops[c] == SOLVE_GPU_IDLE) continue;
+        v.x[count] = ops[c] == SOLVE_GPU_CG_STEP ? g->lane[c].p : g->lane[c].B;
+        v.y[count++] = g->lane[c].y;
+        step |= ops[c] == SOLVE_GPU_CG_STEP;
+        measure |= ops[c] != SOLVE_GPU_CG_STEP;
+    }
+    if (count == 0) return RAD_OK;
+    gpu_lanes L = lanes_arg(g, op);
+    dim3 grid(L.blocks, (unsigned)g->lane_count);
+    unsigned lanes = (unsigned)g->lane_count;
+    if ((status = launch_product(g, &v, count)) != RAD_OK) goto done;
+    if (measure) {
+        gpu_measure_kernel<<<grid, GPU_BLOCK>>>(L);
+        gpu_finish_kernel<<<lanes, GPU_BLOCK>>>(L, FINISH_OMEGA);
+    }
+    if (step) {
+        gpu_curvature_kernel<<<grid, GPU_BLOCK>>>(L);
+        gpu_finish_kernel<<<lanes, GPU_BLOCK>>>(L, FINISH_CURVATURE);
+        gpu_update_kernel<<<grid, GPU_BLOCK>>>(L);
+        gpu_finish_kernel<<<lanes, GPU_BLOCK>>>(L, FINISH_UPDATE);
+        gpu_direction_kernel<<<grid, GPU_BLOCK>>>(L);
+    }
+    GPU_TRY(cudaGetLastError());
+    /* waits for the kernels; a fault in one of them is reported here */
+    GPU_TRY(cudaMemcpy(g->host_scalars, g->scalars, g->lane_count * sizeof(gpu_scalars), cudaMemcpyDeviceToHost));
+    for (size_t c = 0; c < g->lane_count; c++) {
+        if (ops[c] == SOLVE_GPU_IDLE) continue;
+        const gpu_scalars *s = &g->host_scalars[c];
+        out_omega[c] = ops[c] == SOLVE_GPU_CG_STEP && !s->ok ? NAN : s->omega;
+    }
+done:
+    return status;
+}
+
+extern "C" rad_status solve_gpu_cg_restart(solve_gpu *g, const int *restart)
+{
+    rad_status status = RAD_OK;
+    int op[SOLVE_GPU_LANES] = {0}, any = 0;
+    for (size_t c = 0; c < g->lane_count; c++) {
+        op[c] = restart[c] ? GPU_RESTART : SOLVE_GPU_IDLE;
+        any |= restart[c] != 0;
+    }
+    if (!any) return RAD_OK;
+    gpu_lanes L = lanes_arg(g, op);
+    dim3 grid(L.blocks, (unsigned)g->lane_count);
+    gpu_restart_kernel<<<grid, GPU_BLOCK>>>(L);
+    gpu_finish_kernel<<<(unsigned)g->lane_count, GPU_BLOCK>>>(L, FINISH_RESTART);
+    GPU_TRY(cudaGetLastError());
+done:
+    return status;
+}

@@ -1,0 +1,57 @@
+/* gpu_tiles.c - the matrix as the GPU stores it, built on the host's
+ * OpenMP threads (gpu.h, solve_gpu_tiles): only floats cross to the
+ * device, half the bytes of the doubles solve holds. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "gpu.h"
+#include "rad_log.h"
+
+void solve_gpu_tiles_free(solve_gpu_tiles *tiles)
+{
+    if (!tiles) return;
+    free(tiles->row_tiles);
+    free(tiles->tile_column);
+    free(tiles->values);
+    free(tiles->diag);
+    memset(tiles, 0, sizeof *tiles);
+}
+
+rad_status solve_gpu_tiles_make(const solve_rows *F, solve_gpu_tiles *out_tiles)
+{
+    const size_t n = F->n, T = RAD_FF_TILE_COLUMNS, per_row = (n + T - 1) / T;
+    solve_gpu_tiles t = {.n = n, .tile_count = F->dense ? n * per_row : (size_t)F->row_tiles[n]};
+    t.row_tiles = malloc((n + 1) * sizeof *t.row_tiles);
+    t.tile_column = malloc((t.tile_count ? t.tile_count : 1) * sizeof *t.tile_column);
+    t.values = malloc((t.tile_count ? t.tile_count : 1) * T * sizeof *t.values);
+    t.diag = malloc(n * sizeof *t.diag);
+    if (!t.row_tiles || !t.tile_column || !t.values || !t.diag) {
+        rad_error("out of memory for the GPU's copy of the matrix (%zu tiles of %zu floats)", t.tile_count, T);
+        solve_gpu_tiles_free(&t);
+        return RAD_ERR_NOMEM;
+    }
+    for (size_t i = 0; i <= n; i++) t.row_tiles[i] = F->dense ? i * per_row : F->row_tiles[i];
+    int exact = 1;
+#pragma omp parallel for schedule(dynamic, 64) reduction(&& : exact) if (n >= SOLVE_GPU_PARALLEL_MIN_ROWS)
+    for (size_t i = 0; i < n; i++) {
+        uint64_t k = t.row_tiles[i];
+        for (size_t s = 0; s < solve_row_span_count(F, i); s++) {
+            solve_span sp = solve_row_span(F, i, s);
+            for (size_t begin = sp.begin; begin < sp.end; begin += T, k++) { /* a dense span is many tiles */
+                size_t width = sp.end - begin < T ? sp.end - begin : T;
+                float *to = t.values + k * T;
+                const double *from = sp.values + (begin - sp.begin);
+                t.tile_column[k] = (uint32_t)begin;
+                for (size_t e = 0; e < width; e++) {
+                    to[e] = (float)from[e];
+                    exact = exact && (double)to[e] == from[e];
+                }
+                for (size_t e = width; e < T; e++) to[e] = 0;
+            }
+        }
+        t.diag[i] = solve_row_entry(F, i, i);
+    }
+    t.exact = exact;
+    *out_tiles = t;
+    return RAD_OK;
+}
