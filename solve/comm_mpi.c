@@ -67,7 +67,13 @@ rad_status solve_comm_init(int *argc, char ***argv, solve_comm **out_comm)
 void solve_comm_finalize(solve_comm *comm)
 {
     if (!comm) return;
-    if (comm->we_initialized && !comm->solo) MPI_Finalize();
+    /* Every rank waits for the others here: mpirun ends the job as soon as
+     * one rank exits non-zero (not converged: 3), and rank 0 may still be
+     * writing its last words. */
+    if (comm->we_initialized && !comm->solo) {
+        MPI_Barrier(MPI_COMM_WORLD);
+        MPI_Finalize();
+    }
     free(comm->row_begin);
     free(comm->counts);
     free(comm->displs);
