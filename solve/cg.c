@@ -112,7 +112,7 @@ static void skew_pack(const solve_run *run, const size_t *split, size_t ranks, u
  * are |0 - 0| = 0, so the same bits as one process alone. */
 static rad_status skew_terms_ranks(const solve_run *run, double *delta)
 {
-    const size_t n = run->n, b = run->row_begin, e = run->row_end, held = e - b;
+    const size_t b = run->row_begin, e = run->row_end, held = e - b;
     const size_t ranks = (size_t)solve_comm_size(run->comm);
     const size_t *split = solve_comm_row_split(run->comm);
     const solve_rows *F = &run->F;
@@ -186,7 +186,6 @@ static rad_status skew_terms_ranks(const solve_run *run, double *delta)
             if (tj[t] != i && rho[tj[t]] != 0) sum += fabs(A[i] * 0.0 - A[tj[t]] * tv[t]);
         delta[i] = sum;
     }
-    (void)n;
 done:
     free(words_to);
     free(at);

@@ -219,13 +219,17 @@ static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix 
     return RAD_OK;
 }
 
+/* The cost of rows [0, i) for solve_matrix_split_rows. */
+static double split_cost_before(const rad_ff_file *file, int sparse, size_t i)
+{
+    return (double)(sparse ? rad_ff_record_offset(file, i) : 0) + (double)i * SOLVE_SPLIT_ROW_BYTES;
+}
+
 void solve_matrix_split_rows(const rad_ff_file *file, size_t parts, size_t *row_begin)
 {
     const size_t n = rad_ff_file_mesh(file)->patch_count;
     const int sparse = rad_ff_file_info(file)->layout == RAD_FF_LAYOUT_SPARSE;
-    /* cost of rows [0, i): their records' bytes (dense: all alike) plus SOLVE_SPLIT_ROW_BYTES each */
-#define COST_BEFORE(i) ((double)(sparse ? rad_ff_record_offset(file, i) : 0) + (double)(i) * SOLVE_SPLIT_ROW_BYTES)
-    const double total = COST_BEFORE(n);
+    const double total = split_cost_before(file, sparse, n);
     row_begin[0] = 0;
     for (size_t p = 1; p < parts; p++) {
         /* the first row whose cost before it reaches p / parts of the total */
@@ -233,14 +237,13 @@ void solve_matrix_split_rows(const rad_ff_file *file, size_t parts, size_t *row_
         size_t lo = row_begin[p - 1], hi = n;
         while (lo < hi) {
             size_t mid = lo + (hi - lo) / 2;
-            if (COST_BEFORE(mid) < target)
+            if (split_cost_before(file, sparse, mid) < target)
                 lo = mid + 1;
             else
                 hi = mid;
         }
         row_begin[p] = lo;
     }
-#undef COST_BEFORE
     row_begin[parts] = n;
 }
 
