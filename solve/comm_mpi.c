@@ -158,14 +158,13 @@ rad_status solve_comm_gather_rows(solve_comm *comm, double *const *vectors, size
                             MPI_COMM_WORLD);
     } else {
         /* Rank r's block: its rows of vector 0, of vector 1, ... */
-        if (n * count > comm->pack_cap) {
+        if (n * count > comm->pack_cap) { /* on every rank at the same call: agreed */
             free(comm->pack);
             comm->pack = malloc(n * count * sizeof *comm->pack);
             comm->pack_cap = comm->pack ? n * count : 0;
-        }
-        if (!comm->pack) {
-            rad_error("out of memory gathering %zu vectors of %zu values", count, n);
-            return RAD_ERR_NOMEM;
+            if (!comm->pack) rad_error("out of memory gathering %zu vectors of %zu values", count, n);
+            rad_status status = solve_comm_agree(comm, comm->pack ? RAD_OK : RAD_ERR_NOMEM);
+            if (status != RAD_OK) return status;
         }
         const size_t me = (size_t)comm->rank, mine = rb[me + 1] - rb[me];
         double *own = comm->pack + rb[me] * count;

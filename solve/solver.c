@@ -42,15 +42,17 @@ double solve_now(void)
 solve_verdict solve_run_record(solve_run *run, double residual)
 {
     size_t k = run->iterations;
-    if (k >= run->history_cap) {
+    if (k >= run->history_cap) { /* at the same iteration on every rank: agreed */
         size_t cap = run->history_cap ? 2 * run->history_cap : 256;
         double *grown = realloc(run->history, cap * sizeof(double));
-        if (!grown) {
+        if (grown) {
+            run->history = grown;
+            run->history_cap = cap;
+        }
+        if (solve_comm_agree(run->comm, grown ? RAD_OK : RAD_ERR_NOMEM) != RAD_OK) {
             rad_error("%s: out of memory for the residual history", run->label);
             return SOLVE_FAILED;
         }
-        run->history = grown;
-        run->history_cap = cap;
     }
     run->history[k] = residual;
     run->history_count = k + 1;
