@@ -44,9 +44,7 @@ void solve_comm_sum(solve_comm *comm, double *values, size_t count);
 /* Collective: the largest value over the ranks; NaN if any rank has NaN. */
 double solve_comm_max(solve_comm *comm, double value);
 /* Collective: every rank's `bytes` bytes into out (size x bytes, rank order). */
-void solve_comm_all_bytes(solve_comm *comm, const void *mine, size_t bytes, void *out);
-/* Collective: root's bytes to every rank. */
-void solve_comm_broadcast(solve_comm *comm, void *data, size_t bytes, int root);
+void solve_comm_allgather_bytes(solve_comm *comm, const void *mine, size_t bytes, void *out);
 
 /* Collective: the row split, size + 1 ascending values from 0 to N (copied).
  * Only needed with more than one rank. */

@@ -107,19 +107,13 @@ double solve_comm_max(solve_comm *comm, double value)
     return out[0] > 0 ? NAN : out[1];
 }
 
-void solve_comm_all_bytes(solve_comm *comm, const void *mine, size_t bytes, void *out)
+void solve_comm_allgather_bytes(solve_comm *comm, const void *mine, size_t bytes, void *out)
 {
     if (alone(comm)) {
         memmove(out, mine, bytes);
         return;
     }
     MPI_Allgather(mine, (int)bytes, MPI_BYTE, out, (int)bytes, MPI_BYTE, MPI_COMM_WORLD);
-}
-
-void solve_comm_broadcast(solve_comm *comm, void *data, size_t bytes, int root)
-{
-    if (alone(comm)) return;
-    MPI_Bcast(data, (int)bytes, MPI_BYTE, root, MPI_COMM_WORLD);
 }
 
 rad_status solve_comm_set_rows(solve_comm *comm, const size_t *row_begin)

@@ -23,8 +23,7 @@ int solve_comm_size(const solve_comm *comm) { return 1; }
 rad_status solve_comm_agree(solve_comm *comm, rad_status local) { return local; }
 void solve_comm_sum(solve_comm *comm, double *values, size_t count) {}
 double solve_comm_max(solve_comm *comm, double value) { return value; }
-void solve_comm_all_bytes(solve_comm *comm, const void *mine, size_t bytes, void *out) { memmove(out, mine, bytes); }
-void solve_comm_broadcast(solve_comm *comm, void *data, size_t bytes, int root) {}
+void solve_comm_allgather_bytes(solve_comm *comm, const void *mine, size_t bytes, void *out) { memmove(out, mine, bytes); }
 rad_status solve_comm_set_rows(solve_comm *comm, const size_t *row_begin) { return RAD_OK; }
 const size_t *solve_comm_row_split(const solve_comm *comm) { return NULL; }
 rad_status solve_comm_gather_rows(solve_comm *comm, double *const *vectors, size_t count) { return RAD_OK; }

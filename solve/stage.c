@@ -145,7 +145,7 @@ static rad_status load_rows(stage_state *s, solve_comm *comm, const solve_option
         free(all);
         return status;
     }
-    solve_comm_all_bytes(comm, mine, sizeof mine, all);
+    solve_comm_allgather_bytes(comm, mine, sizeof mine, all);
     for (size_t r = 0; r < ranks; r++) {
         s->rank_counts[r] = all[2 * r];
         s->rank_counts[ranks + r] = all[2 * r + 1];
