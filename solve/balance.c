@@ -7,6 +7,8 @@
  *   emitted = sum A_i B_i - sum A_i rho_i H_i - sum A_i r_i
  *           = absorbed + escaped - sum A_i r_i,
  * absorbed = sum A_i (1 - rho_i) H_i, escaped = sum A_j B_j (1 - s_j).
+ * Across ranks each rank sums its rows and the three sums are added over
+ * the ranks (one MPI_Allreduce).
  */
 #include <stddef.h>
 
@@ -18,23 +20,28 @@ solve_balance solve_balance_compute(const solve_system *system, const double *rh
 {
     const size_t n = system->patch_count;
     const solve_rows F = solve_system_rows(system);
+    size_t begin, end;
+    solve_system_held(system, &begin, &end);
     double *H = scratch;
-#pragma omp parallel for schedule(static) if (n >= SOLVE_PARALLEL_MIN_ROWS)
-    for (size_t i = 0; i < n; i++) H[i] = solve_row_dot(&F, i, radiosity, 0, n);
+#pragma omp parallel for schedule(static) if (end - begin >= SOLVE_PARALLEL_MIN_ROWS)
+    for (size_t i = begin; i < end; i++) H[i] = solve_row_dot(&F, i, radiosity, 0, n);
     return solve_balance_of(system, rho, emission, radiosity, H);
 }
 
 solve_balance solve_balance_of(const solve_system *system, const double *rho, const double *emission,
                                const double *radiosity, const double *H)
 {
-    const size_t n = system->patch_count;
-    solve_balance b = {0};
-    for (size_t i = 0; i < n; i++) {
+    size_t begin, end;
+    solve_system_held(system, &begin, &end);
+    double sums[3] = {0, 0, 0}; /* emitted, absorbed, escaped: this rank's rows, then over the ranks */
+    for (size_t i = begin; i < end; i++) {
         const double A = system->area[i];
-        b.emitted += A * emission[i];
-        b.absorbed += A * (1 - rho[i]) * H[i];
-        b.escaped += A * radiosity[i] * (1 - system->row_sum[i]);
+        sums[0] += A * emission[i];
+        sums[1] += A * (1 - rho[i]) * H[i];
+        sums[2] += A * radiosity[i] * (1 - system->row_sum[i]);
     }
+    solve_comm_sum(system->comm, sums, 3);
+    solve_balance b = {.emitted = sums[0], .absorbed = sums[1], .escaped = sums[2]};
     b.imbalance = b.emitted > 0 ? (b.absorbed + b.escaped - b.emitted) / b.emitted : 0;
     return b;
 }

@@ -9,6 +9,12 @@
  * The residual of K·B = b is r_K = diag(A/rho)·r, and what patch i gathers
  * is s_i = B_i + r_i, so the stopping rule (omega, iterate.h) costs nothing
  * extra. Preconditioner: M_i = K_ii.
+ *
+ * Across ranks (docs/solve.md, "Across ranks") every vector has N values
+ * but each rank updates only its rows; before each product the operands
+ * (B or p) of all lanes are gathered in one MPI_Allgatherv, and the dot
+ * products and residual maxima are reduced over the ranks, so every rank
+ * takes the same steps.
  */
 #include <math.h>
 #include <stdio.h>
@@ -69,22 +75,172 @@ static void skew_terms(const solve_run *run, double *delta)
     free(stored);
 }
 
+/* Words of a segment sent by skew_exchange: row j, first column, count,
+ * then the entries' bits. */
+#define SKEW_SEGMENT_HEADER 3
+
+/* The pieces of the held rows' stored spans that lie in each rank d's
+ * rows, for d and then row j ascending: with send NULL, counts the words
+ * for each d into words_to[d]; else writes them from send + at[d]. */
+static void skew_pack(const solve_run *run, const size_t *split, size_t ranks, uint64_t *words_to, uint64_t *at,
+                      uint64_t *send)
+{
+    const solve_rows *F = &run->F;
+    for (size_t d = 0; d < ranks; d++)
+        for (size_t j = run->row_begin; j < run->row_end; j++)
+            for (size_t k = 0; k < solve_row_span_count(F, j); k++) {
+                solve_span sp = solve_row_span(F, j, k);
+                size_t lo = sp.begin > split[d] ? sp.begin : split[d];
+                size_t hi = sp.end < split[d + 1] ? sp.end : split[d + 1];
+                if (lo >= hi) continue;
+                if (!send) {
+                    words_to[d] += SKEW_SEGMENT_HEADER + (hi - lo);
+                    continue;
+                }
+                uint64_t *w = send + at[d];
+                w[0] = j, w[1] = lo, w[2] = hi - lo;
+                memcpy(w + SKEW_SEGMENT_HEADER, sp.values + (lo - sp.begin), (hi - lo) * sizeof(double));
+                at[d] += SKEW_SEGMENT_HEADER + (hi - lo);
+            }
+}
+
+/* delta_i for the held rows when other ranks hold the rest: every rank
+ * sends each owner the pieces of its stored rows that fall in the owner's
+ * columns (the transposed tiles; one MPI_Alltoallv), so each rank sees
+ * F_ji for its rows i from every row j. The non-zero F_ji arrive ordered
+ * by j (ranks in order, rows in order within a rank), and delta_i sums
+ * over j ascending, the same order as skew_terms: the terms it leaves out
+ * are |0 - 0| = 0, so the same bits as one process alone. */
+static rad_status skew_terms_ranks(const solve_run *run, double *delta)
+{
+    const size_t b = run->row_begin, e = run->row_end, held = e - b;
+    const size_t ranks = (size_t)solve_comm_size(run->comm);
+    const size_t *split = solve_comm_row_split(run->comm);
+    const solve_rows *F = &run->F;
+    const double *A = run->area, *rho = run->rho;
+    rad_status status = RAD_OK;
+    uint64_t *words_to = calloc(ranks, sizeof *words_to), *at = calloc(ranks, sizeof *at);
+    uint64_t *send = NULL, *got = NULL, got_count = 0, total = 0;
+    size_t *start = calloc(held + 1, sizeof *start), *fill = NULL;
+    uint64_t *tj = NULL;
+    double *tv = NULL;
+    if (!words_to || !at || !start) status = RAD_ERR_NOMEM;
+    if (status == RAD_OK) {
+        skew_pack(run, split, ranks, words_to, at, NULL);
+        for (size_t d = 0; d < ranks; d++) at[d] = total, total += words_to[d];
+        send = malloc((total ? total : 1) * sizeof *send);
+        if (!send) status = RAD_ERR_NOMEM;
+    }
+    if (status == RAD_OK) {
+        skew_pack(run, split, ranks, words_to, at, send);
+    }
+    if (status == RAD_ERR_NOMEM) rad_error("%s: out of memory for the CG check's transposed tiles", run->label);
+    status = solve_comm_agree(run->comm, status);
+    if (status == RAD_OK) status = solve_comm_exchange(run->comm, send, words_to, &got, &got_count);
+    free(send);
+    send = NULL;
+    if (status != RAD_OK) goto done;
+    /* F_ji by row i: counts, offsets, then the entries in arrival order. */
+    for (uint64_t w = 0; w < got_count; w += SKEW_SEGMENT_HEADER + got[w + 2])
+        for (uint64_t k = 0; k < got[w + 2]; k++) {
+            double f;
+            memcpy(&f, &got[w + SKEW_SEGMENT_HEADER + k], sizeof f);
+            if (f != 0) start[got[w + 1] + k - b + 1]++;
+        }
+    for (size_t i = 0; i < held; i++) start[i + 1] += start[i];
+    fill = malloc((held ? held : 1) * sizeof *fill);
+    tj = malloc((start[held] ? start[held] : 1) * sizeof *tj);
+    tv = malloc((start[held] ? start[held] : 1) * sizeof *tv);
+    status = fill && tj && tv ? RAD_OK : RAD_ERR_NOMEM;
+    if (status != RAD_OK) rad_error("%s: out of memory for the CG check's transposed tiles", run->label);
+    status = solve_comm_agree(run->comm, status);
+    if (status != RAD_OK) goto done;
+    memcpy(fill, start, held * sizeof *fill);
+    for (uint64_t w = 0; w < got_count; w += SKEW_SEGMENT_HEADER + got[w + 2])
+        for (uint64_t k = 0; k < got[w + 2]; k++) {
+            double f;
+            memcpy(&f, &got[w + SKEW_SEGMENT_HEADER + k], sizeof f);
+            if (f == 0) continue;
+            size_t r = (size_t)(got[w + 1] + k) - b;
+            tj[fill[r]] = got[w];
+            tv[fill[r]++] = f;
+        }
+#pragma omp parallel for schedule(dynamic, 64) if (held >= SOLVE_PARALLEL_MIN_ROWS)
+    for (size_t i = b; i < e; i++) {
+        double sum = 0;
+        size_t t = start[i - b], t_end = start[i - b + 1];
+        if (rho[i] == 0) {
+            delta[i] = 0;
+            continue;
+        }
+        for (size_t k = 0; k < solve_row_span_count(F, i); k++) {
+            solve_span sp = solve_row_span(F, i, k);
+            for (size_t j = sp.begin; j < sp.end; j++) {
+                for (; t < t_end && tj[t] < j; t++) /* F_ij not stored, F_ji is */
+                    if (tj[t] != i && rho[tj[t]] != 0) sum += fabs(A[i] * 0.0 - A[tj[t]] * tv[t]);
+                double fji = t < t_end && tj[t] == j ? tv[t++] : 0;
+                if (j == i || rho[j] == 0) continue;
+                sum += fabs(A[i] * sp.values[j - sp.begin] - A[j] * fji);
+            }
+        }
+        for (; t < t_end; t++)
+            if (tj[t] != i && rho[tj[t]] != 0) sum += fabs(A[i] * 0.0 - A[tj[t]] * tv[t]);
+        delta[i] = sum;
+    }
+done:
+    free(words_to);
+    free(at);
+    free(got);
+    free(start);
+    free(fill);
+    free(tj);
+    free(tv);
+    return status;
+}
+
+/* The checks of the ranks' rows as one: the smallest margin and the
+ * largest ratio, each at its first row (as one process finds them). */
+static solve_cg_check combine_checks(solve_comm *comm, solve_cg_check c)
+{
+    if (solve_comm_size(comm) == 1) return c;
+    solve_cg_check all = c;
+    all.margin = -solve_comm_max(comm, -c.margin);
+    all.ratio = solve_comm_max(comm, c.ratio);
+    double margin_row = c.margin == all.margin ? (double)c.margin_row : INFINITY;
+    int has_ratio = all.ratio > 0 && c.ratio == all.ratio;
+    double ratio_row = has_ratio ? (double)c.ratio_row : INFINITY;
+    all.margin_row = (size_t)-solve_comm_max(comm, -margin_row);
+    all.ratio_row = all.ratio > 0 ? (size_t)-solve_comm_max(comm, -ratio_row) : 0;
+    int mine = has_ratio && c.ratio_row == all.ratio_row;
+    double sums[3] = {(double)c.no_margin_count, mine ? c.ratio_delta : 0, mine ? c.ratio_margin : 0};
+    solve_comm_sum(comm, sums, 3);
+    all.no_margin_count = (size_t)sums[0];
+    all.ratio_delta = sums[1];
+    all.ratio_margin = sums[2];
+    return all;
+}
+
 solve_cg_check solve_cg_check_matrix(const solve_run *run)
 {
     const size_t n = run->n;
+    const size_t begin = run->row_end ? run->row_begin : 0, end = run->row_end ? run->row_end : n;
     const double *A = run->area, *rho = run->rho;
     double *delta = run->work; /* sum_j |A_i F_ij - A_j F_ji| per row */
     solve_skew_cache *cache = run->skew;
     int cached = cache && cache->rho && cache->delta;
     for (size_t i = 0; cached && i < n; i++) cached = (cache->rho[i] == 0) == (rho[i] == 0);
+    solve_cg_check c = {.margin = INFINITY};
     if (cached) memcpy(delta, cache->delta, n * sizeof *delta);
-    if (!cached) skew_terms(run, delta);
+    if (!cached && solve_comm_size(run->comm) > 1)
+        c.status = skew_terms_ranks(run, delta);
+    else if (!cached)
+        skew_terms(run, delta);
+    if (c.status != RAD_OK) return c;
     if (cache && cache->delta && !cached) {
         memcpy(cache->delta, delta, n * sizeof *delta);
         cache->rho = rho;
     }
-    solve_cg_check c = {.margin = INFINITY};
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = begin; i < end; i++) {
         if (rho[i] == 0) continue;
         double active_sum = 0; /* row sum over reflecting columns */
         for (size_t k = 0; k < solve_row_span_count(&run->F, i); k++) {
@@ -106,7 +262,7 @@ solve_cg_check solve_cg_check_matrix(const solve_run *run)
             c.ratio_margin = margin;
         }
     }
-    return c;
+    return combine_checks(run->comm, c);
 }
 
 int solve_cg_check_passes(const solve_cg_check *check)
@@ -161,10 +317,10 @@ static const double *cg_operand(const cg_lane *l) { return l->phase == CG_STEPPI
  * paper's size the pass is bound by that latency, not by memory. */
 static void cg_products(cg_lane *lanes, size_t count)
 {
-    const size_t n = lanes[0].run->n;
+    const size_t n = lanes[0].run->n, begin = lanes[0].run->row_begin, end = lanes[0].run->row_end;
     const solve_rows *F = &lanes[0].run->F;
-#pragma omp parallel for schedule(dynamic, 64) if (n >= SOLVE_PARALLEL_MIN_ROWS)
-    for (size_t i = 0; i < n; i++) {
+#pragma omp parallel for schedule(dynamic, 64) if (end - begin >= SOLVE_PARALLEL_MIN_ROWS)
+    for (size_t i = begin; i < end; i++) {
         cg_lane *want[3];
         size_t k = 0;
         for (size_t c = 0; c < count; c++) {
@@ -213,9 +369,8 @@ static void cg_products(cg_lane *lanes, size_t count)
 static double cg_residual(cg_lane *l)
 {
     const solve_run *run = l->run;
-    const size_t n = run->n;
     double rmax = 0;
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = run->row_begin; i < run->row_end; i++) {
         double rho = run->rho[i];
         if (rho == 0) {
             l->r[i] = l->z[i] = 0;
@@ -228,10 +383,16 @@ static double cg_residual(cg_lane *l)
         double a = solve_patch_residual(r, gathered, run->e_norm);
         if (!(a <= rmax)) rmax = a;
     }
-    return rmax;
+    return solve_comm_max(run->comm, rmax);
 }
 
-static double cg_dot(const double *a, const double *b, size_t n) { return solve_dot(a, b, 0, n); }
+/* a·b over the run's rows, then over the ranks. */
+static double cg_dot(const solve_run *run, const double *a, const double *b)
+{
+    double s = solve_dot(a, b, run->row_begin, run->row_end);
+    solve_comm_sum(run->comm, &s, 1);
+    return s;
+}
 
 /* From y = F·p: q = K·p, then one CG update of B, r, z, p; returns the
  * new omega (from the recurrence) or NAN when p·Kp <= 0 (K not positive
@@ -239,15 +400,15 @@ static double cg_dot(const double *a, const double *b, size_t n) { return solve_
 static double cg_step(cg_lane *l)
 {
     solve_run *run = l->run;
-    const size_t n = run->n;
-    for (size_t i = 0; i < n; i++) {
+    const size_t begin = run->row_begin, end = run->row_end;
+    for (size_t i = begin; i < end; i++) {
         double rho = run->rho[i];
         l->q[i] = rho == 0 ? 0 : run->area[i] * (l->p[i] / rho - l->y[i]);
     }
-    double pq = cg_dot(l->p, l->q, n);
+    double pq = cg_dot(run, l->p, l->q);
     if (!(pq > 0)) return NAN;
     double alpha = l->rz / pq, rmax = 0;
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = begin; i < end; i++) {
         if (run->rho[i] == 0) continue;
         run->B[i] += alpha * l->p[i];
         l->r[i] -= alpha * l->q[i];
@@ -256,9 +417,10 @@ static double cg_step(cg_lane *l)
         double a = solve_patch_residual(r, run->B[i] + r, run->e_norm);
         if (!(a <= rmax)) rmax = a;
     }
-    double rz_new = cg_dot(l->r, l->z, n);
+    rmax = solve_comm_max(run->comm, rmax);
+    double rz_new = cg_dot(run, l->r, l->z);
     double beta = rz_new / l->rz;
-    for (size_t i = 0; i < n; i++) l->p[i] = l->z[i] + beta * l->p[i];
+    for (size_t i = begin; i < end; i++) l->p[i] = l->z[i] + beta * l->p[i];
     l->rz = rz_new;
     return rmax;
 }
@@ -266,9 +428,8 @@ static double cg_step(cg_lane *l)
 /* p = z, rz = r·z: a fresh search direction. */
 static void cg_restart_direction(cg_lane *l)
 {
-    const size_t n = l->run->n;
-    for (size_t i = 0; i < n; i++) l->p[i] = l->z[i];
-    l->rz = cg_dot(l->r, l->z, n);
+    for (size_t i = l->run->row_begin; i < l->run->row_end; i++) l->p[i] = l->z[i];
+    l->rz = cg_dot(l->run, l->r, l->z);
 }
 
 /* omega of the iterate the lane's product measured: CG's residual of B
@@ -375,11 +536,13 @@ static rad_status cg_lockstep(solve_run *const *runs, size_t count, solve_gpu *g
     int *fresh = calloc(count > SOLVE_GPU_LANES ? count : SOLVE_GPU_LANES, sizeof *fresh);
     /* on the GPU the vectors live there; the host keeps only the scalars */
     double *block = gpu ? NULL : calloc(5 * n * count, sizeof(double));
-    if (!lanes || !residual || !fresh || (!gpu && !block)) {
+    double **operands = calloc(count, sizeof *operands);
+    if (!lanes || !residual || !fresh || (!gpu && !block) || !operands) {
         rad_error("%s: out of memory for the CG vectors (%zu patches)", runs[0]->label, n);
         status = RAD_ERR_NOMEM;
-        goto done;
     }
+    status = solve_comm_agree(runs[0]->comm, status);
+    if (status != RAD_OK) goto done;
     for (size_t c = 0; c < count; c++) {
         cg_lane *l = &lanes[c];
         double *b = block ? block + 5 * n * c : NULL;
@@ -394,9 +557,13 @@ static rad_status cg_lockstep(solve_run *const *runs, size_t count, solve_gpu *g
         if ((status = solve_gpu_lanes_load(gpu, count, rho, E, B, e_norm)) != RAD_OK) goto done;
     }
     for (;;) {
+        /* the vectors the products need, every active lane's in one gather */
         size_t active = 0;
-        for (size_t c = 0; c < count; c++) active += lanes[c].phase != CG_DONE;
+        for (size_t c = 0; c < count; c++)
+            if (lanes[c].phase != CG_DONE) operands[active++] = (double *)cg_operand(&lanes[c]);
         if (!active) break;
+        /* across ranks (never with a GPU: stage.c) */
+        if (!gpu && (status = solve_comm_gather_rows(runs[0]->comm, operands, active)) != RAD_OK) goto done;
         if ((status = cg_iterate(lanes, count, gpu, residual)) != RAD_OK) break;
         for (size_t c = 0; c < count; c++) fresh[c] = lanes[c].phase != CG_DONE && cg_take(&lanes[c], residual[c]);
         if ((status = cg_refresh(lanes, count, gpu, fresh)) != RAD_OK) break;
@@ -408,8 +575,11 @@ static rad_status cg_lockstep(solve_run *const *runs, size_t count, solve_gpu *g
     for (size_t c = 0; c < count; c++) {
         out_stopped[c] = lanes[c].stopped;
         if (lanes[c].status != RAD_OK && status == RAD_OK) status = lanes[c].status;
+        operands[c] = runs[c]->B; /* every rank's rows of the results */
     }
+    if (status == RAD_OK) status = solve_comm_gather_rows(runs[0]->comm, operands, count);
 done:
+    free(operands);
     free(block);
     free(fresh);
     free(residual);

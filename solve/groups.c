@@ -43,12 +43,17 @@ rad_status solve_groups_format_of(const char *option, const char *path, solve_gr
     return RAD_OK;
 }
 
-/* The rows of every group. `H` holds N doubles of scratch. */
+/* The rows of every group. `H` holds N doubles of scratch, `absorbed`
+ * 3 G. Across ranks each rank adds up what its rows absorb, and the sums
+ * are added over the ranks (one MPI_Allreduce). */
 static void compute_rows(const solve_system *system, const rad_mesh *mesh, const double *radiosity, double *B,
-                         double *H, group_row *rows)
+                         double *H, double *absorbed, group_row *rows)
 {
     const size_t n = mesh->patch_count;
     const solve_rows F = solve_system_rows(system);
+    size_t begin, end;
+    solve_system_held(system, &begin, &end);
+    memset(absorbed, 0, 3 * mesh->group_count * sizeof *absorbed);
     memset(rows, 0, mesh->group_count * sizeof *rows);
     for (size_t i = 0; i < n; i++) {
         group_row *r = &rows[mesh->patch_group[i]];
@@ -62,13 +67,16 @@ static void compute_rows(const solve_system *system, const rad_mesh *mesh, const
     }
     for (int c = 0; c < 3; c++) {
         for (size_t i = 0; i < n; i++) B[i] = radiosity[3 * i + c];
-#pragma omp parallel for schedule(static) if (n >= SOLVE_PARALLEL_MIN_ROWS)
-        for (size_t i = 0; i < n; i++) H[i] = solve_row_dot(&F, i, B, 0, n);
-        for (size_t i = 0; i < n; i++) {
+#pragma omp parallel for schedule(static) if (end - begin >= SOLVE_PARALLEL_MIN_ROWS)
+        for (size_t i = begin; i < end; i++) H[i] = solve_row_dot(&F, i, B, 0, n);
+        for (size_t i = begin; i < end; i++) {
             const rad_patch *p = &mesh->patches[i];
-            rows[mesh->patch_group[i]].absorbed[c] += p->area * (1 - p->rho[c]) * H[i];
+            absorbed[3 * mesh->patch_group[i] + c] += p->area * (1 - p->rho[c]) * H[i];
         }
     }
+    solve_comm_sum(system->comm, absorbed, 3 * mesh->group_count);
+    for (size_t g = 0; g < mesh->group_count; g++)
+        for (int c = 0; c < 3; c++) rows[g].absorbed[c] = absorbed[3 * g + c];
     for (size_t g = 0; g < mesh->group_count; g++)
         for (int c = 0; c < 3; c++) rows[g].radiosity[c] /= rows[g].area;
 }
@@ -154,18 +162,19 @@ rad_status solve_groups_write(const char *path, const solve_system *system, cons
     }
     const size_t n = mesh->patch_count;
     group_row *rows = malloc(mesh->group_count * sizeof *rows);
-    double *scratch = malloc(2 * n * sizeof *scratch);
-    if (!rows || !scratch) {
-        rad_error("%s: out of memory for %zu groups", path, mesh->group_count);
+    double *scratch = malloc((2 * n + 3 * mesh->group_count) * sizeof *scratch);
+    if (!rows || !scratch) rad_error("%s: out of memory for %zu groups", path, mesh->group_count);
+    status = solve_comm_agree(system->comm, rows && scratch ? RAD_OK : RAD_ERR_NOMEM);
+    if (status != RAD_OK) {
         free(rows);
         free(scratch);
-        return RAD_ERR_NOMEM;
+        return status;
     }
-    compute_rows(system, mesh, radiosity, scratch, scratch + n, rows);
+    compute_rows(system, mesh, radiosity, scratch, scratch + n, scratch + 2 * n, rows);
     char temp[4096];
     FILE *f = NULL;
-    status = rad_fs_create_temp(path, temp, sizeof temp, &f);
-    if (status == RAD_OK) {
+    if (solve_comm_rank(system->comm) == 0) status = rad_fs_create_temp(path, temp, sizeof temp, &f);
+    if (status == RAD_OK && f) {
         if (format == SOLVE_GROUPS_CSV)
             put_csv(f, mesh, rows);
         else
@@ -174,5 +183,5 @@ rad_status solve_groups_write(const char *path, const solve_system *system, cons
     }
     free(rows);
     free(scratch);
-    return status;
+    return solve_comm_agree(system->comm, status);
 }

@@ -42,7 +42,9 @@ rad_status solve_groups_format_of(const char *option, const char *path, solve_gr
 /* Computes the rows for `mesh` (group_count > 0) from the matrix of
  * `system`, rho and E from the patch table and `radiosity` (N * 3, as in
  * the radiosity file), and writes them to `path` (temporary name +
- * rename). One pass over F per channel, rows summed in a fixed order. */
+ * rename). One pass over F per channel, rows summed in a fixed order.
+ * Collective across the ranks of system->comm (each its rows); rank 0
+ * writes, and every rank returns the same status. */
 rad_status solve_groups_write(const char *path, const solve_system *system, const rad_mesh *mesh,
                               const double *radiosity);
 

@@ -31,7 +31,9 @@ typedef struct solve_skew_cache {
 typedef struct solve_run {
     /* the problem (borrowed) */
     size_t n;
-    solve_rows F;           /* the matrix (rows.h) */
+    solve_rows F;           /* the matrix (rows.h): rows [row_begin, row_end) */
+    size_t row_begin, row_end; /* the rows this rank updates (0, n alone) */
+    solve_comm *comm;       /* the ranks; NULL alone (comm.h) */
     const double *area;     /* n */
     const double *row_sum;  /* n */
     const double *rho;      /* n, this channel */
@@ -70,7 +72,9 @@ double solve_run_residual_of(const solve_run *run, const double *B, const double
 
 /* y_c = F x_c for c < count, n values each, in one pass over F on the
  * threads (products.c); each y_c[i] summed as solve_row_dot. */
-void solve_rows_multiply(const solve_rows *F, size_t count, const double *const *x, double *const *y);
+/* Rows [begin, end) (those held: under mpirun a rank's block) of y_c = F·x_c. */
+void solve_rows_multiply(const solve_rows *F, size_t begin, size_t end, size_t count, const double *const *x,
+                         double *const *y);
 
 /* solve_patch_residual and SOLVE_SCALE_FLOOR: residual.h (shared with the GPU). */
 
@@ -158,8 +162,13 @@ typedef struct solve_cg_check {
     double margin;            /* min m_i; +inf if no patch reflects */
     size_t margin_row;
     size_t no_margin_count;   /* rows with m_i <= 0 */
+    rad_status status;        /* RAD_OK; else the check could not be made (logged; the same on every rank) */
 } solve_cg_check;
 
+/* Across ranks each rank checks its rows (the skew term needs F_ji for
+ * them: the transposed tiles come from their owners, solve_comm_exchange)
+ * and the results are combined, the same bits as one process alone. A
+ * run with row_end 0 checks all n rows. */
 solve_cg_check solve_cg_check_matrix(const solve_run *run);
 /* 1 if CG may run. */
 int solve_cg_check_passes(const solve_cg_check *check);

@@ -1,4 +1,6 @@
-/* main.c - the `solve` command line; the work is in stage.c. */
+/* main.c - the `solve` command line; the work is in stage.c. Starts and
+ * ends MPI (comm.h) when an MPI launcher started the process: the only
+ * place that exits. */
 #include <errno.h>
 #include <getopt.h>
 #include <stdint.h>
@@ -9,6 +11,7 @@
 #include "rad_log.h"
 #include "rad_fs.h"
 #include "groups.h"
+#include "comm.h"
 #include "rad_parse.h"
 #include "stage.h"
 
@@ -52,6 +55,13 @@ static const char usage_text[] =
     "\n"
     "Refuses (exit 1, nothing written) a matrix in which some patch has\n"
     "rho * (row sum of F) >= 1: it would reflect more light than it receives.\n"
+    "\n"
+    "Matrices larger than one node: mpirun -n K solve [options] FORMFACTORS\n"
+    "splits the rows over K ranks (balanced by stored entries); each rank\n"
+    "reads and holds only its rows, rank 0 writes the outputs. Gauss-Seidel\n"
+    "then runs within each rank's rows and as Jacobi between them; results\n"
+    "agree with one process within the tolerance (docs/solve.md,\n"
+    "\"Across ranks\").\n"
     "\n"
     "exit status: 0 solved; 1 bad input, I/O error, or --backend cuda without\n"
     "a GPU; 2 bad command line (--backend cuda in a build without CUDA);\n"
@@ -134,22 +144,20 @@ static rad_status parse_args(int argc, char **argv, cli *out)
     return status;
 }
 
-int main(int argc, char **argv)
+/* Everything after MPI is up; every rank returns the same status. */
+static rad_status run(int argc, char **argv, solve_comm *comm)
 {
-    rad_log_set_program("solve");
+    const int rank = solve_comm_rank(comm);
+    if (rank != 0) rad_log_set_level(RAD_LOG_NONE); /* rank 0 speaks for all: the same on every rank */
     cli c;
     rad_status status = parse_args(argc, argv, &c);
     if (status != RAD_OK) {
-        fputs("try 'solve --help'\n", stderr);
-        return rad_status_exit_code(status);
+        if (rank == 0) fputs("try 'solve --help'\n", stderr);
+        return status;
     }
-    if (c.version) {
-        printf("solve %s\n", RAD_VERSION);
-        return 0;
-    }
-    if (c.help) {
-        fputs(usage_text, stdout);
-        return 0;
+    if (c.version || c.help) {
+        if (rank == 0) fputs(c.version ? "solve " RAD_VERSION "\n" : usage_text, stdout);
+        return RAD_OK;
     }
     /* Before any work: docs/reliability.md, "Threat model: files on disk". */
     const char *output = c.options.output ? c.options.output : SOLVE_DEFAULT_OUTPUT;
@@ -162,8 +170,20 @@ int main(int argc, char **argv)
     if (status == RAD_OK) status = rad_fs_check_output("--stats", c.options.stats);
     if (status == RAD_OK) status = rad_fs_check_output("--by-group", c.options.by_group);
     if (status == RAD_OK) status = rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]);
-    if (status != RAD_OK) return rad_status_exit_code(status);
+    status = solve_comm_agree(comm, status);
+    if (status != RAD_OK) return status;
     if (c.quiet) rad_log_set_level(RAD_LOG_WARN);
-    status = solve_stage_run(&c.options);
+    if (rank != 0) rad_log_set_level(RAD_LOG_ERROR); /* the stage decides when other ranks speak */
+    c.options.comm = comm;
+    return solve_stage_run(&c.options);
+}
+
+int main(int argc, char **argv)
+{
+    rad_log_set_program("solve");
+    solve_comm *comm = NULL;
+    rad_status status = solve_comm_init(&argc, &argv, &comm);
+    if (status == RAD_OK) status = run(argc, argv, comm);
+    solve_comm_finalize(comm);
     return rad_status_exit_code(status);
 }

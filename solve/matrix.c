@@ -150,7 +150,7 @@ static rad_status load_records(rad_ff_file *file, const char *path, solve_matrix
         return rad_ff_decode_record(file, begin + bad, records + (rad_ff_record_offset(file, begin + bad) - base),
                                     m->tile_column + m->tile_count + tiles[bad],
                                     m->values + m->value_count + values[bad]);
-    for (size_t r = 0; r < rows; r++) m->row_tiles[begin + r + 1] = m->tile_count + tiles[r + 1];
+    for (size_t r = 0; r < rows; r++) m->row_tiles[begin - m->row_begin + r + 1] = m->tile_count + tiles[r + 1];
     m->tile_count += tiles[rows];
     m->value_count += total;
     return RAD_OK;
@@ -160,21 +160,21 @@ static rad_status load_records(rad_ff_file *file, const char *path, solve_matrix
  * threads, kept as its tiles (rows.h); each row checked as a dense one is. */
 static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix *m)
 {
-    const size_t n = m->patch_count;
+    const size_t n = m->patch_count, first = m->row_begin, last = m->row_end;
     rad_status status = RAD_OK;
     unsigned char *records = NULL;
     uint64_t *counts = NULL;
     size_t records_cap = 0, counts_cap = 0;
-    m->row_tiles = malloc((n + 1) * sizeof *m->row_tiles);
+    m->row_tiles = malloc((last - first + 1) * sizeof *m->row_tiles);
     if (!m->row_tiles) {
-        rad_error("%s: out of memory for %zu rows", path, n);
+        rad_error("%s: out of memory for %zu rows", path, last - first);
         return RAD_ERR_NOMEM;
     }
     m->row_tiles[0] = 0;
-    for (size_t begin = 0, end; begin < n && status == RAD_OK; begin = end) {
+    for (size_t begin = first, end; begin < last && status == RAD_OK; begin = end) {
         /* as many rows as fit in MATRIX_RECORD_BYTES, at least one */
         uint64_t start = rad_ff_record_offset(file, begin);
-        for (end = begin + 1; end < n && rad_ff_record_offset(file, end + 1) - start <= MATRIX_RECORD_BYTES; end++) {
+        for (end = begin + 1; end < last && rad_ff_record_offset(file, end + 1) - start <= MATRIX_RECORD_BYTES; end++) {
         }
         size_t bytes = (size_t)(rad_ff_record_offset(file, end) - start), rows = end - begin;
         if (bytes > records_cap || 2 * rows + 1 > counts_cap) {
@@ -197,11 +197,11 @@ static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix 
     free(counts);
     if (status != RAD_OK) return status;
     m->rows = (solve_rows){.n = n, .row_tiles = m->row_tiles, .tile_column = m->tile_column,
-                           .tile_value = m->tile_value, .values = m->values};
+                           .tile_value = m->tile_value, .values = m->values, .first_row = first};
     /* Every row's entries and sum, on the threads; the first bad row named. */
     size_t bad = SIZE_MAX;
 #pragma omp parallel for schedule(dynamic, 64) reduction(min : bad)
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = first; i < last; i++) {
         double sum = 0;
         int ok = 1;
         for (size_t k = 0; k < solve_row_span_count(&m->rows, i); k++) {
@@ -219,7 +219,36 @@ static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix 
     return RAD_OK;
 }
 
-rad_status solve_matrix_load(rad_ff_file *file, const char *path, solve_matrix *out_matrix)
+/* The cost of rows [0, i) for solve_matrix_split_rows. */
+static double split_cost_before(const rad_ff_file *file, int sparse, size_t i)
+{
+    return (double)(sparse ? rad_ff_record_offset(file, i) : 0) + (double)i * SOLVE_SPLIT_ROW_BYTES;
+}
+
+void solve_matrix_split_rows(const rad_ff_file *file, size_t parts, size_t *row_begin)
+{
+    const size_t n = rad_ff_file_mesh(file)->patch_count;
+    const int sparse = rad_ff_file_info(file)->layout == RAD_FF_LAYOUT_SPARSE;
+    const double total = split_cost_before(file, sparse, n);
+    row_begin[0] = 0;
+    for (size_t p = 1; p < parts; p++) {
+        /* the first row whose cost before it reaches p / parts of the total */
+        double target = total * (double)p / (double)parts;
+        size_t lo = row_begin[p - 1], hi = n;
+        while (lo < hi) {
+            size_t mid = lo + (hi - lo) / 2;
+            if (split_cost_before(file, sparse, mid) < target)
+                lo = mid + 1;
+            else
+                hi = mid;
+        }
+        row_begin[p] = lo;
+    }
+    row_begin[parts] = n;
+}
+
+rad_status solve_matrix_load(rad_ff_file *file, const char *path, size_t row_begin, size_t row_end,
+                             solve_matrix *out_matrix)
 {
     rad_status status = RAD_OK;
     solve_matrix m;
@@ -234,6 +263,9 @@ rad_status solve_matrix_load(rad_ff_file *file, const char *path, solve_matrix *
         goto done;
     }
     m.patch_count = n;
+    m.row_begin = row_begin < n ? row_begin : n;
+    m.row_end = row_end && row_end <= n ? row_end : n;
+    if (m.row_begin > m.row_end) m.row_begin = m.row_end;
     m.area = malloc(n * sizeof(double));
     m.row_sum = malloc(n * sizeof(double));
     if (!m.area || !m.row_sum) {
@@ -242,6 +274,7 @@ rad_status solve_matrix_load(rad_ff_file *file, const char *path, solve_matrix *
         goto done;
     }
     for (size_t i = 0; i < n; i++) m.area[i] = mesh->patches[i].area;
+    for (size_t i = 0; i < n; i++) m.row_sum[i] = 0; /* rows held elsewhere: from their ranks (stage.c) */
     if (info->layout == RAD_FF_LAYOUT_SPARSE) {
         status = load_sparse(file, path, &m);
         if (status != RAD_OK) goto done;
@@ -254,18 +287,19 @@ rad_status solve_matrix_load(rad_ff_file *file, const char *path, solve_matrix *
         status = RAD_ERR_NOMEM;
         goto done;
     }
-    m.form_factors = malloc(n * n * sizeof(double));
-    m.rows = (solve_rows){.n = n, .dense = m.form_factors};
+    const size_t held = m.row_end - m.row_begin;
+    m.form_factors = malloc((held ? held : 1) * n * sizeof(double));
+    m.rows = (solve_rows){.n = n, .dense = m.form_factors, .first_row = m.row_begin};
     if (!m.form_factors) {
-        rad_error("%s: out of memory: the %zu x %zu matrix needs %.2f GiB as double", path, n, n,
-                  (double)n * (double)n * 8.0 / (1u << 30));
+        rad_error("%s: out of memory: %zu rows of the %zu x %zu matrix need %.2f GiB as double", path, held, n, n,
+                  (double)held * (double)n * 8.0 / (1u << 30));
         status = RAD_ERR_NOMEM;
         goto done;
     }
     size_t block = matrix_block_rows(n);
-    for (size_t begin = 0; begin < n; begin += block) {
-        size_t count = n - begin < block ? n - begin : block;
-        double *rows = m.form_factors + begin * n;
+    for (size_t begin = m.row_begin; begin < m.row_end; begin += block) {
+        size_t count = m.row_end - begin < block ? m.row_end - begin : block;
+        double *rows = m.form_factors + (begin - m.row_begin) * n;
         status = rad_ff_read_rows(file, begin, count, rows);
         if (status != RAD_OK) goto done;
         for (size_t k = 0; k < count; k++) {
@@ -313,15 +347,17 @@ static const char *errors_mismatch(const rad_ff_info *f, const rad_mesh *fm, con
     return NULL;
 }
 
-/* row_error[i] = sqrt(sum_j sigma_ij^2) for every row of `errors`. */
-static rad_status read_row_errors(rad_ff_file *errors, size_t n, double *row_error)
+/* row_error[i] = sqrt(sum_j sigma_ij^2) for rows [first, last) of `errors`
+ * (the others 0). */
+static rad_status read_row_errors(rad_ff_file *errors, size_t n, size_t first, size_t last, double *row_error)
 {
     size_t block = matrix_block_rows(n);
     double *rows = malloc(block * n * sizeof(double));
     if (!rows) return RAD_ERR_NOMEM;
     rad_status status = RAD_OK;
-    for (size_t begin = 0; begin < n && status == RAD_OK; begin += block) {
-        size_t count = n - begin < block ? n - begin : block;
+    for (size_t i = 0; i < n; i++) row_error[i] = 0;
+    for (size_t begin = first; begin < last && status == RAD_OK; begin += block) {
+        size_t count = last - begin < block ? last - begin : block;
         status = rad_ff_read_rows(errors, begin, count, rows);
         for (size_t k = 0; k < count && status == RAD_OK; k++) {
             double squares = 0;
@@ -351,10 +387,10 @@ rad_status solve_matrix_load_errors(solve_matrix *matrix, const rad_ff_file *fil
     }
     const size_t n = matrix->patch_count;
     row_error = malloc(n * sizeof(double));
-    status = row_error ? read_row_errors(errors, n, row_error) : RAD_ERR_NOMEM;
+    status = row_error ? read_row_errors(errors, n, matrix->row_begin, matrix->row_end, row_error) : RAD_ERR_NOMEM;
     if (status == RAD_ERR_NOMEM) rad_error("%s: out of memory reading %zu rows", errors_path, n);
     if (status != RAD_OK) goto done;
-    for (size_t i = 0; i < n; i++)
+    for (size_t i = matrix->row_begin; i < matrix->row_end; i++)
         if (!isfinite(row_error[i])) {
             rad_error("%s: row %zu: a standard error is not finite", errors_path, i);
             status = RAD_ERR_INVALID;
@@ -486,6 +522,8 @@ solve_system solve_matrix_system(const solve_matrix *matrix)
         .sparse = matrix->form_factors ? NULL : &matrix->rows,
         .area = matrix->area,
         .row_sum = matrix->row_sum,
+        .row_begin = matrix->row_begin,
+        .row_end = matrix->row_end,
     };
     return s;
 }

@@ -53,12 +53,18 @@
  * errors (one-sided), said in the warning: with thousands of rows a few
  * are expected. */
 #define SOLVE_ROW_SUM_CHANCE 0.00135
+/* Splitting rows over ranks (solve_matrix_split_rows), a row costs the
+ * bytes of its stored record plus this many: the vector work of a row
+ * (residual, update, CG's vector operations) is the same for every row,
+ * about as much as a few dozen stored entries. */
+#define SOLVE_SPLIT_ROW_BYTES 64.0
 /* How many of the worst rows a refusal names. */
 #define SOLVE_WORST_ROWS_SHOWN 3
 
 typedef struct solve_matrix {
     size_t patch_count;
-    double *form_factors; /* N * N, row-major; NULL when read from a sparse file */
+    size_t row_begin, row_end; /* the rows held (all N when alone; docs/solve.md, "Across ranks") */
+    double *form_factors; /* held rows x N, row-major; NULL when read from a sparse file */
     /* A sparse file's stored tiles, kept as stored (rows.h); `rows` views
      * them (or form_factors), and solve_matrix_system hands it on. */
     uint64_t *row_tiles;
@@ -68,18 +74,29 @@ typedef struct solve_matrix {
     size_t tile_count, tile_cap, value_count, value_cap;
     solve_rows rows;
     double *area;         /* N, from the patch table */
-    double *row_sum;      /* N */
-    double *row_error;    /* N: sqrt(sum_j sigma_ij^2); NULL until solve_matrix_load_errors */
+    double *row_sum;      /* N; the held rows' after loading (others 0 until gathered, stage.c) */
+    double *row_error;    /* N: sqrt(sum_j sigma_ij^2), the held rows' (others 0 until gathered);
+                             NULL until solve_matrix_load_errors */
 } solve_matrix;
 
-/* Reads all N rows of `file` (opened from `path`, used in messages): a
+/* Splits the rows of `file` into `parts` contiguous blocks of about equal
+ * cost (a sparse row: its record's bytes, i.e. its stored entries, plus
+ * SOLVE_SPLIT_ROW_BYTES; dense rows all cost the same), from the file's
+ * row index alone: row_begin[0..parts], row_begin[0] = 0,
+ * row_begin[parts] = N. A block may be empty (more parts than rows). */
+void solve_matrix_split_rows(const rad_ff_file *file, size_t parts, size_t *row_begin);
+
+/* Reads rows [row_begin, row_end) of `file` (opened from `path`, used in
+ * messages; row_end 0: to the last), and nothing else of the matrix: a
  * dense file into form_factors, a sparse one (version 3) as its tiles.
  * *out_matrix is set only on success; free with solve_matrix_free. */
-rad_status solve_matrix_load(rad_ff_file *file, const char *path, solve_matrix *out_matrix);
+rad_status solve_matrix_load(rad_ff_file *file, const char *path, size_t row_begin, size_t row_end,
+                             solve_matrix *out_matrix);
 void solve_matrix_free(solve_matrix *matrix); /* safe on zeroed */
 
 /* Reads the standard-error file `errors_path` (formfactor --errors: flag
- * RAD_FF_FLAG_STANDARD_ERRORS, float32) into matrix->row_error. It must
+ * RAD_FF_FLAG_STANDARD_ERRORS, float32) into matrix->row_error: the held
+ * rows' only. It must
  * belong to `file` (the matrix, opened from `path`): same patch table and
  * the same header but for element type and that flag. Errors name the
  * file; on failure matrix->row_error stays NULL. */

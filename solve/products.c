@@ -6,11 +6,12 @@
  * bits as one vector at a time, whatever the thread count. */
 #include "iterate.h"
 
-void solve_rows_multiply(const solve_rows *F, size_t count, const double *const *x, double *const *y)
+void solve_rows_multiply(const solve_rows *F, size_t begin, size_t end, size_t count, const double *const *x,
+                         double *const *y)
 {
     const size_t n = F->n;
-#pragma omp parallel for schedule(dynamic, 64) if (n >= SOLVE_PARALLEL_MIN_ROWS)
-    for (size_t i = 0; i < n; i++) {
+#pragma omp parallel for schedule(dynamic, 64) if (end - begin >= SOLVE_PARALLEL_MIN_ROWS)
+    for (size_t i = begin; i < end; i++) {
         size_t c = 0;
         const size_t spans = solve_row_span_count(F, i);
         for (; c + 3 <= count; c += 3) { /* three strict-order sums interleaved (cg.c, cg_products) */

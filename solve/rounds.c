@@ -113,7 +113,8 @@ rad_status solve_gpu_channels(solve_gpu *gpu, solve_gpu_channel *channels, size_
             product_x[verify] = channels[c].run->B;
             product_y[verify++] = channels[c].product;
         }
-        solve_rows_multiply(&channels[0].run->F, verify, product_x, product_y);
+        solve_rows_multiply(&channels[0].run->F, channels[0].run->row_begin, channels[0].run->row_end, verify,
+                            product_x, product_y);
         for (size_t c = 0; c < count; c++) {
             if (!pending[c]) continue;
             solve_run *run = channels[c].run;

@@ -14,6 +14,10 @@
  * entries are all zero; sums taken left to right over its spans are the
  * same bits as over the dense row (adding +-0 changes no sum), so a sparse
  * file solves to the same B as the dense file of the same matrix (tested).
+ *
+ * Under mpirun a process holds only its block of rows, [first_row,
+ * first_row + its row count); rows are still named by their global index i
+ * (columns always run over all N), and only held rows may be asked for.
  */
 #ifndef SOLVE_ROWS_H
 #define SOLVE_ROWS_H
@@ -25,11 +29,13 @@
 
 typedef struct solve_rows {
     size_t n;
-    const double *dense;         /* n * n, F_ij at i * n + j; NULL when sparse */
-    const uint64_t *row_tiles;   /* sparse: n + 1; row i's tiles are [row_tiles[i], row_tiles[i + 1]) */
+    const double *dense;         /* held rows x n, F_ij at (i - first_row) * n + j; NULL when sparse */
+    const uint64_t *row_tiles;   /* sparse: held rows + 1; row i's tiles are [row_tiles[i - first_row],
+                                    row_tiles[i - first_row + 1]) */
     const uint32_t *tile_column; /* sparse: each tile's first column (a multiple of RAD_FF_TILE_COLUMNS) */
     const uint64_t *tile_value;  /* sparse: where its entries start in `values` */
     const double *values;        /* sparse: the stored entries, tile after tile */
+    size_t first_row;            /* the first row held (0: all from the first) */
 } solve_rows;
 
 typedef struct solve_span {
@@ -39,13 +45,15 @@ typedef struct solve_span {
 
 static inline size_t solve_row_span_count(const solve_rows *F, size_t i)
 {
-    return F->dense ? 1 : (size_t)(F->row_tiles[i + 1] - F->row_tiles[i]);
+    const size_t r = i - F->first_row;
+    return F->dense ? 1 : (size_t)(F->row_tiles[r + 1] - F->row_tiles[r]);
 }
 
 static inline solve_span solve_row_span(const solve_rows *F, size_t i, size_t k)
 {
-    if (F->dense) return (solve_span){F->dense + i * F->n, 0, F->n};
-    uint64_t t = F->row_tiles[i] + k;
+    const size_t r = i - F->first_row;
+    if (F->dense) return (solve_span){F->dense + r * F->n, 0, F->n};
+    uint64_t t = F->row_tiles[r] + k;
     size_t begin = F->tile_column[t], end = begin + RAD_FF_TILE_COLUMNS < F->n ? begin + RAD_FF_TILE_COLUMNS : F->n;
     return (solve_span){F->values + F->tile_value[t], begin, end};
 }
@@ -68,9 +76,9 @@ static inline double solve_row_dot(const solve_rows *F, size_t i, const double *
  * from that tile's first column. Binary search over the row's tiles. */
 static inline const double *solve_row_tile(const solve_rows *F, size_t i, size_t j)
 {
-    size_t column = j - j % RAD_FF_TILE_COLUMNS;
-    if (F->dense) return F->dense + i * F->n + column;
-    uint64_t lo = F->row_tiles[i], hi = F->row_tiles[i + 1];
+    size_t column = j - j % RAD_FF_TILE_COLUMNS, r = i - F->first_row;
+    if (F->dense) return F->dense + r * F->n + column;
+    uint64_t lo = F->row_tiles[r], hi = F->row_tiles[r + 1];
     while (lo < hi) {
         uint64_t mid = lo + (hi - lo) / 2;
         if (F->tile_column[mid] < column)
@@ -78,7 +86,7 @@ static inline const double *solve_row_tile(const solve_rows *F, size_t i, size_t
         else
             hi = mid;
     }
-    if (lo < F->row_tiles[i + 1] && F->tile_column[lo] == column) return F->values + F->tile_value[lo];
+    if (lo < F->row_tiles[r + 1] && F->tile_column[lo] == column) return F->values + F->tile_value[lo];
     return NULL;
 }
 

@@ -42,15 +42,17 @@ double solve_now(void)
 solve_verdict solve_run_record(solve_run *run, double residual)
 {
     size_t k = run->iterations;
-    if (k >= run->history_cap) {
+    if (k >= run->history_cap) { /* at the same iteration on every rank: agreed */
         size_t cap = run->history_cap ? 2 * run->history_cap : 256;
         double *grown = realloc(run->history, cap * sizeof(double));
-        if (!grown) {
+        if (grown) {
+            run->history = grown;
+            run->history_cap = cap;
+        }
+        if (solve_comm_agree(run->comm, grown ? RAD_OK : RAD_ERR_NOMEM) != RAD_OK) {
             rad_error("%s: out of memory for the residual history", run->label);
             return SOLVE_FAILED;
         }
-        run->history = grown;
-        run->history_cap = cap;
     }
     run->history[k] = residual;
     run->history_count = k + 1;
@@ -75,22 +77,28 @@ solve_verdict solve_run_record(solve_run *run, double residual)
 
 double solve_run_residual_of(const solve_run *run, const double *B, const double *FB)
 {
+    const size_t begin = run->row_begin, end = run->row_end;
     double rmax = 0;
     int not_finite = 0;
-    for (size_t i = 0; i < run->n; i++) {
+    for (size_t i = begin; i < end; i++) {
         double gathered = run->E[i] + run->rho[i] * FB[i];
         double a = solve_patch_residual(gathered - B[i], gathered, run->e_norm);
         if (a > rmax) rmax = a;
         not_finite |= isnan(a);
     }
-    return not_finite ? NAN : rmax; /* a NaN anywhere is the answer */
+    return solve_comm_max(run->comm, not_finite ? NAN : rmax); /* a NaN anywhere is the answer */
 }
 
 /* Picks the method to start with; CG only if the reciprocity check passes. */
-static solve_method choose_method(solve_run *run, solve_method asked, solve_report *rep)
+static solve_method choose_method(solve_run *run, solve_method asked, solve_report *rep, rad_status *out_status)
 {
+    *out_status = RAD_OK;
     if (asked != SOLVE_AUTO && asked != SOLVE_CG) return asked;
     solve_cg_check check = solve_cg_check_matrix(run);
+    if (check.status != RAD_OK) {
+        *out_status = check.status;
+        return SOLVE_GAUSS_SEIDEL;
+    }
     rep->reciprocity = check.no_margin_count ? INFINITY : check.ratio;
     rep->margin = check.margin;
     if (solve_cg_check_passes(&check)) return SOLVE_CG;
@@ -171,6 +179,7 @@ static rad_status channel_begin(const solve_system *system, const double *rho, c
     *run = (solve_run){
         .n = n,
         .F = solve_system_rows(system),
+        .comm = system->comm,
         .area = system->area,
         .row_sum = system->row_sum,
         .rho = rho,
@@ -181,6 +190,7 @@ static rad_status channel_begin(const solve_system *system, const double *rho, c
         .label = params->label ? params->label : "channel",
         .progress_seconds = params->progress_seconds ? params->progress_seconds : SOLVE_DEFAULT_PROGRESS_SECONDS,
     };
+    solve_system_held(system, &run->row_begin, &run->row_end);
     if (!(run->tolerance < 1) || !isfinite(run->tolerance)) {
         rad_error("%s: tolerance %g must lie in (0, 1)", run->label, run->tolerance);
         return RAD_ERR_USAGE;
@@ -198,10 +208,9 @@ static rad_status channel_begin(const solve_system *system, const double *rho, c
     for (size_t i = 0; i < n; i++)
         if (emission[i] > run->e_norm) run->e_norm = emission[i];
     ch->buffers = malloc(2 * n * sizeof(double));
-    if (!ch->buffers) {
-        rad_error("%s: out of memory for %zu patches", run->label, n);
-        return RAD_ERR_NOMEM;
-    }
+    if (!ch->buffers) rad_error("%s: out of memory for %zu patches", run->label, n);
+    rad_status status = solve_comm_agree(run->comm, ch->buffers ? RAD_OK : RAD_ERR_NOMEM);
+    if (status != RAD_OK) return status;
     run->B = ch->buffers;
     run->work = ch->buffers + n;
     memcpy(run->B, emission, n * sizeof(double)); /* start from B = E */
@@ -212,8 +221,8 @@ static rad_status channel_begin(const solve_system *system, const double *rho, c
         if (solve_run_record(run, 0) == SOLVE_FAILED) return RAD_ERR_NOMEM;
         return RAD_OK;
     }
-    ch->method = choose_method(run, params->method, &ch->rep);
-    return RAD_OK;
+    ch->method = choose_method(run, params->method, &ch->rep, &status);
+    return status;
 }
 
 /* `product` holds F·run.B with the double matrix (solve_rows_multiply). */
@@ -355,7 +364,9 @@ rad_status solve_channels(const solve_system *system, size_t count, const double
         product_y[todo++] = products + c * n;
     }
     solve_rows multiplied = solve_system_rows(system);
-    solve_rows_multiply(&multiplied, todo, product_x, product_y);
+    size_t begin, end;
+    solve_system_held(system, &begin, &end);
+    solve_rows_multiply(&multiplied, begin, end, todo, product_x, product_y);
     for (size_t c = 0; c < count; c++) {
         rad_status st = channel_end(system, &ch[c], products + c * n, out_radiosity[c], &out_reports[c]);
         if (st == RAD_ERR_NOT_CONVERGED && status == RAD_OK) {

@@ -38,6 +38,7 @@
 #include <stdint.h>
 
 #include "gpu.h"
+#include "comm.h"
 #include "rad_rfile.h"
 #include "rad_status.h"
 #include "rows.h"
@@ -83,22 +84,35 @@ typedef struct solve_params {
     const char *label;         /* names the channel in messages; NULL = "channel" */
 } solve_params;
 
-/* The matrix, shared by all channels; nothing here is copied or freed. */
+/* The matrix, shared by all channels; nothing here is copied or freed.
+ * Under mpirun (comm, docs/solve.md "Across ranks") a process holds and
+ * updates only rows [row_begin, row_end); every vector still has N values,
+ * and every rank calls the solver with the same arguments but its rows. */
 typedef struct solve_system {
     size_t patch_count;          /* N >= 1 */
-    const double *form_factors;  /* N * N, F_ij at i * N + j, validated; NULL when `sparse` */
+    const double *form_factors;  /* held rows x N, F_ij at (i - row_begin) * N + j, validated;
+                                    NULL when `sparse` */
     const double *area;          /* N patch areas (> 0) */
-    const double *row_sum;       /* N row sums of F */
+    const double *row_sum;       /* N row sums of F (every row, also those held elsewhere) */
     const solve_rows *sparse;    /* the stored tiles of a sparse file (rows.h), or NULL */
     solve_gpu *gpu;              /* the same matrix resident on a GPU (gpu.h), or NULL: iterate on
                                     the CPU. Verification stays on the CPU with the matrix above. */
+    size_t row_begin, row_end;   /* the rows held here; row_end 0: all N */
+    solve_comm *comm;            /* the ranks (comm.h); NULL: this process alone */
 } solve_system;
 
 /* The rows of `system` (rows.h): its sparse tiles, or its dense matrix. */
 static inline solve_rows solve_system_rows(const solve_system *system)
 {
     if (system->sparse) return *system->sparse;
-    return (solve_rows){.n = system->patch_count, .dense = system->form_factors};
+    return (solve_rows){.n = system->patch_count, .dense = system->form_factors, .first_row = system->row_begin};
+}
+
+/* The rows held: [*begin, *end). */
+static inline void solve_system_held(const solve_system *system, size_t *begin, size_t *end)
+{
+    *begin = system->row_end ? system->row_begin : 0;
+    *end = system->row_end ? system->row_end : system->patch_count;
 }
 
 /* Where the light of one channel goes (docs/solve.md, "Energy balance").

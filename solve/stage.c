@@ -1,6 +1,14 @@
 /* stage.c - the solve stage: read and validate the form factors, solve
  * the channels together (once for grey scenes; solve_channels), write the
- * radiosity and stats. */
+ * radiosity and stats.
+ *
+ * Across ranks (docs/solve.md, "Across ranks"): every rank opens the file
+ * and reads the patch table, then only its block of rows
+ * (solve_matrix_split_rows); the row sums (and row errors) are gathered so
+ * that the checks before solving run alike on every rank. Rank 0 alone
+ * logs what every rank would log alike and writes the outputs; the other
+ * ranks log only errors of their own rows. Each phase ends with
+ * solve_comm_agree, so every rank returns the same status. */
 #include "stage.h"
 
 #include <stdio.h>
@@ -54,6 +62,8 @@ typedef struct stage_state {
     rad_ff_file *file;
     solve_matrix matrix;
     solve_gpu *gpu;                     /* the matrix on the GPU (--backend cuda), or NULL */
+    size_t *row_split;                  /* ranks + 1: each rank's first row */
+    uint64_t *rank_counts;              /* 2 x ranks: rows, then stored entries, of each rank */
     double *rho, *emission, *channel_b; /* 3 * N each, channel c at c * N */
     double *radiosity;                  /* N * 3 */
     solve_report reports[3];
@@ -64,6 +74,8 @@ static void stage_state_free(stage_state *s)
     solve_gpu_destroy(s->gpu);
     rad_ff_close(s->file);
     solve_matrix_free(&s->matrix);
+    free(s->row_split);
+    free(s->rank_counts);
     free(s->rho);
     free(s->emission);
     free(s->channel_b);
@@ -113,18 +125,29 @@ static rad_status solve_system_all(stage_state *s, const solve_system *sys, cons
 }
 
 /* Solves the channels (one when grey) into s->radiosity. */
-static rad_status solve_all(stage_state *s, const char *input, const rad_mesh *mesh, uint32_t channels, int grey,
-                            const solve_params *base, const char *const *labels)
+static rad_status solve_all(stage_state *s, solve_comm *comm, const char *input, const rad_mesh *mesh,
+                            uint32_t channels, int grey, const solve_params *base, const char *const *labels)
 {
     solve_system sys = solve_matrix_system(&s->matrix);
     sys.gpu = s->gpu;
+    sys.comm = comm;
     return solve_system_all(s, &sys, input, mesh, channels, grey, base, labels);
 }
 
 /* The backend to use, before anything is read: auto resolved; cuda
  * without a visible GPU refused. */
-static rad_status resolve_backend(solve_backend asked, solve_backend *out_backend)
+static rad_status resolve_backend(solve_backend asked, int ranks, solve_backend *out_backend)
 {
+    if (ranks > 1) { /* every rank decides alike */
+        if (asked == SOLVE_BACKEND_CUDA) {
+            rad_error("--backend cuda: not under mpirun with %d ranks (each rank holds only its rows; the GPU "
+                      "backend keeps one whole matrix): run one process per GPU, or --backend cpu",
+                      ranks);
+            return RAD_ERR_USAGE;
+        }
+        *out_backend = SOLVE_BACKEND_CPU;
+        return RAD_OK;
+    }
     if (asked == SOLVE_BACKEND_CUDA && !solve_gpu_built()) {
         rad_error("--backend cuda: this build of solve has no CUDA (nvcc was not found when it was configured, or "
                   "-DRAD_WITH_CUDA=OFF); --backend cpu or auto solves on the CPU");
@@ -172,20 +195,81 @@ static rad_status upload_matrix(stage_state *s, const char *input, solve_backend
     return RAD_OK;
 }
 
+/* Who logs: rank 0 as asked; another rank nothing in phases that every
+ * rank goes through alike (rank 0 says it once), and errors only where it
+ * works on its own rows. */
+typedef enum stage_voice { STAGE_ALIKE, STAGE_OWN_ROWS } stage_voice;
+
+static void stage_speak(solve_comm *comm, rad_log_level asked, stage_voice voice)
+{
+    if (solve_comm_rank(comm) == 0) return;
+    rad_log_set_level(voice == STAGE_OWN_ROWS && asked >= RAD_LOG_ERROR ? RAD_LOG_ERROR : RAD_LOG_NONE);
+}
+
+/* Splits the rows over the ranks and reads this rank's; then every rank
+ * gets every row's sum (and error): the checks before solving need them. */
+static rad_status load_rows(stage_state *s, solve_comm *comm, const solve_options *options, const char *input,
+                            rad_log_level asked)
+{
+    const size_t ranks = (size_t)solve_comm_size(comm), rank = (size_t)solve_comm_rank(comm);
+    s->row_split = malloc((ranks + 1) * sizeof *s->row_split);
+    s->rank_counts = calloc(2 * ranks, sizeof *s->rank_counts);
+    rad_status status = s->row_split && s->rank_counts ? RAD_OK : RAD_ERR_NOMEM;
+    if (status != RAD_OK) rad_error("%s: out of memory for the row split of %zu ranks", input, ranks);
+    status = solve_comm_agree(comm, status);
+    if (status != RAD_OK) return status;
+    solve_matrix_split_rows(s->file, ranks, s->row_split);
+    status = solve_comm_set_rows(comm, s->row_split);
+    if (status != RAD_OK) return status;
+    stage_speak(comm, asked, STAGE_OWN_ROWS);
+    status = solve_matrix_load(s->file, input, s->row_split[rank], s->row_split[rank + 1], &s->matrix);
+    status = solve_comm_agree(comm, status);
+    if (status == RAD_OK && options->errors) {
+        status = solve_matrix_load_errors(&s->matrix, s->file, input, options->errors);
+        status = solve_comm_agree(comm, status);
+    }
+    stage_speak(comm, asked, STAGE_ALIKE);
+    if (status != RAD_OK) return status;
+    double *gathered[2] = {s->matrix.row_sum, s->matrix.row_error};
+    status = solve_comm_gather_rows(comm, gathered, s->matrix.row_error ? 2 : 1);
+    /* what each rank holds, for the stats */
+    const solve_matrix *m = &s->matrix;
+    uint64_t mine[2] = {m->row_end - m->row_begin,
+                        m->form_factors ? (uint64_t)(m->row_end - m->row_begin) * m->patch_count : m->value_count};
+    uint64_t *all = malloc(2 * ranks * sizeof *all);
+    if (!all) status = RAD_ERR_NOMEM;
+    status = solve_comm_agree(comm, status);
+    if (status != RAD_OK) {
+        free(all);
+        return status;
+    }
+    solve_comm_allgather_bytes(comm, mine, sizeof mine, all);
+    for (size_t r = 0; r < ranks; r++) {
+        s->rank_counts[r] = all[2 * r];
+        s->rank_counts[ranks + r] = all[2 * r + 1];
+    }
+    free(all);
+    return RAD_OK;
+}
+
 rad_status solve_stage_run(const solve_options *options)
 {
     static const char *const rgb_names[3] = {"red", "green", "blue"};
     const char *input = options->input ? options->input : SOLVE_DEFAULT_INPUT;
     const char *output = options->output ? options->output : SOLVE_DEFAULT_OUTPUT;
+    solve_comm *comm = options->comm;
+    const int rank = solve_comm_rank(comm), ranks = solve_comm_size(comm);
+    const rad_log_level asked = rad_log_get_level();
     rad_status status, solved = RAD_OK;
     stage_state s;
     memset(&s, 0, sizeof s);
     double t0 = solve_now(), upload_seconds = 0;
-    solve_backend backend;
+    solve_backend backend = SOLVE_BACKEND_CPU;
 
-    status = resolve_backend(options->backend, &backend);
+    status = solve_comm_agree(comm, resolve_backend(options->backend, ranks, &backend));
     if (status != RAD_OK) goto done;
-    status = rad_ff_open(input, &s.file);
+    stage_speak(comm, asked, STAGE_ALIKE);
+    status = solve_comm_agree(comm, rad_ff_open(input, &s.file));
     if (status != RAD_OK) goto done;
     if (rad_ff_file_info(s.file)->flags & RAD_FF_FLAG_STANDARD_ERRORS) {
         rad_error("%s: holds the standard errors of a form-factor matrix (formfactor --errors), not form factors",
@@ -200,12 +284,8 @@ rad_status solve_stage_run(const solve_options *options)
         status = RAD_ERR_INVALID;
         goto done;
     }
-    status = solve_matrix_load(s.file, input, &s.matrix);
+    status = load_rows(&s, comm, options, input, asked);
     if (status != RAD_OK) goto done;
-    if (options->errors) {
-        status = solve_matrix_load_errors(&s.matrix, s.file, input, options->errors);
-        if (status != RAD_OK) goto done;
-    }
     double load_seconds = solve_now() - t0;
     const rad_mesh *mesh = rad_ff_file_mesh(s.file);
     const size_t n = mesh->patch_count;
@@ -216,11 +296,10 @@ rad_status solve_stage_run(const solve_options *options)
     s.emission = malloc(3 * n * sizeof(double));
     s.channel_b = malloc(3 * n * sizeof(double));
     s.radiosity = malloc(3 * n * sizeof(double));
-    if (!s.rho || !s.emission || !s.channel_b || !s.radiosity) {
-        rad_error("%s: out of memory for %zu patches", input, n);
-        status = RAD_ERR_NOMEM;
-        goto done;
-    }
+    status = s.rho && s.emission && s.channel_b && s.radiosity ? RAD_OK : RAD_ERR_NOMEM;
+    if (status != RAD_OK) rad_error("%s: out of memory for %zu patches", input, n);
+    status = solve_comm_agree(comm, status);
+    if (status != RAD_OK) goto done;
     int emits = 0;
     for (size_t i = 0; i < n && !emits; i++)
         emits = mesh->patches[i].emission[0] > 0 || mesh->patches[i].emission[1] > 0 || mesh->patches[i].emission[2] > 0;
@@ -233,8 +312,11 @@ rad_status solve_stage_run(const solve_options *options)
     rad_info("%s: %zu patches, %s, loaded in %.2f s", input, n, grey ? "grey (solved once)" : "RGB", load_seconds);
     status = upload_matrix(&s, input, options->backend, &backend, &upload_seconds);
     if (status != RAD_OK) goto done;
+    if (ranks > 1)
+        rad_info("%s: rows split over %d ranks: rank 0 holds %llu rows (%llu stored entries)", input, ranks,
+                 (unsigned long long)s.rank_counts[0], (unsigned long long)s.rank_counts[ranks]);
     static const char *const grey_names[1] = {"grey"};
-    status = solve_all(&s, input, mesh, channels, grey, &options->params, grey ? grey_names : rgb_names);
+    status = solve_all(&s, comm, input, mesh, channels, grey, &options->params, grey ? grey_names : rgb_names);
     if (status == RAD_ERR_NOT_CONVERGED)
         solved = status;
     else if (status != RAD_OK)
@@ -260,7 +342,8 @@ rad_status solve_stage_run(const solve_options *options)
         out.residual[c] = r->residual;
         out.channel_method[c] = (uint32_t)r->method_used;
     }
-    status = rad_rf_write(output, &out);
+    if (rank == 0) status = rad_rf_write(output, &out);
+    status = solve_comm_agree(comm, status);
     if (status != RAD_OK) goto done;
 
     if (options->stats) {
@@ -282,16 +365,21 @@ rad_status solve_stage_run(const solve_options *options)
             .total_seconds = solve_now() - t0,
             .converged = out.converged != 0,
             .channel_count = channels,
+            .rank_count = (uint32_t)ranks,
+            .rank_rows = s.rank_counts,
+            .rank_entries = s.rank_counts + ranks,
         };
         for (uint32_t c = 0; c < channels; c++) {
             st.channel_names[c] = grey ? "grey" : rgb_names[c];
             st.reports[c] = &s.reports[c];
         }
-        status = solve_stats_write(options->stats, &st);
+        if (rank == 0) status = solve_stats_write(options->stats, &st);
+        status = solve_comm_agree(comm, status);
         if (status != RAD_OK) goto done;
     }
     if (options->by_group) {
         solve_system sys = solve_matrix_system(&s.matrix);
+        sys.comm = comm;
         status = solve_groups_write(options->by_group, &sys, mesh, s.radiosity);
         if (status != RAD_OK) goto done;
     }
@@ -305,5 +393,6 @@ rad_status solve_stage_run(const solve_options *options)
     }
 done:
     stage_state_free(&s);
+    rad_log_set_level(asked);
     return status;
 }

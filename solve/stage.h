@@ -14,6 +14,9 @@
  * solved once and stored in all three channels. A channel that does not
  * converge does not stop the others; the radiosity file is still written,
  * marked unconverged, and the result is RAD_ERR_NOT_CONVERGED.
+ *
+ * Across ranks each rank reads only its rows; rank 0 alone logs and
+ * writes the outputs; every rank returns the same status.
  */
 #ifndef SOLVE_STAGE_H
 #define SOLVE_STAGE_H
@@ -47,6 +50,8 @@ typedef struct solve_options {
                              form-factor file must have a group table (version 2) */
     solve_backend backend; /* 0 = auto. cuda without a visible GPU: RAD_ERR_BACKEND before anything is read */
     solve_params params; /* zero = defaults (solver.h) */
+    solve_comm *comm;    /* the ranks of `mpirun -n K solve` (comm.h); NULL = this process alone.
+                            Every rank calls solve_stage_run with the same options */
 } solve_options;
 
 rad_status solve_stage_run(const solve_options *options);

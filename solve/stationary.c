@@ -9,6 +9,13 @@
  * residual meets the tolerance, the method returns that iterate, not the
  * newer one whose residual is unknown. Rows with rho_i = 0 are B_i = E_i
  * from the start and never change.
+ *
+ * Across ranks (docs/solve.md, "Across ranks") each rank sweeps its own
+ * rows and the new values then go to every rank (solve_comm_gather_rows):
+ * Jacobi is unchanged; Gauss-Seidel takes the newest values within the
+ * rank's block and the previous iterate's from other blocks (Gauss-Seidel
+ * within a block, Jacobi between blocks), which still contracts in the
+ * max norm because rho_i sum_j F_ij < 1 on every row.
  */
 #include <math.h>
 #include <string.h>
@@ -18,10 +25,10 @@
 /* One Jacobi sweep: next = B + r(B) / d; returns omega(B) (iterate.h). */
 static double jacobi_sweep(const solve_run *run, const double *B, double *next)
 {
-    const size_t n = run->n;
+    const size_t n = run->n, begin = run->row_begin, end = run->row_end;
     double rmax = 0;
-#pragma omp parallel for schedule(static) reduction(max : rmax) if (n >= SOLVE_PARALLEL_MIN_ROWS)
-    for (size_t i = 0; i < n; i++) {
+#pragma omp parallel for schedule(static) reduction(max : rmax) if (end - begin >= SOLVE_PARALLEL_MIN_ROWS)
+    for (size_t i = begin; i < end; i++) {
         double rho = run->rho[i];
         if (rho == 0) {
             next[i] = B[i];
@@ -33,13 +40,14 @@ static double jacobi_sweep(const solve_run *run, const double *B, double *next)
         double a = solve_patch_residual(r, gathered, run->e_norm);
         if (!(a <= rmax)) rmax = a; /* lets NaN through to the caller */
     }
-    return rmax;
+    return solve_comm_max(run->comm, rmax);
 }
 
 rad_status solve_jacobi(solve_run *run)
 {
     for (;;) {
         double residual = jacobi_sweep(run, run->B, run->work);
+        if (solve_comm_gather_rows(run->comm, &run->work, 1) != RAD_OK) return RAD_ERR_BACKEND;
         solve_verdict v = solve_run_record(run, residual);
         if (v == SOLVE_FAILED) return RAD_ERR_INVALID;
         if (v != SOLVE_CONTINUE) return RAD_OK; /* run->B is the measured iterate */
@@ -56,7 +64,7 @@ static double gauss_seidel_sweep(const solve_run *run, double *B, const double *
 {
     const size_t n = run->n;
     double rmax = 0;
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = run->row_begin; i < run->row_end; i++) {
         double rho = run->rho[i];
         if (rho == 0) continue;
         /* columns j < i already hold new values in B, the rest old ones */
@@ -69,7 +77,7 @@ static double gauss_seidel_sweep(const solve_run *run, double *B, const double *
         double a = solve_patch_residual(gathered_old - old[i], gathered_old, run->e_norm);
         if (!(a <= rmax)) rmax = a;
     }
-    return rmax;
+    return solve_comm_max(run->comm, rmax);
 }
 
 rad_status solve_gauss_seidel(solve_run *run)
@@ -78,6 +86,7 @@ rad_status solve_gauss_seidel(solve_run *run)
     for (;;) {
         memcpy(run->work, run->B, bytes);
         double residual = gauss_seidel_sweep(run, run->B, run->work);
+        if (solve_comm_gather_rows(run->comm, &run->B, 1) != RAD_OK) return RAD_ERR_BACKEND;
         solve_verdict v = solve_run_record(run, residual);
         if (v == SOLVE_FAILED) return RAD_ERR_INVALID;
         if (v != SOLVE_CONTINUE) {

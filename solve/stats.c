@@ -96,6 +96,17 @@ static void put_stats(rad_json_writer *w, const solve_stats *s)
     else
         rad_json_bool(w, s->device_exact);
     put_number(w, "upload_seconds", s->upload_seconds);
+    put_count(w, "ranks", s->rank_count ? s->rank_count : 1);
+    if (s->rank_rows && s->rank_entries) {
+        rad_json_key(w, "rank_rows");
+        rad_json_begin_array(w, RAD_JSON_INLINE);
+        for (uint32_t r = 0; r < s->rank_count; r++) rad_json_uint(w, s->rank_rows[r]);
+        rad_json_end_array(w);
+        rad_json_key(w, "rank_entries");
+        rad_json_begin_array(w, RAD_JSON_INLINE);
+        for (uint32_t r = 0; r < s->rank_count; r++) rad_json_uint(w, s->rank_entries[r]);
+        rad_json_end_array(w);
+    }
     put_number(w, "load_seconds", s->load_seconds);
     put_number(w, "total_seconds", s->total_seconds);
     rad_json_key(w, "channels");

@@ -29,6 +29,9 @@ typedef struct solve_stats {
     uint32_t channel_count;       /* 1 (grey) or 3 */
     const char *channel_names[3];
     const solve_report *reports[3];
+    uint32_t rank_count;           /* MPI ranks (1 alone; 0 is read as 1) */
+    const uint64_t *rank_rows;     /* rank_count: rows each rank held; NULL = not known */
+    const uint64_t *rank_entries;  /* rank_count: stored entries each rank held */
 } solve_stats;
 
 /* Writes `stats` as JSON to `path` (temporary name + rename). */

@@ -27,7 +27,7 @@ static const char *path_in_dir(const char *name) { return solve_fx_path(g_dir, n
 
 static solve_system fx_system(const solve_fx_scene *s)
 {
-    solve_system sys = {s->mesh.patch_count, s->F, s->area, s->row_sum, NULL, NULL};
+    solve_system sys = {.patch_count = s->mesh.patch_count, .form_factors = s->F, .area = s->area, .row_sum = s->row_sum};
     return sys;
 }
 

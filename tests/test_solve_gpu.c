@@ -49,7 +49,7 @@ static void check_product(const char *path, int expect_exact)
     memset(&m, 0, sizeof m);
     RAD_CHECK(rad_ff_open(path, &file) == RAD_OK);
     if (!file) return;
-    RAD_CHECK(solve_matrix_load(file, path, &m) == RAD_OK);
+    RAD_CHECK(solve_matrix_load(file, path, 0, rad_ff_file_info(file)->patch_count, &m) == RAD_OK);
     const size_t n = m.patch_count;
     solve_gpu *gpu = NULL;
     solve_gpu_tiles tiles;

@@ -126,8 +126,8 @@ int main(void)
     RAD_CHECK(same_bits(&dc.margin, &sc.margin, 1) && dc.margin_row == sc.margin_row);
 
     /* Every method: the same B, iterations and residual. */
-    solve_system dense_system = {N, F, area, row_sum, NULL, NULL};
-    solve_system sparse_system = {N, NULL, area, row_sum, &sparse, NULL};
+    solve_system dense_system = {.patch_count = N, .form_factors = F, .area = area, .row_sum = row_sum};
+    solve_system sparse_system = {.patch_count = N, .area = area, .row_sum = row_sum, .sparse = &sparse};
     solve_method methods[] = {SOLVE_JACOBI, SOLVE_GAUSS_SEIDEL, SOLVE_CG, SOLVE_AUTO};
     for (size_t m = 0; m < sizeof methods / sizeof *methods; m++) {
         solve_params p = {.method = methods[m], .tolerance = 1e-12, .progress_seconds = -1};
@@ -163,8 +163,8 @@ int main(void)
         for (size_t j = 0; j < N; j++) row_sum[i] += F[i * N + j];
     }
     sparse = sparse_of_dense();
-    dense_system = (solve_system){N, F, area, row_sum, NULL, NULL};
-    sparse_system = (solve_system){N, NULL, area, row_sum, &sparse, NULL};
+    dense_system = (solve_system){.patch_count = N, .form_factors = F, .area = area, .row_sum = row_sum};
+    sparse_system = (solve_system){.patch_count = N, .area = area, .row_sum = row_sum, .sparse = &sparse};
     static double rho3[3][N], e3[3][N], bd3[3][N], bs3[3][N];
     for (int c = 0; c < 3; c++)
         for (size_t i = 0; i < N; i++) {

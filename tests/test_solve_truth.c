@@ -72,7 +72,7 @@ static rad_status fx_solve(const solve_fx_scene *s, solve_method method, double 
         E[i] = s->mesh.patches[i].emission[0];
     }
     solve_params p = {.method = method, .tolerance = TRUTH_TOL, .progress_seconds = -1};
-    solve_system sys = {n, s->F, s->area, s->row_sum, NULL, NULL};
+    solve_system sys = {.patch_count = n, .form_factors = s->F, .area = s->area, .row_sum = s->row_sum};
     rad_status st = solve_channel(&sys, rho, E, &p, B, rep);
     free(rho);
     free(E);
