@@ -101,7 +101,8 @@ typedef struct ff_plan {
     /* Each unordered pair computed once, the other entry copied
      * (A_i F_ij = A_j F_ji): --reciprocity on, or auto when the rank's
      * block of rows (values and errors) takes at most a quarter of its
-     * memory and, on the GPU, its values at most FF_BACKEND_BUFFER_MAX
+     * memory and, on the GPU, the format is not sparse (a sparse file
+     * streams there: device_records) and its values at most FF_BACKEND_BUFFER_MAX
      * (beyond the page-locked limit rows come back by pageable copies,
      * slower than the kernels saved; docs/performance.md). Ranks must
      * agree: where one rank's plan streams, all must (the driver then plans

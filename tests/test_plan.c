@@ -239,6 +239,30 @@ static void edges(void)
     RAD_CHECK(none.rounds == 0 && none.buffer_doubles == 1);
 }
 
+static void gpu_streams_sparse_files(void)
+{
+    /* The paper's size on one GPU: a sparse file streams (finished on the
+     * device), a dense one keeps the block and mirrors; on the CPU the
+     * block fits and is kept; --reciprocity on is obeyed. */
+    ff_plan_limits limits = {.patch_count = 2944, .ranks = 1, .memory_per_rank = 64 * GiB, .free_bytes = INFINITY,
+                             .gpus_visible = 1};
+    ff_plan_choices choices = {.element = RAD_ELEMENT_F64, .standard_errors = 1};
+    ff_plan sparse = make(&limits, &choices);
+    RAD_CHECK(sparse.gpu && !sparse.pairs_once && sparse.device_records && sparse.buffer_doubles == 1);
+    RAD_CHECK(sparse.rounds == 1);
+    choices.format = FF_FORMAT_DENSE;
+    ff_plan dense = make(&limits, &choices);
+    RAD_CHECK(dense.gpu && dense.pairs_once && !dense.device_records);
+    choices.format = FF_FORMAT_SPARSE;
+    choices.reciprocity = FF_RECIPROCITY_ON;
+    ff_plan once = make(&limits, &choices);
+    RAD_CHECK(once.pairs_once && !once.device_records);
+    choices.reciprocity = FF_RECIPROCITY_AUTO;
+    limits.gpus_visible = 0;
+    ff_plan cpu = make(&limits, &choices);
+    RAD_CHECK(!cpu.gpu && cpu.pairs_once && !cpu.device_records);
+}
+
 static void before_and_after_the_split(void)
 {
     /* Rank 0 plans before the mesh (no split: an even share assumed) and
@@ -268,5 +292,6 @@ int main(void)
     refusals();
     edges();
     before_and_after_the_split();
+    gpu_streams_sparse_files();
     return rad_test_finish();
 }
