@@ -230,7 +230,12 @@ solve_cg_check solve_cg_check_matrix(const solve_run *run)
     int cached = cache && cache->rho && cache->delta;
     for (size_t i = 0; cached && i < n; i++) cached = (cache->rho[i] == 0) == (rho[i] == 0);
     solve_cg_check c = {.margin = INFINITY};
-    if (cached) memcpy(delta, cache->delta, n * sizeof *delta);
+    if (run->reciprocity_bound > 0) { /* reciprocal by construction: sum_j b A_i F_ij >= delta_i */
+        for (size_t i = begin; i < end; i++) delta[i] = run->reciprocity_bound * A[i] * fabs(run->row_sum[i]);
+        cached = 1;
+    } else if (cached) {
+        memcpy(delta, cache->delta, n * sizeof *delta);
+    }
     if (!cached && solve_comm_size(run->comm) > 1)
         c.status = skew_terms_ranks(run, delta);
     else if (!cached)

@@ -40,6 +40,7 @@ typedef struct solve_run {
     const double *E;        /* n, this channel */
     double e_norm;          /* ||E||_inf > 0 */
     solve_skew_cache *skew; /* shared with other channels, or NULL */
+    double reciprocity_bound; /* solve_system's: > 0, the skew term is bounded, not measured */
     double tolerance;
     uint32_t max_iterations;
     /* state (owned by solver.c) */

@@ -247,6 +247,19 @@ void solve_matrix_split_rows(const rad_ff_file *file, size_t parts, size_t *row_
     row_begin[parts] = n;
 }
 
+double solve_reciprocity_bound(const rad_ff_info *info)
+{
+    if (!(info->flags & RAD_FF_FLAG_RECIPROCAL)) return 0;
+    /* F_ij = s(fl(c A_j)) and F_ji = s(fl(c A_i)) with c = c_ij = c_ji: two
+     * roundings each, u = 2^-53 for the product, v for the storage (2^-24
+     * for f32, 0 for f64), so |A_i F_ij - A_j F_ji| <= 2 (u + v)(1 + 2 (u + v))
+     * A_i F_ij. Doubled for the check's own arithmetic, plus 1e-12 for
+     * couplings from mixed CPU and GPU ranks (their atan2 and sqrt differ
+     * by a few ulps, so c_ij and c_ji may too). */
+    const double u = 0x1p-53, v = info->element_type == RAD_ELEMENT_F32 ? 0x1p-24 : 0;
+    return 4 * (u + v) * (1 + 2 * (u + v)) + 1e-12;
+}
+
 rad_status solve_matrix_load(rad_ff_file *file, const char *path, size_t row_begin, size_t row_end,
                              solve_matrix *out_matrix)
 {
@@ -263,6 +276,7 @@ rad_status solve_matrix_load(rad_ff_file *file, const char *path, size_t row_beg
         goto done;
     }
     m.patch_count = n;
+    m.reciprocity_bound = solve_reciprocity_bound(info);
     m.row_begin = row_begin < n ? row_begin : n;
     m.row_end = row_end && row_end <= n ? row_end : n;
     if (m.row_begin > m.row_end) m.row_begin = m.row_end;
@@ -524,6 +538,7 @@ solve_system solve_matrix_system(const solve_matrix *matrix)
         .row_sum = matrix->row_sum,
         .row_begin = matrix->row_begin,
         .row_end = matrix->row_end,
+        .reciprocity_bound = matrix->reciprocity_bound,
     };
     return s;
 }

@@ -77,7 +77,15 @@ typedef struct solve_matrix {
     double *row_sum;      /* N; the held rows' after loading (others 0 until gathered, stage.c) */
     double *row_error;    /* N: sqrt(sum_j sigma_ij^2), the held rows' (others 0 until gathered);
                              NULL until solve_matrix_load_errors */
+    double reciprocity_bound; /* solve_system.reciprocity_bound, from the file's header */
 } solve_matrix;
+
+/* For a file whose header says it is reciprocal by construction
+ * (RAD_FF_FLAG_RECIPROCAL, set by formfactor): the bound b with
+ * |A_i F_ij - A_j F_ji| <= b A_i F_ij for every entry, from the rounding of
+ * the products and of the stored element type; 0 for other files (the
+ * skew term is then measured). */
+double solve_reciprocity_bound(const rad_ff_info *info);
 
 /* Splits the rows of `file` into `parts` contiguous blocks of about equal
  * cost (a sparse row: its record's bytes, i.e. its stored entries, plus

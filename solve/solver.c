@@ -185,6 +185,7 @@ static rad_status channel_begin(const solve_system *system, const double *rho, c
         .rho = rho,
         .E = emission,
         .skew = skew,
+        .reciprocity_bound = system->reciprocity_bound,
         .tolerance = params->tolerance > 0 ? params->tolerance : SOLVE_DEFAULT_TOLERANCE,
         .max_iterations = params->max_iterations ? params->max_iterations : SOLVE_DEFAULT_MAX_ITERATIONS,
         .label = params->label ? params->label : "channel",

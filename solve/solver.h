@@ -98,6 +98,11 @@ typedef struct solve_system {
     solve_gpu *gpu;              /* the same matrix resident on a GPU (gpu.h), or NULL: iterate on
                                     the CPU. Verification stays on the CPU with the matrix above. */
     size_t row_begin, row_end;   /* the rows held here; row_end 0: all N */
+    /* > 0: the file is reciprocal by construction (RAD_FF_FLAG_RECIPROCAL):
+     * |A_i F_ij - A_j F_ji| <= reciprocity_bound A_i F_ij, and the CG check
+     * bounds its skew term with it instead of measuring it (no pass over F
+     * and its transpose, no exchange across ranks). 0: measured. */
+    double reciprocity_bound;
     solve_comm *comm;            /* the ranks (comm.h); NULL: this process alone */
 } solve_system;
 

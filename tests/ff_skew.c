@@ -28,6 +28,7 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < n; i++)
         for (size_t j = i + 1; j < n; j++) F[i * n + j] *= 1 + s;
     rad_ff_info info = *rad_ff_file_info(in);
+    info.flags &= ~RAD_FF_FLAG_RECIPROCAL; /* no longer reciprocal by construction */
     ok = rad_ff_write_serial(argv[2], &info, rad_ff_file_mesh(in), F) == RAD_OK;
 done:
     free(F);
