@@ -19,6 +19,7 @@
  * the order of the sums differs from the CPU.
  */
 #include <cuda_runtime.h>
+#include <pthread.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -333,7 +334,7 @@ __global__ void gpu_finish_kernel(gpu_lanes L, int finish)
 
 extern "C" int solve_gpu_built(void) { return 1; }
 
-extern "C" int solve_gpu_device_count(void)
+static int count_devices(void)
 {
     int count = 0;
     if (cudaGetDeviceCount(&count) != cudaSuccess) {
@@ -341,6 +342,38 @@ extern "C" int solve_gpu_device_count(void)
         return 0;
     }
     return count;
+}
+
+/* The prestart thread and what it found (-1: not asked). */
+static pthread_t prestart_thread;
+static int prestart_running, prestart_devices = -1;
+
+static void *prestart_main(void *unused)
+{
+    (void)unused;
+    int count = count_devices();
+    if (count > 0 && cudaSetDevice(0) == cudaSuccess) cudaFree(0); /* the primary context */
+    cudaGetLastError();
+    prestart_devices = count;
+    return NULL;
+}
+
+extern "C" void solve_gpu_prestart(void)
+{
+    if (!prestart_running) prestart_running = pthread_create(&prestart_thread, NULL, prestart_main, NULL) == 0;
+}
+
+extern "C" void solve_gpu_prestart_join(void)
+{
+    if (!prestart_running) return;
+    pthread_join(prestart_thread, NULL);
+    prestart_running = 0;
+}
+
+extern "C" int solve_gpu_device_count(void)
+{
+    solve_gpu_prestart_join();
+    return prestart_devices >= 0 ? prestart_devices : count_devices();
 }
 
 extern "C" int solve_gpu_exact(const solve_gpu *gpu) { return gpu->exact; }

@@ -51,3 +51,5 @@ rad_status solve_gpu_cg_restart(solve_gpu *gpu, const int *restart)
 }
 
 void solve_gpu_jacobi_accept(solve_gpu *gpu, size_t lane) { (void)gpu, (void)lane; }
+void solve_gpu_prestart(void) {}
+void solve_gpu_prestart_join(void) {}

@@ -134,8 +134,9 @@ static rad_status solve_all(stage_state *s, solve_comm *comm, const char *input,
     return solve_system_all(s, &sys, input, mesh, channels, grey, base, labels);
 }
 
-/* The backend to use, before anything is read: auto resolved; cuda
- * without a visible GPU refused. */
+/* The backend to use, once the file's header is read: cuda without a
+ * visible GPU refused; auto stays auto until the matrix is loaded
+ * (auto_backend) - or cpu where it cannot be cuda. */
 static rad_status resolve_backend(solve_backend asked, int ranks, solve_backend *out_backend)
 {
     if (ranks > 1) { /* every rank decides alike */
@@ -159,10 +160,28 @@ static rad_status resolve_backend(solve_backend asked, int ranks, solve_backend 
         return RAD_ERR_BACKEND;
     }
     if (asked == SOLVE_BACKEND_AUTO)
-        *out_backend = solve_gpu_built() && solve_gpu_device_count() > 0 ? SOLVE_BACKEND_CUDA : SOLVE_BACKEND_CPU;
+        *out_backend = solve_gpu_built() ? SOLVE_BACKEND_AUTO : SOLVE_BACKEND_CPU;
     else
         *out_backend = asked;
     return RAD_OK;
+}
+
+/* Stored entries of the matrix: its header's estimate (a sparse file's
+ * record bytes over the element's size), before it is read. */
+static uint64_t stored_entries_estimate(const rad_ff_info *info)
+{
+    if (info->layout != RAD_FF_LAYOUT_SPARSE) return info->patch_count * info->patch_count;
+    return info->matrix_bytes / (info->element_type == RAD_ELEMENT_F32 ? 4 : 8);
+}
+
+/* auto, once the matrix is loaded: the GPU for matrices large enough to
+ * repay starting CUDA and the upload (SOLVE_GPU_AUTO_MIN_ENTRIES), when
+ * one is visible; else the CPU. */
+static solve_backend auto_backend(const solve_matrix *m)
+{
+    uint64_t entries = m->form_factors ? (uint64_t)(m->row_end - m->row_begin) * m->patch_count : m->value_count;
+    return entries >= SOLVE_GPU_AUTO_MIN_ENTRIES && solve_gpu_device_count() > 0 ? SOLVE_BACKEND_CUDA
+                                                                                : SOLVE_BACKEND_CPU;
 }
 
 /* The matrix onto the GPU for the cuda backend. Under auto a failure (not
@@ -266,10 +285,15 @@ rad_status solve_stage_run(const solve_options *options)
     double t0 = solve_now(), upload_seconds = 0;
     solve_backend backend = SOLVE_BACKEND_CPU;
 
-    status = solve_comm_agree(comm, resolve_backend(options->backend, ranks, &backend));
-    if (status != RAD_OK) goto done;
     stage_speak(comm, asked, STAGE_ALIKE);
     status = solve_comm_agree(comm, rad_ff_open(input, &s.file));
+    if (status != RAD_OK) goto done;
+    /* CUDA starts while the matrix loads where the GPU will be asked for. */
+    if (ranks == 1 && options->backend != SOLVE_BACKEND_CPU && solve_gpu_built() &&
+        (options->backend == SOLVE_BACKEND_CUDA ||
+         stored_entries_estimate(rad_ff_file_info(s.file)) >= SOLVE_GPU_AUTO_MIN_ENTRIES))
+        solve_gpu_prestart();
+    status = solve_comm_agree(comm, resolve_backend(options->backend, ranks, &backend));
     if (status != RAD_OK) goto done;
     if (rad_ff_file_info(s.file)->flags & RAD_FF_FLAG_STANDARD_ERRORS) {
         rad_error("%s: holds the standard errors of a form-factor matrix (formfactor --errors), not form factors",
@@ -310,6 +334,7 @@ rad_status solve_stage_run(const solve_options *options)
     const int grey = scene_is_grey(mesh);
     const uint32_t channels = grey ? 1 : 3;
     rad_info("%s: %zu patches, %s, loaded in %.2f s", input, n, grey ? "grey (solved once)" : "RGB", load_seconds);
+    if (backend == SOLVE_BACKEND_AUTO) backend = auto_backend(&s.matrix);
     status = upload_matrix(&s, input, options->backend, &backend, &upload_seconds);
     if (status != RAD_OK) goto done;
     if (ranks > 1)
@@ -393,6 +418,7 @@ rad_status solve_stage_run(const solve_options *options)
     }
 done:
     stage_state_free(&s);
+    solve_gpu_prestart_join();
     rad_log_set_level(asked);
     return status;
 }

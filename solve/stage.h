@@ -29,7 +29,8 @@
 
 /* Where the iterations run (docs/solve.md, "On the GPU"). */
 typedef enum solve_backend {
-    SOLVE_BACKEND_AUTO = 0, /* cuda when this build has CUDA and a GPU is visible, else cpu */
+    SOLVE_BACKEND_AUTO = 0, /* cuda when this build has CUDA, a GPU is visible and the matrix stores at least
+                               SOLVE_GPU_AUTO_MIN_ENTRIES entries (gpu.h), else cpu */
     SOLVE_BACKEND_CPU,
     SOLVE_BACKEND_CUDA      /* cg and jacobi on the GPU; gauss-seidel and every verification on the CPU */
 } solve_backend;
