@@ -42,6 +42,14 @@ d = json.load(open(sys.argv[1])); t = d.get("time_seconds", {})
 print("    phases: " + ", ".join("%s %.3f" % (k, v) for k, v in t.items()))
 PY
 }
+phases_solve() { python3 - "$1" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+keys = ("backend", "load_seconds", "upload_seconds", "total_seconds")
+print("    " + ", ".join("%s %s" % (k, d[k]) for k in keys if k in d) +
+      "; channels: " + ", ".join("%.3f s" % c.get("seconds", 0) for c in d.get("channels", [])))
+PY
+}
 ff="$build/formfactor"; solve="$build/solve"; scene=scenes/cornell_sphere.obj
 echo "--- fixed costs, N = 2944"
 nvidia-smi --query-gpu=persistence_mode --format=csv,noheader | sed 's/^/persistence mode: /'
@@ -60,6 +68,7 @@ for r in 1 2 3; do
   t "n2944_ff_$r" "$ff" $scene --subdiv 3 --backend cuda -q -o "$work/ff3" --stats "$out/n2944_ff_$r.json"
   phases "$out/n2944_ff_$r.json"
   t "n2944_solve_$r" "$solve" "$work/ff3" -q -o "$work/rad3" ${SOLVE_ARGS:-} --stats "$out/n2944_solve_$r.json"
+  phases_solve "$out/n2944_solve_$r.json"
 done
 for s in ${SUBDIVS:-5}; do
   echo "--- cornell_sphere --subdiv $s --element f32"
@@ -70,12 +79,14 @@ for s in ${SUBDIVS:-5}; do
       --stats "$out/s${s}_ff_$mode.json"
     phases "$out/s${s}_ff_$mode.json"
     echo "    file $(stat -c %s "$work/ff$s") bytes"
+    t "s${s}_sync_$mode" sync   # formfactor leaves its file in the page cache: this makes it durable
     [ $mode = gpu ] && cp "$out/s${s}_ff_gpu.log" "$out/s${s}_ff_gpu.keep"
     [ "${HOST_TOO:-1}" = 1 ] || break
   done
   sync
   for b in ${SOLVE_BACKENDS:-cpu}; do
     t "s${s}_solve_$b" "$solve" "$work/ff$s" -o "$work/rad$s.$b" --backend $b ${SOLVE_ARGS:-} --stats "$out/s${s}_solve_$b.json"
+    phases_solve "$out/s${s}_solve_$b.json"
     grep -E "load|CG|iterations|backend|round" "$out/s${s}_solve_$b.log" | head -12 | sed 's/^/    /'
   done
   for k in ${SOLVE_RANKS:-}; do
