@@ -20,9 +20,7 @@ typedef struct ff_comm ff_comm;         /* opaque */
 typedef struct ff_comm_file ff_comm_file; /* opaque: a file opened by all ranks */
 
 rad_status ff_comm_init(int *argc, char ***argv, ff_comm **out_comm);
-/* This process's rank as its launcher (mpirun, a PMI/PMIx launcher) told
- * it, readable before ff_comm_init; 0 when started alone. */
-int ff_comm_launcher_rank(void);
+
 void ff_comm_finalize(ff_comm *comm);
 
 int ff_comm_rank(const ff_comm *comm);

@@ -1,4 +1,5 @@
-/* ff_comm_mpi.c - ff_comm.h on Open MPI; the only file that includes mpi.h.
+/* ff_comm_mpi.c - ff_comm.h on Open MPI; the only file of formfactor/
+ * that includes mpi.h (starting and ending MPI: core/mpi/rad_mpi.h).
  *
  * A process that no MPI launcher started (no OMPI_COMM_WORLD_SIZE,
  * PMIX_RANK, PMI_RANK or PMI_SIZE in its environment: a plain
@@ -19,10 +20,11 @@
 
 #include "ff_comm.h"
 #include "rad_log.h"
+#include "rad_mpi.h"
 
 struct ff_comm {
+    rad_mpi_start mpi;
     int rank, size, node_size;
-    int we_initialized;
     int solo; /* no MPI: one rank, POSIX files */
     uint64_t progress_local; /* rows done: the whole count solo, or until the window opens */
     MPI_Win progress_win;    /* one uint64 on rank 0 (ff_comm_progress_open) */
@@ -36,25 +38,6 @@ struct ff_comm_file {
     char path[4096];
     rad_status status; /* first local failure */
 };
-
-/* Did an MPI launcher start this process? */
-static int launched_by_mpi(void)
-{
-    static const char *const vars[] = {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE"};
-    for (size_t k = 0; k < sizeof vars / sizeof vars[0]; k++)
-        if (getenv(vars[k])) return 1;
-    return 0;
-}
-
-int ff_comm_launcher_rank(void)
-{
-    static const char *const vars[] = {"OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"};
-    for (size_t k = 0; k < sizeof vars / sizeof vars[0]; k++) {
-        const char *v = getenv(vars[k]);
-        if (v && *v >= '0' && *v <= '9') return atoi(v);
-    }
-    return 0;
-}
 
 /* MPI counts are int: large writes go in pieces of at most this many bytes. */
 #define FF_MPI_MAX_BYTES ((size_t)1 << 30)
@@ -71,34 +54,22 @@ rad_status ff_comm_init(int *argc, char ***argv, ff_comm **out_comm)
 {
     ff_comm *c = calloc(1, sizeof *c);
     if (!c) return RAD_ERR_NOMEM;
-    int initialized = 0;
-    MPI_Initialized(&initialized);
-    if (!initialized && !launched_by_mpi()) {
-        c->solo = 1;
-        c->rank = 0;
-        c->size = c->node_size = 1;
-        *out_comm = c;
-        return RAD_OK;
+    /* Funneled: the progress counter is updated from inside the CPU
+     * backend's OpenMP region, by its master thread (this one). */
+    rad_status status = rad_mpi_init(argc, argv, &c->mpi);
+    if (status != RAD_OK) {
+        free(c);
+        return status;
     }
-    MPI_Initialized(&initialized);
-    if (!initialized) {
-        /* Funneled: the progress counter is updated from inside the CPU
-         * backend's OpenMP region, by its master thread (this one). */
-        int provided = 0;
-        if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
-            rad_error("MPI_Init failed");
-            free(c);
-            return RAD_ERR_BACKEND;
-        }
-        c->we_initialized = 1;
+    c->rank = c->mpi.rank;
+    c->size = c->node_size = c->mpi.size;
+    c->solo = c->mpi.solo;
+    if (!c->solo) {
+        MPI_Comm node;
+        MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, c->rank, MPI_INFO_NULL, &node);
+        MPI_Comm_size(node, &c->node_size);
+        MPI_Comm_free(&node);
     }
-    MPI_Comm_set_errhandler(MPI_COMM_WORLD, MPI_ERRORS_RETURN);
-    MPI_Comm_rank(MPI_COMM_WORLD, &c->rank);
-    MPI_Comm_size(MPI_COMM_WORLD, &c->size);
-    MPI_Comm node;
-    MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, c->rank, MPI_INFO_NULL, &node);
-    MPI_Comm_size(node, &c->node_size);
-    MPI_Comm_free(&node);
     *out_comm = c;
     return RAD_OK;
 }
@@ -106,7 +77,7 @@ rad_status ff_comm_init(int *argc, char ***argv, ff_comm **out_comm)
 void ff_comm_finalize(ff_comm *comm)
 {
     if (!comm) return;
-    if (comm->we_initialized && !comm->solo) MPI_Finalize();
+    rad_mpi_finalize(&comm->mpi, 0);
     free(comm);
 }
 

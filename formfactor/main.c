@@ -13,6 +13,7 @@
 #include "ff_cuda.h"
 #include "ff_driver.h"
 #include "ff_options.h"
+#include "rad_mpi.h"
 #include "rad_log.h"
 
 #define FF_VERSION RAD_VERSION /* the project version (core/CMakeLists.txt) */
@@ -22,7 +23,7 @@ int main(int argc, char **argv)
     rad_log_set_program("formfactor");
     /* CUDA starts while MPI and the scene do (ff_cuda.h), unless the run
      * will not use it. */
-    if (ff_options_may_use_gpu(argc, argv)) ff_cuda_prestart(ff_comm_launcher_rank());
+    if (ff_options_may_use_gpu(argc, argv)) ff_cuda_prestart(rad_mpi_launcher_rank());
     ff_comm *comm = NULL;
     rad_status st = ff_comm_init(&argc, &argv, &comm);
     if (st != RAD_OK) {

@@ -1,9 +1,8 @@
-/* comm_mpi.c - comm.h on MPI; the only file of solve/ that includes mpi.h.
+/* comm_mpi.c - comm.h on MPI; the only file of solve/ that includes mpi.h
+ * (starting and ending MPI: core/mpi/rad_mpi.h, shared with formfactor).
  *
- * A process that no MPI launcher started (no OMPI_COMM_WORLD_SIZE,
- * PMIX_RANK, PMI_RANK or PMI_SIZE in its environment: a plain `./solve`)
- * runs alone: one rank, no MPI_Init (an Open MPI singleton init costs
- * 0.3 s). With one rank, launched or not, no call reaches MPI after init:
+ * A process that no MPI launcher started (a plain `./solve`) runs alone:
+ * one rank, no MPI_Init (an Open MPI singleton init costs 0.3 s). With one rank, launched or not, no call reaches MPI after init:
  * the results are those of a process alone, bit for bit. */
 #include <limits.h>
 #include <math.h>
@@ -13,25 +12,16 @@
 
 #include "comm.h"
 #include "rad_log.h"
+#include "rad_mpi.h"
 
 struct solve_comm {
+    rad_mpi_start mpi;  /* solo: no MPI, one rank */
     int rank, size;
-    int we_initialized;
-    int solo;           /* no MPI: one rank */
     size_t *row_begin;  /* size + 1: the row split (solve_comm_set_rows) */
     int *counts, *displs; /* size each: MPI_Allgatherv's */
     double *pack;       /* scratch for gathering several vectors at once */
     size_t pack_cap;
 };
-
-/* Did an MPI launcher start this process? */
-static int launched_by_mpi(void)
-{
-    static const char *const vars[] = {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE"};
-    for (size_t k = 0; k < sizeof vars / sizeof vars[0]; k++)
-        if (getenv(vars[k])) return 1;
-    return 0;
-}
 
 static int alone(const solve_comm *comm) { return !comm || comm->size == 1; }
 
@@ -39,27 +29,14 @@ rad_status solve_comm_init(int *argc, char ***argv, solve_comm **out_comm)
 {
     solve_comm *c = calloc(1, sizeof *c);
     if (!c) return RAD_ERR_NOMEM;
-    int initialized = 0;
-    MPI_Initialized(&initialized);
-    if (!initialized && !launched_by_mpi()) {
-        c->solo = 1;
-        c->size = 1;
-        *out_comm = c;
-        return RAD_OK;
+    /* Funneled: MPI is called between the OpenMP loops, by the main thread. */
+    rad_status status = rad_mpi_init(argc, argv, &c->mpi);
+    if (status != RAD_OK) {
+        free(c);
+        return status;
     }
-    if (!initialized) {
-        /* Funneled: MPI is called between the OpenMP loops, by the main thread. */
-        int provided = 0;
-        if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
-            rad_error("MPI_Init failed");
-            free(c);
-            return RAD_ERR_BACKEND;
-        }
-        c->we_initialized = 1;
-    }
-    MPI_Comm_set_errhandler(MPI_COMM_WORLD, MPI_ERRORS_RETURN);
-    MPI_Comm_rank(MPI_COMM_WORLD, &c->rank);
-    MPI_Comm_size(MPI_COMM_WORLD, &c->size);
+    c->rank = c->mpi.rank;
+    c->size = c->mpi.size;
     *out_comm = c;
     return RAD_OK;
 }
@@ -67,13 +44,7 @@ rad_status solve_comm_init(int *argc, char ***argv, solve_comm **out_comm)
 void solve_comm_finalize(solve_comm *comm)
 {
     if (!comm) return;
-    /* Every rank waits for the others here: mpirun ends the job as soon as
-     * one rank exits non-zero (not converged: 3), and rank 0 may still be
-     * writing its last words. */
-    if (comm->we_initialized && !comm->solo) {
-        MPI_Barrier(MPI_COMM_WORLD);
-        MPI_Finalize();
-    }
+    rad_mpi_finalize(&comm->mpi, 1);
     free(comm->row_begin);
     free(comm->counts);
     free(comm->displs);
