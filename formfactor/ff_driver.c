@@ -47,10 +47,11 @@ typedef struct ff_run {
     int want_errors; /* standard errors computed (not --no-errors) */
     ff_rank_stats stats;
     double start;
-    /* Progress (report_progress): this rank's rows done before the current
-     * backend call, the rows it has added to the shared counter, when, and
-     * (rank 0) when it last reported, every how many seconds, and whether
-     * to a terminal (one line that updates). calibrating: no reports. */
+    /* Progress (report_progress): this rank's rows done (of plan.rank_rows)
+     * before the current backend call, the rows it has added to the shared
+     * counter, when, and (rank 0) when it last reported, every how many
+     * seconds, and whether to a terminal (one line that updates).
+     * calibrating: no reports. */
     uint32_t progress_base;
     uint64_t progress_added;
     double progress_added_at, progress_said_at, progress_every, compute_start;
@@ -95,8 +96,7 @@ static void report_progress(void *user, uint64_t rows_done)
     if (run->calibrating) return;
     double t = ff_comm_time();
     uint64_t done = run->progress_base + rows_done;
-    uint32_t mine = run->row_begin[ff_comm_rank(run->comm) + 1] - run->row_begin[ff_comm_rank(run->comm)];
-    if (done > run->progress_added && (t - run->progress_added_at >= 1.0 || done == mine)) {
+    if (done > run->progress_added && (t - run->progress_added_at >= 1.0 || done == run->plan.rank_rows)) {
         ff_comm_progress_add(run->comm, done - run->progress_added);
         run->progress_added = done;
         run->progress_added_at = t;
@@ -305,15 +305,6 @@ static rad_status setup(ff_run *run)
     return st;
 }
 
-/* Round `round` of a rank's rows [begin, end): its first row (end once the
- * rows are used up) and, returned, its row count (0 then). */
-static uint32_t round_rows(uint32_t begin, uint32_t end, uint32_t per_round, uint64_t round, uint32_t *r0)
-{
-    uint64_t first = begin + round * per_round;
-    *r0 = first < end ? (uint32_t)first : end;
-    return end - *r0 < per_round ? end - *r0 : per_round;
-}
-
 /* Collective: rows [r0, r0 + count) of this rank into each file (count may be 0). */
 static rad_status write_round(ff_run *run, const ff_files *files, uint32_t r0, uint32_t count, const double *rows,
                               const double *errors)
@@ -355,23 +346,22 @@ static int records_from_backend(const ff_run *run)
 }
 
 /* Streamed rounds finished by the backend: the rank's rows, round by
- * round, computed, finished and encoded by the backend, and written
- * collectively. Every rank joins every write, with no rows after a
- * failure. */
+ * round (ff_plan_round_rows: block-cyclic), computed, finished and encoded
+ * by the backend, and written collectively. Every rank joins every write,
+ * with no rows after a failure. */
 static rad_status compute_record_rounds(ff_run *run, const ff_files *files, ff_counters *counters)
 {
     const ff_plan *plan = &run->plan;
-    int rank = ff_comm_rank(run->comm);
-    uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1], r0, count;
-    uint32_t element = run->opt.element;
+    uint32_t element = run->opt.element, r0, count;
     rad_status st = RAD_OK;
+    run->progress_base = 0;
     for (uint64_t round = 0; round < plan->rounds; round++) {
-        count = round_rows(begin, end, plan->rows_per_round, round, &r0);
+        count = ff_plan_round_rows(plan, round, &r0);
         ff_records values = {0}, errors = {0};
         if (st == RAD_OK && count > 0) {
-            run->progress_base = r0 - begin;
             st = run->backend->compute_records(run->backend_state, r0, count, element, &values,
                                                files->errors ? &errors : NULL, &run->stats.rows, counters);
+            run->progress_base += count;
         }
         rad_status w = write_records_round(run, files, r0, st == RAD_OK ? count : 0, &values, &errors);
         if (st == RAD_OK) st = w;
@@ -400,8 +390,8 @@ static void free_buffer(ff_run *run, size_t count, double *buffer)
  * take - the outputs' size, the memory per rank and the time. The time
  * comes from a calibration: FF_CALIBRATION_CHUNKS chunks of rows spread
  * over the matrix, together about 1/64 of it, computed by the run's own
- * backend (and computed again later: 1.6 % more work) and scaled to all
- * rows, divided among the ranks. A GPU's chunks of a small scene are
+ * backend (and computed again later: 1.6 % more work) and scaled to the
+ * rows of the busiest rank (busiest_rows). A GPU's chunks of a small scene are
  * mostly launch latency, so small runs are overestimated; runs of fewer
  * than FF_CALIBRATION_MIN patches take seconds and are not calibrated.
  * Sets the progress lines' cadence from the estimate. */
@@ -413,6 +403,16 @@ static uint32_t calibration_row(uint32_t n, uint32_t chunk, uint32_t k)
     uint64_t centre = (uint64_t)n * (2 * k + 1) / (2 * FF_CALIBRATION_CHUNKS);
     uint32_t r0 = centre > chunk / 2 ? (uint32_t)(centre - chunk / 2) : 0;
     return r0 + chunk > n ? n - chunk : r0;
+}
+
+/* The rows whose time is the run's: with pairs_once a block of the split,
+ * which balances the ranks' work (not their rows), so N / ranks; streamed,
+ * the most rows a rank takes in blocks of rows_per_round (one block more than
+ * another rank's where the blocks do not divide evenly). */
+static double busiest_rows(const ff_run *run)
+{
+    if (run->plan.pairs_once) return (double)run->mesh.patch_count / ff_comm_size(run->comm);
+    return run->plan.most_rows;
 }
 
 static void estimate(ff_run *run)
@@ -438,7 +438,7 @@ static void estimate(ff_run *run)
         calibration = ff_comm_time() - t0;
         run->calibrating = 0;
         if (st == RAD_OK)
-            seconds = calibration * ((double)n / (FF_CALIBRATION_CHUNKS * chunk)) / ff_comm_size(run->comm);
+            seconds = calibration * (busiest_rows(run) / (FF_CALIBRATION_CHUNKS * chunk));
     } else if (n >= FF_CALIBRATION_MIN) {
         double *rows = alloc_buffer(run, (size_t)chunk * n);
         double *errors = run->want_errors ? alloc_buffer(run, (size_t)chunk * n) : NULL;
@@ -454,7 +454,7 @@ static void estimate(ff_run *run)
             calibration = ff_comm_time() - t0;
             run->calibrating = 0;
             if (st == RAD_OK)
-                seconds = calibration * ((double)n / (FF_CALIBRATION_CHUNKS * chunk)) / ff_comm_size(run->comm);
+                seconds = calibration * (busiest_rows(run) / (FF_CALIBRATION_CHUNKS * chunk));
         }
         if (rows) free_buffer(run, (size_t)chunk * n, rows);
         if (errors) free_buffer(run, (size_t)chunk * n, errors);
@@ -517,20 +517,21 @@ static rad_status complete_block(ff_run *run, double *block, double *errors, ff_
     return st;
 }
 
-/* This rank's rows, in the plan's rounds, computed and written
- * collectively. Streamed (--reciprocity off), the buffers hold one round:
- * each round is computed, scaled and written before the next. With
- * pairs_once they hold the rank's whole block: each round is computed
- * into its place, the block is completed from the other rows' entries,
- * scaled, and written in the same rounds. Every rank joins every
- * collective write, with no rows after a failure. */
+/* This rank's rows, in the plan's rounds (ff_plan_round_rows), computed
+ * and written collectively. Streamed (--reciprocity off), the buffers
+ * hold one round: each round - a block of rows taken block-cyclically, so
+ * that the ranks' blocks of a round are consecutive - is computed, scaled
+ * and written before the next. With pairs_once they hold the rank's whole
+ * block of the split: each round is computed into its place, the block is
+ * completed from the other rows' entries, scaled, and written in the same
+ * rounds. Every rank joins every collective write, with no rows after a
+ * failure. */
 static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters *counters)
 {
     if (records_from_backend(run)) return compute_record_rounds(run, files, counters);
     const ff_plan *plan = &run->plan;
-    int rank = ff_comm_rank(run->comm);
     uint32_t n = (uint32_t)run->mesh.patch_count;
-    uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
+    uint32_t begin = plan->block_begin, end = plan->block_end; /* pairs_once: the rank's block */
     double *rows = NULL, *errors = NULL;
     /* Rounds the plan meant for the backend to finish (RAD_FF_FINISH=host) come back as rows. */
     size_t buffer_doubles = plan->device_records ? (size_t)plan->rows_per_round * n : plan->buffer_doubles;
@@ -544,13 +545,14 @@ static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters
         return st;
     }
     uint32_t r0, count;
+    run->progress_base = 0;
     for (uint64_t round = 0; round < plan->rounds; round++) {
-        count = round_rows(begin, end, plan->rows_per_round, round, &r0);
+        count = ff_plan_round_rows(plan, round, &r0);
         size_t at = plan->pairs_once ? (size_t)(r0 - begin) * n : 0;
         if (st == RAD_OK && count > 0) {
-            run->progress_base = r0 - begin;
             st = run->backend->compute_rows(run->backend_state, r0, count, rows + at, errors ? errors + at : NULL,
                                             counters);
+            run->progress_base += count;
         }
         if (plan->pairs_once) continue; /* written once the block is complete */
         if (st == RAD_OK) ff_rows_finish(run->area, n, r0, count, rows, errors, run->stats.threads, &run->stats.rows);
@@ -568,7 +570,7 @@ static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters
         if (files->errors) ff_output_reserve(files->errors, reserve, errors);
         if (st == RAD_OK) {
             for (uint64_t round = 0; round < plan->rounds; round++) {
-                count = round_rows(begin, end, plan->rows_per_round, round, &r0);
+                count = ff_plan_round_rows(plan, round, &r0);
                 size_t at = (size_t)(r0 - begin) * n;
                 rad_status w = write_round(run, files, r0, st == RAD_OK ? count : 0, rows + at, errors ? errors + at : NULL);
                 if (st == RAD_OK) st = w;
@@ -580,12 +582,27 @@ static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters
     return st;
 }
 
+/* Which rows this rank computes, for the stats (ff_stats.h). */
+static void stats_rows(const ff_plan *plan, ff_rank_stats *stats)
+{
+    stats->row_count = plan->rank_rows;
+    if (plan->pairs_once) {
+        stats->row_begin = plan->block_begin;
+        stats->row_end = plan->block_end;
+    } else {
+        uint32_t first;
+        ff_plan_round_rows(plan, 0, &first);
+        stats->row_begin = first;
+        stats->row_end = (uint32_t)plan->patch_count;
+        stats->block_size = plan->rows_per_round;
+        stats->block_stride = (uint64_t)plan->ranks * plan->rows_per_round;
+    }
+}
+
 /* Computes this rank's rows and writes them collectively. */
 static rad_status compute_and_write(ff_run *run, const ff_files *files)
 {
-    int rank = ff_comm_rank(run->comm);
-    run->stats.row_begin = run->row_begin[rank];
-    run->stats.row_end = run->row_begin[rank + 1];
+    stats_rows(&run->plan, &run->stats);
     ff_counters counters = {0};
     rad_status st = compute_rounds(run, files, &counters);
     run->stats.counters = counters;

@@ -1,5 +1,6 @@
 #include "ff_output.h"
 
+#include <assert.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,8 +20,9 @@ struct ff_output {
     rad_ff_layout layout;
     unsigned char *prologue; /* rank 0, native format */
     size_t prologue_size;
-    uint64_t *row_checksums; /* this rank's rows, in order */
+    uint64_t *row_checksums; /* this rank's rows, in the order written */
     uint64_t *row_offsets;   /* sparse: their records' offsets from the matrix offset */
+    uint64_t *row_numbers;   /* which rows they are: a rank's rows need not be contiguous */
     uint64_t checksum_count, checksum_cap;
     uint64_t record_max;     /* bytes one row can take as stored */
     uint64_t appended;       /* sparse: bytes of records written so far, all ranks */
@@ -138,7 +140,9 @@ static rad_status grow_row_tables(ff_output *o, uint32_t row_count)
     if (checksums) o->row_checksums = checksums;
     uint64_t *offsets = checksums ? realloc(o->row_offsets, cap * 8) : NULL;
     if (offsets) o->row_offsets = offsets;
-    if (!checksums || !offsets) {
+    uint64_t *numbers = offsets ? realloc(o->row_numbers, cap * 8) : NULL;
+    if (numbers) o->row_numbers = numbers;
+    if (!checksums || !offsets || !numbers) {
         rad_error("out of memory for row checksums");
         return RAD_ERR_NOMEM;
     }
@@ -201,6 +205,7 @@ rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_c
             memcpy(dst, src, rb);
         o->row_offsets[first + r] = at[r]; /* from this write's start, fixed below */
         o->row_checksums[first + r] = rad_ff_row_checksum(dst, at[r + 1] - at[r]);
+        o->row_numbers[first + r] = (uint64_t)row_begin + (uint64_t)r;
     }
     o->checksum_count += row_count;
     return place_and_write(o, row_begin, first, row_count ? at[row_count] : 0, o->convert, status);
@@ -223,6 +228,7 @@ rad_status ff_output_write_records(ff_output *o, uint32_t row_begin, uint32_t ro
         const uint64_t *at = records->at;
         o->row_offsets[first + r] = at[r] - at[0]; /* from this write's start, fixed below */
         o->row_checksums[first + r] = rad_ff_row_checksum(records->bytes + at[r], at[r + 1] - at[r]);
+        o->row_numbers[first + r] = (uint64_t)row_begin + (uint64_t)r;
     }
     o->checksum_count += row_count;
     const unsigned char *data = row_count ? records->bytes + records->at[0] : NULL;
@@ -278,26 +284,51 @@ static rad_status write_prologue(ff_output *o, const uint64_t *index)
     return status;
 }
 
+/* Collective: every rank's `values`, one per row it wrote, into root's
+ * `out` at their rows (`numbers`: the rows gathered; `gathered`: N
+ * entries of scratch, root only). */
+static void gather_by_row(ff_output *o, const uint64_t *values, const uint64_t *numbers, uint64_t *gathered,
+                          uint64_t *out)
+{
+    ff_comm_gather_u64v(o->comm, values, o->checksum_count, gathered, 0);
+    if (ff_comm_rank(o->comm) != 0) return;
+    for (uint64_t k = 0; k < o->info.patch_count; k++) out[numbers[k]] = gathered[k];
+}
+
 rad_status ff_output_close(ff_output *o, rad_status status)
 {
     int root = ff_comm_rank(o->comm) == 0;
-    uint64_t *all = NULL;
+    uint64_t n = o->info.patch_count, *all = NULL, *numbers = NULL, *gathered = NULL;
     status = ff_comm_agree(o->comm, status);
     if (status == RAD_OK) {
         if (root) {
-            all = malloc((2 * o->info.patch_count + 1) * 8);
-            if (!all) rad_error("out of memory gathering row checksums");
+            all = malloc((2 * n + 1) * 8);
+            numbers = malloc((n ? n : 1) * 8);
+            gathered = malloc((n ? n : 1) * 8);
+            if (!all || !numbers || !gathered) rad_error("out of memory gathering row checksums");
         }
-        if (ff_comm_agree(o->comm, root && !all ? RAD_ERR_NOMEM : RAD_OK) != RAD_OK) status = RAD_ERR_NOMEM;
+        rad_status have = root && !(all && numbers && gathered) ? RAD_ERR_NOMEM : RAD_OK;
+        if (ff_comm_agree(o->comm, have) != RAD_OK) status = RAD_ERR_NOMEM;
     }
     if (status == RAD_OK) {
-        uint64_t n = o->info.patch_count;
+        /* Every row was written once, by some rank, in some round. */
+        uint64_t written = 0;
+        ff_comm_exscan_u64(o->comm, o->checksum_count, &written);
+        if (written != n) {
+            if (root)
+                rad_error("internal: %llu rows written of %llu", (unsigned long long)written, (unsigned long long)n);
+            status = RAD_ERR_INVALID;
+        }
+    }
+    if (status == RAD_OK) {
+        ff_comm_gather_u64v(o->comm, o->row_numbers, o->checksum_count, numbers, 0);
+        for (uint64_t k = 0; root && k < n; k++) assert(numbers[k] < n);
         if (o->format == FF_FORMAT_SPARSE) {
-            ff_comm_gather_u64v(o->comm, o->row_offsets, o->checksum_count, all, 0);
+            gather_by_row(o, o->row_offsets, numbers, gathered, all);
             if (root) all[n] = o->appended;
-            ff_comm_gather_u64v(o->comm, o->row_checksums, o->checksum_count, root ? all + n + 1 : NULL, 0);
+            gather_by_row(o, o->row_checksums, numbers, gathered, root ? all + n + 1 : NULL);
         } else {
-            ff_comm_gather_u64v(o->comm, o->row_checksums, o->checksum_count, all, 0);
+            gather_by_row(o, o->row_checksums, numbers, gathered, all);
         }
         rad_status local = root ? write_prologue(o, all) : RAD_OK;
         status = ff_comm_agree(o->comm, local);
@@ -306,6 +337,8 @@ rad_status ff_output_close(ff_output *o, rad_status status)
     o->file = NULL;
     if (status == RAD_OK) status = closed;
     free(all);
+    free(numbers);
+    free(gathered);
     return ff_comm_agree(o->comm, status);
 }
 
@@ -324,6 +357,7 @@ rad_status ff_output_commit(ff_output *o, rad_status status)
     free(o->convert);
     free(o->row_checksums);
     free(o->row_offsets);
+    free(o->row_numbers);
     free(o->record_at);
     free(o);
     return status;

@@ -17,8 +17,11 @@
  * collective write appends its rows after the previous one's, rank by
  * rank. A rank that holds all its rows before writing calls
  * ff_output_reserve first: the records then lie in row order whatever the
- * number of ranks and rounds, and the file is the same bytes for any rank
- * count.
+ * number of ranks and rounds. Ranks that stream rows take blocks in turn
+ * (ff_plan.h), so each write's rows follow the last write's: row order
+ * again. Either way the file is the same bytes for any rank count. A
+ * rank's rows need not be contiguous: the row index is gathered by row
+ * number; every row is written once.
  */
 #ifndef FF_OUTPUT_H
 #define FF_OUTPUT_H

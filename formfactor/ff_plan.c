@@ -22,6 +22,46 @@ static uint32_t rows_per_round(uint64_t n, uint64_t round_bytes, uint32_t max_ro
     return max_rows_per_write && max_rows_per_write < by_memory ? max_rows_per_write : (uint32_t)by_memory;
 }
 
+/* Streamed: the rows of rank `rank` when blocks of `per_round` rows of
+ * N = n go to the ranks in turn (ff_plan.h). */
+static uint64_t cyclic_rank_rows(uint64_t n, uint64_t per_round, uint64_t ranks, uint64_t rank)
+{
+    uint64_t blocks = (n + per_round - 1) / per_round;
+    if (rank >= blocks) return 0;
+    uint64_t rows = (blocks - rank + ranks - 1) / ranks * per_round;
+    if ((blocks - 1) % ranks == rank) rows -= blocks * per_round - n; /* the last block is short */
+    return rows;
+}
+
+/* Which rows this rank computes, round by round (ff_plan.h); `rank_rows`
+ * and `most_rows` are the split's where the rank holds its block. */
+static void plan_rows(const ff_plan_limits *limits, uint64_t rank_rows, uint64_t most_rows, ff_plan *plan)
+{
+    uint64_t n = limits->patch_count, ranks = (uint64_t)plan->ranks, rank = (uint64_t)plan->rank;
+    uint64_t per_round = plan->rows_per_round;
+    if (!plan->pairs_once) {
+        uint64_t share = (n + ranks - 1) / ranks; /* every rank a block where N >= P */
+        if (share > 0 && share < per_round) per_round = plan->rows_per_round = (uint32_t)share;
+        uint64_t blocks = (n + per_round - 1) / per_round;
+        plan->rounds = (blocks + ranks - 1) / ranks;
+        rank_rows = cyclic_rank_rows(n, per_round, ranks, rank);
+        most_rows = cyclic_rank_rows(n, per_round, ranks, 0);
+        for (uint64_t r = 1; r < ranks && r < blocks; r++) {
+            uint64_t rows = cyclic_rank_rows(n, per_round, ranks, r);
+            if (rows > most_rows) most_rows = rows;
+        }
+    } else {
+        plan->rounds = (most_rows + per_round - 1) / per_round;
+    }
+    uint64_t even = (n + ranks - 1) / ranks, begin = even * rank < n ? even * rank : n;
+    uint64_t end = begin + even < n ? begin + even : n;
+    if (limits->row_begin) begin = limits->row_begin[limits->rank], end = limits->row_begin[limits->rank + 1];
+    plan->block_begin = (uint32_t)(begin < UINT32_MAX ? begin : UINT32_MAX);
+    plan->block_end = (uint32_t)(end < UINT32_MAX ? end : UINT32_MAX);
+    plan->rank_rows = (uint32_t)(rank_rows < UINT32_MAX ? rank_rows : UINT32_MAX);
+    plan->most_rows = (uint32_t)(most_rows < UINT32_MAX ? most_rows : UINT32_MAX);
+}
+
 /* The outputs' size and the memory per rank (ff_plan.h says what counts). */
 static void plan_sizes(const ff_plan_limits *limits, const ff_plan_choices *choices, ff_plan *plan)
 {
@@ -60,7 +100,7 @@ void ff_plan_make(const ff_plan_limits *limits, const ff_plan_choices *choices, 
     plan.refusal = refusal_of(limits, choices, &plan);
     plan.gpu = choices->backend == FF_BACKEND_CUDA || (choices->backend == FF_BACKEND_AUTO && limits->gpus_visible > 0);
 
-    /* This rank's rows and the largest block; before the split, an even share. */
+    /* This rank's block of the split and the largest; before the split, an even share. */
     uint64_t even = (n + (uint64_t)ranks - 1) / (uint64_t)ranks, rank_rows = even, most_rows = even;
     if (limits->row_begin) {
         rank_rows = limits->row_begin[limits->rank + 1] - limits->row_begin[limits->rank];
@@ -85,8 +125,27 @@ void ff_plan_make(const ff_plan_limits *limits, const ff_plan_choices *choices, 
     plan.device_records = plan.gpu && !plan.pairs_once && choices->format == FF_FORMAT_SPARSE;
     plan.rows_per_round = rows_per_round(n, plan.device_records ? FF_DEVICE_ROUND_BYTES : FF_ROUND_BYTES,
                                          limits->max_rows_per_write);
-    plan.rounds = (most_rows + plan.rows_per_round - 1) / plan.rows_per_round;
+    plan.patch_count = n;
+    plan.ranks = ranks;
+    plan.rank = limits->rank;
+    plan_rows(limits, rank_rows, most_rows, &plan);
     plan.buffer_doubles = plan.device_records ? 1 : product_or_max(plan.pairs_once ? rank_rows : plan.rows_per_round, n);
     if (plan.buffer_doubles == 0) plan.buffer_doubles = 1;
     *out_plan = plan;
+}
+
+uint32_t ff_plan_round_rows(const ff_plan *plan, uint64_t round, uint32_t *out_first)
+{
+    uint64_t per_round = plan->rows_per_round, first, end;
+    if (plan->pairs_once) {
+        first = plan->block_begin + round * per_round;
+        end = plan->block_end;
+    } else {
+        first = (round * (uint64_t)plan->ranks + (uint64_t)plan->rank) * per_round;
+        end = plan->patch_count;
+    }
+    if (first > end) first = end;
+    if (end - first < per_round) per_round = end - first;
+    *out_first = (uint32_t)first;
+    return (uint32_t)per_round;
 }

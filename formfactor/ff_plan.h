@@ -54,8 +54,10 @@ typedef struct ff_plan_limits {
     int ranks;                /* all ranks, >= 1 */
     int rank;                 /* this one, in [0, ranks) */
     /* The split of rows among ranks (ff_partition_rows): ranks + 1 entries,
-     * rank r owns [row_begin[r], row_begin[r + 1]). NULL before the mesh
-     * is built: an even split is assumed. */
+     * rank r owns [row_begin[r], row_begin[r + 1]) where it holds them
+     * all (pairs_once; streamed rounds take rows block-cyclically: see
+     * rows_per_round). NULL before the mesh is built: an even split is
+     * assumed. */
     const uint32_t *row_begin;
     double memory_per_rank;   /* bytes: this node's physical memory / ranks on it; INFINITY = unknown */
     double free_bytes;        /* bytes free on the output's file system; INFINITY = unknown */
@@ -113,8 +115,27 @@ typedef struct ff_plan {
      * finishing on the CPU where the backend has none): rounds of
      * FF_DEVICE_ROUND_BYTES, and no row buffers on the host. */
     int device_records;
-    uint32_t rows_per_round; /* rows computed, and written in one collective write, together */
-    uint64_t rounds;         /* rounds of the largest block: every rank joins every round's write */
+    /* Rows a rank computes between collective writes, and (every rank
+     * joins every round's write) the rounds, the same on every rank.
+     * Which rows a round holds (ff_plan_round_rows):
+     *   pairs_once: the rank's block of the split [block_begin, block_end),
+     *     rows_per_round at a time (the records are placed in row order by
+     *     ff_output_reserve); rounds: those of the largest block;
+     *   streamed: blocks of rows_per_round taken in turn by the ranks
+     *     (block-cyclic) - round k of rank r holds rows
+     *     [(k P + r) R, min((k P + r + 1) R, N)), empty past N - so that
+     *     each collective write appends rank 0's block, rank 1's, ...: the
+     *     sparse file's records in row order, the same bytes for any rank
+     *     count; rounds = ceil(ceil(N / R) / P). R is also at most
+     *     ceil(N / P) there, so that every rank has rows where N >= P
+     *     (the bytes do not depend on R: the records lie in row order). */
+    uint32_t rows_per_round;
+    uint64_t rounds;
+    uint32_t block_begin, block_end; /* pairs_once: this rank's block of the split (an even share before it) */
+    uint32_t rank_rows;              /* rows this rank computes in all */
+    uint32_t most_rows;              /* ... and the busiest rank */
+    uint64_t patch_count;            /* the limits' N, ranks and rank, for ff_plan_round_rows */
+    int ranks, rank;
     /* Doubles in each row buffer (values; errors too when standard_errors):
      * a round's rows streamed, the rank's whole block with pairs_once;
      * at least 1. */
@@ -122,5 +143,10 @@ typedef struct ff_plan {
 } ff_plan;
 
 void ff_plan_make(const ff_plan_limits *limits, const ff_plan_choices *choices, ff_plan *out_plan);
+/* Round `round` of this rank's rows (rows_per_round says which):
+ * returns its row count, 0 where the rank has no rows left, and sets
+ * *out_first to its first row (N then). For an accepted plan (N fits in
+ * uint32). */
+uint32_t ff_plan_round_rows(const ff_plan *plan, uint64_t round, uint32_t *out_first);
 
 #endif

@@ -41,7 +41,9 @@ double ff_plane_eps(const rad_mesh *mesh);
  * ulps of the largest coordinate (a room 1 km from the origin). */
 float ff_cull_margin(const rad_mesh *mesh, const double centre[3], double eps);
 
-/* Splits rows 0..n-1 into `ranks` contiguous blocks of about equal work:
+/* Splits rows 0..n-1 into `ranks` contiguous blocks of about equal work
+ * (for ranks that hold all their rows: reciprocity on; streamed rows go
+ * to the ranks block-cyclically, ff_plan.h):
  * row i costs the number of columns facing it, estimated on a fixed,
  * evenly spaced subset of at most FF_PARTITION_PROBES columns (so the split
  * is cheap and the same on every rank). out_begin has ranks + 1 entries;

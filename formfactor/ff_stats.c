@@ -10,8 +10,10 @@
 static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
 {
     ff_rank_stats all = ranks[0];
+    all.row_count = run->patch_count;
     all.row_begin = 0;
     all.row_end = run->patch_count;
+    all.block_size = 0;
     for (int r = 1; r < run->ranks; r++) {
         const ff_rank_stats *s = &ranks[r];
 #define FF_MAX(field) all.field = s->field > all.field ? s->field : all.field
@@ -131,11 +133,21 @@ static void put_rank(rad_json_writer *w, const ff_rank_stats *s)
     rad_json_int(w, s->rank);
     rad_json_key(w, "threads");
     rad_json_int(w, s->threads);
-    rad_json_key(w, "rows");
-    rad_json_begin_array(w, RAD_JSON_INLINE);
-    rad_json_uint(w, s->row_begin);
-    rad_json_uint(w, s->row_end);
-    rad_json_end_array(w);
+    put_count(w, "rows", s->row_count);
+    if (s->block_size == 0) { /* its block of the split */
+        rad_json_key(w, "row_range");
+        rad_json_begin_array(w, RAD_JSON_INLINE);
+        rad_json_uint(w, s->row_begin);
+        rad_json_uint(w, s->row_end);
+        rad_json_end_array(w);
+    } else { /* streamed: blocks taken in turn by the ranks */
+        rad_json_key(w, "row_blocks");
+        rad_json_begin_object(w, RAD_JSON_INLINE);
+        put_count(w, "first", s->row_begin);
+        put_count(w, "size", s->block_size);
+        put_count(w, "every", s->block_stride);
+        rad_json_end_object(w);
+    }
     put_counters(w, &s->counters);
     put_times(w, s);
     rad_json_end_object(w);

@@ -13,7 +13,13 @@
 typedef struct ff_rank_stats {
     int32_t rank;
     int32_t threads;
-    uint32_t row_begin, row_end;
+    uint32_t row_count; /* rows this rank computed */
+    /* Which (ff_plan.h): with block_size 0 (pairs_once) its block of the
+     * split [row_begin, row_end); else (streamed) blocks of block_size
+     * rows, the first at row_begin, one every block_stride rows, the last
+     * cut at row_end = N. */
+    uint32_t row_begin, row_end, block_size;
+    uint64_t block_stride;
     double load, subdivide, setup, form_factors, visibility, io, total;
     double mirror;     /* --reciprocity on: copying entries between rows and ranks */
     double gpu_memory; /* CUDA: allocation + transfers (form_factors is then the GPU kernel) */

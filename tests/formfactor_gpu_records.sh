@@ -3,7 +3,7 @@
 # encoded on the GPU (compute_records) give the same file, byte for byte,
 # as rows copied back and finished on the CPU (RAD_FF_FINISH=host), for
 # f64 and f32 entries, with and without an --errors file, on 1 and 2
-# ranks, and across several rounds of rows; the stats' row sums and error
+# ranks (the same bytes), and across several rounds of rows; the stats' row sums and error
 # summary agree to 1e-12. Skipped (77) without a GPU.
 #   formfactor_gpu_records.sh FORMFACTOR SCENE WORKDIR
 set -eu
@@ -33,6 +33,10 @@ check s3_f64 yes --subdiv 3
 check s4_f32 no --subdiv 4 --element f32
 mpirun --oversubscribe -n 2 "$ff" "$scene" --backend cuda --reciprocity off -q --subdiv 3 -o ranks2
 same s3_f64.dev ranks2 "1 and 2 ranks"
+# ... and over several rounds: the ranks take blocks of rows in turn, so
+# each round's write holds the rows in order (ff_plan.h)
+mpirun --oversubscribe -n 2 "$ff" "$scene" --backend cuda --reciprocity off -q --subdiv 4 --element f32 -o ranks2_s4
+same s4_f32.dev ranks2_s4 "1 and 2 ranks over several rounds"
 cmp -s s3_f64.dev s4_f32.dev && { echo "FAIL: different runs agree (the test cannot tell)"; fail=1; }
 # the stats: row sums and error summary computed on the GPU against the CPU's
 python3 - s3_f64.dev.json s3_f64.host.json <<'PY' || fail=1

@@ -75,8 +75,9 @@ if stats is not None:
     check(isinstance(stats.get("standard_error"), dict) and "worst" in stats["standard_error"],
           "formfactor: standard_error with its worst entry")
     per_rank = stats.get("per_rank", [])
-    check(len(per_rank) == 1 and per_rank[0].get("rows") == [0, 80] and "time_seconds" in per_rank[0],
-          "formfactor: per_rank: one rank, rows [0, 80], its times")
+    check(len(per_rank) == 1 and per_rank[0].get("rows") == 80 and per_rank[0].get("row_range") == [0, 80]
+          and "time_seconds" in per_rank[0],
+          "formfactor: per_rank: one rank, its 80 rows [0, 80), its times")
     times = stats.get("time_seconds", {})
     check(all(isinstance(times.get(k), float) and times[k] >= 0 for k in ("load", "form_factors", "total")),
           "formfactor: time_seconds")

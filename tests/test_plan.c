@@ -10,6 +10,9 @@
  *   edges: one patch, more ranks than rows, a write cap below 16 rows
  *   the plan before the split (rank 0, before the mesh) and after it
  *     agree on the sizes the estimate line prints
+ *   the rows of each round: streamed, blocks taken in turn by 1, 2 and 3
+ *     ranks, so that every round's write is in row order; with pairs_once
+ *     the rank's block of the split
  */
 #include <math.h>
 #include <stdio.h>
@@ -284,6 +287,102 @@ static void before_and_after_the_split(void)
     }
 }
 
+/* Streamed: walking the rounds, and in each the ranks in order (the order
+ * of the collective writes' records), gives rows 0, 1, ..., N - 1 once
+ * each; every rank has the same number of rounds, ceil(ceil(N / R) / P). */
+static void check_cyclic_rounds(uint64_t n, int ranks, uint32_t max_rows_per_write, uint32_t expect_per_round)
+{
+    uint32_t next = 0, most = 0;
+    uint64_t rounds = 0;
+    for (int rank = 0; rank < ranks; rank++) {
+        ff_plan_limits limits = {.patch_count = n, .ranks = ranks, .rank = rank, .memory_per_rank = INFINITY,
+                                 .free_bytes = INFINITY, .max_rows_per_write = max_rows_per_write};
+        ff_plan_choices choices = {.element = RAD_ELEMENT_F64, .reciprocity = FF_RECIPROCITY_OFF};
+        ff_plan p = make(&limits, &choices);
+        RAD_CHECK(p.pairs_once == 0 && p.rows_per_round == expect_per_round);
+        uint64_t blocks = (n + p.rows_per_round - 1) / p.rows_per_round;
+        RAD_CHECK(p.rounds == (blocks + ranks - 1) / ranks);
+        RAD_CHECK(rank == 0 || p.rounds == rounds);
+        rounds = p.rounds;
+        uint32_t sum = 0, first;
+        for (uint64_t round = 0; round < p.rounds; round++) sum += ff_plan_round_rows(&p, round, &first);
+        RAD_CHECK(sum == p.rank_rows);
+        most = sum > most ? sum : most;
+    }
+    for (uint64_t round = 0; round < rounds; round++) {
+        for (int rank = 0; rank < ranks; rank++) {
+            ff_plan_limits limits = {.patch_count = n, .ranks = ranks, .rank = rank, .memory_per_rank = INFINITY,
+                                     .free_bytes = INFINITY, .max_rows_per_write = max_rows_per_write};
+            ff_plan_choices choices = {.element = RAD_ELEMENT_F64, .reciprocity = FF_RECIPROCITY_OFF};
+            ff_plan p = make(&limits, &choices);
+            uint32_t first, count = ff_plan_round_rows(&p, round, &first);
+            RAD_CHECK(p.most_rows == most);
+            if (count == 0) {
+                RAD_CHECK(first == n);
+                continue;
+            }
+            RAD_CHECK(first == next); /* this write's records follow the last one's */
+            RAD_CHECK((first / p.rows_per_round) % (uint32_t)ranks == (uint32_t)rank);
+            next = first + count;
+        }
+    }
+    RAD_CHECK(next == n);
+}
+
+static void rows_of_each_round(void)
+{
+    /* N = 100, rounds of 7 rows (one write's cap): 15 blocks, the last of
+     * 2 rows; N is not a multiple of 7 P. */
+    check_cyclic_rounds(100, 1, 7, 7); /* 15 rounds */
+    check_cyclic_rounds(100, 2, 7, 7); /* 8 rounds, rank 1 idle in the last */
+    check_cyclic_rounds(100, 3, 7, 7); /* 5 rounds */
+    ff_plan_limits limits = {.patch_count = 100, .ranks = 3, .rank = 1, .memory_per_rank = INFINITY,
+                             .free_bytes = INFINITY, .max_rows_per_write = 7};
+    ff_plan_choices choices = {.element = RAD_ELEMENT_F64, .reciprocity = FF_RECIPROCITY_OFF};
+    ff_plan p = make(&limits, &choices);
+    uint32_t first;
+    RAD_CHECK(p.rounds == 5 && p.rank_rows == 5 * 7 && p.most_rows == 5 * 7);
+    RAD_CHECK(ff_plan_round_rows(&p, 0, &first) == 7 && first == 7);   /* block 1 */
+    RAD_CHECK(ff_plan_round_rows(&p, 1, &first) == 7 && first == 28);  /* block 4 */
+    RAD_CHECK(ff_plan_round_rows(&p, 4, &first) == 7 && first == 91);  /* block 13 */
+    limits.rank = 2;
+    p = make(&limits, &choices);
+    RAD_CHECK(p.rank_rows == 4 * 7 + 2);
+    RAD_CHECK(ff_plan_round_rows(&p, 4, &first) == 2 && first == 98);  /* block 14, cut at N */
+    limits.rank = 0;
+    p = make(&limits, &choices);
+    RAD_CHECK(ff_plan_round_rows(&p, 4, &first) == 7 && first == 84);  /* block 12 */
+    RAD_CHECK(p.rank_rows == 35);
+
+    /* N = 2944 (cornell_sphere --subdiv 3), 96 MiB rounds: 4274 rows, more
+     * than N, so one rank alone would take every row; the rounds are cut to
+     * ceil(N / P) so that each rank has a block (the bytes do not depend on
+     * R). */
+    check_cyclic_rounds(2944, 1, 0, 2944);
+    check_cyclic_rounds(2944, 2, 0, 1472);
+    check_cyclic_rounds(2944, 3, 0, 982);
+    /* N = 47104, rounds of 267 rows: many rounds, the last ones uneven. */
+    check_cyclic_rounds(47104, 1, 0, 267);
+    check_cyclic_rounds(47104, 3, 0, 267);
+    /* More ranks than rows: blocks of one row, the last ranks idle. */
+    check_cyclic_rounds(2, 3, 0, 1);
+
+    /* pairs_once: the rank's block of the split, in rounds from its start. */
+    const uint32_t split[] = {0, 40, 100};
+    limits = (ff_plan_limits){.patch_count = 100, .ranks = 2, .rank = 1, .row_begin = split,
+                              .memory_per_rank = INFINITY, .free_bytes = INFINITY, .max_rows_per_write = 7};
+    choices.reciprocity = FF_RECIPROCITY_ON;
+    p = make(&limits, &choices);
+    RAD_CHECK(p.pairs_once && p.rows_per_round == 7 && p.rounds == 9); /* ceil(60 / 7) */
+    RAD_CHECK(p.block_begin == 40 && p.block_end == 100 && p.rank_rows == 60);
+    RAD_CHECK(ff_plan_round_rows(&p, 0, &first) == 7 && first == 40);
+    RAD_CHECK(ff_plan_round_rows(&p, 8, &first) == 4 && first == 96);
+    limits.rank = 0;
+    p = make(&limits, &choices);
+    RAD_CHECK(p.rounds == 9 && ff_plan_round_rows(&p, 5, &first) == 5 && first == 35);
+    RAD_CHECK(ff_plan_round_rows(&p, 6, &first) == 0 && first == 40);
+}
+
 int main(void)
 {
     small_scene();
@@ -293,5 +392,6 @@ int main(void)
     edges();
     before_and_after_the_split();
     gpu_streams_sparse_files();
+    rows_of_each_round();
     return rad_test_finish();
 }
