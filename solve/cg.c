@@ -220,6 +220,24 @@ static solve_cg_check combine_checks(solve_comm *comm, solve_cg_check c)
     return all;
 }
 
+/* Each held row's sum over reflecting columns, rows on the OpenMP
+ * threads, each summed left to right: the same bits for any thread count. */
+static void active_sums(const solve_run *run, size_t begin, size_t end, double *active)
+{
+    const double *rho = run->rho;
+#pragma omp parallel for schedule(dynamic, 64) if (end - begin >= SOLVE_PARALLEL_MIN_ROWS)
+    for (size_t i = begin; i < end; i++) {
+        double sum = 0;
+        if (rho[i] != 0)
+            for (size_t k = 0; k < solve_row_span_count(&run->F, i); k++) {
+                solve_span sp = solve_row_span(&run->F, i, k);
+                for (size_t j = sp.begin; j < sp.end; j++)
+                    if (rho[j] != 0) sum += sp.values[j - sp.begin];
+            }
+        active[i] = sum;
+    }
+}
+
 solve_cg_check solve_cg_check_matrix(const solve_run *run)
 {
     const size_t n = run->n;
@@ -230,30 +248,37 @@ solve_cg_check solve_cg_check_matrix(const solve_run *run)
     int cached = cache && cache->rho && cache->delta;
     for (size_t i = 0; cached && i < n; i++) cached = (cache->rho[i] == 0) == (rho[i] == 0);
     solve_cg_check c = {.margin = INFINITY};
+    double *own_active = NULL, *active = cache && cache->active ? cache->active : NULL;
+    if (!active && !(active = own_active = malloc((n ? n : 1) * sizeof *active))) {
+        rad_error("%s: out of memory for the CG check (%zu patches)", run->label, n);
+        c.status = RAD_ERR_NOMEM;
+    }
+    c.status = solve_comm_agree(run->comm, c.status);
+    if (c.status != RAD_OK) return c;
+    int measured_delta = 0;
     if (run->reciprocity_bound > 0) { /* reciprocal by construction: sum_j b A_i F_ij >= delta_i */
         for (size_t i = begin; i < end; i++) delta[i] = run->reciprocity_bound * A[i] * fabs(run->row_sum[i]);
-        cached = 1;
     } else if (cached) {
         memcpy(delta, cache->delta, n * sizeof *delta);
+    } else {
+        if (solve_comm_size(run->comm) > 1)
+            c.status = skew_terms_ranks(run, delta);
+        else
+            skew_terms(run, delta);
+        measured_delta = 1;
     }
-    if (!cached && solve_comm_size(run->comm) > 1)
-        c.status = skew_terms_ranks(run, delta);
-    else if (!cached)
-        skew_terms(run, delta);
-    if (c.status != RAD_OK) return c;
+    if (c.status != RAD_OK) {
+        free(own_active);
+        return c;
+    }
+    if (!cached) active_sums(run, begin, end, active); /* else the cache holds this zero pattern's */
     if (cache && cache->delta && !cached) {
-        memcpy(cache->delta, delta, n * sizeof *delta);
-        cache->rho = rho;
+        if (measured_delta) memcpy(cache->delta, delta, n * sizeof *delta);
+        cache->rho = run->reciprocity_bound > 0 || measured_delta ? rho : NULL;
     }
     for (size_t i = begin; i < end; i++) {
         if (rho[i] == 0) continue;
-        double active_sum = 0; /* row sum over reflecting columns */
-        for (size_t k = 0; k < solve_row_span_count(&run->F, i); k++) {
-            solve_span sp = solve_row_span(&run->F, i, k);
-            for (size_t j = sp.begin; j < sp.end; j++)
-                if (rho[j] != 0) active_sum += sp.values[j - sp.begin];
-        }
-        double margin = 1 / rho[i] - active_sum, skew = delta[i] / (2 * A[i]);
+        double margin = 1 / rho[i] - active[i], skew = delta[i] / (2 * A[i]);
         if (margin < c.margin) {
             c.margin = margin;
             c.margin_row = i;
@@ -267,6 +292,7 @@ solve_cg_check solve_cg_check_matrix(const solve_run *run)
             c.ratio_margin = margin;
         }
     }
+    free(own_active);
     return combine_checks(run->comm, c);
 }
 

@@ -294,12 +294,19 @@ rad_status solve_channels(const solve_system *system, size_t count, const double
     /* Checks first, every channel: a refused one stops the lot before any
      * iteration. Channels where the same patches reflect share the CG
      * check's skew term (without memory for it, each computes its own). */
-    solve_skew_cache skew = {.delta = count > 1 ? malloc(system->patch_count * sizeof(double)) : NULL};
+    solve_skew_cache skew = {.delta = count > 1 ? malloc(system->patch_count * sizeof(double)) : NULL,
+                             .active = count > 1 ? malloc(system->patch_count * sizeof(double)) : NULL};
+    if (!skew.delta || !skew.active) { /* both or neither */
+        free(skew.delta);
+        free(skew.active);
+        skew.delta = skew.active = NULL;
+    }
     for (size_t c = 0; c < count; c++) {
         solve_params p = params[c];
         if ((status = channel_begin(system, rho[c], emission[c], &p, &skew, &ch[c])) != RAD_OK) break;
     }
     free(skew.delta);
+    free(skew.active);
     for (size_t c = 0; c < count; c++) ch[c].run.skew = NULL;
     if (status != RAD_OK) goto done;
     /* CG channels together, one pass over F per iteration for all; on the
