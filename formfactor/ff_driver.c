@@ -52,7 +52,7 @@ typedef struct ff_run {
      * counter, when, and (rank 0) when it last reported, every how many
      * seconds, and whether to a terminal (one line that updates).
      * calibrating: no reports. */
-    uint32_t progress_base;
+    uint32_t progress_base, progress_round_end; /* rows before this backend call, and after it */
     uint64_t progress_added;
     double progress_added_at, progress_said_at, progress_every, compute_start;
     double estimated_seconds; /* estimate(): the calibration's forecast, or -1 */
@@ -96,7 +96,9 @@ static void report_progress(void *user, uint64_t rows_done)
     if (run->calibrating) return;
     double t = ff_comm_time();
     uint64_t done = run->progress_base + rows_done;
-    if (done > run->progress_added && (t - run->progress_added_at >= 1.0 || done == run->plan.rank_rows)) {
+    /* at most once a second, and at the end of each round (the other
+     * ranks' counts then reach rank 0 round by round) */
+    if (done > run->progress_added && (t - run->progress_added_at >= 1.0 || done == run->progress_round_end)) {
         ff_comm_progress_add(run->comm, done - run->progress_added);
         run->progress_added = done;
         run->progress_added_at = t;
@@ -359,6 +361,7 @@ static rad_status compute_record_rounds(ff_run *run, const ff_files *files, ff_c
         count = ff_plan_round_rows(plan, round, &r0);
         ff_records values = {0}, errors = {0};
         if (st == RAD_OK && count > 0) {
+            run->progress_round_end = run->progress_base + count;
             st = run->backend->compute_records(run->backend_state, r0, count, element, &values,
                                                files->errors ? &errors : NULL, &run->stats.rows, counters);
             run->progress_base += count;
@@ -550,6 +553,7 @@ static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters
         count = ff_plan_round_rows(plan, round, &r0);
         size_t at = plan->pairs_once ? (size_t)(r0 - begin) * n : 0;
         if (st == RAD_OK && count > 0) {
+            run->progress_round_end = run->progress_base + count;
             st = run->backend->compute_rows(run->backend_state, r0, count, rows + at, errors ? errors + at : NULL,
                                             counters);
             run->progress_base += count;

@@ -42,6 +42,13 @@ static void plan_rows(const ff_plan_limits *limits, uint64_t rank_rows, uint64_t
     if (!plan->pairs_once) {
         uint64_t share = (n + ranks - 1) / ranks; /* every rank a block where N >= P */
         if (share > 0 && share < per_round) per_round = plan->rows_per_round = (uint32_t)share;
+        /* Several ranks: at least FF_CYCLIC_MIN_ROUNDS blocks each, so that
+         * each rank's rows spread over the matrix and costly rows (near
+         * pairs, occluded ones) fall to every rank alike; not below 16
+         * rows a block. The bytes do not depend on the block size. */
+        uint64_t spread = (n + ranks * FF_CYCLIC_MIN_ROUNDS - 1) / (ranks * FF_CYCLIC_MIN_ROUNDS);
+        if (spread < 16) spread = 16;
+        if (ranks > 1 && spread < per_round) per_round = plan->rows_per_round = (uint32_t)spread;
         uint64_t blocks = (n + per_round - 1) / per_round;
         plan->rounds = (blocks + ranks - 1) / ranks;
         rank_rows = cyclic_rank_rows(n, per_round, ranks, rank);

@@ -43,6 +43,10 @@
  * round can be larger - fewer launches, copies and collective writes
  * (N = 47 104: 1425 rows, capped by one write, instead of 267). */
 #define FF_DEVICE_ROUND_BYTES ((uint64_t)1 << 30)
+/* Streamed rows on several ranks go out in blocks, in turn (rank 0's
+ * block, rank 1's, ...: the file in row order); at least this many blocks
+ * per rank, for balance (ff_plan.c). */
+#define FF_CYCLIC_MIN_ROUNDS 8u
 /* Buffers up to this size come from the backend (page-locked for CUDA, so
  * results stream back by DMA); larger ones - a whole rank's rows with
  * --reciprocity on - from malloc. */

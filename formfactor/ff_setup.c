@@ -137,6 +137,9 @@ rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps
     }
     uint32_t probes = n < FF_PARTITION_PROBES ? n : FF_PARTITION_PROBES;
     prefix[0] = 0;
+    /* Each row's cost on the threads (N x probes tests: 0.7 s on one core
+     * at N = 188 416), then their running sum in row order. */
+#pragma omp parallel for schedule(static)
     for (uint32_t i = 0; i < n; i++) {
         uint32_t facing = 0;
         for (uint32_t p = 0; p < probes; p++) {
@@ -144,8 +147,9 @@ rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps
             facing += j != i && rad_ff_pair_facing(&patches[i], &patches[j], eps);
         }
         /* Every row also costs its loop and its write: at least one unit. */
-        prefix[i + 1] = prefix[i] + 1.0 + (double)facing * n / (probes ? probes : 1);
+        prefix[i + 1] = 1.0 + (double)facing * n / (probes ? probes : 1);
     }
+    for (uint32_t i = 0; i < n; i++) prefix[i + 1] += prefix[i];
     out_begin[0] = 0;
     uint32_t i = 0;
     for (int r = 1; r < ranks; r++) {

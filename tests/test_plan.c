@@ -111,7 +111,8 @@ static void memory_limited(void)
      * FF_DEVICE_ROUND_BYTES of doubles, 2849 rows, capped by one write;
      * no row buffers on the host. Dense files come back as rows. */
     RAD_CHECK(gpu.device_records == 1 && gpu.buffer_doubles == 1);
-    RAD_CHECK(gpu.rows_per_round == 2849 && gpu.rounds == 5); /* floor(1 GiB / (8 x 47104)); ceil(11776 / 2849) */
+    /* 1 GiB of doubles is 2849 rows; 4 ranks take blocks of ceil(47104 / 32) = 1472 in turn, 8 each */
+    RAD_CHECK(gpu.rows_per_round == 1472 && gpu.rounds == 8);
     limits.max_rows_per_write = 1425;
     RAD_CHECK(make(&limits, &choices).rows_per_round == 1425);
     limits.max_rows_per_write = 0;
@@ -282,7 +283,7 @@ static void before_and_after_the_split(void)
         ff_plan after = make(&limits, &choices);
         RAD_CHECK(before.file_bytes == after.file_bytes);
         RAD_CHECK(before.memory_bytes == after.memory_bytes);
-        RAD_CHECK(after.rounds == 1);
+        RAD_CHECK(after.rounds == (after.pairs_once ? 1u : FF_CYCLIC_MIN_ROUNDS));
         RAD_CHECK(after.buffer_doubles == (after.pairs_once ? (size_t)700 * 2944 : (size_t)after.rows_per_round * 2944));
     }
 }
@@ -355,12 +356,13 @@ static void rows_of_each_round(void)
     RAD_CHECK(p.rank_rows == 35);
 
     /* N = 2944 (cornell_sphere --subdiv 3), 96 MiB rounds: 4274 rows, more
-     * than N, so one rank alone would take every row; the rounds are cut to
-     * ceil(N / P) so that each rank has a block (the bytes do not depend on
-     * R). */
+     * than N. One rank takes them in one round; several ranks take blocks of
+     * ceil(N / (8 P)) rows in turn (FF_CYCLIC_MIN_ROUNDS), so that each
+     * rank's rows spread over the matrix (the bytes do not depend on R). */
     check_cyclic_rounds(2944, 1, 0, 2944);
-    check_cyclic_rounds(2944, 2, 0, 1472);
-    check_cyclic_rounds(2944, 3, 0, 982);
+    check_cyclic_rounds(2944, 2, 0, 184);
+    check_cyclic_rounds(2944, 3, 0, 123);
+    check_cyclic_rounds(200, 2, 0, 16); /* never below 16 rows a block */
     /* N = 47104, rounds of 267 rows: many rounds, the last ones uneven. */
     check_cyclic_rounds(47104, 1, 0, 267);
     check_cyclic_rounds(47104, 3, 0, 267);
