@@ -19,6 +19,7 @@
 #include "frame.h"
 #include "image.h"
 #include "rad_log.h"
+#include "rad_math.h"
 #include "rad_rfile.h"
 #include "rad_status.h"
 #include "raster.h"
@@ -62,11 +63,18 @@ static const char usage_text[] =
     "  --exposure EV        multiply the PNG's values by 2^EV (default: 0)\n"
     "  --no-auto-exposure   use 2^EV alone instead of 2^EV times the automatic scale\n"
     "  --shading MODE       smooth (Gouraud between patches, default) or flat (patches)\n"
+    "  --quantity Q         radiosity (default): the EXR holds B, the exitance, in the\n"
+    "                       scene's emission units; radiance: it holds L = B / pi,\n"
+    "                       what path tracers and image viewers expect of a diffuse\n"
+    "                       surface. The PNG is the same either way with the\n"
+    "                       automatic exposure; with --no-auto-exposure it shows\n"
+    "                       2^EV times the quantity chosen\n"
     "  -q, --quiet          only errors on stderr\n"
     "  -h, --help           this text\n"
     "      --version        print the version\n"
     "\n"
-    "PNG: sRGB(clamp(B * scale)); EXR: radiosity B per channel, unscaled.\n"
+    "PNG: sRGB(clamp(Q * scale)); EXR: Q per channel, unscaled; Q = B or B / pi\n"
+    "(--quantity; the file's rad:quantity says which).\n"
     "\n"
     "exit status: 0 success; 1 bad input or I/O error; 2 bad command line\n";
 
@@ -88,6 +96,7 @@ typedef struct render_cli {
     int auto_exposure;
     int quiet, help, version;
     render_channels_mode channels;
+    int radiance; /* --quantity radiance: L = B / pi instead of B */
 } render_cli;
 
 static rad_status parse_int(const char *opt, const char *text, int lo, int hi, int *out)
@@ -159,13 +168,26 @@ static rad_status parse_channels(const char *text, render_channels_mode *out)
     return RAD_OK;
 }
 
+static rad_status parse_quantity(const char *text, int *out_radiance)
+{
+    if (strcmp(text, "radiosity") == 0) {
+        *out_radiance = 0;
+    } else if (strcmp(text, "radiance") == 0) {
+        *out_radiance = 1;
+    } else {
+        rad_error("--quantity: '%s' is not radiosity or radiance", text);
+        return RAD_ERR_USAGE;
+    }
+    return RAD_OK;
+}
+
 /* getopt_long, as formfactor and solve parse theirs: "--name VALUE",
  * "--name=VALUE", unambiguous abbreviations, "-o VALUE" and "-oVALUE";
  * options and the input in any order. */
 static rad_status parse_args(int argc, char **argv, render_cli *out)
 {
     enum { O_WIDTH = 256, O_HEIGHT, O_SPP, O_CAMERA, O_EYE, O_LOOK_AT, O_UP, O_FOV, O_EXPOSURE, O_NO_AUTO_EXPOSURE,
-           O_SHADING, O_CHANNELS, O_VERSION };
+           O_SHADING, O_CHANNELS, O_QUANTITY, O_VERSION };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},    {"width", required_argument, 0, O_WIDTH},
         {"height", required_argument, 0, O_HEIGHT}, {"spp", required_argument, 0, O_SPP},
@@ -174,6 +196,7 @@ static rad_status parse_args(int argc, char **argv, render_cli *out)
         {"fov", required_argument, 0, O_FOV},     {"exposure", required_argument, 0, O_EXPOSURE},
         {"no-auto-exposure", no_argument, 0, O_NO_AUTO_EXPOSURE},
         {"shading", required_argument, 0, O_SHADING}, {"channels", required_argument, 0, O_CHANNELS},
+        {"quantity", required_argument, 0, O_QUANTITY},
         {"quiet", no_argument, 0, 'q'},           {"help", no_argument, 0, 'h'},
         {"version", no_argument, 0, O_VERSION},   {0, 0, 0, 0}};
     render_cli c;
@@ -205,6 +228,7 @@ static rad_status parse_args(int argc, char **argv, render_cli *out)
         case O_NO_AUTO_EXPOSURE: c.auto_exposure = 0; break;
         case O_SHADING: status = parse_shading(value, &c.frame.shading); break;
         case O_CHANNELS: status = parse_channels(value, &c.channels); break;
+        case O_QUANTITY: status = parse_quantity(value, &c.radiance); break;
         case ':': /* a known option without its value */
             rad_error("%s needs a value", argv[optind - 1]);
             status = RAD_ERR_USAGE;
@@ -400,11 +424,28 @@ static rad_status run(const render_cli *cli)
     t_draw = seconds_now() - t_draw;
     warn_if_black(cli->input, &rf.mesh, radiosity, rf.channel_count, rgb, (size_t)frame.channels * pixels, camera_text);
 
+    /* Radiance of a diffuse surface: L = B / pi. The automatic exposure is
+     * measured on B and divided by the same factor, so the PNG does not
+     * change with the quantity (to float rounding). */
+    const double unit = cli->radiance ? 1 / RAD_PI : 1;
+    if (unit != 1)
+        for (size_t k = 0; k < (size_t)frame.channels * pixels; k++) rgb[k] = (float)(rgb[k] * unit);
     double scale = pow(2.0, cli->exposure);
-    if (cli->auto_exposure) scale *= render_tonemap_auto_scale(&rf.mesh, radiosity);
+    if (cli->auto_exposure) scale *= render_tonemap_auto_scale(&rf.mesh, radiosity) / unit;
     if (format == RENDER_IMAGE_PNG) render_tonemap_apply(rgb, pixels, frame.channels, scale);
 
-    char fingerprint[32], scale_text[32], spp_text[16];
+    char fingerprint[32], scale_text[32], spp_text[16], values_text[160];
+    const char *q = cli->radiance ? "L" : "B", *q_name = cli->radiance ? "radiance L = B / pi" : "radiosity B";
+    if (format == RENDER_IMAGE_PNG && luminance)
+        snprintf(values_text, sizeof values_text,
+                 "sRGB(clamp(Y * rad:display_scale)), Y = 0.2126 %s_r + 0.7152 %s_g + 0.0722 %s_b", q, q, q);
+    else if (format == RENDER_IMAGE_PNG)
+        snprintf(values_text, sizeof values_text, "sRGB(clamp(%s * rad:display_scale))", q);
+    else if (luminance)
+        snprintf(values_text, sizeof values_text, "Y = 0.2126 %s_r + 0.7152 %s_g + 0.0722 %s_b, linear, unscaled", q,
+                 q, q);
+    else
+        snprintf(values_text, sizeof values_text, "%s per channel, linear, unscaled", q_name);
     snprintf(fingerprint, sizeof fingerprint, "%016" PRIx64, rf.scene_fingerprint);
     snprintf(scale_text, sizeof scale_text, "%.9g", scale);
     snprintf(spp_text, sizeof spp_text, "%d", frame.spp);
@@ -416,11 +457,8 @@ static rad_status run(const render_cli *cli)
         {"rad:spp", spp_text},
         {"rad:display_scale", scale_text},
         {"rad:channels", channels_name},
-        {"rad:values", format == RENDER_IMAGE_PNG
-                           ? (luminance ? "sRGB(clamp(Y * rad:display_scale)), Y = 0.2126 B_r + 0.7152 B_g + 0.0722 B_b"
-                                        : "sRGB(clamp(B * rad:display_scale))")
-                           : (luminance ? "Y = 0.2126 B_r + 0.7152 B_g + 0.0722 B_b, linear, unscaled"
-                                        : "radiosity B per channel, linear, unscaled")},
+        {"rad:quantity", cli->radiance ? "radiance L = B / pi (per steradian)" : "radiosity B (exitance)"},
+        {"rad:values", values_text},
     };
     status = render_image_write(cli->output, rgb, frame.width, frame.height, frame.channels, attrs,
                                 sizeof attrs / sizeof attrs[0]);

@@ -1047,6 +1047,45 @@ static int check_cli(const char *render, const char *radiosity, const char *dir)
     return rad_test_finish();
 }
 
+/* --quantity: the radiance EXR holds the radiosity EXR's values over pi
+ * (to half precision: 2^-11 relative, and half's smallest steps near 0),
+ * the PNGs with the automatic exposure are the same pixels (one 8-bit step
+ * of float rounding allowed), and each file says what it holds. */
+static int check_quantity_files(const char *b_exr, const char *l_exr, const char *b_png, const char *l_png)
+{
+    float *b = NULL, *l = NULL, *bp = NULL, *lp = NULL;
+    int w, h, c, w2, h2, c2;
+    RAD_CHECK(render_image_read(b_exr, &b, &w, &h, &c) == RAD_OK);
+    RAD_CHECK(render_image_read(l_exr, &l, &w2, &h2, &c2) == RAD_OK && w == w2 && h == h2 && c == c2);
+    size_t count = b && l ? (size_t)w * h * c : 0, lit = 0;
+    double worst = 0;
+    for (size_t k = 0; k < count; k++) {
+        double want = b[k] / RAD_PI, err = fabs(l[k] - want);
+        if (want > 1e-3) lit++;
+        double allowed = 2 * 0x1p-11 * fabs(want) + 1e-7;
+        if (err / allowed > worst) worst = err / allowed;
+    }
+    RAD_CHECK(lit > count / 4 && worst <= 1);
+    RAD_CHECK(render_image_read(b_png, &bp, &w, &h, &c) == RAD_OK);
+    RAD_CHECK(render_image_read(l_png, &lp, &w2, &h2, &c2) == RAD_OK && w == w2 && h == h2 && c == c2);
+    size_t pixels = bp && lp ? (size_t)w * h * c : 0, differ = 0;
+    for (size_t k = 0; k < pixels; k++) {
+        double d = fabs(bp[k] - lp[k]);
+        RAD_CHECK(d <= 1.0 / 255 + 1e-6);
+        differ += d > 0;
+    }
+    char text[128] = "";
+    RAD_CHECK(render_image_read_attr(l_exr, "rad:quantity", text, sizeof text) == RAD_OK &&
+              strstr(text, "radiance"));
+    RAD_CHECK(render_image_read_attr(b_exr, "rad:quantity", text, sizeof text) == RAD_OK &&
+              strstr(text, "radiosity"));
+    printf("radiance = radiosity / pi within %.2f of half precision over %zu values (%zu lit); PNGs differ in %zu of "
+           "%zu values\n",
+           worst, count, lit, differ, pixels);
+    free(b), free(l), free(bp), free(lp);
+    return rad_test_finish();
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 3 && strcmp(argv[1], "check-cornell") == 0) return check_cornell_file(argv[2]);
@@ -1054,6 +1093,8 @@ int main(int argc, char **argv)
     if (argc == 4 && strcmp(argv[1], "check-luminance") == 0) return check_luminance_files(argv[2], argv[3]);
     if (argc == 5 && strcmp(argv[1], "check-layout") == 0) return check_layout_file(argv[2], argv[3], argv[4]);
     if (argc == 5 && strcmp(argv[1], "cli") == 0) return check_cli(argv[2], argv[3], argv[4]);
+    if (argc == 6 && strcmp(argv[1], "check-quantity") == 0)
+        return check_quantity_files(argv[2], argv[3], argv[4], argv[5]);
     if (argc != 1) {
         fprintf(stderr, "usage: test_render [check-cornell IMAGE | check-grey GREY RGB | check-luminance Y RGB |\n"
                         "                    check-layout IMAGE NAMES TYPE | cli RENDER RADIOSITY DIR]\n");
