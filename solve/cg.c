@@ -340,58 +340,23 @@ typedef struct cg_lane {
 /* The vector lane l multiplies: B (start, checking) or p (stepping). */
 static const double *cg_operand(const cg_lane *l) { return l->phase == CG_STEPPING ? l->p : l->run->B; }
 
-/* y = F·x for each active lane over its reflecting rows: one pass over
- * the rows of F. Up to three lanes share one loop over a row, each with
- * its own accumulator summed left to right (so the same bits as a lane
- * alone): a strict-order dot product waits on its own previous addition,
- * and three of them interleaved keep the FPU three times as busy - at the
- * paper's size the pass is bound by that latency, not by memory. */
+/* Lanes per pass of cg_products (any number of lanes: passes of this many). */
+#define SOLVE_CG_MAX_LANES 12
+
+/* y = F·x for each active lane over the held rows: one pass over F for
+ * all of them (solve_rows_multiply: lanes three at a time, each summed left
+ * to right, so the same bits as a lane alone). Rows where a lane's rho is 0
+ * get a y that its update never reads. */
 static void cg_products(cg_lane *lanes, size_t count)
 {
-    const size_t n = lanes[0].run->n, begin = lanes[0].run->row_begin, end = lanes[0].run->row_end;
-    const solve_rows *F = &lanes[0].run->F;
-#pragma omp parallel for schedule(dynamic, 64) if (end - begin >= SOLVE_PARALLEL_MIN_ROWS)
-    for (size_t i = begin; i < end; i++) {
-        cg_lane *want[3];
+    const double *x[SOLVE_CG_MAX_LANES];
+    double *y[SOLVE_CG_MAX_LANES];
+    const solve_run *run = lanes[0].run;
+    for (size_t c0 = 0; c0 < count; c0 += SOLVE_CG_MAX_LANES) {
         size_t k = 0;
-        for (size_t c = 0; c < count; c++) {
-            cg_lane *l = &lanes[c];
-            if (l->phase == CG_DONE || l->run->rho[i] == 0) continue;
-            if (k == 3) { /* more than three lanes: the rest one by one */
-                l->y[i] = solve_row_dot(F, i, cg_operand(l), 0, n);
-                continue;
-            }
-            want[k++] = l;
-        }
-        const size_t spans = solve_row_span_count(F, i);
-        if (k == 3) {
-            const double *x0 = cg_operand(want[0]), *x1 = cg_operand(want[1]), *x2 = cg_operand(want[2]);
-            double s0 = 0, s1 = 0, s2 = 0;
-            for (size_t t = 0; t < spans; t++) {
-                solve_span sp = solve_row_span(F, i, t);
-                for (size_t j = sp.begin; j < sp.end; j++) {
-                    double f = sp.values[j - sp.begin];
-                    s0 += f * x0[j];
-                    s1 += f * x1[j];
-                    s2 += f * x2[j];
-                }
-            }
-            want[0]->y[i] = s0, want[1]->y[i] = s1, want[2]->y[i] = s2;
-        } else if (k == 2) {
-            const double *x0 = cg_operand(want[0]), *x1 = cg_operand(want[1]);
-            double s0 = 0, s1 = 0;
-            for (size_t t = 0; t < spans; t++) {
-                solve_span sp = solve_row_span(F, i, t);
-                for (size_t j = sp.begin; j < sp.end; j++) {
-                    double f = sp.values[j - sp.begin];
-                    s0 += f * x0[j];
-                    s1 += f * x1[j];
-                }
-            }
-            want[0]->y[i] = s0, want[1]->y[i] = s1;
-        } else if (k == 1) {
-            want[0]->y[i] = solve_row_dot(F, i, cg_operand(want[0]), 0, n);
-        }
+        for (size_t c = c0; c < count && c < c0 + SOLVE_CG_MAX_LANES; c++)
+            if (lanes[c].phase != CG_DONE) x[k] = cg_operand(&lanes[c]), y[k++] = lanes[c].y;
+        if (k) solve_rows_multiply(&run->F, run->row_begin, run->row_end, k, x, y);
     }
 }
 
