@@ -139,7 +139,7 @@ rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps
     prefix[0] = 0;
     /* Each row's cost on the threads (N x probes tests: 0.7 s on one core
      * at N = 188 416), then their running sum in row order. */
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= 1024)
     for (uint32_t i = 0; i < n; i++) {
         uint32_t facing = 0;
         for (uint32_t p = 0; p < probes; p++) {
