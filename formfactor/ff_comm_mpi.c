@@ -23,9 +23,8 @@
 #include "rad_mpi.h"
 
 struct ff_comm {
-    rad_mpi_start mpi;
-    int rank, size, node_size;
-    int solo; /* no MPI: one rank, POSIX files */
+    rad_mpi_start mpi; /* rank and size; solo: no MPI, one rank, POSIX files */
+    int node_size;
     uint64_t progress_local; /* rows done: the whole count solo, or until the window opens */
     MPI_Win progress_win;    /* one uint64 on rank 0 (ff_comm_progress_open) */
     int progress_open;
@@ -61,12 +60,10 @@ rad_status ff_comm_init(int *argc, char ***argv, ff_comm **out_comm)
         free(c);
         return status;
     }
-    c->rank = c->mpi.rank;
-    c->size = c->node_size = c->mpi.size;
-    c->solo = c->mpi.solo;
-    if (!c->solo) {
+    c->node_size = c->mpi.size;
+    if (!c->mpi.solo) {
         MPI_Comm node;
-        MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, c->rank, MPI_INFO_NULL, &node);
+        MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, c->mpi.rank, MPI_INFO_NULL, &node);
         MPI_Comm_size(node, &c->node_size);
         MPI_Comm_free(&node);
     }
@@ -83,10 +80,10 @@ void ff_comm_finalize(ff_comm *comm)
 
 void ff_comm_progress_open(ff_comm *comm)
 {
-    if (comm->solo || comm->progress_open) return;
+    if (comm->mpi.solo || comm->progress_open) return;
     uint64_t *base = NULL;
     MPI_Win win;
-    int ok = MPI_Win_allocate(comm->rank == 0 ? (MPI_Aint)sizeof(uint64_t) : 0, sizeof(uint64_t), MPI_INFO_NULL,
+    int ok = MPI_Win_allocate(comm->mpi.rank == 0 ? (MPI_Aint)sizeof(uint64_t) : 0, sizeof(uint64_t), MPI_INFO_NULL,
                               MPI_COMM_WORLD, &base, &win) == MPI_SUCCESS;
     /* Every rank must agree before using it: a rank whose window failed
      * would leave the others' one-sided calls without a partner. */
@@ -97,7 +94,7 @@ void ff_comm_progress_open(ff_comm *comm)
         return;
     }
     MPI_Win_set_errhandler(win, MPI_ERRORS_RETURN);
-    if (comm->rank == 0) {
+    if (comm->mpi.rank == 0) {
         MPI_Win_lock(MPI_LOCK_EXCLUSIVE, 0, 0, win);
         *base = 0;
         MPI_Win_unlock(0, win);
@@ -135,8 +132,8 @@ void ff_comm_progress_close(ff_comm *comm)
     comm->progress_open = 0;
 }
 
-int ff_comm_rank(const ff_comm *comm) { return comm->rank; }
-int ff_comm_size(const ff_comm *comm) { return comm->size; }
+int ff_comm_rank(const ff_comm *comm) { return comm->mpi.rank; }
+int ff_comm_size(const ff_comm *comm) { return comm->mpi.size; }
 int ff_comm_node_size(const ff_comm *comm) { return comm->node_size; }
 double ff_comm_time(void)
 {
@@ -147,7 +144,7 @@ double ff_comm_time(void)
 
 rad_status ff_comm_agree(ff_comm *comm, rad_status local)
 {
-    if (comm->solo) return local;
+    if (comm->mpi.solo) return local;
     int in = (int)local, out = 0;
     MPI_Allreduce(&in, &out, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
     return (rad_status)out;
@@ -155,7 +152,7 @@ rad_status ff_comm_agree(ff_comm *comm, rad_status local)
 
 uint64_t ff_comm_max_u64(ff_comm *comm, uint64_t value)
 {
-    if (comm->solo) return value;
+    if (comm->mpi.solo) return value;
     uint64_t out = 0;
     MPI_Allreduce(&value, &out, 1, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD);
     return out;
@@ -164,10 +161,10 @@ uint64_t ff_comm_max_u64(ff_comm *comm, uint64_t value)
 uint64_t ff_comm_exscan_u64(ff_comm *comm, uint64_t value, uint64_t *total)
 {
     *total = value;
-    if (comm->solo) return 0;
+    if (comm->mpi.solo) return 0;
     uint64_t below = 0;
     MPI_Exscan(&value, &below, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
-    if (comm->rank == 0) below = 0; /* MPI_Exscan leaves rank 0's result undefined */
+    if (comm->mpi.rank == 0) below = 0; /* MPI_Exscan leaves rank 0's result undefined */
     MPI_Allreduce(&value, total, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
     return below;
 }
@@ -176,7 +173,7 @@ rad_status ff_comm_sendrecv(ff_comm *comm, int dest, const double *send, size_t 
                             size_t recv_count)
 {
     if (send_count > FF_COMM_MAX_DOUBLES || recv_count > FF_COMM_MAX_DOUBLES) return RAD_ERR_INVALID;
-    if (comm->solo) { /* to and from rank 0 itself */
+    if (comm->mpi.solo) { /* to and from rank 0 itself */
         memmove(recv, send, sizeof *send * (send_count < recv_count ? send_count : recv_count));
         return RAD_OK;
     }
@@ -191,13 +188,13 @@ rad_status ff_comm_sendrecv(ff_comm *comm, int dest, const double *send, size_t 
 
 void ff_comm_broadcast(ff_comm *comm, void *data, size_t bytes, int root)
 {
-    if (comm->solo) return;
+    if (comm->mpi.solo) return;
     MPI_Bcast(data, (int)bytes, MPI_BYTE, root, MPI_COMM_WORLD);
 }
 
 void ff_comm_gather(ff_comm *comm, const void *data, size_t bytes, void *out, int root)
 {
-    if (comm->solo) {
+    if (comm->mpi.solo) {
         memmove(out, data, bytes);
         return;
     }
@@ -206,19 +203,19 @@ void ff_comm_gather(ff_comm *comm, const void *data, size_t bytes, void *out, in
 
 void ff_comm_gather_u64v(ff_comm *comm, const uint64_t *data, uint64_t count, uint64_t *out, int root)
 {
-    if (comm->solo) {
+    if (comm->mpi.solo) {
         memmove(out, data, sizeof *data * count);
         return;
     }
     int n = (int)count;
     int *counts = NULL, *displs = NULL;
-    if (comm->rank == root) {
-        counts = calloc((size_t)comm->size, sizeof *counts);
-        displs = calloc((size_t)comm->size, sizeof *displs);
+    if (comm->mpi.rank == root) {
+        counts = calloc((size_t)comm->mpi.size, sizeof *counts);
+        displs = calloc((size_t)comm->mpi.size, sizeof *displs);
     }
     MPI_Gather(&n, 1, MPI_INT, counts, 1, MPI_INT, root, MPI_COMM_WORLD);
-    if (comm->rank == root)
-        for (int r = 1; r < comm->size; r++) displs[r] = displs[r - 1] + counts[r - 1];
+    if (comm->mpi.rank == root)
+        for (int r = 1; r < comm->mpi.size; r++) displs[r] = displs[r - 1] + counts[r - 1];
     MPI_Gatherv(data, n, MPI_UINT64_T, out, counts, displs, MPI_UINT64_T, root, MPI_COMM_WORLD);
     free(counts);
     free(displs);
@@ -236,7 +233,7 @@ rad_status ff_comm_file_open(ff_comm *comm, const char *path, ff_comm_file **out
     /* The file exists (rad_fs_temp_create made it, empty, or it is a
      * device written in place): opened, never created, no symlink
      * followed where POSIX opens it. */
-    if (f && comm->solo) {
+    if (f && comm->mpi.solo) {
         f->fd = open(path, O_WRONLY | O_NOFOLLOW | O_CLOEXEC);
         if (f->fd < 0) {
             rad_error("%s: cannot open: %s", path, strerror(errno));
@@ -245,7 +242,7 @@ rad_status ff_comm_file_open(ff_comm *comm, const char *path, ff_comm_file **out
     } else if (f) {
         int rc = MPI_File_open(MPI_COMM_WORLD, path, MPI_MODE_WRONLY, MPI_INFO_NULL, &f->fh);
         if (rc != MPI_SUCCESS) {
-            if (comm->rank == 0) log_mpi_error("cannot open", path, rc);
+            if (comm->mpi.rank == 0) log_mpi_error("cannot open", path, rc);
             status = RAD_ERR_IO;
         } else {
             MPI_File_set_errhandler(f->fh, MPI_ERRORS_RETURN);
@@ -282,7 +279,7 @@ static rad_status write_posix(ff_comm_file *file, uint64_t offset, const void *d
 
 static rad_status write_pieces(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes, int collective)
 {
-    if (file->comm->solo) return write_posix(file, offset, data, bytes);
+    if (file->comm->mpi.solo) return write_posix(file, offset, data, bytes);
     const char *p = data;
     do {
         size_t piece = bytes < FF_MPI_MAX_BYTES ? bytes : FF_MPI_MAX_BYTES;
@@ -328,7 +325,7 @@ rad_status ff_comm_file_write(ff_comm_file *file, uint64_t offset, const void *d
 rad_status ff_comm_file_close(ff_comm_file *file)
 {
     rad_status status = file->status;
-    if (file->comm->solo) {
+    if (file->comm->mpi.solo) {
         if (close(file->fd) != 0 && status == RAD_OK) {
             rad_error("%s: close failed: %s", file->path, strerror(errno));
             status = RAD_ERR_IO;

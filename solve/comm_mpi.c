@@ -15,15 +15,14 @@
 #include "rad_mpi.h"
 
 struct solve_comm {
-    rad_mpi_start mpi;  /* solo: no MPI, one rank */
-    int rank, size;
+    rad_mpi_start mpi;  /* rank and size; solo: no MPI, one rank */
     size_t *row_begin;  /* size + 1: the row split (solve_comm_set_rows) */
     int *counts, *displs; /* size each: MPI_Allgatherv's */
     double *pack;       /* scratch for gathering several vectors at once */
     size_t pack_cap;
 };
 
-static int alone(const solve_comm *comm) { return !comm || comm->size == 1; }
+static int alone(const solve_comm *comm) { return !comm || comm->mpi.size == 1; }
 
 rad_status solve_comm_init(int *argc, char ***argv, solve_comm **out_comm)
 {
@@ -35,8 +34,6 @@ rad_status solve_comm_init(int *argc, char ***argv, solve_comm **out_comm)
         free(c);
         return status;
     }
-    c->rank = c->mpi.rank;
-    c->size = c->mpi.size;
     *out_comm = c;
     return RAD_OK;
 }
@@ -52,8 +49,8 @@ void solve_comm_finalize(solve_comm *comm)
     free(comm);
 }
 
-int solve_comm_rank(const solve_comm *comm) { return comm ? comm->rank : 0; }
-int solve_comm_size(const solve_comm *comm) { return comm ? comm->size : 1; }
+int solve_comm_rank(const solve_comm *comm) { return comm ? comm->mpi.rank : 0; }
+int solve_comm_size(const solve_comm *comm) { return comm ? comm->mpi.size : 1; }
 
 rad_status solve_comm_agree(solve_comm *comm, rad_status local)
 {
@@ -90,7 +87,7 @@ void solve_comm_allgather_bytes(solve_comm *comm, const void *mine, size_t bytes
 rad_status solve_comm_set_rows(solve_comm *comm, const size_t *row_begin)
 {
     if (alone(comm)) return RAD_OK;
-    const size_t size = (size_t)comm->size;
+    const size_t size = (size_t)comm->mpi.size;
     free(comm->row_begin);
     free(comm->counts);
     free(comm->displs);
@@ -108,7 +105,7 @@ const size_t *solve_comm_row_split(const solve_comm *comm) { return alone(comm) 
 rad_status solve_comm_gather_rows(solve_comm *comm, double *const *vectors, size_t count)
 {
     if (alone(comm) || count == 0) return RAD_OK;
-    const size_t size = (size_t)comm->size, *rb = comm->row_begin, n = rb[size];
+    const size_t size = (size_t)comm->mpi.size, *rb = comm->row_begin, n = rb[size];
     if (n > INT_MAX / count) {
         rad_error("%zu rows x %zu vectors: too many for one MPI_Allgatherv (int counts)", n, count);
         return RAD_ERR_NOMEM;
@@ -131,7 +128,7 @@ rad_status solve_comm_gather_rows(solve_comm *comm, double *const *vectors, size
             rad_status status = solve_comm_agree(comm, comm->pack ? RAD_OK : RAD_ERR_NOMEM);
             if (status != RAD_OK) return status;
         }
-        const size_t me = (size_t)comm->rank, mine = rb[me + 1] - rb[me];
+        const size_t me = (size_t)comm->mpi.rank, mine = rb[me + 1] - rb[me];
         double *own = comm->pack + rb[me] * count;
         for (size_t v = 0; v < count; v++) memcpy(own + v * mine, vectors[v] + rb[me], mine * sizeof(double));
         rc = MPI_Allgatherv(MPI_IN_PLACE, 0, MPI_DATATYPE_NULL, comm->pack, comm->counts, comm->displs, MPI_DOUBLE,
@@ -160,7 +157,7 @@ rad_status solve_comm_exchange(solve_comm *comm, const uint64_t *send, const uin
         *out_received_count = words_to[0];
         return RAD_OK;
     }
-    const size_t size = (size_t)comm->size;
+    const size_t size = (size_t)comm->mpi.size;
     rad_status status = RAD_OK;
     uint64_t *words_from = malloc(size * sizeof *words_from), *received = NULL;
     int *sc = malloc(4 * size * sizeof *sc);

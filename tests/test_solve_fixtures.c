@@ -335,6 +335,11 @@ void solve_fx_free(solve_fx_scene *scene)
 
 rad_status solve_fx_write(const char *path, const solve_fx_scene *scene, rad_element_type type)
 {
+    return solve_fx_write_layout(path, scene, type, 0);
+}
+
+rad_status solve_fx_write_layout(const char *path, const solve_fx_scene *scene, rad_element_type type, int sparse)
+{
     rad_ff_info info;
     memset(&info, 0, sizeof info);
     info.patch_count = scene->mesh.patch_count;
@@ -342,6 +347,7 @@ rad_status solve_fx_write(const char *path, const solve_fx_scene *scene, rad_ele
     info.element_type = (uint32_t)type;
     info.estimator = RAD_ESTIMATOR_MC;
     info.scene_fingerprint = 0x5eed;
+    info.layout = sparse ? RAD_FF_LAYOUT_SPARSE : RAD_FF_LAYOUT_DENSE;
     strcpy(info.scene_name, "test_solve fixture");
     return rad_ff_write_serial(path, &info, &scene->mesh, scene->F);
 }

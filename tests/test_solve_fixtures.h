@@ -75,5 +75,7 @@ void solve_fx_set_uniform(solve_fx_scene *scene, double rho, double emission);
 
 /* Writes the scene's form-factor file (element type F32 or F64). */
 rad_status solve_fx_write(const char *path, const solve_fx_scene *scene, rad_element_type type);
+/* The same in the sparse layout (docs/formats.md, version 3) when `sparse`. */
+rad_status solve_fx_write_layout(const char *path, const solve_fx_scene *scene, rad_element_type type, int sparse);
 
 #endif

@@ -249,16 +249,7 @@ static void fill3(double out[3], double r, double g, double b) { out[0] = r, out
 
 static int write_file(const char *name, const solve_fx_scene *scene, rad_element_type type, int sparse)
 {
-    rad_ff_info info;
-    memset(&info, 0, sizeof info);
-    info.patch_count = scene->mesh.patch_count;
-    info.vertex_count = scene->mesh.vertex_count;
-    info.element_type = (uint32_t)type;
-    info.estimator = RAD_ESTIMATOR_MC;
-    info.scene_fingerprint = 0x5eed;
-    info.layout = sparse ? RAD_FF_LAYOUT_SPARSE : RAD_FF_LAYOUT_DENSE;
-    strcpy(info.scene_name, "test_solve_gpu fixture");
-    rad_status st = rad_ff_write_serial(solve_fx_path(work, name), &info, &scene->mesh, scene->F);
+    rad_status st = solve_fx_write_layout(solve_fx_path(work, name), scene, type, sparse);
     RAD_CHECK(st == RAD_OK);
     return st == RAD_OK;
 }
