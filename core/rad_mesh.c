@@ -167,6 +167,26 @@ static rad_status collect_groups(const rad_scene *scene, rad_mesh *mesh, uint32_
     return RAD_OK;
 }
 
+rad_status rad_mesh_set_groups(const rad_scene *scene, rad_mesh *mesh)
+{
+    for (size_t i = 0; i < mesh->patch_count; i++)
+        if (mesh->patches[i].source_face >= scene->face_count) {
+            rad_error("mesh: patch %zu names face %u of %zu", i, mesh->patches[i].source_face, scene->face_count);
+            return RAD_ERR_INVALID;
+        }
+    free(mesh->group_names);
+    free(mesh->patch_group);
+    mesh->group_names = NULL;
+    mesh->group_count = 0;
+    mesh->patch_group = malloc((mesh->patch_count ? mesh->patch_count : 1) * sizeof *mesh->patch_group);
+    uint32_t *group_of = malloc((scene->group_count ? scene->group_count : 1) * sizeof *group_of);
+    rad_status status = mesh->patch_group && group_of ? collect_groups(scene, mesh, group_of) : RAD_ERR_NOMEM;
+    if (status == RAD_ERR_NOMEM && (!mesh->patch_group || !group_of))
+        rad_error("mesh: out of memory for the groups of %zu patches", mesh->patch_count);
+    free(group_of);
+    return status;
+}
+
 /* Upper bound on the vertices of one face after `subdiv` levels (its own,
  * unshared). Only called once the patch count has shown subdiv <= 15. */
 static uint64_t face_vertex_bound(uint32_t corners, int subdiv)

@@ -78,6 +78,12 @@ typedef struct rad_mesh_options {
 rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *options, rad_mesh *out_mesh);
 void rad_mesh_free(rad_mesh *mesh); /* safe on a zeroed or freed mesh */
 
+/* Sets the mesh's group table from the scene, each patch's group being its
+ * source face's (as rad_mesh_build does): for meshes read from a radiosity
+ * file, which stores no groups. RAD_ERR_INVALID for a source face out of
+ * range, RAD_ERR_NOMEM. */
+rad_status rad_mesh_set_groups(const rad_scene *scene, rad_mesh *mesh);
+
 /* Patch count that rad_mesh_build would produce, without building;
  * saturates at UINT64_MAX; 0 for subdiv < 0. */
 uint64_t rad_mesh_count_patches(const rad_scene *scene, const rad_mesh_options *options);

@@ -25,6 +25,8 @@
 #include "rad_fs.h"
 #include "rad_log.h"
 #include "rad_mesh.h"
+#include "rad_refine.h"
+#include "rad_rfile.h"
 #include "rad_scene.h"
 
 /* Shared by every rank: what the run computes with. */
@@ -46,6 +48,8 @@ typedef struct ff_run {
     int gpus;        /* CUDA devices this process sees; 0 with --backend cpu (not asked) */
     int want_errors; /* standard errors computed (not --no-errors) */
     ff_rank_stats stats;
+    rad_refine_stats refine;      /* --refine: what was split */
+    size_t refine_patches_before; /* --refine: patches of its mesh */
     double start;
     /* Progress (report_progress): this rank's rows done (of plan.rank_rows)
      * before the current backend call, the rows it has added to the shared
@@ -160,10 +164,8 @@ static ff_plan_choices plan_choices(const ff_options *o)
  * numbers, one whose patch count exceeds the format, whose file would not
  * fit in the free space of the output's file system or under --max-bytes,
  * or whose memory per rank would exceed this node's memory per rank. */
-static rad_status check_limits(ff_run *run)
+static rad_status check_limits(ff_run *run, uint64_t n)
 {
-    rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
-    uint64_t n = rad_mesh_count_patches(&run->scene, &mo);
     char dir[4096];
     const char *slash = strrchr(run->opt.output, '/');
     if (slash)
@@ -204,9 +206,10 @@ static rad_status check_limits(ff_run *run)
         break;
     }
     char need[32], mem[32];
-    rad_error("--subdiv %d: %" PRIu64 " patches: %s would need %s (N^2 x %.0f bytes) and each rank about %s "
+    rad_error("%s: %" PRIu64 " patches: %s would need %s (N^2 x %.0f bytes) and each rank about %s "
               "of memory, but %s; refused (--element f32 halves the file; each --subdiv level less divides it by 16)",
-              run->opt.subdiv, n, run->opt.output, format_bytes(plan->file_bytes, need, sizeof need),
+              run->opt.refine_path ? "--refine" : "--subdiv", n, run->opt.output,
+              format_bytes(plan->file_bytes, need, sizeof need),
               plan->element_bytes, format_bytes(plan->memory_bytes, mem, sizeof mem), why);
     return RAD_ERR_NOMEM;
 }
@@ -224,6 +227,55 @@ static rad_status read_scene_file(const char *path, char **out_data, size_t *out
     return rad_fs_read_all(path, out_data, out_size);
 }
 
+/* --refine: the mesh of a solution of this scene, split where the
+ * solution says it is too coarse (core/rad_refine.h). Every rank reads the
+ * file and computes the same split. */
+static rad_status refine_mesh(ff_run *run)
+{
+    rad_radiosity prev;
+    const char *path = run->opt.refine_path;
+    rad_status st = rad_rf_read(path, &prev);
+    if (st != RAD_OK) return st;
+    uint8_t *split = NULL;
+    if (prev.scene_fingerprint != run->scene.fingerprint) {
+        rad_error("%s: solved for another scene (fingerprint %016llx) than %s (%016llx); refine the solution of the "
+                  "same scene", path, (unsigned long long)prev.scene_fingerprint, run->scene.path,
+                  (unsigned long long)run->scene.fingerprint);
+        st = RAD_ERR_INVALID;
+        goto done;
+    }
+    for (size_t p = 0; p < prev.mesh.patch_count; p++)
+        if (prev.mesh.patches[p].source_face >= run->scene.face_count) {
+            rad_error("%s: patch %zu names face %u of %zu", path, p, prev.mesh.patches[p].source_face,
+                      run->scene.face_count);
+            st = RAD_ERR_INVALID;
+            goto done;
+        }
+    if ((st = rad_mesh_set_groups(&run->scene, &prev.mesh)) != RAD_OK) goto done;
+    split = malloc(prev.mesh.patch_count ? prev.mesh.patch_count : 1);
+    if (!split) {
+        rad_error("out of memory refining %zu patches", prev.mesh.patch_count);
+        st = RAD_ERR_NOMEM;
+        goto done;
+    }
+    rad_refine_options ro = {.tolerance = run->opt.refine_tol, .min_size = run->opt.refine_min_size,
+                             .max_patches = (size_t)run->opt.refine_max_patches};
+    rad_refine_stats rs;
+    if ((st = rad_refine_mark(&prev.mesh, prev.radiosity, &ro, split, &rs)) != RAD_OK) goto done;
+    if ((st = rad_refine_split(&prev.mesh, split, &run->mesh, NULL)) != RAD_OK) goto done;
+    run->refine = rs;
+    run->refine_patches_before = prev.mesh.patch_count;
+    if (ff_comm_rank(run->comm) == 0)
+        rad_info("refine %s: %zu of %zu patches split (%zu over --refine-tol %g, %zu more to balance, %zu at the "
+                 "smallest size, %zu over --refine-max-patches): %zu patches; largest jump %.3g x the mean",
+                 path, rs.split, prev.mesh.patch_count, rs.marked - rs.over_budget, ro.tolerance, rs.balanced,
+                 rs.too_small, rs.over_budget, rs.patches_after, rs.max_indicator);
+done:
+    free(split);
+    rad_radiosity_free(&prev);
+    return st;
+}
+
 static rad_status load(ff_run *run)
 {
     double t0 = ff_comm_time();
@@ -232,10 +284,14 @@ static rad_status load(ff_run *run)
     rad_status st = run->opt.scene_path ? rad_scene_load_file(run->opt.scene_path, &loader, &run->scene)
                                         : rad_scene_load_default(&run->scene);
     double t1 = ff_comm_time();
-    if (st == RAD_OK && ff_comm_rank(run->comm) == 0) st = check_limits(run);
-    if (st == RAD_OK) {
-        rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
-        st = rad_mesh_build(&run->scene, &mo, &run->mesh);
+    rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
+    if (run->opt.refine_path) {
+        /* The refined mesh is small beside its matrix: built first, then checked. */
+        if (st == RAD_OK) st = refine_mesh(run);
+        if (st == RAD_OK && ff_comm_rank(run->comm) == 0) st = check_limits(run, run->mesh.patch_count);
+    } else {
+        if (st == RAD_OK && ff_comm_rank(run->comm) == 0) st = check_limits(run, rad_mesh_count_patches(&run->scene, &mo));
+        if (st == RAD_OK) st = rad_mesh_build(&run->scene, &mo, &run->mesh);
     }
     if (st == RAD_OK && run->mesh.patch_count == 0) {
         rad_error("%s: the scene has no faces", run->scene.path);
@@ -637,7 +693,9 @@ static rad_status write_stats(ff_run *run)
                             .target_error = run->opt.target_error, .max_samples = run->opt.max_samples,
                             .errors = run->want_errors, .backend = run->backend->name,
                             .element = ff_element_name(run->opt.element), .format = ff_format_name(run->opt.format),
-                            .output = run->opt.output, .ranks = ranks, .gpus_visible = run->gpus};
+                            .output = run->opt.output, .ranks = ranks, .gpus_visible = run->gpus,
+                            .refine_from = run->opt.refine_path, .refine_tol = run->opt.refine_tol,
+                            .refine = &run->refine, .refine_patches_before = run->refine_patches_before};
         ff_stats_log_summary(&info, all);
         if (run->opt.stats_path) st = ff_stats_write_json(run->opt.stats_path, &info, all);
     }

@@ -13,6 +13,7 @@
 #include "rad_fs.h"
 #include "rad_log.h"
 #include "rad_parse.h"
+#include "rad_refine.h"
 
 const char ff_options_help[] =
     "usage: mpirun -n P formfactor [options] [SCENE.obj]\n"
@@ -25,6 +26,15 @@ const char ff_options_help[] =
     "      --subdiv S           split every face into 4^S patches (default: 0)\n"
     "      --subdiv-only GROUP  subdivide only faces of OBJ group GROUP (the paper's\n"
     "                           code subdivided only the box: --subdiv-only box)\n"
+    "      --refine RADIOSITY   instead of --subdiv: take the mesh of RADIOSITY (solve's\n"
+    "                           output for this scene) and split each patch whose\n"
+    "                           luminance jumps to a neighbour on its surface by more\n"
+    "                           than --refine-tol times the scene's mean (shadow edges,\n"
+    "                           corners, contact lines); scripts/refine.sh runs the loop\n"
+    "      --refine-tol T       (default: 0.1)\n"
+    "      --refine-min-size F  split no patch smaller than F times the scene's\n"
+    "                           diagonal (default: 0.0078125 = 1/128)\n"
+    "      --refine-max-patches N  at most N patches: the largest errors split first\n"
     "      --flip-normals       wind every face the other way round: for scenes whose\n"
     "                           faces all point away from where the light is (a closed\n"
     "                           object used as a room, faces wound against their vn)\n"
@@ -171,7 +181,8 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
 {
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
-           O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES };
+           O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
+           O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -186,7 +197,9 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"no-errors", no_argument, 0, O_NO_ERRORS}, {"quad-rtol", required_argument, 0, O_QUAD_RTOL},
         {"quad-atol", required_argument, 0, O_QUAD_ATOL},
         {"flip-normals", no_argument, 0, O_FLIP_NORMALS}, {"clamp-rho", required_argument, 0, O_CLAMP_RHO},
-        {"max-bytes", required_argument, 0, O_MAX_BYTES},
+        {"max-bytes", required_argument, 0, O_MAX_BYTES}, {"refine", required_argument, 0, O_REFINE},
+        {"refine-tol", required_argument, 0, O_REFINE_TOL}, {"refine-min-size", required_argument, 0, O_REFINE_MIN_SIZE},
+        {"refine-max-patches", required_argument, 0, O_REFINE_MAX_PATCHES},
         {0, 0, 0, 0}};
     uint64_t v = 0;
     int named = 0; /* an option's value read through a name table */
@@ -219,6 +232,12 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
         case O_FLIP_NORMALS: o->flip_normals = 1; break;
         case O_MAX_BYTES: st = rad_parse_bytes("--max-bytes", optarg, &o->max_bytes); break;
+        case O_REFINE: o->refine_path = optarg; break;
+        case O_REFINE_TOL: st = rad_parse_real("--refine-tol", optarg, 0, 0, 1e6, 0, &o->refine_tol); break;
+        case O_REFINE_MIN_SIZE: st = parse_tolerance("--refine-min-size", optarg, &o->refine_min_size); break;
+        case O_REFINE_MAX_PATCHES:
+            st = rad_parse_uint("--refine-max-patches", optarg, 1, UINT32_MAX - 1, &o->refine_max_patches);
+            break;
         case O_CLAMP_RHO: st = rad_parse_real("--clamp-rho", optarg, 0, 0, 1, 0, &o->clamp_rho); break;
         case O_CULL:
             st = parse_name("--cull", optarg, cull_names, FF_NAMES_COUNT(cull_names), &named);
@@ -286,8 +305,12 @@ static rad_status check_options(ff_options *o)
     /* Files: outputs are new, regular or character devices, and no two
      * roles name one file (docs/reliability.md, "Threat model: files on
      * disk"); the scene's MTL files are checked as the loader opens them. */
+    if (o->refine_path && o->subdiv_only) {
+        rad_error("--refine splits the mesh of %s as it is; drop --subdiv-only", o->refine_path);
+        return RAD_ERR_USAGE;
+    }
     rad_fs_role roles[] = {{"the scene", o->scene_path, 0}, {"-o", o->output, 1}, {"--stats", o->stats_path, 1},
-                           {"--errors", o->errors_path, 1}};
+                           {"--errors", o->errors_path, 1}, {"--refine", o->refine_path, 0}};
     for (size_t k = 1; k < sizeof roles / sizeof roles[0]; k++)
         if (rad_fs_check_output(roles[k].option, roles[k].path) != RAD_OK) return RAD_ERR_USAGE;
     if (rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]) != RAD_OK) return RAD_ERR_USAGE;
@@ -304,6 +327,9 @@ rad_status ff_options_parse(int argc, char **argv, ff_options *out)
     *out = (ff_options){.output = "formfactors", .samples = 512, .shadow_rays = 32, .seed = 1,
                         .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE,
                         .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL};
+    rad_refine_options refine = rad_refine_defaults();
+    out->refine_tol = refine.tolerance;
+    out->refine_min_size = refine.min_size;
     rad_status status = parse_argv(argc, argv, out);
     return status == RAD_OK ? check_options(out) : status;
 }

@@ -60,6 +60,10 @@ typedef struct ff_options {
     double clamp_rho;        /* --clamp-rho: Kd above it set to it; 0 = refuse Kd >= 1 */
     double max_bytes;        /* --max-bytes: refuse a larger output; 0 = only the disk's free space */
     int flip_normals;        /* --flip-normals: every face wound the other way */
+    const char *refine_path; /* --refine RADIOSITY: split that solution's mesh; NULL = none */
+    double refine_tol;       /* --refine-tol (rad_refine_options.tolerance) */
+    double refine_min_size;  /* --refine-min-size (rad_refine_options.min_size) */
+    uint64_t refine_max_patches; /* --refine-max-patches; 0 = no limit */
     ff_format format;
     int threads;             /* 0 = cores / ranks on this node */
     ff_cull cull;

@@ -169,6 +169,24 @@ static void put_run(rad_json_writer *w, const ff_run_info *run, const ff_rank_st
     rad_json_key(w, "subdiv");
     rad_json_int(w, run->subdiv);
     put_name(w, "subdiv_only", run->subdiv_only); /* NULL: null */
+    rad_json_key(w, "refine");
+    if (!run->refine_from) {
+        rad_json_null(w);
+    } else {
+        rad_json_begin_object(w, RAD_JSON_BLOCK);
+        put_name(w, "from", run->refine_from);
+        rad_json_key(w, "tolerance");
+        rad_json_number_digits(w, run->refine_tol, 6);
+        put_count(w, "patches_before", run->refine_patches_before);
+        put_count(w, "split", run->refine->split);
+        put_count(w, "over_tolerance", run->refine->marked);
+        put_count(w, "balanced", run->refine->balanced);
+        put_count(w, "at_min_size", run->refine->too_small);
+        put_count(w, "over_max_patches", run->refine->over_budget);
+        rad_json_key(w, "max_jump");
+        rad_json_number_digits(w, run->refine->max_indicator, 6);
+        rad_json_end_object(w);
+    }
     put_count(w, "samples_per_pair", run->samples);
     put_count(w, "shadow_rays_per_pair", run->shadow_rays);
     put_count(w, "seed", run->seed);

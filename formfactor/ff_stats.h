@@ -7,6 +7,7 @@
 
 #include "ff_backend.h"
 #include "ff_rows.h"
+#include "rad_refine.h"
 #include "rad_status.h"
 
 /* The paper's phases, wall-clock seconds on one rank. */
@@ -49,6 +50,10 @@ typedef struct ff_run_info {
     const char *output;
     int ranks;
     int gpus_visible;
+    const char *refine_from;      /* --refine RADIOSITY, or NULL */
+    double refine_tol;
+    const rad_refine_stats *refine;
+    size_t refine_patches_before;
 } ff_run_info;
 
 /* Writes the JSON document (temp + rename). `ranks` has run->ranks entries. */

@@ -146,8 +146,10 @@ static rad_status parse_shading(const char *text, render_shading *out)
         *out = RENDER_SHADING_SMOOTH;
     } else if (strcmp(text, "flat") == 0) {
         *out = RENDER_SHADING_FLAT;
+    } else if (strcmp(text, "linear") == 0) {
+        *out = RENDER_SHADING_LINEAR;
     } else {
-        rad_error("--shading: '%s' is not smooth or flat", text);
+        rad_error("--shading: '%s' is not linear, smooth or flat", text);
         return RAD_ERR_USAGE;
     }
     return RAD_OK;
@@ -453,7 +455,7 @@ static rad_status run(const render_cli *cli)
         {"ImageDescription", "radiosity solution rendered by render (radiosity project)"},
         {"rad:camera", camera_text},
         {"rad:scene_fingerprint", fingerprint},
-        {"rad:shading", frame.shading == RENDER_SHADING_FLAT ? "flat" : "smooth"},
+        {"rad:shading", render_shading_name(frame.shading)},
         {"rad:spp", spp_text},
         {"rad:display_scale", scale_text},
         {"rad:channels", channels_name},
@@ -465,7 +467,7 @@ static rad_status run(const render_cli *cli)
     if (status != RAD_OK) goto done;
     rad_info("wrote %s: %dx%d, %s, %d spp, %s shading, scale %.4g; draw %.3f s, total %.3f s", cli->output,
              frame.width, frame.height, channels_name, frame.spp,
-             frame.shading == RENDER_SHADING_FLAT ? "flat" : "smooth", scale, t_draw, seconds_now() - t0);
+             render_shading_name(frame.shading), scale, t_draw, seconds_now() - t0);
 done:
     free(rgb);
     free(luminance);

@@ -4,78 +4,282 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rad_adjacency.h"
 #include "rad_log.h"
 
-/* Same material: rho and emission equal to this relative precision.
- * Patches of one face copy their face's material, so in practice they are
- * identical; the tolerance only absorbs materials printed and reparsed. */
-#define RENDER_MATERIAL_REL_TOL 1e-9
+/* A vertex lies inside an edge when it is this close to the edge's line
+ * (relative to the edge's length) and its parameter is this far from both
+ * ends: midpoints computed as (a + b) / 2 and cut points are exact to a
+ * few ulps. */
+#define T_VERTEX_REL_TOL 1e-8
 
-static int close_rel(double a, double b) { return fabs(a - b) <= RENDER_MATERIAL_REL_TOL * fmax(fabs(a), fabs(b)); }
+typedef struct loose_edge {
+    double length;
+    uint32_t patch, corner; /* the edge from corner to corner + 1 of patch */
+} loose_edge;
 
-static int same_surface(const rad_patch *a, const rad_patch *b, double crease_cos)
+static int by_length_desc(const void *a, const void *b)
 {
-    if (rad_v3_dot(a->normal, b->normal) < crease_cos) return 0;
-    for (int c = 0; c < 3; c++)
-        if (!close_rel(a->rho[c], b->rho[c]) || !close_rel(a->emission[c], b->emission[c])) return 0;
-    return 1;
+    const loose_edge *x = a, *y = b;
+    if (x->length != y->length) return x->length < y->length ? 1 : -1;
+    if (x->patch != y->patch) return x->patch < y->patch ? -1 : 1;
+    return x->corner < y->corner ? -1 : x->corner > y->corner;
 }
 
-/* vertex -> incident patches, as compressed rows: patches of vertex v are
- * list[start[v] .. start[v + 1]). */
-typedef struct vertex_patches {
-    size_t *start;
-    uint32_t *list;
-} vertex_patches;
-
-static rad_status build_vertex_patches(const rad_mesh *mesh, vertex_patches *out)
+static int by_u64(const void *a, const void *b)
 {
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Vertices in a uniform grid, as (cell hash, vertex) pairs sorted by hash. */
+typedef struct vertex_grid {
+    double lo[3], cell;
+    uint64_t *entries; /* hash << 32 | vertex; hashes are 32 bits */
+    size_t count;
+} vertex_grid;
+
+static uint64_t cell_hash(int64_t i, int64_t j, int64_t k)
+{
+    uint64_t h = (uint64_t)i * UINT64_C(0x9E3779B97F4A7C15) ^ (uint64_t)j * UINT64_C(0xC2B2AE3D27D4EB4F) ^
+                 (uint64_t)k * UINT64_C(0x165667B19E3779F9);
+    return (h ^ (h >> 29)) & UINT64_C(0xFFFFFFFF);
+}
+
+static void cell_of(const vertex_grid *g, const double *p, int64_t c[3])
+{
+    for (int a = 0; a < 3; a++) c[a] = (int64_t)floor((p[a] - g->lo[a]) / g->cell);
+}
+
+static const double *position(const rad_mesh *mesh, uint32_t v) { return mesh->positions + 3 * (size_t)v; }
+
+static uint32_t corner_of(const rad_patch *patch, uint32_t v)
+{
+    for (uint32_t k = 0; k < patch->vertex_count; k++)
+        if (patch->v[k] == v) return k;
+    return 0;
+}
+
+/* Anchors vertex v, inside edge (a, b) of patch p at parameter t, to the
+ * edge: its corners in the patches of p's surface take the value p's
+ * corners a and b interpolate to there. */
+static void anchor(const rad_mesh *mesh, const rad_vertex_patches *adj, uint32_t p, uint32_t ka, uint32_t kb, uint32_t v,
+                   double t, size_t nc, double crease_cos, double *corners)
+{
+    const double *va = &corners[(4 * (size_t)p + ka) * nc], *vb = &corners[(4 * (size_t)p + kb) * nc];
+    for (size_t e = adj->start[v]; e < adj->start[v + 1]; e++) {
+        uint32_t q = adj->list[e];
+        if (!rad_same_surface(&mesh->patches[p], &mesh->patches[q], crease_cos)) continue;
+        double *dst = &corners[(4 * (size_t)q + corner_of(&mesh->patches[q], v)) * nc];
+        for (size_t c = 0; c < nc; c++) dst[c] = (1.0 - t) * va[c] + t * vb[c];
+    }
+}
+
+/* Searches the cells around the points of edge (a, b) spaced one cell
+ * apart - every point of the edge is within half a cell of one - for
+ * vertices inside the edge, and anchors each. */
+static void anchor_edge(const rad_mesh *mesh, const rad_vertex_patches *adj, const vertex_grid *g, const loose_edge *edge,
+                        size_t nc, double crease_cos, double *corners)
+{
+    const rad_patch *patch = &mesh->patches[edge->patch];
+    uint32_t ka = edge->corner, kb = (edge->corner + 1) % patch->vertex_count;
+    uint32_t a = patch->v[ka], b = patch->v[kb];
+    const double *pa = position(mesh, a), *pb = position(mesh, b);
+    double d[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
+    double len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    if (!(len2 > 0)) return;
+    double steps = ceil(edge->length / g->cell);
+    if (steps > 1e6) steps = 1e6;
+    for (double s = 0; s <= steps; s++) {
+        double q[3] = {pa[0] + d[0] * s / steps, pa[1] + d[1] * s / steps, pa[2] + d[2] * s / steps};
+        int64_t c[3];
+        cell_of(g, q, c);
+        for (int dx = -1; dx <= 1; dx++)
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dz = -1; dz <= 1; dz++) {
+                    uint64_t h = cell_hash(c[0] + dx, c[1] + dy, c[2] + dz);
+                    size_t lo = 0, hi = g->count; /* first entry with hash >= h */
+                    while (lo < hi) {
+                        size_t mid = lo + (hi - lo) / 2;
+                        if ((g->entries[mid] >> 32) < h) lo = mid + 1;
+                        else hi = mid;
+                    }
+                    for (size_t i = lo; i < g->count && (g->entries[i] >> 32) == h; i++) {
+                        uint32_t v = (uint32_t)g->entries[i];
+                        if (v == a || v == b) continue;
+                        const double *pv = position(mesh, v);
+                        double w[3] = {pv[0] - pa[0], pv[1] - pa[1], pv[2] - pa[2]};
+                        double t = (w[0] * d[0] + w[1] * d[1] + w[2] * d[2]) / len2;
+                        if (t <= T_VERTEX_REL_TOL || t >= 1.0 - T_VERTEX_REL_TOL) continue;
+                        double off2 = 0.0;
+                        for (int k = 0; k < 3; k++) off2 += (w[k] - t * d[k]) * (w[k] - t * d[k]);
+                        if (off2 > T_VERTEX_REL_TOL * T_VERTEX_REL_TOL * len2) continue;
+                        anchor(mesh, adj, edge->patch, ka, kb, v, t, nc, crease_cos, corners);
+                    }
+                }
+    }
+}
+
+/* T-vertices: a vertex inside another patch's edge on the same surface,
+ * where a refined patch meets an unrefined one (or pieces cut from one
+ * face meet at different levels). The coarse patch interpolates along its
+ * edge, so the fine patches' corners there are set to that interpolation:
+ * both sides agree, and the image has no seam. Edges are taken longest
+ * first, so that an edge's own ends are anchored before its inside is.
+ * Only edges that no second patch shares (a shared edge has no vertex
+ * inside it) are searched. */
+static rad_status anchor_t_vertices(const rad_mesh *mesh, const rad_vertex_patches *adj, size_t nc, double crease_cos,
+                                    double *corners)
+{
+    size_t n = mesh->patch_count, edges = 0;
+    for (size_t p = 0; p < n; p++) edges += mesh->patches[p].vertex_count;
+    uint64_t *keys = malloc((edges ? edges : 1) * sizeof *keys);
+    loose_edge *loose = malloc((edges ? edges : 1) * sizeof *loose);
+    vertex_grid g = {.entries = malloc((mesh->vertex_count ? mesh->vertex_count : 1) * sizeof *g.entries)};
     rad_status status = RAD_OK;
-    size_t nv = mesh->vertex_count;
-    size_t *start = calloc(nv + 1, sizeof *start);
-    uint32_t *list = NULL;
-    size_t *fill = NULL;
-    if (!start) goto nomem;
-    for (size_t p = 0; p < mesh->patch_count; p++) {
+    if (!keys || !loose || !g.entries) {
+        rad_error("out of memory finding T-vertices (%zu edges)", edges);
+        status = RAD_ERR_NOMEM;
+        goto done;
+    }
+    size_t e = 0;
+    for (size_t p = 0; p < n; p++) {
         const rad_patch *patch = &mesh->patches[p];
         for (uint32_t k = 0; k < patch->vertex_count; k++) {
-            if (patch->v[k] >= nv) {
-                rad_error("patch %zu: vertex index %u out of range (%zu vertices)", p, patch->v[k], nv);
-                status = RAD_ERR_INVALID;
-                goto done;
-            }
-            start[patch->v[k] + 1]++;
+            uint32_t a = patch->v[k], b = patch->v[(k + 1) % patch->vertex_count];
+            keys[e++] = a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a;
         }
     }
-    for (size_t v = 0; v < nv; v++) start[v + 1] += start[v];
-    list = malloc((start[nv] ? start[nv] : 1) * sizeof *list);
-    fill = malloc((nv ? nv : 1) * sizeof *fill);
-    if (!list || !fill) goto nomem;
-    memcpy(fill, start, nv * sizeof *fill);
+    qsort(keys, edges, sizeof *keys, by_u64);
+    size_t nloose = 0;
+    double area = 0.0;
+    for (size_t p = 0; p < n; p++) {
+        const rad_patch *patch = &mesh->patches[p];
+        area += patch->area;
+        for (uint32_t k = 0; k < patch->vertex_count; k++) {
+            uint32_t a = patch->v[k], b = patch->v[(k + 1) % patch->vertex_count];
+            uint64_t key = a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a;
+            uint64_t *hit = bsearch(&key, keys, edges, sizeof *keys, by_u64);
+            if ((hit > keys && hit[-1] == key) || (hit + 1 < keys + edges && hit[1] == key)) continue;
+            const double *pa = position(mesh, a), *pb = position(mesh, b);
+            double len = sqrt((pb[0] - pa[0]) * (pb[0] - pa[0]) + (pb[1] - pa[1]) * (pb[1] - pa[1]) +
+                              (pb[2] - pa[2]) * (pb[2] - pa[2]));
+            loose[nloose++] = (loose_edge){.length = len, .patch = (uint32_t)p, .corner = k};
+        }
+    }
+    if (nloose == 0 || n == 0) goto done;
+    qsort(loose, nloose, sizeof *loose, by_length_desc);
+    /* Cells about a patch wide. */
+    for (int a = 0; a < 3; a++) g.lo[a] = INFINITY;
+    for (size_t v = 0; v < mesh->vertex_count; v++)
+        for (int a = 0; a < 3; a++) g.lo[a] = fmin(g.lo[a], mesh->positions[3 * v + a]);
+    g.cell = sqrt(area / (double)n);
+    if (!(g.cell > 0) || !isfinite(g.cell)) goto done;
+    for (size_t v = 0; v < mesh->vertex_count; v++) {
+        if (adj->start[v] == adj->start[v + 1]) continue; /* no patch uses it */
+        int64_t c[3];
+        cell_of(&g, position(mesh, (uint32_t)v), c);
+        g.entries[g.count++] = cell_hash(c[0], c[1], c[2]) << 32 | (uint64_t)v;
+    }
+    qsort(g.entries, g.count, sizeof *g.entries, by_u64);
+    for (size_t i = 0; i < nloose; i++) anchor_edge(mesh, adj, &g, &loose[i], nc, crease_cos, corners);
+done:
+    free(keys);
+    free(loose);
+    free(g.entries);
+    return status;
+}
+
+/* Is edge (a, b) of patch p shared with another patch of its surface? */
+static int edge_shared(const rad_mesh *mesh, const rad_vertex_patches *adj, uint32_t p, uint32_t a, uint32_t b,
+                       double crease_cos)
+{
+    for (size_t i = adj->start[a]; i < adj->start[a + 1]; i++) {
+        uint32_t q = adj->list[i];
+        if (q == p || !rad_same_surface(&mesh->patches[p], &mesh->patches[q], crease_cos)) continue;
+        for (size_t j = adj->start[b]; j < adj->start[b + 1]; j++)
+            if (adj->list[j] == q) return 1;
+    }
+    return 0;
+}
+
+/* The linear reconstruction (RENDER_SHADING_LINEAR): each patch's
+ * in-plane gradient, fitted by weighted least squares to the patches of
+ * its surface that share a corner with it (weights 1 / distance^2 between
+ * centroids), then its value at corner k, B_p + g . (x_k - c_p), limited
+ * so that shadow edges make no new extrema: inside a surface to the range
+ * of B over p and those neighbours; at a corner on the surface's edge
+ * (where the neighbours lie on one side only, and a linear field runs
+ * past their range) to that range widened by its own width on both sides,
+ * and never below 0. out: patch_count * 4 * nc, as the corners. */
+static void linear_extrapolation(const rad_mesh *mesh, const rad_vertex_patches *adj, const double *radiosity, size_t nc,
+                                 double crease_cos, double *out)
+{
     for (size_t p = 0; p < mesh->patch_count; p++) {
         const rad_patch *patch = &mesh->patches[p];
-        for (uint32_t k = 0; k < patch->vertex_count; k++) list[fill[patch->v[k]]++] = (uint32_t)p;
+        rad_vec3 n = patch->normal;
+        rad_vec3 t1 = rad_v3_normalize(fabs(n.x) < 0.9 ? rad_v3_cross(n, rad_v3(1, 0, 0)) : rad_v3_cross(n, rad_v3(0, 1, 0)));
+        rad_vec3 t2 = rad_v3_cross(n, t1);
+        double m00 = 0, m01 = 0, m11 = 0, r0[3] = {0, 0, 0}, r1[3] = {0, 0, 0};
+        double lo[3], hi[3];
+        for (size_t c = 0; c < nc; c++) lo[c] = hi[c] = radiosity[3 * p + c];
+        for (uint32_t k = 0; k < patch->vertex_count; k++) {
+            uint32_t v = patch->v[k];
+            for (size_t e = adj->start[v]; e < adj->start[v + 1]; e++) {
+                uint32_t q = adj->list[e];
+                if (q == p || !rad_same_surface(patch, &mesh->patches[q], crease_cos)) continue;
+                /* A neighbour sharing two corners is met twice: its weight doubles, as an edge neighbour's should. */
+                rad_vec3 d = rad_v3_sub(mesh->patches[q].centroid, patch->centroid);
+                double x = rad_v3_dot(d, t1), y = rad_v3_dot(d, t2), d2 = x * x + y * y;
+                if (!(d2 > 0)) continue;
+                double w = 1.0 / d2;
+                m00 += w * x * x, m01 += w * x * y, m11 += w * y * y;
+                for (size_t c = 0; c < nc; c++) {
+                    double db = radiosity[3 * (size_t)q + c] - radiosity[3 * p + c];
+                    r0[c] += w * x * db, r1[c] += w * y * db;
+                    lo[c] = fmin(lo[c], radiosity[3 * (size_t)q + c]);
+                    hi[c] = fmax(hi[c], radiosity[3 * (size_t)q + c]);
+                }
+            }
+        }
+        double det = m00 * m11 - m01 * m01;
+        int fitted = det > 1e-9 * (m00 + m11) * (m00 + m11);
+        uint32_t nv = patch->vertex_count;
+        for (uint32_t k = 0; k < nv; k++) {
+            const double *pv = mesh->positions + 3 * (size_t)patch->v[k];
+            rad_vec3 d = rad_v3_sub(rad_v3(pv[0], pv[1], pv[2]), patch->centroid);
+            double x = rad_v3_dot(d, t1), y = rad_v3_dot(d, t2);
+            int edge = fitted && (!edge_shared(mesh, adj, (uint32_t)p, patch->v[k], patch->v[(k + 1) % nv], crease_cos) ||
+                                  !edge_shared(mesh, adj, (uint32_t)p, patch->v[k], patch->v[(k + nv - 1) % nv], crease_cos));
+            for (size_t c = 0; c < nc; c++) {
+                double value = radiosity[3 * p + c];
+                if (fitted) {
+                    double gx = (m11 * r0[c] - m01 * r1[c]) / det, gy = (m00 * r1[c] - m01 * r0[c]) / det;
+                    double widen = edge ? hi[c] - lo[c] : 0.0;
+                    value = fmin(hi[c] + widen, fmax(fmax(0.0, lo[c] - widen), value + gx * x + gy * y));
+                }
+                out[(4 * p + k) * nc + c] = value;
+            }
+        }
     }
-    out->start = start;
-    out->list = list;
-    start = NULL;
-    list = NULL;
-    goto done;
-nomem:
-    rad_error("out of memory building vertex adjacency (%zu vertices)", nv);
-    status = RAD_ERR_NOMEM;
-done:
-    free(start);
-    free(list);
-    free(fill);
-    return status;
+}
+
+const char *render_shading_name(render_shading shading)
+{
+    switch (shading) {
+    case RENDER_SHADING_SMOOTH: return "smooth";
+    case RENDER_SHADING_FLAT: return "flat";
+    case RENDER_SHADING_LINEAR: return "linear";
+    }
+    return "unknown";
 }
 
 rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, int channels, render_shading shading,
                                 double *out_corners)
 {
     rad_status status = RAD_OK;
-    vertex_patches adj = {NULL, NULL};
+    rad_vertex_patches adj = {NULL, NULL};
+    double *extrapolated = NULL; /* RENDER_SHADING_LINEAR: each patch's value at its corners */
     const size_t nc = (size_t)channels;
     if (channels != 1 && channels != 3) {
         rad_error("%d colour channels (expected 1 or 3)", channels);
@@ -95,9 +299,18 @@ rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, i
                 memcpy(&out_corners[(4 * p + k) * nc], &radiosity[3 * p], nc * sizeof *radiosity);
         goto done;
     }
-    status = build_vertex_patches(mesh, &adj);
+    status = rad_vertex_patches_build(mesh, &adj);
     if (status != RAD_OK) goto done;
-    double crease_cos = cos(RENDER_CREASE_DEGREES * RAD_PI / 180.0);
+    double crease_cos = cos(RAD_CREASE_DEGREES * RAD_PI / 180.0);
+    if (shading == RENDER_SHADING_LINEAR) {
+        extrapolated = malloc((mesh->patch_count ? mesh->patch_count : 1) * 4 * nc * sizeof *extrapolated);
+        if (!extrapolated) {
+            rad_error("out of memory for the linear reconstruction of %zu patches", mesh->patch_count);
+            status = RAD_ERR_NOMEM;
+            goto done;
+        }
+        linear_extrapolation(mesh, &adj, radiosity, nc, crease_cos, extrapolated);
+    }
     for (size_t p = 0; p < mesh->patch_count; p++) {
         const rad_patch *patch = &mesh->patches[p];
         for (uint32_t k = 0; k < patch->vertex_count; k++) {
@@ -105,17 +318,20 @@ rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, i
             double sum[3] = {0, 0, 0}, area = 0.0;
             for (size_t e = adj.start[v]; e < adj.start[v + 1]; e++) {
                 uint32_t q = adj.list[e];
-                if (q != p && !same_surface(patch, &mesh->patches[q], crease_cos)) continue;
+                if (q != p && !rad_same_surface(patch, &mesh->patches[q], crease_cos)) continue;
                 double a = mesh->patches[q].area;
                 area += a;
-                for (size_t c = 0; c < nc; c++) sum[c] += a * radiosity[3 * (size_t)q + c];
+                const double *value = extrapolated ? &extrapolated[(4 * (size_t)q + corner_of(&mesh->patches[q], v)) * nc]
+                                                   : &radiosity[3 * (size_t)q];
+                for (size_t c = 0; c < nc; c++) sum[c] += a * value[c];
             }
             double *dst = &out_corners[(4 * p + k) * nc];
             for (size_t c = 0; c < nc; c++) dst[c] = area > 0.0 ? sum[c] / area : radiosity[3 * p + c];
         }
     }
+    status = anchor_t_vertices(mesh, &adj, nc, crease_cos, out_corners);
 done:
-    free(adj.start);
-    free(adj.list);
+    rad_vertex_patches_free(&adj);
+    free(extrapolated);
     return status;
 }

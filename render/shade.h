@@ -3,9 +3,17 @@
  * Smooth shading (the classic radiosity look): the colour at corner k of
  * patch p is the area-weighted mean radiosity of the patches around that
  * vertex that lie on the same smooth surface as p: normals within
- * RENDER_CREASE_DEGREES of p's and the same material (rho and emission
- * equal). So values blend across the seams of a subdivided wall but never
- * around a wall corner, a block's edge, or from the light into the ceiling.
+ * RAD_CREASE_DEGREES of p's and the same material (rho and emission
+ * equal; rad_same_surface in core/rad_adjacency.h). So values blend across
+ * the seams of a subdivided wall but never around a wall corner, a block's
+ * edge, or from the light into the ceiling.
+ *
+ * Conforming: where a refined patch meets an unrefined one (formfactor
+ * --refine) a vertex of the fine patches lies inside the coarse patch's
+ * edge (a T-vertex). The coarse patch interpolates linearly along that
+ * edge, so the fine patches' corners at the T-vertex take that same
+ * interpolated value (longest edges first, so nested T-vertices chain):
+ * the two sides agree along the whole edge and the image has no seam.
  * The raster stage then interpolates the corners across the patch
  * (Gouraud). Emitters show their radiosity B = E + reflected, like any patch.
  *
@@ -21,13 +29,14 @@
 #include "rad_mesh.h"
 #include "rad_status.h"
 
-/* Normals further apart than this are a crease. */
-#define RENDER_CREASE_DEGREES 1.0
-
 typedef enum render_shading {
     RENDER_SHADING_SMOOTH = 0,
-    RENDER_SHADING_FLAT = 1
+    RENDER_SHADING_FLAT = 1,
+    RENDER_SHADING_LINEAR = 2
 } render_shading;
+
+/* "smooth", "flat", "linear" (--shading and the EXR's rad:shading). */
+const char *render_shading_name(render_shading shading);
 
 /* radiosity: patch_count * 3 (RGB per patch, as in the radiosity file).
  * channels: 3 or 1 (channel 0 only). out_corners: the caller's buffer of
