@@ -18,7 +18,7 @@
 
 rad_refine_options rad_refine_defaults(void)
 {
-    return (rad_refine_options){.tolerance = 0.1, .min_size = 1.0 / 128, .max_patches = 0};
+    return (rad_refine_options){.tolerance = 0.05, .min_size = 1.0 / 128, .max_patches = 0};
 }
 
 static double luminance(const double *b) { return 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2]; }
@@ -87,19 +87,23 @@ rad_status rad_refine_mark(const rad_mesh *mesh, const double *radiosity, const 
     double crease_cos = cos(RAD_CREASE_DEGREES * RAD_PI / 180.0);
     double min_size = options->min_size * scene_diagonal(mesh);
 
-    /* d_p over the same-surface patches sharing a corner. */
+    /* d_p against the same-surface patches sharing a corner. */
     size_t candidates = 0;
     for (size_t p = 0; p < n; p++) {
         const rad_patch *patch = &mesh->patches[p];
-        double y = luminance(&radiosity[3 * p]), d = 0.0;
+        double y = luminance(&radiosity[3 * p]), d = 0.0, ws = 0.0, wy = 0.0;
         for (uint32_t k = 0; k < patch->vertex_count; k++) {
             uint32_t v = patch->v[k];
             for (size_t e = adj.start[v]; e < adj.start[v + 1]; e++) {
                 uint32_t q = adj.list[e];
                 if (q == p || !rad_same_surface(patch, &mesh->patches[q], crease_cos)) continue;
-                d = fmax(d, fabs(y - luminance(&radiosity[3 * (size_t)q])));
+                rad_vec3 dc = rad_v3_sub(mesh->patches[q].centroid, patch->centroid);
+                double d2 = rad_v3_dot(dc, dc);
+                if (!(d2 > 0)) continue;
+                ws += 1.0 / d2, wy += luminance(&radiosity[3 * (size_t)q]) / d2;
             }
         }
+        if (ws > 0) d = fabs(y - wy / ws);
         indicator[p] = ybar > 0 ? d / ybar : 0.0;
         st.max_indicator = fmax(st.max_indicator, indicator[p]);
         if (!(indicator[p] > options->tolerance)) continue;

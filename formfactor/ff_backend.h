@@ -23,6 +23,8 @@
 
 /* Everything a backend needs; flat arrays, owned by the caller, read-only
  * for the backend's lifetime. */
+#define FF_REUSE_NONE UINT32_MAX
+
 typedef struct ff_setup {
     const rad_ff_patch *patches; /* patch_count */
     uint32_t patch_count;
@@ -56,6 +58,15 @@ typedef struct ff_setup {
      * (each unordered pair once); the others are set to 0 and filled in by
      * the driver from the other row (ff_rows.h). */
     int pairs_once;
+    /* formfactor --refine --reuse: reuse_old[i] is patch i's index in the
+     * mesh it was refined from when it was not split, else FF_REUSE_NONE.
+     * A pair of two such patches takes its coupling from reuse_coupling
+     * (reuse_n x reuse_n, symmetric to the bit, so the matrix stays
+     * reciprocal) instead of being computed. NULL = compute every pair. The
+     * CPU backend honours it; the CUDA backend computes every pair. */
+    const uint32_t *reuse_old;
+    const double *reuse_coupling;
+    uint32_t reuse_n;
     int threads;                 /* CPU threads (>= 1) */
     int device;                  /* GPU index for the CUDA backend (rank mod GPUs) */
     /* Called now and then from one thread with the rows finished so far in
@@ -87,6 +98,7 @@ typedef struct ff_counters {
     uint64_t pairs;          /* ordered pairs (i, j) computed (with pairs_once: about half) */
     uint64_t pairs_mirrored; /* entries copied from the other row's (reciprocity; driver) */
     uint64_t pairs_culled;   /* of those, zero without sampling (facing test) */
+    uint64_t pairs_reused;   /* of those, copied from the refined-from matrix (--reuse) */
     uint64_t pairs_near;     /* of those, computed by the near-field estimator */
     uint64_t pairs_open_scene; /* facing pairs without rays: the scene is a convex enclosure */
     uint64_t pairs_open_box;   /* facing pairs without rays: nothing else meets their box */

@@ -219,6 +219,11 @@ static void compute_row(const cpu_state *s, uint32_t i, double *row, double *err
             c->pairs_culled++;
             continue;
         }
+        if (su->reuse_old && su->reuse_old[i] != FF_REUSE_NONE && su->reuse_old[j] != FF_REUSE_NONE) {
+            row[j] = su->reuse_coupling[(size_t)su->reuse_old[i] * su->reuse_n + su->reuse_old[j]];
+            c->pairs_reused++;
+            continue;
+        }
         int rays = pair_needs_rays(s, i, j, c);
         rad_ff_pair_result r;
         rad_ff_pair_compute(&pp, pi, pj, i, j, rays ? &tracer : NULL, &r);
@@ -265,6 +270,7 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
         {
             counters->pairs += c.pairs;
             counters->pairs_culled += c.pairs_culled;
+            counters->pairs_reused += c.pairs_reused;
             counters->pairs_near += c.pairs_near;
             counters->pairs_open_scene += c.pairs_open_scene;
             counters->pairs_open_box += c.pairs_open_box;

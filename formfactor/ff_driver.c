@@ -50,6 +50,8 @@ typedef struct ff_run {
     ff_rank_stats stats;
     rad_refine_stats refine;      /* --refine: what was split */
     size_t refine_patches_before; /* --refine: patches of its mesh */
+    uint32_t *reuse_old;          /* --reuse: ff_setup.reuse_old, or NULL */
+    double *reuse_coupling;       /* --reuse: ff_setup.reuse_coupling */
     double start;
     /* Progress (report_progress): this rank's rows done (of plan.rank_rows)
      * before the current backend call, the rows it has added to the shared
@@ -227,6 +229,71 @@ static rad_status read_scene_file(const char *path, char **out_data, size_t *out
     return rad_fs_read_all(path, out_data, out_size);
 }
 
+/* Largest old matrix --reuse holds in memory (N_old^2 doubles); above it
+ * every pair is computed. */
+#define FF_REUSE_MAX_BYTES (2.0 * 1024 * 1024 * 1024)
+
+/* --reuse: the couplings c = F / A_column of `mesh` (the mesh refined
+ * from) out of its form-factor file, one value per unordered pair (taken
+ * from the entry above the diagonal, so that c_ij = c_ji to the bit), and
+ * each new patch's old index where it was not split. */
+static rad_status load_reuse(ff_run *run, const rad_mesh *mesh, const uint8_t *split, const uint32_t *parent)
+{
+    const char *path = run->opt.reuse_path;
+    size_t n_old = mesh->patch_count, n = run->mesh.patch_count;
+    if ((double)n_old * (double)n_old * sizeof(double) > FF_REUSE_MAX_BYTES) {
+        rad_warn("--reuse %s: %zu patches' matrix is more than 2 GiB in memory; computing every pair", path, n_old);
+        return RAD_OK;
+    }
+    rad_ff_file *file = NULL;
+    rad_status st = rad_ff_open(path, &file);
+    if (st != RAD_OK) return st;
+    const rad_ff_info *info = rad_ff_file_info(file);
+    const rad_mesh *stored = rad_ff_file_mesh(file);
+    if (stored->patch_count != n_old || stored->vertex_count != mesh->vertex_count ||
+        memcmp(stored->positions, mesh->positions, 3 * mesh->vertex_count * sizeof *mesh->positions) != 0 ||
+        memcmp(stored->patches, mesh->patches, n_old * sizeof *mesh->patches) != 0) {
+        rad_error("--reuse %s: not the form factors of the mesh of %s (patches or vertices differ)", path,
+                  run->opt.refine_path);
+        st = RAD_ERR_INVALID;
+    } else if (info->flags & RAD_FF_FLAG_STANDARD_ERRORS) {
+        rad_error("--reuse %s: holds standard errors, not form factors", path);
+        st = RAD_ERR_INVALID;
+    } else if (info->estimator != (uint32_t)run->opt.estimator || info->shadow_rays != run->opt.shadow_rays ||
+               info->samples != run->opt.samples) {
+        rad_error("--reuse %s: computed with --estimator %s --samples %u --shadow-rays %u, this run with %s %u %u; "
+                  "reuse needs the same settings", path, rad_estimator_name((rad_estimator_id)info->estimator),
+                  info->samples, info->shadow_rays, rad_estimator_name(run->opt.estimator), run->opt.samples,
+                  run->opt.shadow_rays);
+        st = RAD_ERR_INVALID;
+    }
+    double *matrix = NULL;
+    if (st == RAD_OK) {
+        matrix = malloc(n_old * n_old * sizeof *matrix);
+        run->reuse_old = malloc((n ? n : 1) * sizeof *run->reuse_old);
+        if (!matrix || !run->reuse_old) {
+            rad_error("--reuse %s: out of memory for its %zu x %zu matrix", path, n_old, n_old);
+            st = RAD_ERR_NOMEM;
+        }
+    }
+    if (st == RAD_OK) st = rad_ff_read_rows(file, 0, n_old, matrix);
+    rad_ff_close(file);
+    if (st != RAD_OK) {
+        free(matrix);
+        free(run->reuse_old);
+        run->reuse_old = NULL;
+        return st;
+    }
+    for (size_t a = 0; a < n_old; a++) {
+        matrix[a * n_old + a] = 0.0;
+        for (size_t b = a + 1; b < n_old; b++)
+            matrix[b * n_old + a] = matrix[a * n_old + b] = matrix[a * n_old + b] / mesh->patches[b].area;
+    }
+    for (size_t i = 0; i < n; i++) run->reuse_old[i] = split[parent[i]] ? FF_REUSE_NONE : parent[i];
+    run->reuse_coupling = matrix;
+    return RAD_OK;
+}
+
 /* --refine: the mesh of a solution of this scene, split where the
  * solution says it is too coarse (core/rad_refine.h). Every rank reads the
  * file and computes the same split. */
@@ -237,6 +304,7 @@ static rad_status refine_mesh(ff_run *run)
     rad_status st = rad_rf_read(path, &prev);
     if (st != RAD_OK) return st;
     uint8_t *split = NULL;
+    uint32_t *parent = NULL;
     if (prev.scene_fingerprint != run->scene.fingerprint) {
         rad_error("%s: solved for another scene (fingerprint %016llx) than %s (%016llx); refine the solution of the "
                   "same scene", path, (unsigned long long)prev.scene_fingerprint, run->scene.path,
@@ -262,7 +330,8 @@ static rad_status refine_mesh(ff_run *run)
                              .max_patches = (size_t)run->opt.refine_max_patches};
     rad_refine_stats rs;
     if ((st = rad_refine_mark(&prev.mesh, prev.radiosity, &ro, split, &rs)) != RAD_OK) goto done;
-    if ((st = rad_refine_split(&prev.mesh, split, &run->mesh, NULL)) != RAD_OK) goto done;
+    if ((st = rad_refine_split(&prev.mesh, split, &run->mesh, &parent)) != RAD_OK) goto done;
+    if (run->opt.reuse_path && (st = load_reuse(run, &prev.mesh, split, parent)) != RAD_OK) goto done;
     run->refine = rs;
     run->refine_patches_before = prev.mesh.patch_count;
     if (ff_comm_rank(run->comm) == 0)
@@ -272,6 +341,7 @@ static rad_status refine_mesh(ff_run *run)
                  rs.too_small, rs.over_budget, rs.patches_after, rs.max_indicator);
 done:
     free(split);
+    free(parent);
     rad_radiosity_free(&prev);
     return st;
 }
@@ -324,6 +394,8 @@ static void plan_after_split(ff_run *run, rad_status split)
         ff_plan_make(&limits, &choices, &run->plan);
     }
     run->backend = run->plan.gpu ? &ff_backend_cuda : &ff_backend_cpu;
+    if (run->plan.gpu && run->reuse_old && ff_comm_rank(run->comm) == 0)
+        rad_info("--reuse: the CUDA backend computes every pair (reuse is the CPU backend's)");
 }
 
 static rad_status setup(ff_run *run)
@@ -356,6 +428,8 @@ static rad_status setup(ff_run *run)
                        .cull = run->opt.cull == FF_CULL_ALL, .scene_convex = convex,
                        .cull_margin = ff_cull_margin(&run->mesh, centre, eps), .plane_eps = eps,
                        .pairs_once = run->plan.pairs_once, .threads = run->stats.threads,
+                       .reuse_old = run->reuse_old, .reuse_coupling = run->reuse_coupling,
+                       .reuse_n = (uint32_t)run->refine_patches_before,
                        .device = ff_comm_rank(run->comm), .progress = report_progress, .progress_user = run};
         st = run->backend->create(&su, &run->backend_state);
     }
@@ -798,6 +872,8 @@ static void run_free(ff_run *run)
     if (run->backend && run->backend_state) run->backend->destroy(run->backend_state);
     free(run->patches);
     free(run->area);
+    free(run->reuse_old);
+    free(run->reuse_coupling);
     free(run->triangles);
     free(run->triangle_face);
     free(run->row_begin);

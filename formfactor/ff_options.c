@@ -28,14 +28,17 @@ const char ff_options_help[] =
     "                           code subdivided only the box: --subdiv-only box)\n"
     "      --refine RADIOSITY   instead of --subdiv: take the mesh of RADIOSITY (solve's\n"
     "                           output for this scene) and split each patch whose\n"
-    "                           luminance jumps to a neighbour on its surface by more\n"
-    "                           than --refine-tol times the scene's mean (shadow edges,\n"
-    "                           corners, contact lines); scripts/refine.sh runs the loop\n"
-    "      --refine-tol T       (default: 0.1)\n"
+    "                           luminance differs from what its neighbours on its\n"
+    "                           surface predict by more than --refine-tol times the\n"
+    "                           scene's mean (shadow edges, penumbrae, corners, contact\n"
+    "                           lines); scripts/refine.sh runs the loop\n"
+    "      --refine-tol T       (default: 0.05)\n"
     "      --refine-min-size F  split no patch smaller than F times the scene's\n"
     "                           diagonal (default: 0.0078125 = 1/128)\n"
     "      --refine-max-patches N  at most N patches: the largest errors split first\n"
-    "      --flip-normals       wind every face the other way round: for scenes whose\n"
+    "      --reuse FORMFACTORS  with --refine: the form-factor file RADIOSITY was solved\n"
+    "                           from; pairs of two unsplit patches copy their entries\n"
+    "                           instead of computing them (CPU backend)\n"    "      --flip-normals       wind every face the other way round: for scenes whose\n"
     "                           faces all point away from where the light is (a closed\n"
     "                           object used as a room, faces wound against their vn)\n"
     "      --clamp-rho R        set every Kd value above R (0 < R < 1) to R, saying which,\n"
@@ -182,7 +185,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
-           O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES };
+           O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -199,7 +202,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"flip-normals", no_argument, 0, O_FLIP_NORMALS}, {"clamp-rho", required_argument, 0, O_CLAMP_RHO},
         {"max-bytes", required_argument, 0, O_MAX_BYTES}, {"refine", required_argument, 0, O_REFINE},
         {"refine-tol", required_argument, 0, O_REFINE_TOL}, {"refine-min-size", required_argument, 0, O_REFINE_MIN_SIZE},
-        {"refine-max-patches", required_argument, 0, O_REFINE_MAX_PATCHES},
+        {"refine-max-patches", required_argument, 0, O_REFINE_MAX_PATCHES}, {"reuse", required_argument, 0, O_REUSE},
         {0, 0, 0, 0}};
     uint64_t v = 0;
     int named = 0; /* an option's value read through a name table */
@@ -233,6 +236,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_FLIP_NORMALS: o->flip_normals = 1; break;
         case O_MAX_BYTES: st = rad_parse_bytes("--max-bytes", optarg, &o->max_bytes); break;
         case O_REFINE: o->refine_path = optarg; break;
+        case O_REUSE: o->reuse_path = optarg; break;
         case O_REFINE_TOL: st = rad_parse_real("--refine-tol", optarg, 0, 0, 1e6, 0, &o->refine_tol); break;
         case O_REFINE_MIN_SIZE: st = parse_tolerance("--refine-min-size", optarg, &o->refine_min_size); break;
         case O_REFINE_MAX_PATCHES:
@@ -305,12 +309,21 @@ static rad_status check_options(ff_options *o)
     /* Files: outputs are new, regular or character devices, and no two
      * roles name one file (docs/reliability.md, "Threat model: files on
      * disk"); the scene's MTL files are checked as the loader opens them. */
+    if (o->reuse_path && !o->refine_path) {
+        rad_error("--reuse %s: only with --refine (the matrix of the mesh being refined)", o->reuse_path);
+        return RAD_ERR_USAGE;
+    }
+    if (o->reuse_path && o->errors_path) {
+        rad_error("--reuse and --errors: reused entries have no standard errors here; drop one");
+        return RAD_ERR_USAGE;
+    }
     if (o->refine_path && o->subdiv_only) {
         rad_error("--refine splits the mesh of %s as it is; drop --subdiv-only", o->refine_path);
         return RAD_ERR_USAGE;
     }
     rad_fs_role roles[] = {{"the scene", o->scene_path, 0}, {"-o", o->output, 1}, {"--stats", o->stats_path, 1},
-                           {"--errors", o->errors_path, 1}, {"--refine", o->refine_path, 0}};
+                           {"--errors", o->errors_path, 1}, {"--refine", o->refine_path, 0},
+                           {"--reuse", o->reuse_path, 0}};
     for (size_t k = 1; k < sizeof roles / sizeof roles[0]; k++)
         if (rad_fs_check_output(roles[k].option, roles[k].path) != RAD_OK) return RAD_ERR_USAGE;
     if (rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]) != RAD_OK) return RAD_ERR_USAGE;

@@ -61,6 +61,7 @@ typedef struct ff_options {
     double max_bytes;        /* --max-bytes: refuse a larger output; 0 = only the disk's free space */
     int flip_normals;        /* --flip-normals: every face wound the other way */
     const char *refine_path; /* --refine RADIOSITY: split that solution's mesh; NULL = none */
+    const char *reuse_path;  /* --reuse FORMFACTORS: that mesh's matrix, for the unsplit pairs */
     double refine_tol;       /* --refine-tol (rad_refine_options.tolerance) */
     double refine_min_size;  /* --refine-min-size (rad_refine_options.min_size) */
     uint64_t refine_max_patches; /* --refine-max-patches; 0 = no limit */

@@ -33,6 +33,7 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
         all.counters.rays_occluded += s->counters.rays_occluded;
         all.counters.pairs_refined += s->counters.pairs_refined;
         all.counters.pairs_capped += s->counters.pairs_capped;
+        all.counters.pairs_reused += s->counters.pairs_reused;
         ff_rows_summary_merge(&all.rows, &s->rows);
     }
     return all;
@@ -93,6 +94,7 @@ static void put_counters(rad_json_writer *w, const ff_counters *c)
     put_count(w, "pairs", c->pairs);
     put_count(w, "pairs_mirrored", c->pairs_mirrored);
     put_count(w, "pairs_culled", c->pairs_culled);
+    put_count(w, "pairs_reused", c->pairs_reused);
     put_count(w, "pairs_near", c->pairs_near);
     put_count(w, "samples", c->samples);
     put_count(w, "rays", c->rays);
