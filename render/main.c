@@ -62,11 +62,12 @@ static const char usage_text[] =
     "  --fov DEGREES        vertical field of view\n"
     "  --exposure EV        multiply the PNG's values by 2^EV (default: 0)\n"
     "  --no-auto-exposure   use 2^EV alone instead of 2^EV times the automatic scale\n"
-    "  --shading MODE       smooth (default): Gouraud between corners that hold the\n"
-    "                       area-weighted mean of the patches around them; linear:\n"
-    "                       corners from each patch's least-squares gradient (exact\n"
-    "                       for linear radiosity, also at a surface's edges, where\n"
-    "                       smooth is off by half a patch's gradient); flat: patches.\n"
+    "  --shading MODE       linear (default): each patch corner from the patches'\n"
+    "                       least-squares gradients on its surface (exact for linear\n"
+    "                       radiosity, surface edges included; limited at shadow\n"
+    "                       edges); smooth: corners hold the area-weighted mean of\n"
+    "                       the patches around them (off by half a patch's gradient\n"
+    "                       at a surface's edges); flat: each patch in its own B.\n"
     "                       Where refined patches meet coarse ones (formfactor\n"
     "                       --refine) corners are anchored to the coarse edge: no seams\n"
     "  --quantity Q         radiosity (default): the EXR holds B, the exitance, in the\n"
@@ -210,7 +211,7 @@ static rad_status parse_args(int argc, char **argv, render_cli *out)
     render_cli c;
     memset(&c, 0, sizeof c);
     c.input = RENDER_DEFAULT_INPUT;
-    c.frame.shading = RENDER_SHADING_SMOOTH;
+    c.frame.shading = RENDER_SHADING_LINEAR;
     c.auto_exposure = 1;
     c.channels = RENDER_CHANNELS_AUTO;
     rad_status status = RAD_OK;
