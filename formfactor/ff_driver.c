@@ -162,7 +162,8 @@ static ff_plan_choices plan_choices(const ff_options *o)
  * or whose memory per rank would exceed this node's memory per rank. */
 static rad_status check_limits(ff_run *run)
 {
-    rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
+    rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only,
+                           .contacts = run->opt.contacts};
     uint64_t n = rad_mesh_count_patches(&run->scene, &mo);
     char dir[4096];
     const char *slash = strrchr(run->opt.output, '/');
@@ -234,7 +235,8 @@ static rad_status load(ff_run *run)
     double t1 = ff_comm_time();
     if (st == RAD_OK && ff_comm_rank(run->comm) == 0) st = check_limits(run);
     if (st == RAD_OK) {
-        rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
+        rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only,
+                               .contacts = run->opt.contacts};
         st = rad_mesh_build(&run->scene, &mo, &run->mesh);
     }
     if (st == RAD_OK && run->mesh.patch_count == 0) {
@@ -628,7 +630,8 @@ static rad_status write_stats(ff_run *run)
         const char *scene = run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name;
         ff_run_info info = {.scene = scene, .fingerprint = run->scene.fingerprint,
                             .patch_count = (uint32_t)run->mesh.patch_count, .subdiv = run->opt.subdiv,
-                            .subdiv_only = run->opt.subdiv_only, .samples = run->opt.samples,
+                            .subdiv_only = run->opt.subdiv_only,
+                            .contacts = ff_contacts_name(run->opt.contacts), .samples = run->opt.samples,
                             .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
                             .estimator = rad_estimator_name(run->opt.estimator),
                             .cull = ff_cull_name(run->opt.cull),

@@ -169,6 +169,7 @@ static void put_run(rad_json_writer *w, const ff_run_info *run, const ff_rank_st
     rad_json_key(w, "subdiv");
     rad_json_int(w, run->subdiv);
     put_name(w, "subdiv_only", run->subdiv_only); /* NULL: null */
+    put_name(w, "contacts", run->contacts);
     put_count(w, "samples_per_pair", run->samples);
     put_count(w, "shadow_rays_per_pair", run->shadow_rays);
     put_count(w, "seed", run->seed);
