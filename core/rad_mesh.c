@@ -6,7 +6,9 @@
  * then cannot fail; positions are shrunk to the real count at the end.
  * Midpoints are shared through a map keyed by the edge's two vertex indices,
  * so faces that share an edge (same OBJ vertex indices) share its midpoints
- * at every level.
+ * at every level. The faces are first cut along their contacts
+ * (rad_contact.c; or kept whole): the builder subdivides pieces, each to
+ * its own level, and keeps each piece's scene face for materials and groups.
  */
 #include "rad_mesh.h"
 
@@ -14,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rad_contact.h"
 #include "rad_log.h"
 
 _Static_assert(sizeof(rad_patch) == 128, "rad_patch is the 128-byte patch record of the file formats");
@@ -40,15 +43,100 @@ static int is_subdivided(const rad_scene *scene, const rad_face *face, const cha
 
 static uint64_t add_saturating(uint64_t a, uint64_t b) { return a > UINT64_MAX - b ? UINT64_MAX : a + b; }
 
-uint64_t rad_mesh_count_patches(const rad_scene *scene, const rad_mesh_options *options)
+static double diameter_of(const double *positions, const uint32_t *v, uint32_t n)
+{
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY}, sum = 0;
+    for (uint32_t k = 0; k < n; k++)
+        for (int a = 0; a < 3; a++) {
+            double x = positions[3 * (size_t)v[k] + a];
+            lo[a] = fmin(lo[a], x), hi[a] = fmax(hi[a], x);
+        }
+    for (int a = 0; a < 3; a++) sum += (hi[a] - lo[a]) * (hi[a] - lo[a]);
+    return sqrt(sum);
+}
+
+/* The pieces to subdivide (the faces cut along their contacts, or the
+ * faces themselves) and each one's level (see rad_mesh.h); *out_level is
+ * freed by the caller. */
+static rad_status make_pieces(const rad_scene *scene, const rad_mesh_options *options, int log, rad_contact_cut *out_cut,
+                              int **out_level)
 {
     int subdiv = options ? options->subdiv : 0;
     const char *only_group = options ? options->only_group : NULL;
-    if (subdiv < 0) return 0;
-    uint64_t per_face = subdiv >= 32 ? UINT64_MAX : (uint64_t)1 << (2 * subdiv);
+    rad_mesh_contacts contacts = options ? options->contacts : RAD_MESH_CONTACTS_CUT;
+    rad_contact_cut cut;
+    memset(&cut, 0, sizeof cut);
+    if (contacts == RAD_MESH_CONTACTS_CUT) {
+        int *face_level = malloc((scene->face_count ? scene->face_count : 1) * sizeof *face_level);
+        if (!face_level) {
+            rad_error("mesh: out of memory for %zu faces", scene->face_count);
+            return RAD_ERR_NOMEM;
+        }
+        for (size_t f = 0; f < scene->face_count; f++)
+            face_level[f] = is_subdivided(scene, &scene->faces[f], only_group) ? subdiv : 0;
+        rad_status st = rad_contact_cut_build(scene, face_level, &cut);
+        free(face_level);
+        if (st != RAD_OK) return st;
+        if (log)
+            rad_info("contacts: %zu of %zu faces cut, %zu pieces dropped as hidden (%zu pieces meshed)", cut.faces_cut,
+                     scene->face_count, cut.pieces_hidden, cut.piece_count);
+    } else {
+        cut.positions = malloc((scene->vertex_count ? scene->vertex_count : 1) * 3 * sizeof *cut.positions);
+        cut.pieces = malloc((scene->face_count ? scene->face_count : 1) * sizeof *cut.pieces);
+        if (!cut.positions || !cut.pieces) {
+            rad_contact_cut_free(&cut);
+            rad_error("mesh: out of memory for %zu faces", scene->face_count);
+            return RAD_ERR_NOMEM;
+        }
+        memcpy(cut.positions, scene->positions, scene->vertex_count * 3 * sizeof *cut.positions);
+        cut.vertex_count = scene->vertex_count;
+        for (size_t f = 0; f < scene->face_count; f++) {
+            const rad_face *face = &scene->faces[f];
+            rad_contact_piece *p = &cut.pieces[f];
+            p->vertex_count = face->vertex_count;
+            for (int k = 0; k < 4; k++) p->v[k] = k < (int)face->vertex_count ? face->v[k] : RAD_NO_VERTEX;
+            p->source_face = (uint32_t)f;
+        }
+        cut.piece_count = scene->face_count;
+    }
+    int *level = malloc((cut.piece_count ? cut.piece_count : 1) * sizeof *level);
+    if (!level) {
+        rad_contact_cut_free(&cut);
+        rad_error("mesh: out of memory for %zu pieces", cut.piece_count);
+        return RAD_ERR_NOMEM;
+    }
+    for (size_t i = 0; i < cut.piece_count; i++) {
+        const rad_contact_piece *p = &cut.pieces[i];
+        const rad_face *face = &scene->faces[p->source_face];
+        level[i] = 0;
+        if (!is_subdivided(scene, face, only_group)) continue;
+        double d_face = diameter_of(scene->positions, face->v, face->vertex_count);
+        double d_piece = diameter_of(cut.positions, p->v, p->vertex_count);
+        long drop = d_piece > 0 && d_piece < d_face ? lround(log2(d_face / d_piece)) : 0;
+        level[i] = drop >= subdiv ? 0 : subdiv - (int)drop;
+    }
+    *out_cut = cut;
+    *out_level = level;
+    return RAD_OK;
+}
+
+static uint64_t sum_patches(const int *level, size_t count)
+{
     uint64_t total = 0;
-    for (size_t f = 0; f < scene->face_count; f++)
-        total = add_saturating(total, is_subdivided(scene, &scene->faces[f], only_group) ? per_face : 1);
+    for (size_t i = 0; i < count; i++)
+        total = add_saturating(total, level[i] >= 32 ? UINT64_MAX : (uint64_t)1 << (2 * level[i]));
+    return total;
+}
+
+uint64_t rad_mesh_count_patches(const rad_scene *scene, const rad_mesh_options *options)
+{
+    if (options && options->subdiv < 0) return 0;
+    rad_contact_cut cut;
+    int *level = NULL;
+    if (make_pieces(scene, options, 0, &cut, &level) != RAD_OK) return UINT64_MAX;
+    uint64_t total = sum_patches(level, cut.piece_count);
+    free(level);
+    rad_contact_cut_free(&cut);
     return total;
 }
 
@@ -187,8 +275,8 @@ rad_status rad_mesh_set_groups(const rad_scene *scene, rad_mesh *mesh)
     return status;
 }
 
-/* Upper bound on the vertices of one face after `subdiv` levels (its own,
- * unshared). Only called once the patch count has shown subdiv <= 15. */
+/* Upper bound on the vertices of one piece after `subdiv` levels (its own,
+ * unshared). Only called while the patch count shows subdiv <= 15. */
 static uint64_t face_vertex_bound(uint32_t corners, int subdiv)
 {
     uint64_t side = ((uint64_t)1 << subdiv) + 1; /* vertices along an edge */
@@ -200,34 +288,42 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
     rad_status status = RAD_ERR_NOMEM;
     rad_mesh mesh;
     builder B;
-    uint32_t *vertex_of = NULL; /* scene vertex -> mesh vertex */
+    rad_contact_cut cut;
+    int *level = NULL;
+    uint32_t *vertex_of = NULL; /* cut vertex (scene vertices first) -> mesh vertex */
     uint32_t *group_of = NULL;  /* scene group -> mesh group (RAD_NO_VERTEX: owns no face) */
     memset(&mesh, 0, sizeof mesh);
     memset(&B, 0, sizeof B);
+    memset(&cut, 0, sizeof cut);
     int subdiv = options ? options->subdiv : 0;
     const char *only_group = options ? options->only_group : NULL;
+    rad_mesh_contacts contacts = options ? options->contacts : RAD_MESH_CONTACTS_CUT;
     if (subdiv < 0) {
         rad_error("mesh: subdivision level %d is negative", subdiv);
         status = RAD_ERR_INVALID;
         goto done;
     }
-    uint64_t patches = rad_mesh_count_patches(scene, options), vertices = 0, midpoints = 0;
+    if (contacts != RAD_MESH_CONTACTS_CUT && contacts != RAD_MESH_CONTACTS_KEEP) {
+        rad_error("mesh: contacts is %d, neither RAD_MESH_CONTACTS_CUT nor RAD_MESH_CONTACTS_KEEP", (int)contacts);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
+    if ((status = make_pieces(scene, options, 1, &cut, &level)) != RAD_OK) goto done;
+    status = RAD_ERR_NOMEM;
+    uint64_t patches = sum_patches(level, cut.piece_count), vertices = 0, midpoints = 0;
     size_t subdivided = 0;
-    for (size_t f = 0; f < scene->face_count && patches <= MESH_LIMIT; f++) {
-        const rad_face *face = &scene->faces[f];
-        assert(face->vertex_count == 3 || face->vertex_count == 4);
-        uint64_t own = face->vertex_count;
-        if (is_subdivided(scene, face, only_group)) {
-            own = face_vertex_bound(face->vertex_count, subdiv);
-            midpoints += own - face->vertex_count;
-            subdivided++;
-        }
+    for (size_t f = 0; f < scene->face_count; f++) subdivided += is_subdivided(scene, &scene->faces[f], only_group);
+    for (size_t i = 0; i < cut.piece_count && patches <= MESH_LIMIT; i++) {
+        const rad_contact_piece *piece = &cut.pieces[i];
+        assert(piece->vertex_count == 3 || piece->vertex_count == 4);
+        uint64_t own = face_vertex_bound(piece->vertex_count, level[i]);
+        midpoints += own - piece->vertex_count;
         vertices += own;
     }
     size_t table = 16;
     while (table < 2 * midpoints && table < SIZE_MAX / 4) table *= 2;
     double need = (double)patches * sizeof(rad_patch) + (double)vertices * 3 * sizeof(double) +
-                  (double)table * (sizeof(uint64_t) + sizeof(uint32_t)) + (double)scene->vertex_count * sizeof(uint32_t);
+                  (double)table * (sizeof(uint64_t) + sizeof(uint32_t)) + (double)cut.vertex_count * sizeof(uint32_t);
     if (patches > MESH_LIMIT || vertices > MESH_LIMIT) {
         int too_many_patches = patches > MESH_LIMIT;
         rad_error("mesh: subdivision level %d gives %llu %s; at most %llu are possible (it would need about %.1f GiB)",
@@ -238,11 +334,11 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
     }
     if (only_group && subdivided == 0) rad_warn("mesh: no face is in group '%s'; nothing is subdivided", only_group);
 
-    mesh.patches = malloc((size_t)patches * sizeof *mesh.patches);
-    mesh.positions = malloc((size_t)vertices * 3 * sizeof *mesh.positions);
+    mesh.patches = malloc(((size_t)patches ? (size_t)patches : 1) * sizeof *mesh.patches);
+    mesh.positions = malloc(((size_t)vertices ? (size_t)vertices : 1) * 3 * sizeof *mesh.positions);
     mesh.patch_group = malloc(((size_t)patches ? (size_t)patches : 1) * sizeof *mesh.patch_group);
     group_of = malloc((scene->group_count ? scene->group_count : 1) * sizeof *group_of);
-    vertex_of = malloc((scene->vertex_count ? scene->vertex_count : 1) * sizeof *vertex_of);
+    vertex_of = malloc((cut.vertex_count ? cut.vertex_count : 1) * sizeof *vertex_of);
     B.edge_keys = malloc(table * sizeof *B.edge_keys);
     B.edge_midpoint = malloc(table * sizeof *B.edge_midpoint);
     if (!mesh.patches || !mesh.positions || !mesh.patch_group || !group_of || !vertex_of || !B.edge_keys ||
@@ -252,27 +348,27 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
         goto done;
     }
     for (size_t i = 0; i < table; i++) B.edge_keys[i] = EMPTY_EDGE;
-    for (size_t i = 0; i < scene->vertex_count; i++) vertex_of[i] = RAD_NO_VERTEX;
+    for (size_t i = 0; i < cut.vertex_count; i++) vertex_of[i] = RAD_NO_VERTEX;
     B.scene = scene;
     B.mesh = &mesh;
     B.edge_mask = table - 1;
     B.vertex_cap = (size_t)vertices;
 
-    /* Scene vertices in order of first use, then each face's new vertices. */
-    for (size_t f = 0; f < scene->face_count; f++) {
-        const rad_face *face = &scene->faces[f];
+    /* Scene and cut vertices in order of first use, then each piece's new vertices. */
+    for (size_t i = 0; i < cut.piece_count; i++) {
+        const rad_contact_piece *piece = &cut.pieces[i];
         uint32_t corner[4];
-        for (uint32_t i = 0; i < face->vertex_count; i++) {
-            uint32_t s = face->v[i];
+        for (uint32_t k = 0; k < piece->vertex_count; k++) {
+            uint32_t s = piece->v[k];
             if (vertex_of[s] == RAD_NO_VERTEX) {
-                const double *p = scene->positions + 3 * (size_t)s;
+                const double *p = cut.positions + 3 * (size_t)s;
                 vertex_of[s] = add_vertex(&B, rad_v3(p[0], p[1], p[2]));
             }
-            corner[i] = vertex_of[s];
+            corner[k] = vertex_of[s];
         }
-        B.face = face;
-        B.face_index = (uint32_t)f;
-        split(&B, corner, (int)face->vertex_count, is_subdivided(scene, face, only_group) ? subdiv : 0);
+        B.face = &scene->faces[piece->source_face];
+        B.face_index = piece->source_face;
+        split(&B, corner, (int)piece->vertex_count, level[i]);
     }
     assert(mesh.patch_count == patches && mesh.vertex_count <= vertices);
     if ((status = collect_groups(scene, &mesh, group_of)) != RAD_OK) goto done;
@@ -283,6 +379,8 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
     status = RAD_OK;
 done:
     rad_mesh_free(&mesh);
+    rad_contact_cut_free(&cut);
+    free(level);
     free(group_of);
     free(vertex_of);
     free(B.edge_keys);

@@ -13,9 +13,30 @@
  * render can interpolate. Patch vertices keep the face's winding, so
  * normals point the same way as the face's.
  *
+ * Contacts (options.contacts, default RAD_MESH_CONTACTS_CUT): before
+ * subdividing, every face is cut where other faces touch or cross it and
+ * the pieces hidden inside or under geometry are dropped (rad_contact.h
+ * says how): the floor under a block gets no patches, and no patch
+ * straddles a block's footprint. A cut face is first split into its grid
+ * of level min(S, RAD_CONTACT_GRID_MAX) and the cells the cut lines cross
+ * are cut. Each piece (cell or part of one) is then subdivided like a
+ * face, to the level that gives patches about the size of its face's
+ * patches at level S: level = max(0, S - round(log2(face diameter /
+ * piece diameter))), diameters being bounding-box diagonals (an uncut
+ * face keeps S, a whole cell of the grid at S <= 4 gets 0). So the patch
+ * count grows with the cut cells, not with 4^S per piece. Pieces of one
+ * face share their cut vertices (one index per position), and the
+ * midpoints of edges that pieces share are shared too; a cut cell meets
+ * its neighbours with T-junctions (as faces of different levels do), and
+ * a cut face's grid vertices on its boundary are not shared with the
+ * neighbouring faces' midpoints (the same positions, other indices).
+ * RAD_MESH_CONTACTS_KEEP meshes the faces as they are (the mesh before
+ * contact cutting: patches run under blocks).
+ *
  * Order: patches follow the scene's faces (each face's patches contiguous,
- * source_face ascending); vertices are the scene's used vertices in order of
- * first use, then the new ones. Unused scene vertices are left out.
+ * source_face ascending; a cut face's pieces one after another); vertices
+ * are the used scene and cut vertices in order of first use, then the
+ * midpoints. Unused scene vertices are left out.
  *
  * Groups: every patch belongs to its face's OBJ group (the last `g` or `o`
  * name before it). The mesh keeps the groups that own at least one face,
@@ -63,18 +84,26 @@ typedef struct rad_mesh {
     uint32_t *patch_group;             /* patch_count entries: index into group_names */
 } rad_mesh;
 
+typedef enum rad_mesh_contacts {
+    RAD_MESH_CONTACTS_CUT = 0, /* cut faces along contacts, drop hidden pieces (default) */
+    RAD_MESH_CONTACTS_KEEP = 1 /* faces as they are */
+} rad_mesh_contacts;
+
 typedef struct rad_mesh_options {
-    int subdiv;              /* subdivision level S >= 0 (0 = faces as patches) */
+    int subdiv;              /* subdivision level S >= 0 (0 = faces, or pieces, as patches) */
     const char *only_group;  /* NULL = subdivide every face; else only faces of this
                                 group (reproduces the paper code, which subdivided
-                                the box and not the sphere) */
+                                the box and not the sphere); pieces of other
+                                faces are one patch each */
+    rad_mesh_contacts contacts; /* 0 = RAD_MESH_CONTACTS_CUT */
 } rad_mesh_options;
 
 /* Fails with RAD_ERR_NOMEM (and the memory it would need in the message)
  * when the patch count, or the vertex count's upper bound, would exceed
  * UINT32_MAX - 1 (checked before allocating) or memory runs out; with
- * RAD_ERR_INVALID for subdiv < 0. options NULL = {0}. Warns when only_group
- * names no face's group. */
+ * RAD_ERR_INVALID for subdiv < 0 or an unknown contacts value. options
+ * NULL = {0}. Warns when only_group names no face's group. Logs (info) how
+ * many faces were cut and how many pieces dropped as hidden. */
 rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *options, rad_mesh *out_mesh);
 void rad_mesh_free(rad_mesh *mesh); /* safe on a zeroed or freed mesh */
 
@@ -84,8 +113,9 @@ void rad_mesh_free(rad_mesh *mesh); /* safe on a zeroed or freed mesh */
  * range, RAD_ERR_NOMEM. */
 rad_status rad_mesh_set_groups(const rad_scene *scene, rad_mesh *mesh);
 
-/* Patch count that rad_mesh_build would produce, without building;
- * saturates at UINT64_MAX; 0 for subdiv < 0. */
+/* Patch count that rad_mesh_build would produce, without building the
+ * patches (contacts are cut, though); saturates at UINT64_MAX, which it
+ * also returns when memory runs out while cutting; 0 for subdiv < 0. */
 uint64_t rad_mesh_count_patches(const rad_scene *scene, const rad_mesh_options *options);
 
 /* Does the patch's centroid lie inside the bounding box of its vertices

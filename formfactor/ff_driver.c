@@ -354,7 +354,8 @@ static rad_status load(ff_run *run)
     rad_status st = run->opt.scene_path ? rad_scene_load_file(run->opt.scene_path, &loader, &run->scene)
                                         : rad_scene_load_default(&run->scene);
     double t1 = ff_comm_time();
-    rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only};
+    rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only,
+                           .contacts = run->opt.contacts};
     if (run->opt.refine_path) {
         /* The refined mesh is small beside its matrix: built first, then checked. */
         if (st == RAD_OK) st = refine_mesh(run);
@@ -758,7 +759,8 @@ static rad_status write_stats(ff_run *run)
         const char *scene = run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name;
         ff_run_info info = {.scene = scene, .fingerprint = run->scene.fingerprint,
                             .patch_count = (uint32_t)run->mesh.patch_count, .subdiv = run->opt.subdiv,
-                            .subdiv_only = run->opt.subdiv_only, .samples = run->opt.samples,
+                            .subdiv_only = run->opt.subdiv_only,
+                            .contacts = ff_contacts_name(run->opt.contacts), .samples = run->opt.samples,
                             .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
                             .estimator = rad_estimator_name(run->opt.estimator),
                             .cull = ff_cull_name(run->opt.cull),

@@ -38,7 +38,13 @@ const char ff_options_help[] =
     "      --refine-max-patches N  at most N patches: the largest errors split first\n"
     "      --reuse FORMFACTORS  with --refine: the form-factor file RADIOSITY was solved\n"
     "                           from; pairs of two unsplit patches copy their entries\n"
-    "                           instead of computing them (CPU backend)\n"    "      --flip-normals       wind every face the other way round: for scenes whose\n"
+    "                           instead of computing them (CPU backend)\n"
+    "      --contacts C         cut | keep (default: cut): cut faces where other faces\n"
+    "                           rest on or pass through them (a floor along a block's\n"
+    "                           footprint) and drop the pieces hidden inside or under\n"
+    "                           geometry; a piece gets patches about the size of its\n"
+    "                           face's; keep: mesh the faces as they are\n"
+    "      --flip-normals       wind every face the other way round: for scenes whose\n"
     "                           faces all point away from where the light is (a closed\n"
     "                           object used as a room, faces wound against their vn)\n"
     "      --clamp-rho R        set every Kd value above R (0 < R < 1) to R, saying which,\n"
@@ -102,6 +108,7 @@ typedef struct ff_name {
 static const ff_name backend_names[] = {
     {FF_BACKEND_AUTO, "auto"}, {FF_BACKEND_CPU, "cpu"}, {FF_BACKEND_CUDA, "cuda"}};
 static const ff_name cull_names[] = {{FF_CULL_ALL, "all"}, {FF_CULL_NONE, "none"}};
+static const ff_name contacts_names[] = {{RAD_MESH_CONTACTS_CUT, "cut"}, {RAD_MESH_CONTACTS_KEEP, "keep"}};
 static const ff_name reciprocity_names[] = {
     {FF_RECIPROCITY_AUTO, "auto"}, {FF_RECIPROCITY_ON, "on"}, {FF_RECIPROCITY_OFF, "off"}};
 static const ff_name element_names[] = {{RAD_ELEMENT_F64, "f64"}, {RAD_ELEMENT_F32, "f32"}};
@@ -121,6 +128,11 @@ static const char *name_of(const ff_name *table, size_t count, int value)
 const char *ff_backend_choice_name(ff_backend_choice backend)
 {
     return name_of(backend_names, FF_NAMES_COUNT(backend_names), (int)backend);
+}
+
+const char *ff_contacts_name(rad_mesh_contacts contacts)
+{
+    return name_of(contacts_names, FF_NAMES_COUNT(contacts_names), (int)contacts);
 }
 
 const char *ff_cull_name(ff_cull cull)
@@ -185,7 +197,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
-           O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE };
+           O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -203,6 +215,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"max-bytes", required_argument, 0, O_MAX_BYTES}, {"refine", required_argument, 0, O_REFINE},
         {"refine-tol", required_argument, 0, O_REFINE_TOL}, {"refine-min-size", required_argument, 0, O_REFINE_MIN_SIZE},
         {"refine-max-patches", required_argument, 0, O_REFINE_MAX_PATCHES}, {"reuse", required_argument, 0, O_REUSE},
+        {"contacts", required_argument, 0, O_CONTACTS},
         {0, 0, 0, 0}};
     uint64_t v = 0;
     int named = 0; /* an option's value read through a name table */
@@ -243,6 +256,10 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
             st = rad_parse_uint("--refine-max-patches", optarg, 1, UINT32_MAX - 1, &o->refine_max_patches);
             break;
         case O_CLAMP_RHO: st = rad_parse_real("--clamp-rho", optarg, 0, 0, 1, 0, &o->clamp_rho); break;
+        case O_CONTACTS:
+            st = parse_name("--contacts", optarg, contacts_names, FF_NAMES_COUNT(contacts_names), &named);
+            if (st == RAD_OK) o->contacts = (rad_mesh_contacts)named;
+            break;
         case O_CULL:
             st = parse_name("--cull", optarg, cull_names, FF_NAMES_COUNT(cull_names), &named);
             if (st == RAD_OK) o->cull = (ff_cull)named;

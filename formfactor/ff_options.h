@@ -18,6 +18,7 @@
 #include "ff_output.h"
 #include "rad_ff_kernel.h"
 #include "rad_ffile.h"
+#include "rad_mesh.h"
 #include "rad_status.h"
 
 /* --backend: auto = the GPU when this process sees one, else the CPU. */
@@ -37,6 +38,7 @@ typedef enum ff_reciprocity { FF_RECIPROCITY_AUTO, FF_RECIPROCITY_ON, FF_RECIPRO
  * ...); "unknown" for a value outside the enum. */
 const char *ff_backend_choice_name(ff_backend_choice backend);
 const char *ff_cull_name(ff_cull cull);
+const char *ff_contacts_name(rad_mesh_contacts contacts); /* "cut", "keep" */
 const char *ff_reciprocity_name(ff_reciprocity reciprocity);
 const char *ff_element_name(rad_element_type element); /* "f64", "f32" */
 const char *ff_format_name(ff_format format);          /* "sparse", "dense", "paper" */
@@ -50,6 +52,7 @@ typedef struct ff_options {
     double target_error;     /* --target-error; 0 = one batch */
     uint32_t max_samples;    /* --max-samples; resolved: 64 x samples when not given */
     const char *subdiv_only; /* --subdiv-only GROUP; NULL = every face */
+    rad_mesh_contacts contacts; /* --contacts cut|keep (rad_mesh.h); 0 = cut */
     ff_backend_choice backend;
     int subdiv;
     uint32_t samples, shadow_rays;

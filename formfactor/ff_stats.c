@@ -171,6 +171,7 @@ static void put_run(rad_json_writer *w, const ff_run_info *run, const ff_rank_st
     rad_json_key(w, "subdiv");
     rad_json_int(w, run->subdiv);
     put_name(w, "subdiv_only", run->subdiv_only); /* NULL: null */
+    put_name(w, "contacts", run->contacts);
     rad_json_key(w, "refine");
     if (!run->refine_from) {
         rad_json_null(w);

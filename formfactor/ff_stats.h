@@ -36,6 +36,7 @@ typedef struct ff_run_info {
     uint32_t patch_count;
     int subdiv;
     const char *subdiv_only;
+    const char *contacts; /* "cut" or "keep" (--contacts) */
     uint32_t samples, shadow_rays;
     uint64_t seed;
     const char *estimator;

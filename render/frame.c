@@ -5,6 +5,7 @@
 
 #include "rad_log.h"
 #include "raster.h"
+#include "tonemap.h"
 
 /* The near clipping plane sits at this fraction of the depth of the
  * farthest vertex: close enough never to cut visible geometry in a scene
@@ -50,15 +51,21 @@ rad_status render_frame_draw(const rad_mesh *mesh, const double *radiosity, cons
     }
 
     size_t n = mesh->patch_count, nc = (size_t)opt.channels;
-    corners = malloc((n ? n : 1) * 4 * nc * sizeof *corners);
+    /* Corners are shaded in RGB; one channel is channel 0 of them, or
+     * their luminance (opt.luminance), so that a grey picture of a colour
+     * scene is exactly the luminance of its colour picture (shading is not
+     * linear where the limiter acts). */
+    corners = malloc((n ? n : 1) * 4 * 3 * sizeof *corners);
     verts = malloc((n ? n : 1) * 6 * sizeof *verts); /* at most two triangles per patch */
     if (!corners || !verts) {
         rad_error("out of memory for %zu patches", n);
         status = RAD_ERR_NOMEM;
         goto done;
     }
-    status = render_shade_corners(mesh, radiosity, opt.channels, opt.shading, corners);
+    status = render_shade_corners(mesh, radiosity, 3, opt.shading, corners);
     if (status != RAD_OK) goto done;
+    if (nc == 1)
+        for (size_t k = 0; k < 4 * n; k++) corners[k] = opt.luminance ? render_luminance(&corners[3 * k]) : corners[3 * k];
 
     size_t tri_count = 0;
     double far_w = 0.0;

@@ -32,6 +32,9 @@ typedef struct render_frame_options {
     int spp;                /* samples per pixel, a square; 0 = RENDER_DEFAULT_SPP (raster.h) */
     render_shading shading; /* default (0) smooth */
     int channels;           /* values per pixel: 3 (RGB) or 1 (channel 0, grey); 0 = 3 */
+    int luminance;          /* with channels 1: the Rec. 709 luminance of the RGB
+                               corners instead of channel 0 (render --channels grey
+                               of a colour scene: exactly the colour picture's luminance) */
 } render_frame_options;
 
 /* Resolves zero fields to their defaults. */

@@ -47,7 +47,8 @@ static const char usage_text[] =
     "                       otherwise; rgb: always R, G, B (grey scenes: R = G = B);\n"
     "                       grey: always one channel (8-bit grey PNG, EXR channel Y);\n"
     "                       a colour scene is then drawn from its Rec. 709 luminance\n"
-    "                       Y = 0.2126 R + 0.7152 G + 0.0722 B (linear B, per patch)\n"
+    "                       Y = 0.2126 R + 0.7152 G + 0.0722 B (linear B, of the\n"
+    "                       colour picture's shaded corners)\n"
     "  --width N            image width in pixels (default: 512)\n"
     "  --height N           image height in pixels (default: 512)\n"
     "  --spp N              samples per pixel, a square: 1, 4, 9, 16, ... 256 (default: 16)\n"
@@ -364,7 +365,7 @@ static rad_status run(const render_cli *cli)
     rad_status status = RAD_OK;
     rad_radiosity rf;
     float *rgb = NULL;
-    double *luminance = NULL;
+    int luminance = 0; /* one channel drawn from a colour scene's luminance */
     memset(&rf, 0, sizeof rf);
     double t0 = seconds_now();
     render_image_format format = render_image_format_of(cli->output);
@@ -404,14 +405,7 @@ static rad_status run(const render_cli *cli)
         frame.channels = 1;
         channels_name = "grey";
         if (rf.channel_count != 1) {
-            luminance = malloc(3 * rf.mesh.patch_count * sizeof *luminance);
-            if (!luminance) {
-                rad_error("out of memory for %zu patches", rf.mesh.patch_count);
-                status = RAD_ERR_NOMEM;
-                goto done;
-            }
-            render_luminance_radiosity(rf.radiosity, rf.mesh.patch_count, luminance);
-            radiosity = luminance;
+            luminance = frame.luminance = 1; /* render_frame_draw draws the corners' luminance */
             channels_name = "luminance";
         }
     }
@@ -440,7 +434,13 @@ static rad_status run(const render_cli *cli)
     if (unit != 1)
         for (size_t k = 0; k < (size_t)frame.channels * pixels; k++) rgb[k] = (float)(rgb[k] * unit);
     double scale = pow(2.0, cli->exposure);
-    if (cli->auto_exposure) scale *= render_tonemap_auto_scale(&rf.mesh, radiosity) / unit;
+    if (cli->auto_exposure) {
+        /* A luminance picture is exposed by the patches' luminance. */
+        double *exposed = luminance ? malloc(3 * (rf.mesh.patch_count ? rf.mesh.patch_count : 1) * sizeof *exposed) : NULL;
+        if (exposed) render_luminance_radiosity(rf.radiosity, rf.mesh.patch_count, exposed);
+        scale *= render_tonemap_auto_scale(&rf.mesh, exposed ? exposed : radiosity) / unit;
+        free(exposed);
+    }
     if (format == RENDER_IMAGE_PNG) render_tonemap_apply(rgb, pixels, frame.channels, scale);
 
     char fingerprint[32], scale_text[32], spp_text[16], values_text[160];
@@ -477,7 +477,6 @@ static rad_status run(const render_cli *cli)
              render_shading_name(frame.shading), scale, t_draw, seconds_now() - t0);
 done:
     free(rgb);
-    free(luminance);
     rad_radiosity_free(&rf);
     return status;
 }

@@ -12,6 +12,8 @@
  * ends: midpoints computed as (a + b) / 2 and cut points are exact to a
  * few ulps. */
 #define T_VERTEX_REL_TOL 1e-8
+/* Anchoring passes at most (chains along one line converge in a few). */
+#define T_VERTEX_MAX_PASSES 200
 
 typedef struct loose_edge {
     double length;
@@ -60,26 +62,60 @@ static uint32_t corner_of(const rad_patch *patch, uint32_t v)
     return 0;
 }
 
-/* Anchors vertex v, inside edge (a, b) of patch p at parameter t, to the
- * edge: its corners in the patches of p's surface take the value p's
- * corners a and b interpolate to there. */
-static void anchor(const rad_mesh *mesh, const rad_vertex_patches *adj, uint32_t p, uint32_t ka, uint32_t kb, uint32_t v,
-                   double t, size_t nc, double crease_cos, double *corners)
+/* Vertex v lies inside edge (corner ka, corner kb) of patch p, at
+ * parameter t. */
+typedef struct t_vertex {
+    uint32_t patch, ka, kb, v;
+    double t;
+} t_vertex;
+
+typedef struct t_vertex_list {
+    t_vertex *items;
+    size_t count, capacity;
+    int out_of_memory;
+} t_vertex_list;
+
+static void t_vertex_push(t_vertex_list *list, t_vertex item)
 {
-    const double *va = &corners[(4 * (size_t)p + ka) * nc], *vb = &corners[(4 * (size_t)p + kb) * nc];
-    for (size_t e = adj->start[v]; e < adj->start[v + 1]; e++) {
-        uint32_t q = adj->list[e];
-        if (!rad_same_surface(&mesh->patches[p], &mesh->patches[q], crease_cos)) continue;
-        double *dst = &corners[(4 * (size_t)q + corner_of(&mesh->patches[q], v)) * nc];
-        for (size_t c = 0; c < nc; c++) dst[c] = (1.0 - t) * va[c] + t * vb[c];
+    if (list->count == list->capacity) {
+        size_t capacity = list->capacity ? 2 * list->capacity : 256;
+        t_vertex *grown = realloc(list->items, capacity * sizeof *grown);
+        if (!grown) {
+            list->out_of_memory = 1;
+            return;
+        }
+        list->items = grown;
+        list->capacity = capacity;
     }
+    list->items[list->count++] = item;
+}
+
+/* Anchors a T-vertex to its edge: its corners in the patches of p's
+ * surface take the value p's corners interpolate to there. Returns the
+ * largest change. */
+static double anchor(const rad_mesh *mesh, const rad_vertex_patches *adj, const t_vertex *tv, size_t nc,
+                     double crease_cos, double *corners)
+{
+    const double *va = &corners[(4 * (size_t)tv->patch + tv->ka) * nc];
+    const double *vb = &corners[(4 * (size_t)tv->patch + tv->kb) * nc];
+    double change = 0.0;
+    for (size_t e = adj->start[tv->v]; e < adj->start[tv->v + 1]; e++) {
+        uint32_t q = adj->list[e];
+        if (!rad_same_surface(&mesh->patches[tv->patch], &mesh->patches[q], crease_cos)) continue;
+        double *dst = &corners[(4 * (size_t)q + corner_of(&mesh->patches[q], tv->v)) * nc];
+        for (size_t c = 0; c < nc; c++) {
+            double value = (1.0 - tv->t) * va[c] + tv->t * vb[c];
+            change = fmax(change, fabs(value - dst[c]));
+            dst[c] = value;
+        }
+    }
+    return change;
 }
 
 /* Searches the cells around the points of edge (a, b) spaced one cell
  * apart - every point of the edge is within half a cell of one - for
- * vertices inside the edge, and anchors each. */
-static void anchor_edge(const rad_mesh *mesh, const rad_vertex_patches *adj, const vertex_grid *g, const loose_edge *edge,
-                        size_t nc, double crease_cos, double *corners)
+ * vertices inside the edge, and lists each. */
+static void find_t_vertices(const rad_mesh *mesh, const vertex_grid *g, const loose_edge *edge, t_vertex_list *out)
 {
     const rad_patch *patch = &mesh->patches[edge->patch];
     uint32_t ka = edge->corner, kb = (edge->corner + 1) % patch->vertex_count;
@@ -114,7 +150,7 @@ static void anchor_edge(const rad_mesh *mesh, const rad_vertex_patches *adj, con
                         double off2 = 0.0;
                         for (int k = 0; k < 3; k++) off2 += (w[k] - t * d[k]) * (w[k] - t * d[k]);
                         if (off2 > T_VERTEX_REL_TOL * T_VERTEX_REL_TOL * len2) continue;
-                        anchor(mesh, adj, edge->patch, ka, kb, v, t, nc, crease_cos, corners);
+                        t_vertex_push(out, (t_vertex){.patch = edge->patch, .ka = ka, .kb = kb, .v = v, .t = t});
                     }
                 }
     }
@@ -136,6 +172,7 @@ static rad_status anchor_t_vertices(const rad_mesh *mesh, const rad_vertex_patch
     uint64_t *keys = malloc((edges ? edges : 1) * sizeof *keys);
     loose_edge *loose = malloc((edges ? edges : 1) * sizeof *loose);
     vertex_grid g = {.entries = malloc((mesh->vertex_count ? mesh->vertex_count : 1) * sizeof *g.entries)};
+    t_vertex_list found = {0};
     rad_status status = RAD_OK;
     if (!keys || !loose || !g.entries) {
         rad_error("out of memory finding T-vertices (%zu edges)", edges);
@@ -182,8 +219,26 @@ static rad_status anchor_t_vertices(const rad_mesh *mesh, const rad_vertex_patch
         g.entries[g.count++] = cell_hash(c[0], c[1], c[2]) << 32 | (uint64_t)v;
     }
     qsort(g.entries, g.count, sizeof *g.entries, by_u64);
-    for (size_t i = 0; i < nloose; i++) anchor_edge(mesh, adj, &g, &loose[i], nc, crease_cos, corners);
+    for (size_t i = 0; i < nloose && !found.out_of_memory; i++) find_t_vertices(mesh, &g, &loose[i], &found);
+    if (found.out_of_memory) {
+        rad_error("out of memory listing T-vertices (%zu so far)", found.count);
+        status = RAD_ERR_NOMEM;
+        goto done;
+    }
+    /* Where two sides of a line both have vertices inside the other's
+     * edges (cut pieces meeting whole cells, refined patches meeting cut
+     * ones), anchoring one moves the end of another: repeat until nothing
+     * moves, which converges to values linear along the whole line. */
+    double scale = 0.0;
+    for (size_t k = 0; k < mesh->patch_count * 4 * nc; k++) scale = fmax(scale, fabs(corners[k]));
+    for (int pass = 0; pass < T_VERTEX_MAX_PASSES; pass++) {
+        double change = 0.0;
+        for (size_t i = 0; i < found.count; i++)
+            change = fmax(change, anchor(mesh, adj, &found.items[i], nc, crease_cos, corners));
+        if (change <= 1e-14 * scale) break;
+    }
 done:
+    free(found.items);
     free(keys);
     free(loose);
     free(g.entries);
@@ -203,15 +258,22 @@ static int edge_shared(const rad_mesh *mesh, const rad_vertex_patches *adj, uint
     return 0;
 }
 
+/* Luminance of channel values (one channel: the value itself). */
+static double channel_luminance(const double *b, size_t nc)
+{
+    return nc == 3 ? 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2] : b[0];
+}
+
 /* The linear reconstruction (RENDER_SHADING_LINEAR): each patch's
  * in-plane gradient, fitted by weighted least squares to the patches of
  * its surface that share a corner with it (weights 1 / distance^2 between
- * centroids), then its value at corner k, B_p + g . (x_k - c_p), limited
- * so that shadow edges make no new extrema: inside a surface to the range
- * of B over p and those neighbours; at a corner on the surface's edge
- * (where the neighbours lie on one side only, and a linear field runs
- * past their range) to that range widened by its own width on both sides,
- * and never below 0. out: patch_count * 4 * nc, as the corners. */
+ * centroids), then its value at corner k, B_p + phi g . (x_k - c_p), with
+ * phi in [0, 1] the largest that keeps the corner's luminance - so that
+ * shadow edges make no new extrema - inside the range of the luminance over
+ * p and those neighbours; at a corner on the surface's edge (where the
+ * neighbours lie on one side only, and a linear field runs past their
+ * range) inside that range widened by its own width on both sides, and
+ * never below 0, in any channel. out: patch_count * 4 * nc, as the corners. */
 static void linear_extrapolation(const rad_mesh *mesh, const rad_vertex_patches *adj, const double *radiosity, size_t nc,
                                  double crease_cos, double *out)
 {
@@ -220,9 +282,9 @@ static void linear_extrapolation(const rad_mesh *mesh, const rad_vertex_patches 
         rad_vec3 n = patch->normal;
         rad_vec3 t1 = rad_v3_normalize(fabs(n.x) < 0.9 ? rad_v3_cross(n, rad_v3(1, 0, 0)) : rad_v3_cross(n, rad_v3(0, 1, 0)));
         rad_vec3 t2 = rad_v3_cross(n, t1);
+        const double *bp = &radiosity[3 * p];
         double m00 = 0, m01 = 0, m11 = 0, r0[3] = {0, 0, 0}, r1[3] = {0, 0, 0};
-        double lo[3], hi[3];
-        for (size_t c = 0; c < nc; c++) lo[c] = hi[c] = radiosity[3 * p + c];
+        double yp = channel_luminance(bp, nc), lo = yp, hi = yp;
         for (uint32_t k = 0; k < patch->vertex_count; k++) {
             uint32_t v = patch->v[k];
             for (size_t e = adj->start[v]; e < adj->start[v + 1]; e++) {
@@ -233,33 +295,42 @@ static void linear_extrapolation(const rad_mesh *mesh, const rad_vertex_patches 
                 double x = rad_v3_dot(d, t1), y = rad_v3_dot(d, t2), d2 = x * x + y * y;
                 if (!(d2 > 0)) continue;
                 double w = 1.0 / d2;
+                const double *bq = &radiosity[3 * (size_t)q];
                 m00 += w * x * x, m01 += w * x * y, m11 += w * y * y;
-                for (size_t c = 0; c < nc; c++) {
-                    double db = radiosity[3 * (size_t)q + c] - radiosity[3 * p + c];
-                    r0[c] += w * x * db, r1[c] += w * y * db;
-                    lo[c] = fmin(lo[c], radiosity[3 * (size_t)q + c]);
-                    hi[c] = fmax(hi[c], radiosity[3 * (size_t)q + c]);
-                }
+                for (size_t c = 0; c < nc; c++) r0[c] += w * x * (bq[c] - bp[c]), r1[c] += w * y * (bq[c] - bp[c]);
+                double yq = channel_luminance(bq, nc);
+                lo = fmin(lo, yq), hi = fmax(hi, yq);
             }
         }
         double det = m00 * m11 - m01 * m01;
         int fitted = det > 1e-9 * (m00 + m11) * (m00 + m11);
+        double gx[3] = {0, 0, 0}, gy[3] = {0, 0, 0};
+        for (size_t c = 0; fitted && c < nc; c++) {
+            gx[c] = (m11 * r0[c] - m01 * r1[c]) / det;
+            gy[c] = (m00 * r1[c] - m01 * r0[c]) / det;
+        }
         uint32_t nv = patch->vertex_count;
         for (uint32_t k = 0; k < nv; k++) {
             const double *pv = mesh->positions + 3 * (size_t)patch->v[k];
             rad_vec3 d = rad_v3_sub(rad_v3(pv[0], pv[1], pv[2]), patch->centroid);
-            double x = rad_v3_dot(d, t1), y = rad_v3_dot(d, t2);
-            int edge = fitted && (!edge_shared(mesh, adj, (uint32_t)p, patch->v[k], patch->v[(k + 1) % nv], crease_cos) ||
-                                  !edge_shared(mesh, adj, (uint32_t)p, patch->v[k], patch->v[(k + nv - 1) % nv], crease_cos));
-            for (size_t c = 0; c < nc; c++) {
-                double value = radiosity[3 * p + c];
-                if (fitted) {
-                    double gx = (m11 * r0[c] - m01 * r1[c]) / det, gy = (m00 * r1[c] - m01 * r0[c]) / det;
-                    double widen = edge ? hi[c] - lo[c] : 0.0;
-                    value = fmin(hi[c] + widen, fmax(fmax(0.0, lo[c] - widen), value + gx * x + gy * y));
-                }
-                out[(4 * p + k) * nc + c] = value;
+            double x = rad_v3_dot(d, t1), y = rad_v3_dot(d, t2), step[3] = {0, 0, 0};
+            for (size_t c = 0; c < nc; c++) step[c] = gx[c] * x + gy[c] * y;
+            /* The limiter scales every channel's step by one factor, taken
+             * from the luminance: so the luminance of the RGB corners is
+             * the corner of the luminance (render --channels grey). */
+            double phi = 1.0, dy = channel_luminance(step, nc);
+            if (fitted && dy != 0.0) {
+                int edge = !edge_shared(mesh, adj, (uint32_t)p, patch->v[k], patch->v[(k + 1) % nv], crease_cos) ||
+                           !edge_shared(mesh, adj, (uint32_t)p, patch->v[k], patch->v[(k + nv - 1) % nv], crease_cos);
+                double widen = edge ? hi - lo : 0.0;
+                double top = hi + widen, bottom = fmax(0.0, lo - widen);
+                if (yp + dy > top) phi = (top - yp) / dy;
+                if (yp + dy < bottom) phi = (bottom - yp) / dy;
+                phi = fmin(1.0, fmax(0.0, phi));
             }
+            for (size_t c = 0; c < nc; c++) /* and no channel below 0 */
+                if (bp[c] + phi * step[c] < 0.0) phi = fmax(0.0, bp[c] / -step[c]);
+            for (size_t c = 0; c < nc; c++) out[(4 * p + k) * nc + c] = bp[c] + phi * step[c];
         }
     }
 }

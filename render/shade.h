@@ -10,10 +10,12 @@
  *
  * Conforming: where a refined patch meets an unrefined one (formfactor
  * --refine) a vertex of the fine patches lies inside the coarse patch's
- * edge (a T-vertex). The coarse patch interpolates linearly along that
- * edge, so the fine patches' corners at the T-vertex take that same
- * interpolated value (longest edges first, so nested T-vertices chain):
- * the two sides agree along the whole edge and the image has no seam.
+ * edge (a T-vertex; contact cutting leaves them too). The coarse patch
+ * interpolates linearly along that edge, so the fine patches' corners at
+ * the T-vertex take that same interpolated value (longest edges first,
+ * repeated until nothing moves where both sides of a line have vertices
+ * inside the other's edges): the two sides agree along the whole edge and
+ * the image has no seam.
  * The raster stage then interpolates the corners across the patch
  * (Gouraud). Emitters show their radiosity B = E + reflected, like any patch.
  *

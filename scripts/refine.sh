@@ -7,18 +7,19 @@
 #
 #   scripts/refine.sh [--build DIR] [--scene SCENE.obj|builtin] [--tol T]
 #                     [--start-subdiv S] [--max-patches N] [--passes K]
-#                     [--ff-args "..."] [--image FILE.png|.exr] --out DIR
+#                     [--ff-args "..."] [--image FILE.png|.exr] [--spp N] --out DIR
 #
 # Leaves DIR/radiosity (the last solution), DIR/ff<k> and DIR/rad<k> per
 # pass, DIR/refine.json (per pass: patches, split, seconds) and, with
-# --image, the picture. Defaults: build/, the built-in Cornell box,
-# --tol 0.05, --start-subdiv 2, --max-patches 2400, --passes 4, and
+# --image, the picture (render --spp N, default 64: the light's edges need
+# it against a path tracer, docs/accuracy.md). Defaults: build/, the
+# built-in Cornell box, --tol 0.05, --start-subdiv 2, --max-patches 2400, --passes 4, and
 # formfactor's --quad-rtol 1e-5 --shadow-rays 16 (image accuracy: the
 # quadrature's default 1e-8 costs 3x the time for no visible change).
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 build=$here/build scene=builtin tol=0.05 start=2 max_patches=2400 passes=4 growth=2
-ff_args="--quad-rtol 1e-5 --shadow-rays 16" image="" out=""
+ff_args="--quad-rtol 1e-5 --shadow-rays 16" image="" out="" spp=64
 usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; }
 while [ $# -gt 0 ]; do
   case $1 in
@@ -30,6 +31,7 @@ while [ $# -gt 0 ]; do
     --passes) passes=$2; shift 2 ;;
     --ff-args) ff_args=$2; shift 2 ;;
     --image) image=$2; shift 2 ;;
+    --spp) spp=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
     -h|--help) usage; exit 0 ;;
     *) echo "refine.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
@@ -82,5 +84,5 @@ printf '\n  ],\n  "final_pass": %d, "seconds": %.3f\n}\n' "$last" "$(awk "BEGIN{
 mv "$json" "$out/refine.json"
 if [ -n "$image" ]; then
   [ -x "$build/render" ] || { echo "refine.sh: $build/render not built (OpenImageIO); no image" >&2; exit 1; }
-  "$build/render" "$out/radiosity" -q -o "$image"
+  "$build/render" "$out/radiosity" --spp "$spp" -q -o "$image"
 fi

@@ -133,7 +133,7 @@ disk-full)
   cp good.ff full/out.ff
   $mpirun "$ff" --subdiv 3 --format dense -o full/out.ff > err.txt 2>&1; rc=$?
   expect_failed "formfactor --subdiv 3 --format dense into a 256 KiB file system (refused up front)" $rc err.txt \
-    full/out.ff good.ff "1280 patches: full/out.ff would need .* but full has .* free; refused"
+    full/out.ff good.ff "1294 patches: full/out.ff would need .* but full has .* free; refused"
   # The sparse default's size is only bounded: a warning, then the write fails.
   $mpirun "$ff" --subdiv 3 -o full/out.ff > err.txt 2>&1; rc=$?
   expect_failed "formfactor --subdiv 3 (sparse) into a 256 KiB file system" $rc err.txt full/out.ff good.ff \
@@ -205,7 +205,7 @@ oom)
     "$ff" -q --subdiv 4 --estimator mc --samples 1 --shadow-rays 0 -o out.ff
   "$ff" -q --subdiv 3 --samples 32 --shadow-rays 8 -o mid.ff || fail "setup: formfactor mid.ff"
   "$solve" -q mid.ff -o ref.rad || fail "setup: solve mid.ff"
-  sweep "solve (1280 patches)" good.rad ref.rad out.rad "8000 16000 64000" \
+  sweep "solve (1294 patches)" good.rad ref.rad out.rad "8000 16000 64000" \
     "$solve" -q mid.ff -o out.rad
   if [ -n "$render" ]; then
     "$render" -q ref.rad -o ref.png --width 4096 --height 4096 --spp 1 || fail "setup: render ref.png"
@@ -220,7 +220,7 @@ limits)
   "$ff" --subdiv 12 -o out.ff > err.txt 2>&1; rc=$?
   [ $(($(date +%s) - start)) -le 5 ] || fail "--subdiv 12 was not refused up front"
   expect_failed "formfactor --subdiv 12 (Cornell box)" $rc err.txt out.ff good.ff \
-    "335544320 patches: out.ff would need 800 PiB \(N\^2 x 8 bytes\) and each rank about .* of memory, but .*; refused"
+    "334537984 patches: out.ff would need 795 PiB \(N\^2 x 8 bytes\) and each rank about .* of memory, but .*; refused"
   # 130 triangles x 4^12 = 2181038080 patches: beyond the format.
   awk 'BEGIN { for (i = 0; i < 130; i++) printf "v %d 0 0\nv %d 1 0\nv %d 0 1\nf %d %d %d\n", i, i, i, 3*i+1, 3*i+2, 3*i+3 }' \
     > many.obj

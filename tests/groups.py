@@ -119,7 +119,7 @@ F = F.astype(np.float64)
 names, patch_group = read_groups("cb.ff")
 objects, face_group = obj_groups(os.path.join(scenes, "cornell_box.obj"))
 n, A = len(patches), patches["area"]
-check(int(h["version"]) in (2, 3) and n == 80, f"cb.ff: version {int(h['version'])}, N = {n}")
+check(int(h["version"]) in (2, 3) and n == 91, f"cb.ff: version {int(h['version'])}, N = {n}")
 check(names == objects and len(objects) == 8, f"groups {names} are the box's objects {objects}")
 check(names is not None and all(names[patch_group[i]] == face_group[patches["source_face"][i]] for i in range(n)),
       "every patch is in the group of its face")

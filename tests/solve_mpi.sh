@@ -80,7 +80,7 @@ set -e
 size=$(wc -c < box_sparse.ff)
 head -c $((size - 100)) box_sparse.ff > cut.ff
 dd if=box_dense.ff of=flip.ff bs=1M 2>/dev/null
-n=320
+n=333 # the built-in box at --subdiv 2 (its floor cut along the blocks)
 # the dense matrix starts at the matrix offset (header byte 88); flip a byte of row n - 1
 moff=$(od -An -t u8 -j 88 -N 8 box_dense.ff | tr -d ' ')
 off=$((moff + (n - 1) * n * 8 + 17))

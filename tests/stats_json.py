@@ -68,16 +68,18 @@ if stats is not None:
     check(stats.get("program") == "formfactor", "formfactor: program")
     check(stats.get("scene") == SCENE, f"formfactor: scene {stats.get('scene')!r} == {SCENE!r}")
     check(stats.get("output") == FORMFACTORS, f"formfactor: output {stats.get('output')!r}")
-    check(stats.get("patches") == 80, f"formfactor: patches {stats.get('patches')} == 80")
+    # The built-in box at --subdiv 1: 80 patches, 91 with its floor cut along the blocks (--contacts cut).
+    check(stats.get("patches") == 91, f"formfactor: patches {stats.get('patches')} == 91")
+    check(stats.get("contacts") == "cut", f"formfactor: contacts {stats.get('contacts')!r} == 'cut'")
     check(stats.get("subdiv_only", 0) is None, "formfactor: subdiv_only is null")
     check(len(stats.get("scene_fingerprint", "")) == 16, "formfactor: a 16-digit fingerprint")
     check(isinstance(stats.get("pairs"), int) and stats["pairs"] > 0, "formfactor: pairs")
     check(isinstance(stats.get("standard_error"), dict) and "worst" in stats["standard_error"],
           "formfactor: standard_error with its worst entry")
     per_rank = stats.get("per_rank", [])
-    check(len(per_rank) == 1 and per_rank[0].get("rows") == 80 and per_rank[0].get("row_range") == [0, 80]
+    check(len(per_rank) == 1 and per_rank[0].get("rows") == 91 and per_rank[0].get("row_range") == [0, 91]
           and "time_seconds" in per_rank[0],
-          "formfactor: per_rank: one rank, its 80 rows [0, 80), its times")
+          "formfactor: per_rank: one rank, its 91 rows [0, 91), its times")
     times = stats.get("time_seconds", {})
     check(all(isinstance(times.get(k), float) and times[k] >= 0 for k in ("load", "form_factors", "total")),
           "formfactor: time_seconds")
@@ -87,7 +89,7 @@ if stats is not None:
     check(stats.get("input") == FORMFACTORS, f"solve: input {stats.get('input')!r} == {FORMFACTORS!r}")
     check(stats.get("output") == "radiosity", "solve: output")
     check(stats.get("errors", 0) is None, "solve: errors is null")
-    check(stats.get("patch_count") == 80 and stats.get("grey") is False, "solve: 80 patches, colour")
+    check(stats.get("patch_count") == 91 and stats.get("grey") is False, "solve: 91 patches, colour")
     check(stats.get("converged") is True, "solve: converged")
     channels = stats.get("channels", [])
     check([c.get("channel") for c in channels] == ["red", "green", "blue"], "solve: channels red, green, blue")

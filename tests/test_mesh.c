@@ -75,10 +75,12 @@ static void make_scene(test_scene *t, const double *positions, size_t nv, const 
     t->scene.group_count = 2;
 }
 
-/* Builds at level S; checks counts, and returns the mesh (caller frees). */
-static void build(const rad_scene *scene, int subdiv, const char *only_group, size_t patches, size_t vertices, rad_mesh *mesh)
+/* Builds at level S; checks counts, and returns the mesh (caller frees).
+ * build_whole: the same with the faces kept whole (no contact cutting). */
+static void build_with(const rad_scene *scene, int subdiv, const char *only_group, rad_mesh_contacts contacts,
+                       size_t patches, size_t vertices, rad_mesh *mesh)
 {
-    rad_mesh_options opt = {.subdiv = subdiv, .only_group = only_group};
+    rad_mesh_options opt = {.subdiv = subdiv, .only_group = only_group, .contacts = contacts};
     RAD_CHECK(rad_mesh_count_patches(scene, &opt) == patches);
     RAD_CHECK(rad_mesh_build(scene, &opt, mesh) == RAD_OK);
     RAD_CHECK(mesh->patch_count == patches);
@@ -86,6 +88,17 @@ static void build(const rad_scene *scene, int subdiv, const char *only_group, si
         fprintf(stderr, "S=%d: %zu vertices, expected %zu\n", subdiv, mesh->vertex_count, vertices);
         rad_test_failures++;
     }
+}
+
+static void build(const rad_scene *scene, int subdiv, const char *only_group, size_t patches, size_t vertices, rad_mesh *mesh)
+{
+    build_with(scene, subdiv, only_group, RAD_MESH_CONTACTS_CUT, patches, vertices, mesh);
+}
+
+static void build_whole(const rad_scene *scene, int subdiv, const char *only_group, size_t patches, size_t vertices,
+                        rad_mesh *mesh)
+{
+    build_with(scene, subdiv, only_group, RAD_MESH_CONTACTS_KEEP, patches, vertices, mesh);
 }
 
 static void test_shared_vertices(void)
@@ -194,9 +207,11 @@ static void test_scenes(void)
     rad_mesh m;
     RAD_CHECK(rad_scene_load_file(RAD_SCENES "/cornell_box.obj", NULL, &box) == RAD_OK);
     RAD_CHECK(rad_scene_load_file(RAD_SCENES "/cornell_sphere.obj", NULL, &sphere) == RAD_OK);
+    /* The Cornell box's faces whole (--contacts keep): its blocks stand on
+     * the floor, so cut (the default, test_contact.c) the floor is pieces. */
     for (int S = 0; S <= 4; S++) {
         size_t per = (size_t)1 << (2 * S);
-        build(&box, S, NULL, 20 * per, 0, &m);
+        build_whole(&box, S, NULL, 20 * per, 0, &m);
         check_mesh(&box, &m);
         if (S == 2) {
             /* Shared midpoints across faces: no two mesh vertices coincide. */
@@ -216,7 +231,7 @@ static void test_scenes(void)
     RAD_CHECK(m.group_count == 2 && strcmp(m.group_names[0], "box") == 0 && strcmp(m.group_names[1], "sphere") == 0);
     rad_mesh_free(&m);
     /* The Cornell box's eight objects; "default" (no face) is left out. */
-    build(&box, 0, NULL, 20, 0, &m);
+    build_whole(&box, 0, NULL, 20, 0, &m);
     static const char *const objects[] = {"floor", "ceiling", "light", "back_wall", "green_wall", "red_wall",
                                           "short_block", "tall_block"};
     RAD_CHECK(m.group_count == 8);

@@ -14,17 +14,21 @@
 #include "rad_test.h"
 #include "shade.h"
 
-static rad_mesh cornell(int subdiv)
+/* The Cornell box's faces as they are (contacts kept: whole faces, 4^S
+ * patches each) or cut where the blocks stand on the floor. */
+static rad_mesh cornell_mesh(int subdiv, rad_mesh_contacts contacts)
 {
     rad_scene scene;
     rad_mesh mesh;
     memset(&mesh, 0, sizeof mesh);
     if (rad_scene_load_default(&scene) != RAD_OK) return mesh;
-    rad_mesh_options mo = {.subdiv = subdiv};
+    rad_mesh_options mo = {.subdiv = subdiv, .contacts = contacts};
     if (rad_mesh_build(&scene, &mo, &mesh) != RAD_OK) memset(&mesh, 0, sizeof mesh);
     rad_scene_free(&scene);
     return mesh;
 }
+
+static rad_mesh cornell(int subdiv) { return cornell_mesh(subdiv, RAD_MESH_CONTACTS_KEEP); }
 
 /* B = 1 where the centroid's x is below 278 mm, else 0.1: a step down the
  * middle of the floor, ceiling and back wall. */
@@ -159,6 +163,7 @@ static size_t check_conforming(const rad_mesh *mesh, const double *corners, int 
                     double t = (w[0] * d[0] + w[1] * d[1] + w[2] * d[2]) / len2, off = 0;
                     for (int i = 0; i < 3; i++) off += (w[i] - t * d[i]) * (w[i] - t * d[i]);
                     if (t <= 1e-6 || t >= 1 - 1e-6 || off > 1e-12 * len2) continue;
+                    if (getenv("DBG")) fprintf(stderr, "T v%u (%.3f %.3f %.3f) in edge %u-%u of patch %zu (face %u) t=%.4f, fine patch %zu face %u\n", v, pv[0], pv[1], pv[2], a, b, p, coarse->source_face, t, q, fine->source_face);
                     for (int c = 0; c < nc; c++) {
                         double want = (1 - t) * corners[(4 * p + k) * nc + c] + t * corners[(4 * p + kb) * nc + c];
                         RAD_CHECK_NEAR(corners[(4 * q + j) * nc + c], want, 1e-12 * fmax(1, fabs(want)));
@@ -208,6 +213,41 @@ static void test_shading_is_conforming(void)
     rad_mesh_free(&twice);
 }
 
+/* The mesh cut where the blocks stand (cut cells meet whole ones with
+ * T-vertices along the cut face's grid), refined around the blocks: still
+ * no seams. */
+static void test_cut_mesh_is_conforming(void)
+{
+    rad_mesh mesh = cornell_mesh(2, RAD_MESH_CONTACTS_CUT);
+    uint8_t *split = calloc(mesh.patch_count, 1);
+    size_t floor_patches = 0;
+    for (size_t p = 0; p < mesh.patch_count; p++) {
+        if (mesh.patches[p].source_face != 0) continue;
+        floor_patches++;
+        rad_vec3 c = mesh.patches[p].centroid;
+        split[p] = c.x > 100 && c.x < 450 && c.z > 50 && c.z < 450; /* around both blocks */
+    }
+    RAD_CHECK(floor_patches > 16); /* the floor's 16 cells, some cut into pieces, less the hidden ones */
+    rad_mesh refined;
+    RAD_CHECK(rad_refine_split(&mesh, split, &refined, NULL) == RAD_OK);
+    double *b = malloc(refined.patch_count * 3 * sizeof *b);
+    for (size_t p = 0; p < refined.patch_count; p++) {
+        rad_vec3 c = refined.patches[p].centroid;
+        b[3 * p] = 1e-5 * c.x * c.x + 1e-3 * c.z, b[3 * p + 1] = 1e-5 * c.z * c.z + 0.1, b[3 * p + 2] = 0.3;
+    }
+    double *corners = malloc(refined.patch_count * 4 * 3 * sizeof *corners);
+    render_shading modes[] = {RENDER_SHADING_SMOOTH, RENDER_SHADING_LINEAR};
+    for (int m = 0; m < 2; m++) {
+        RAD_CHECK(render_shade_corners(&refined, b, 3, modes[m], corners) == RAD_OK);
+        RAD_CHECK(check_conforming(&refined, corners, 3) >= 20);
+    }
+    free(b);
+    free(corners);
+    free(split);
+    rad_mesh_free(&mesh);
+    rad_mesh_free(&refined);
+}
+
 /* Linear shading reproduces radiosity that is linear across a surface at
  * every corner, the surface's edges included, where the area-weighted
  * mean (smooth) is off by half a patch's gradient. */
@@ -247,6 +287,7 @@ int main(void)
     test_split_keeps_the_surfaces();
     test_split_all_is_the_next_level();
     test_shading_is_conforming();
+    test_cut_mesh_is_conforming();
     test_linear_shading_is_exact_for_linear_fields();
     return rad_test_finish();
 }

@@ -721,7 +721,7 @@ static void test_frame_room(void)
     render_camera_default(&t.mesh, 1.0, &cam, NULL);
     enum { W = 96, H = 96 };
     float *rgb = malloc(W * H * 3 * sizeof *rgb), *rgb2 = malloc(W * H * 3 * sizeof *rgb2);
-    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH, 3};
+    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH, 3, 0};
     RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
     render_tonemap_apply(rgb, W * H, 3, render_tonemap_auto_scale(&t.mesh, b));
     RAD_CHECK(check_cornell(rgb, W, H) == 0);
@@ -754,7 +754,7 @@ static void test_frame_grey(void)
     if (!rgb || !grey || !lum) goto done;
     double scale = render_tonemap_auto_scale(&t.mesh, b);
     for (int shading = 0; shading < 2; shading++) {
-        render_frame_options opt = {W, H, 4, shading ? RENDER_SHADING_FLAT : RENDER_SHADING_SMOOTH, 3};
+        render_frame_options opt = {W, H, 4, shading ? RENDER_SHADING_FLAT : RENDER_SHADING_SMOOTH, 3, 0};
         RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
         opt.channels = 1;
         RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, grey) == RAD_OK);
@@ -769,7 +769,7 @@ static void test_frame_grey(void)
     render_luminance_radiosity(b, t.mesh.patch_count, lum);
     RAD_CHECK_NEAR(lum[0], 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2], 1e-15);
     RAD_CHECK(lum[0] == lum[1] && lum[1] == lum[2]);
-    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH, 3};
+    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH, 3, 0};
     RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
     opt.channels = 1;
     RAD_CHECK(render_frame_draw(&t.mesh, lum, &cam, &opt, grey) == RAD_OK);
@@ -780,6 +780,22 @@ static void test_frame_grey(void)
     }
     if (worst > 1e-5) fprintf(stderr, "luminance frame: relative difference %g\n", worst);
     RAD_CHECK(worst <= 1e-5);
+    /* Linear shading limits its gradients, which is not linear in B: the
+     * luminance picture is then drawn from the RGB corners (opt.luminance),
+     * and is still the colour picture's luminance. */
+    opt = (render_frame_options){W, H, 4, RENDER_SHADING_LINEAR, 3, 0};
+    RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
+    opt.channels = 1;
+    opt.luminance = 1;
+    RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, grey) == RAD_OK);
+    worst = 0.0;
+    for (int p = 0; p < W * H; p++) {
+        double want = render_luminance((double[3]){rgb[3 * p], rgb[3 * p + 1], rgb[3 * p + 2]});
+        worst = fmax(worst, fabs(grey[p] - want) / (1e-3 + want));
+    }
+    if (worst > 1e-5) fprintf(stderr, "luminance frame, linear shading: relative difference %g\n", worst);
+    RAD_CHECK(worst <= 1e-5);
+    opt.luminance = 0;
     rad_test_capture_log();
     opt.channels = 2;
     RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_ERR_INVALID);

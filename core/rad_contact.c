@@ -1,0 +1,569 @@
+/* rad_contact.c - faces cut along their contacts (contract in rad_contact.h).
+ *
+ * Per face F: collect the cut segments (other faces meeting F's plane,
+ * clipped to F), split F's pieces by them one at a time, tidy the pieces
+ * (collinear corners, zero areas), drop the hidden ones and fan the rest
+ * into 3-4-gons. Pieces live as runs of vertex indices in one pool; a
+ * split appends its two halves and retires the piece it split.
+ *
+ * Cut vertices are deduplicated by exact position (a linear search over
+ * the cut vertices made so far: contacts add tens to hundreds). A split
+ * point on an edge is computed from the edge's lower vertex index to its
+ * higher one, so the two pieces that share the edge get the same bits and
+ * so the same vertex; a point within the tolerance of a cut segment's
+ * end is that end (a footprint's corner stays the scene's vertex).
+ * Every pair of faces is looked at (their bounding boxes first), and the
+ * inside test traces its rays against every face: fine for scenes of
+ * thousands of faces, not millions.
+ */
+#include "rad_contact.h"
+
+#include <assert.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rad_log.h"
+#include "rad_math.h"
+#include "rad_mesh.h"
+
+#define AREA_TOL 1e-12           /* x face diameter^2: a zero-area piece (as the loader's) */
+#define INSIDE_RAY_ANGLE 0.8726646259971648 /* 50 degrees off the normal, radians */
+#define TWO_PI 6.283185307179586
+#define NO_ID UINT32_MAX
+#define CUT_VERTEX_LIMIT ((size_t)UINT32_MAX - 2)
+
+typedef struct segment {
+    rad_vec3 a, b;
+    uint32_t ia, ib; /* scene vertex at a / b, or NO_ID */
+} segment;
+
+typedef struct piece {
+    size_t start; /* into cutter.pool */
+    uint32_t n;
+    int live;
+} piece;
+
+typedef struct cutter {
+    const rad_scene *scene;
+    double tol, min_length, offset; /* absolute, scene units */
+    rad_vec3 *normal;               /* per face, unit */
+    double (*box)[6];               /* per face: min xyz, max xyz */
+    double *pos;
+    size_t vertex_count, vertex_cap;
+    uint32_t *pool;  /* corners of the pieces */
+    uint64_t *line;  /* per corner: the line its edge to the next corner lies on (line_of) */
+    size_t pool_count, pool_cap, line_cap;
+    piece *pieces;
+    size_t piece_count, piece_cap;
+    segment *segs;
+    size_t seg_count, seg_cap;
+    uint32_t *opposite; /* this face's coplanar faces of opposite facing */
+    size_t opposite_count, opposite_cap;
+    uint32_t *hash;  /* cut vertices by position: index or NO_ID */
+    size_t hash_mask;
+    rad_contact_piece *out;
+    size_t out_count, out_cap;
+    size_t faces_cut, hidden;
+    const int *face_level; /* NULL = 0 */
+    int failed;
+} cutter;
+
+/* Room for `need` elements in *p (capacity *cap, doubling); on failure
+ * *failed is set and p kept. */
+static void *grow(void *p, size_t *cap, size_t need, size_t elem, int *failed)
+{
+    if (*failed || need <= *cap) return p;
+    size_t n = *cap ? *cap : 16;
+    while (n < need) n *= 2;
+    void *q = realloc(p, n * elem);
+    if (!q) {
+        *failed = 1;
+        return p;
+    }
+    *cap = n;
+    return q;
+}
+#define GROW(C, arr, cap, need) ((C)->arr = grow((C)->arr, &(C)->cap, (need), sizeof *(C)->arr, &(C)->failed), !(C)->failed)
+
+static rad_vec3 vertex(const cutter *C, uint32_t i)
+{
+    const double *p = C->pos + 3 * (size_t)i;
+    return rad_v3(p[0], p[1], p[2]);
+}
+
+static rad_vec3 face_corner(const cutter *C, uint32_t f, uint32_t k) { return vertex(C, C->scene->faces[f].v[k]); }
+
+/* Lines that piece edges lie on: a cut segment (its index, tagged), or
+ * the grid edge between two vertices (their indices, lower first). */
+#define SEGMENT_LINE(i) (UINT64_C(0xFFFFFFFF00000000) | (uint64_t)(i))
+static uint64_t edge_line(uint32_t a, uint32_t b) { return a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a; }
+
+static size_t position_hash(rad_vec3 p, size_t mask)
+{
+    uint64_t h = UINT64_C(1469598103934665603), w[3];
+    memcpy(&w[0], &p.x, 8), memcpy(&w[1], &p.y, 8), memcpy(&w[2], &p.z, 8);
+    for (int i = 0; i < 3; i++) h = (h ^ w[i]) * UINT64_C(0x9E3779B97F4A7C15);
+    return (size_t)(h >> 20) & mask;
+}
+
+/* The cut vertex at p: an existing cut vertex at exactly p, else a new one
+ * (kept in an open-addressing table at most half full). */
+static uint32_t cut_vertex(cutter *C, rad_vec3 p)
+{
+    if (C->failed) return 0;
+    size_t made = C->vertex_count - C->scene->vertex_count;
+    if (2 * (made + 1) > C->hash_mask + 1 || !C->hash) {
+        size_t size = C->hash ? 2 * (C->hash_mask + 1) : 1024;
+        uint32_t *table = malloc(size * sizeof *table);
+        if (!table) {
+            C->failed = 1;
+            return 0;
+        }
+        for (size_t i = 0; i < size; i++) table[i] = NO_ID;
+        free(C->hash);
+        C->hash = table;
+        C->hash_mask = size - 1;
+        for (size_t v = C->scene->vertex_count; v < C->vertex_count; v++) {
+            size_t i = position_hash(vertex(C, (uint32_t)v), C->hash_mask);
+            while (table[i] != NO_ID) i = (i + 1) & C->hash_mask;
+            table[i] = (uint32_t)v;
+        }
+    }
+    size_t i = position_hash(p, C->hash_mask);
+    for (; C->hash[i] != NO_ID; i = (i + 1) & C->hash_mask) {
+        const double *q = C->pos + 3 * (size_t)C->hash[i];
+        if (q[0] == p.x && q[1] == p.y && q[2] == p.z) return C->hash[i];
+    }
+    if (C->vertex_count >= CUT_VERTEX_LIMIT) C->failed = 1;
+    if (!GROW(C, pos, vertex_cap, 3 * (C->vertex_count + 1))) return 0;
+    double *q = C->pos + 3 * C->vertex_count;
+    q[0] = p.x, q[1] = p.y, q[2] = p.z;
+    C->hash[i] = (uint32_t)C->vertex_count;
+    return (uint32_t)C->vertex_count++;
+}
+
+/* Signed distance of p inside the edge a->b of a convex polygon of unit
+ * normal n (counter-clockwise about n): positive inside. */
+static double inside_edge(rad_vec3 n, rad_vec3 a, rad_vec3 b, rad_vec3 p)
+{
+    rad_vec3 m = rad_v3_normalize(rad_v3_cross(n, rad_v3_sub(b, a)));
+    return rad_v3_dot(m, rad_v3_sub(p, a));
+}
+
+/* Clips a + t (b - a), t in [*t0, *t1], to the convex polygon c[0..n-1]
+ * (unit normal nrm); 0 when nothing is left. */
+static int clip_to_polygon(rad_vec3 nrm, const rad_vec3 *c, uint32_t n, rad_vec3 a, rad_vec3 b, double tol, double *t0,
+                           double *t1)
+{
+    for (uint32_t k = 0; k < n; k++) {
+        double ha = inside_edge(nrm, c[k], c[(k + 1) % n], a), hb = inside_edge(nrm, c[k], c[(k + 1) % n], b);
+        if (fabs(ha) <= tol) ha = 0;
+        if (fabs(hb) <= tol) hb = 0;
+        if (ha < 0 && hb < 0) return 0;
+        if (ha < 0 && hb >= 0) *t0 = fmax(*t0, ha / (ha - hb));
+        if (hb < 0 && ha >= 0) *t1 = fmin(*t1, ha / (ha - hb));
+    }
+    return *t1 > *t0;
+}
+
+static int boxes_meet(const double *p, const double *q, double tol)
+{
+    for (int a = 0; a < 3; a++)
+        if (p[a] > q[3 + a] + tol || q[a] > p[3 + a] + tol) return 0;
+    return 1;
+}
+
+/* Adds segment s (in F's plane) clipped to face f, unless it is short or
+ * runs along f's boundary. */
+static void add_segment(cutter *C, uint32_t f, segment s)
+{
+    const rad_face *F = &C->scene->faces[f];
+    rad_vec3 c[4];
+    for (uint32_t k = 0; k < F->vertex_count; k++) c[k] = face_corner(C, f, k);
+    double t0 = 0, t1 = 1;
+    if (!clip_to_polygon(C->normal[f], c, F->vertex_count, s.a, s.b, C->tol, &t0, &t1)) return;
+    segment r = {rad_v3_lerp(s.a, s.b, t0), rad_v3_lerp(s.a, s.b, t1), t0 == 0 ? s.ia : NO_ID, t1 == 1 ? s.ib : NO_ID};
+    if (t0 == 0) r.a = s.a;
+    if (t1 == 1) r.b = s.b;
+    if (rad_v3_length(rad_v3_sub(r.b, r.a)) < C->min_length) return;
+    for (uint32_t k = 0; k < F->vertex_count; k++) {
+        rad_vec3 p = c[k], q = c[(k + 1) % F->vertex_count];
+        if (fabs(inside_edge(C->normal[f], p, q, r.a)) <= C->tol && fabs(inside_edge(C->normal[f], p, q, r.b)) <= C->tol)
+            return; /* along F's boundary */
+    }
+    if (!GROW(C, segs, seg_cap, C->seg_count + 1)) return;
+    C->segs[C->seg_count++] = r;
+}
+
+/* Where face g meets face f's plane: the segment it cuts there (added),
+ * or, for a coplanar g facing the other way, its edges (and g noted as
+ * opposite). */
+static void meet(cutter *C, uint32_t f, uint32_t g)
+{
+    const rad_face *G = &C->scene->faces[g];
+    rad_vec3 n = C->normal[f], p0 = face_corner(C, f, 0), q[4];
+    double d[4];
+    int pos = 0, neg = 0;
+    for (uint32_t k = 0; k < G->vertex_count; k++) {
+        q[k] = face_corner(C, g, k);
+        d[k] = rad_v3_dot(n, rad_v3_sub(q[k], p0));
+        if (fabs(d[k]) <= C->tol) d[k] = 0;
+        pos += d[k] > 0, neg += d[k] < 0;
+    }
+    if (pos == 0 && neg == 0) {
+        if (rad_v3_dot(n, C->normal[g]) >= 0) return; /* coplanar, same facing: side by side */
+        if (!GROW(C, opposite, opposite_cap, C->opposite_count + 1)) return;
+        C->opposite[C->opposite_count++] = g;
+        for (uint32_t k = 0; k < G->vertex_count; k++) {
+            uint32_t k1 = (k + 1) % G->vertex_count;
+            add_segment(C, f, (segment){q[k], q[k1], G->v[k], G->v[k1]});
+        }
+        return;
+    }
+    /* The points of g on the plane: its corners there and its edges' crossings. */
+    rad_vec3 pt[8];
+    uint32_t id[8];
+    int m = 0;
+    for (uint32_t k = 0; k < G->vertex_count; k++) {
+        uint32_t k1 = (k + 1) % G->vertex_count;
+        if (d[k] == 0) pt[m] = q[k], id[m++] = G->v[k];
+        if ((d[k] < 0 && d[k1] > 0) || (d[k] > 0 && d[k1] < 0))
+            pt[m] = rad_v3_lerp(q[k], q[k1], d[k] / (d[k] - d[k1])), id[m++] = NO_ID;
+    }
+    int best_i = -1, best_j = -1;
+    double best = 0;
+    for (int i = 0; i < m; i++)
+        for (int j = i + 1; j < m; j++) {
+            double len = rad_v3_length(rad_v3_sub(pt[j], pt[i]));
+            if (len > best) best = len, best_i = i, best_j = j;
+        }
+    if (best_i < 0) return;
+    add_segment(C, f, (segment){pt[best_i], pt[best_j], id[best_i], id[best_j]});
+}
+
+static int new_piece(cutter *C, const uint32_t *v, const uint64_t *line, uint32_t n)
+{
+    if (!GROW(C, pool, pool_cap, C->pool_count + n) || !GROW(C, line, line_cap, C->pool_count + n) ||
+        !GROW(C, pieces, piece_cap, C->piece_count + 1))
+        return 0;
+    memcpy(C->pool + C->pool_count, v, n * sizeof *v);
+    memcpy(C->line + C->pool_count, line, n * sizeof *line);
+    C->pieces[C->piece_count++] = (piece){C->pool_count, n, 1};
+    C->pool_count += n;
+    return 1;
+}
+
+/* The two points that define line l (line_of). */
+static void line_points(const cutter *C, uint64_t l, rad_vec3 *p, rad_vec3 *q)
+{
+    if (l >> 32 == 0xFFFFFFFF) {
+        *p = C->segs[l & 0xFFFFFFFF].a, *q = C->segs[l & 0xFFFFFFFF].b;
+        return;
+    }
+    *p = vertex(C, (uint32_t)(l >> 32)), *q = vertex(C, (uint32_t)l);
+}
+
+/* Splits every live piece of face f that segment si passes through along
+ * the segment's line. Each piece edge knows the line it lies on, and the
+ * split point on it is where that line meets the segment's line, computed
+ * from the two lines only: pieces that share the line (not necessarily
+ * the edge) get the same point, bit for bit. */
+static void split_pieces(cutter *C, uint32_t f, uint32_t si)
+{
+    const segment *s = &C->segs[si];
+    rad_vec3 n = C->normal[f];
+    rad_vec3 m = rad_v3_normalize(rad_v3_cross(n, rad_v3_sub(s->b, s->a)));
+    size_t count = C->piece_count;
+    for (size_t p = 0; p < count && !C->failed; p++) {
+        if (!C->pieces[p].live) continue;
+        enum { MAXC = 64 };
+        uint32_t k, cn = C->pieces[p].n, v[MAXC];
+        uint64_t e[MAXC], cut_line = SEGMENT_LINE(si);
+        if (cn > MAXC) continue; /* far more than contacts make; left whole */
+        memcpy(v, C->pool + C->pieces[p].start, cn * sizeof *v);
+        memcpy(e, C->line + C->pieces[p].start, cn * sizeof *e);
+        double side[MAXC];
+        rad_vec3 c[MAXC];
+        int pos = 0, neg = 0;
+        for (k = 0; k < cn; k++) {
+            c[k] = vertex(C, v[k]);
+            side[k] = rad_v3_dot(m, rad_v3_sub(c[k], s->a));
+            if (fabs(side[k]) <= C->tol) side[k] = 0;
+            pos += side[k] > 0, neg += side[k] < 0;
+        }
+        if (!pos || !neg) continue;
+        double t0 = 0, t1 = 1;
+        if (!clip_to_polygon(n, c, cn, s->a, s->b, 0, &t0, &t1) ||
+            (t1 - t0) * rad_v3_length(rad_v3_sub(s->b, s->a)) <= C->tol)
+            continue; /* the line crosses the piece, the segment does not */
+        uint32_t left[MAXC + 2], right[MAXC + 2], nl = 0, nr = 0;
+        uint64_t left_line[MAXC + 2], right_line[MAXC + 2];
+        for (k = 0; k < cn && !C->failed; k++) {
+            uint32_t k1 = (k + 1) % cn;
+            if (side[k] >= 0) left[nl] = v[k], left_line[nl++] = side[k] == 0 && side[k1] < 0 ? cut_line : e[k];
+            if (side[k] <= 0) right[nr] = v[k], right_line[nr++] = side[k] == 0 && side[k1] > 0 ? cut_line : e[k];
+            if ((side[k] > 0 && side[k1] < 0) || (side[k] < 0 && side[k1] > 0)) {
+                rad_vec3 P, Q;
+                line_points(C, e[k], &P, &Q);
+                double den = rad_v3_dot(m, rad_v3_sub(Q, P));
+                rad_vec3 x = den != 0 ? rad_v3_lerp(P, Q, rad_v3_dot(m, rad_v3_sub(s->a, P)) / den)
+                                      : rad_v3_lerp(c[k], c[k1], side[k] / (side[k] - side[k1]));
+                uint32_t id;
+                if (rad_v3_length(rad_v3_sub(x, s->a)) <= C->tol)
+                    id = s->ia != NO_ID ? s->ia : cut_vertex(C, s->a);
+                else if (rad_v3_length(rad_v3_sub(x, s->b)) <= C->tol)
+                    id = s->ib != NO_ID ? s->ib : cut_vertex(C, s->b);
+                else
+                    id = cut_vertex(C, x);
+                left[nl] = id, left_line[nl++] = side[k] > 0 ? cut_line : e[k];
+                right[nr] = id, right_line[nr++] = side[k] > 0 ? e[k] : cut_line;
+            }
+        }
+        if (C->failed) return;
+        C->pieces[p].live = 0;
+        if (nl >= 3 && !new_piece(C, left, left_line, nl)) return;
+        if (nr >= 3 && !new_piece(C, right, right_line, nr)) return;
+    }
+}
+
+/* Area and area centroid of the convex polygon v[0..n-1] (unit normal nrm). */
+static double polygon_area(const cutter *C, const uint32_t *v, uint32_t n, rad_vec3 nrm, rad_vec3 *out_centroid)
+{
+    rad_vec3 o = vertex(C, v[0]), sum = rad_v3(0, 0, 0);
+    double area = 0;
+    for (uint32_t k = 1; k + 1 < n; k++) {
+        rad_vec3 b = vertex(C, v[k]), c = vertex(C, v[k + 1]);
+        double a = 0.5 * rad_v3_dot(rad_v3_cross(rad_v3_sub(b, o), rad_v3_sub(c, o)), nrm);
+        sum = rad_v3_add(sum, rad_v3_scale(rad_v3_add(rad_v3_add(o, b), c), a / 3));
+        area += a;
+    }
+    *out_centroid = area > 0 ? rad_v3_scale(sum, 1 / area) : o;
+    return area;
+}
+
+/* Is p, a point just off face f, inside a solid: do most rays into the
+ * hemisphere about n first hit a back face? */
+static int inside_solid(const cutter *C, uint32_t f, rad_vec3 p, rad_vec3 n)
+{
+    rad_vec3 t1 = rad_v3_normalize(rad_v3_cross(n, fabs(n.x) < 0.6 ? rad_v3(1, 0, 0) : rad_v3(0, 1, 0)));
+    rad_vec3 t2 = rad_v3_cross(n, t1);
+    int back = 0;
+    for (int r = 0; r < RAD_CONTACT_RAYS; r++) {
+        rad_vec3 dir = n;
+        if (r > 0) {
+            double phi = TWO_PI * (r - 1) / (RAD_CONTACT_RAYS - 1) + 0.3; /* off the axes */
+            rad_vec3 t = rad_v3_add(rad_v3_scale(t1, cos(phi)), rad_v3_scale(t2, sin(phi)));
+            dir = rad_v3_add(rad_v3_scale(n, cos(INSIDE_RAY_ANGLE)), rad_v3_scale(t, sin(INSIDE_RAY_ANGLE)));
+        }
+        double nearest = INFINITY;
+        int nearest_back = 0;
+        for (uint32_t g = 0; g < C->scene->face_count; g++) {
+            if (g == f) continue;
+            const rad_face *G = &C->scene->faces[g];
+            rad_vec3 ng = C->normal[g], q0 = face_corner(C, g, 0);
+            double den = rad_v3_dot(ng, dir);
+            if (fabs(den) < 1e-12) continue;
+            double t = rad_v3_dot(ng, rad_v3_sub(q0, p)) / den;
+            if (!(t > 0) || t >= nearest) continue;
+            rad_vec3 h = rad_v3_add(p, rad_v3_scale(dir, t));
+            int in = 1;
+            for (uint32_t k = 0; k < G->vertex_count && in; k++)
+                in = inside_edge(ng, face_corner(C, g, k), face_corner(C, g, (k + 1) % G->vertex_count), h) >= -C->tol;
+            if (in) nearest = t, nearest_back = den > 0;
+        }
+        back += nearest < INFINITY && nearest_back;
+    }
+    return 2 * back > RAD_CONTACT_RAYS;
+}
+
+static int pressed(const cutter *C, rad_vec3 p)
+{
+    for (size_t i = 0; i < C->opposite_count; i++) {
+        uint32_t g = C->opposite[i];
+        const rad_face *G = &C->scene->faces[g];
+        int in = 1;
+        for (uint32_t k = 0; k < G->vertex_count && in; k++)
+            in = inside_edge(C->normal[g], face_corner(C, g, k), face_corner(C, g, (k + 1) % G->vertex_count), p) > C->tol;
+        if (in) return 1;
+    }
+    return 0;
+}
+
+static void emit(cutter *C, uint32_t f, const uint32_t *v, uint32_t n)
+{
+    if (!GROW(C, out, out_cap, C->out_count + 1)) return;
+    rad_contact_piece *o = &C->out[C->out_count++];
+    o->vertex_count = n;
+    o->source_face = f;
+    for (uint32_t k = 0; k < 4; k++) o->v[k] = k < n ? v[k] : RAD_NO_VERTEX;
+}
+
+/* Tidies piece v[0..n-1] of face f, drops it when empty or hidden, and
+ * emits it as 3-4-gons. */
+static void finish_piece(cutter *C, uint32_t f, double diameter, int has_contact, uint32_t *v, uint32_t n)
+{
+    rad_vec3 nrm = C->normal[f];
+    for (int changed = 1; changed && n >= 3;) {
+        changed = 0;
+        for (uint32_t k = 0; k < n && n >= 3; k++) {
+            rad_vec3 a = vertex(C, v[(k + n - 1) % n]), b = vertex(C, v[k]), c = vertex(C, v[(k + 1) % n]);
+            rad_vec3 ac = rad_v3_sub(c, a);
+            double len = rad_v3_length(ac);
+            int drop = v[k] == v[(k + n - 1) % n] ||
+                       (len > 0 && fabs(rad_v3_dot(rad_v3_cross(nrm, ac), rad_v3_sub(b, a))) / len <= C->tol);
+            if (drop) {
+                memmove(v + k, v + k + 1, (n - k - 1) * sizeof *v);
+                n--, changed = 1;
+            }
+        }
+    }
+    if (n < 3) return;
+    rad_vec3 centroid;
+    if (polygon_area(C, v, n, nrm, &centroid) <= AREA_TOL * diameter * diameter) return;
+    if (has_contact &&
+        (pressed(C, centroid) || inside_solid(C, f, rad_v3_add(centroid, rad_v3_scale(nrm, C->offset)), nrm))) {
+        C->hidden++;
+        return;
+    }
+    for (uint32_t i = 1; i + 1 < n;) {
+        if (i + 2 < n) {
+            uint32_t q[4] = {v[0], v[i], v[i + 1], v[i + 2]};
+            emit(C, f, q, 4);
+            i += 2;
+        } else {
+            uint32_t t[3] = {v[0], v[i], v[i + 1]};
+            emit(C, f, t, 3);
+            i += 1;
+        }
+    }
+}
+
+/* The face's grid: polygon v split `level` more times as rad_mesh splits
+ * faces (the same midpoints and centres, bit for bit), as live pieces. */
+static void grid(cutter *C, const uint32_t *v, uint32_t n, int level)
+{
+    if (C->failed) return;
+    if (level == 0) {
+        uint64_t line[4];
+        for (uint32_t k = 0; k < n; k++) line[k] = edge_line(v[k], v[(k + 1) % n]);
+        new_piece(C, v, line, n);
+        return;
+    }
+#define MID(a, b) cut_vertex(C, rad_v3_scale(rad_v3_add(vertex(C, a), vertex(C, b)), 0.5))
+    if (n == 3) {
+        uint32_t ab = MID(v[0], v[1]), bc = MID(v[1], v[2]), ca = MID(v[2], v[0]);
+        const uint32_t child[4][3] = {{v[0], ab, ca}, {ab, v[1], bc}, {ca, bc, v[2]}, {ab, bc, ca}};
+        for (int i = 0; i < 4; i++) grid(C, child[i], 3, level - 1);
+        return;
+    }
+    uint32_t ab = MID(v[0], v[1]), bc = MID(v[1], v[2]), cd = MID(v[2], v[3]), da = MID(v[3], v[0]);
+#undef MID
+    rad_vec3 sum = rad_v3(0, 0, 0);
+    for (int i = 0; i < 4; i++) sum = rad_v3_add(sum, vertex(C, v[i]));
+    uint32_t m = cut_vertex(C, rad_v3_scale(sum, 0.25));
+    const uint32_t child[4][4] = {{v[0], ab, m, da}, {ab, v[1], bc, m}, {m, bc, v[2], cd}, {da, m, cd, v[3]}};
+    for (int i = 0; i < 4; i++) grid(C, child[i], 4, level - 1);
+}
+
+static void cut_face(cutter *C, uint32_t f)
+{
+    const rad_face *F = &C->scene->faces[f];
+    C->seg_count = C->opposite_count = C->pool_count = C->piece_count = 0;
+    for (uint32_t g = 0; g < C->scene->face_count && !C->failed; g++)
+        if (g != f && boxes_meet(C->box[f], C->box[g], C->tol)) meet(C, f, g);
+    if (C->failed) return;
+    double diameter = sqrt((C->box[f][3] - C->box[f][0]) * (C->box[f][3] - C->box[f][0]) +
+                           (C->box[f][4] - C->box[f][1]) * (C->box[f][4] - C->box[f][1]) +
+                           (C->box[f][5] - C->box[f][2]) * (C->box[f][5] - C->box[f][2]));
+    if (C->seg_count == 0 && C->opposite_count == 0) {
+        emit(C, f, F->v, F->vertex_count);
+        return;
+    }
+    C->faces_cut += C->seg_count > 0;
+    int level = C->face_level ? C->face_level[f] : 0;
+    grid(C, F->v, F->vertex_count, level < RAD_CONTACT_GRID_MAX ? level : RAD_CONTACT_GRID_MAX);
+    if (C->failed) return;
+    for (size_t s = 0; s < C->seg_count && !C->failed; s++) split_pieces(C, f, (uint32_t)s);
+    for (size_t p = 0; p < C->piece_count && !C->failed; p++) {
+        if (!C->pieces[p].live) continue;
+        uint32_t v[66], n = C->pieces[p].n;
+        if (n > 66) {
+            emit(C, f, F->v, F->vertex_count); /* cannot happen: split_pieces leaves such pieces whole */
+            continue;
+        }
+        memcpy(v, C->pool + C->pieces[p].start, n * sizeof *v);
+        finish_piece(C, f, diameter, 1, v, n);
+    }
+}
+
+rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, rad_contact_cut *out_cut)
+{
+    cutter C;
+    memset(&C, 0, sizeof C);
+    C.scene = scene;
+    C.face_level = face_level;
+    rad_status status = RAD_ERR_NOMEM;
+    size_t nf = scene->face_count;
+    C.normal = malloc((nf ? nf : 1) * sizeof *C.normal);
+    C.box = malloc((nf ? nf : 1) * sizeof *C.box);
+    C.vertex_cap = 3 * (scene->vertex_count + 16);
+    C.pos = malloc(C.vertex_cap * sizeof *C.pos);
+    if (!C.normal || !C.box || !C.pos) goto done;
+    memcpy(C.pos, scene->positions, 3 * scene->vertex_count * sizeof *C.pos);
+    C.vertex_count = scene->vertex_count;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t f = 0; f < nf; f++) {
+        const rad_face *F = &scene->faces[f];
+        rad_vec3 c[4], centroid;
+        double area;
+        for (uint32_t k = 0; k < F->vertex_count; k++) c[k] = face_corner(&C, f, k);
+        rad_polygon_geometry(c, (int)F->vertex_count, &area, &C.normal[f], &centroid);
+        for (int a = 0; a < 3; a++) C.box[f][a] = INFINITY, C.box[f][3 + a] = -INFINITY;
+        for (uint32_t k = 0; k < F->vertex_count; k++) {
+            double x[3] = {c[k].x, c[k].y, c[k].z};
+            for (int a = 0; a < 3; a++) {
+                C.box[f][a] = fmin(C.box[f][a], x[a]), C.box[f][3 + a] = fmax(C.box[f][3 + a], x[a]);
+                lo[a] = fmin(lo[a], x[a]), hi[a] = fmax(hi[a], x[a]);
+            }
+        }
+    }
+    double scene_diameter = nf ? sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                                      (hi[2] - lo[2]) * (hi[2] - lo[2]))
+                               : 0;
+    C.tol = RAD_CONTACT_TOL * scene_diameter;
+    C.min_length = RAD_CONTACT_MIN_LENGTH * scene_diameter;
+    C.offset = RAD_CONTACT_OFFSET * scene_diameter;
+    for (uint32_t f = 0; f < nf && !C.failed; f++) cut_face(&C, f);
+    if (C.failed) goto done;
+    double *shrunk = realloc(C.pos, (C.vertex_count ? C.vertex_count : 1) * 3 * sizeof *shrunk);
+    if (shrunk) C.pos = shrunk;
+    *out_cut = (rad_contact_cut){.positions = C.pos, .vertex_count = C.vertex_count, .pieces = C.out,
+                                 .piece_count = C.out_count, .faces_cut = C.faces_cut, .pieces_hidden = C.hidden};
+    C.pos = NULL;
+    C.out = NULL;
+    status = RAD_OK;
+done:
+    if (status != RAD_OK)
+        rad_error("contacts: out of memory cutting %zu faces (%zu cut vertices, %zu pieces so far)", nf,
+                  C.vertex_count, C.out_count);
+    free(C.normal);
+    free(C.box);
+    free(C.pos);
+    free(C.pool);
+    free(C.line);
+    free(C.hash);
+    free(C.pieces);
+    free(C.segs);
+    free(C.opposite);
+    free(C.out);
+    return status;
+}
+
+void rad_contact_cut_free(rad_contact_cut *cut)
+{
+    if (!cut) return;
+    free(cut->positions);
+    free(cut->pieces);
+    memset(cut, 0, sizeof *cut);
+}

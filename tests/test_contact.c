@@ -1,0 +1,217 @@
+/* test_contact.c - contact cutting (core/rad_contact.h) through the patch
+ * mesh: the Cornell box's floor loses exactly the blocks' footprints, no
+ * patch lies in one, patch counts at --subdiv 0/2/3 (cut and keep), shared
+ * cut vertices, pieces' levels; the contact room (tests/data): the cube's
+ * bottom pressed on the floor and the wall inside the slab are dropped;
+ * scenes without contacts come out as before. Row sums are checked through
+ * formfactor in contact_closure.py. */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rad_contact.h"
+#include "rad_mesh.h"
+#include "rad_scene.h"
+#include "rad_test.h"
+
+/* The blocks' bottom corners (x, z) as scenes/cornell_box.obj gives them
+ * (vertices 17-20 and 25-28, y = 0). */
+static const double short_footprint[4][2] = {{130, 65}, {82, 225}, {240, 272}, {290, 114}};
+static const double tall_footprint[4][2] = {{423, 247}, {265, 296}, {314, 456}, {472, 406}};
+#define CORNELL_FLOOR_AREA 308231.04 /* mm^2, scenes/README.md */
+
+static double shoelace(const double (*p)[2], int n)
+{
+    double twice = 0;
+    for (int i = 0; i < n; i++) twice += p[i][0] * p[(i + 1) % n][1] - p[(i + 1) % n][0] * p[i][1];
+    return 0.5 * fabs(twice);
+}
+
+/* Strictly inside the convex polygon p (either winding), by 1e-9 of its size. */
+static int inside_footprint(const double (*p)[2], int n, double x, double z)
+{
+    int pos = 0, neg = 0;
+    for (int i = 0; i < n; i++) {
+        const double *a = p[i], *b = p[(i + 1) % n];
+        double cross = (b[0] - a[0]) * (z - a[1]) - (b[1] - a[1]) * (x - a[0]);
+        pos += cross > 1e-9 * 1e3, neg += cross < -1e-9 * 1e3;
+    }
+    return pos == n || neg == n;
+}
+
+static size_t group_index(const rad_mesh *m, const char *name)
+{
+    for (size_t g = 0; g < m->group_count; g++)
+        if (strcmp(m->group_names[g], name) == 0) return g;
+    return SIZE_MAX;
+}
+
+/* How many mesh vertices lie exactly at p. */
+static size_t vertices_at(const rad_mesh *m, double x, double y, double z)
+{
+    size_t count = 0;
+    for (size_t v = 0; v < m->vertex_count; v++)
+        count += m->positions[3 * v] == x && m->positions[3 * v + 1] == y && m->positions[3 * v + 2] == z;
+    return count;
+}
+
+static int patch_uses(const rad_mesh *m, const rad_patch *p, double x, double y, double z)
+{
+    for (uint32_t k = 0; k < p->vertex_count; k++) {
+        const double *q = m->positions + 3 * (size_t)p->v[k];
+        if (q[0] == x && q[1] == y && q[2] == z) return 1;
+    }
+    return 0;
+}
+
+static void test_cornell_box(void)
+{
+    rad_scene scene;
+    RAD_CHECK(rad_scene_load_default(&scene) == RAD_OK);
+    /* Patch counts: keep = 20 x 4^S; cut: the other 19 faces as before,
+     * and the floor's grid (1, 16, 64 cells at S = 0, 2, 3) cut along the
+     * blocks' 8 footprint edges, less what lies under them: 10, 29, 78
+     * patches (at S = 0: 12 pieces, 2 of them the footprints). */
+    static const struct { int subdiv; rad_mesh_contacts contacts; size_t patches; } counts[] = {
+        {0, RAD_MESH_CONTACTS_KEEP, 20}, {2, RAD_MESH_CONTACTS_KEEP, 320}, {3, RAD_MESH_CONTACTS_KEEP, 1280},
+        {0, RAD_MESH_CONTACTS_CUT, 29},  {2, RAD_MESH_CONTACTS_CUT, 333},  {3, RAD_MESH_CONTACTS_CUT, 1294},
+    };
+    double visible = CORNELL_FLOOR_AREA - shoelace(short_footprint, 4) - shoelace(tall_footprint, 4);
+    RAD_CHECK_NEAR(shoelace(short_footprint, 4), 27633.0, 1e-9);
+    RAD_CHECK_NEAR(shoelace(tall_footprint, 4), 27626.5, 1e-9);
+    for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++) {
+        rad_mesh_options opt = {.subdiv = counts[c].subdiv, .contacts = counts[c].contacts};
+        rad_mesh m;
+        RAD_CHECK(rad_mesh_count_patches(&scene, &opt) == counts[c].patches);
+        RAD_CHECK(rad_mesh_build(&scene, &opt, &m) == RAD_OK);
+        if (m.patch_count != counts[c].patches) {
+            fprintf(stderr, "cornell_box --subdiv %d --contacts %s: %zu patches, expected %zu\n", counts[c].subdiv,
+                    counts[c].contacts == RAD_MESH_CONTACTS_CUT ? "cut" : "keep", m.patch_count, counts[c].patches);
+            rad_test_failures++;
+        }
+        size_t floor = group_index(&m, "floor");
+        RAD_CHECK(floor != SIZE_MAX);
+        double area = 0;
+        size_t in_footprint = 0;
+        for (size_t p = 0; p < m.patch_count; p++) {
+            const rad_patch *q = &m.patches[p];
+            RAD_CHECK(q->vertex_count == 3 || q->vertex_count == 4);
+            RAD_CHECK(q->source_face < scene.face_count);
+            RAD_CHECK(rad_patch_centroid_inside(q, m.positions));
+            if (m.patch_group[p] != floor) continue;
+            RAD_CHECK(q->source_face == 0 && q->normal.y > 1 - 1e-12);
+            area += q->area;
+            in_footprint += inside_footprint(short_footprint, 4, q->centroid.x, q->centroid.z) ||
+                            inside_footprint(tall_footprint, 4, q->centroid.x, q->centroid.z);
+        }
+        if (counts[c].contacts == RAD_MESH_CONTACTS_CUT) {
+            /* The visible floor: the floor less the footprints, to 1e-9. */
+            RAD_CHECK_REL(area, visible, 1e-9);
+            RAD_CHECK(in_footprint == 0);
+            /* Each footprint corner is one vertex, shared by the floor's
+             * pieces and the block's sides. */
+            for (int b = 0; b < 2; b++)
+                for (int k = 0; k < 4; k++) {
+                    const double *xz = b ? tall_footprint[k] : short_footprint[k];
+                    RAD_CHECK(vertices_at(&m, xz[0], 0, xz[1]) == 1);
+                    int on_floor = 0, on_side = 0;
+                    for (size_t p = 0; p < m.patch_count; p++)
+                        if (patch_uses(&m, &m.patches[p], xz[0], 0, xz[1])) {
+                            if (m.patch_group[p] == floor)
+                                on_floor = 1;
+                            else
+                                on_side = 1;
+                        }
+                    RAD_CHECK(on_floor && on_side);
+                }
+            if (counts[c].subdiv == 0) /* pieces share their cut vertices: no position twice */
+                for (size_t v = 0; v < m.vertex_count; v++)
+                    RAD_CHECK(vertices_at(&m, m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]) == 1);
+        } else {
+            RAD_CHECK_REL(area, CORNELL_FLOOR_AREA, 1e-12);
+            RAD_CHECK(counts[c].subdiv == 0 || in_footprint > 0); /* patches run under the blocks */
+        }
+        rad_mesh_free(&m);
+    }
+    rad_scene_free(&scene);
+}
+
+/* The room of tests/data/contact_room.obj: its pieces, and a piece's
+ * level by its size. */
+static void test_contact_room(void)
+{
+    rad_scene scene;
+    rad_scene_options so = {0};
+    RAD_CHECK(rad_scene_load_file(RAD_TEST_DATA "/contact_room.obj", &so, &scene) == RAD_OK);
+    rad_contact_cut cut;
+    RAD_CHECK(rad_contact_cut_build(&scene, NULL, &cut) == RAD_OK);
+    /* Cut: the floor (two footprints), the x = 1 wall (the slab's
+     * cross-section) and the slab's 4 faces through it. Hidden: the floor
+     * under each cube, the cube's bottom, the wall inside the slab. */
+    RAD_CHECK(cut.faces_cut == 6);
+    RAD_CHECK(cut.pieces_hidden == 4);
+    size_t per_face[64] = {0};
+    RAD_CHECK(scene.face_count == 23);
+    for (size_t i = 0; i < cut.piece_count; i++) {
+        RAD_CHECK(i == 0 || cut.pieces[i].source_face >= cut.pieces[i - 1].source_face);
+        per_face[cut.pieces[i].source_face]++;
+    }
+    RAD_CHECK(per_face[6] == 0); /* the cube's bottom, pressed on the floor */
+    for (size_t f = 0; f < scene.face_count; f++) RAD_CHECK(f == 6 || per_face[f] >= 1);
+    RAD_CHECK(per_face[1] == 1 && per_face[2] == 1); /* ceiling and a wall: no contact */
+    /* Uncut faces keep their scene vertices. */
+    for (size_t i = 0; i < cut.piece_count; i++)
+        if (per_face[cut.pieces[i].source_face] == 1)
+            for (uint32_t k = 0; k < cut.pieces[i].vertex_count; k++)
+                RAD_CHECK(cut.pieces[i].v[k] == scene.faces[cut.pieces[i].source_face].v[k]);
+    rad_contact_cut_free(&cut);
+    rad_contact_cut_free(&cut); /* safe twice */
+
+    /* Levels: at --subdiv 3 a piece of half its face's diameter gets level 2. */
+    rad_mesh_options opt = {.subdiv = 3};
+    rad_mesh m;
+    RAD_CHECK(rad_mesh_build(&scene, &opt, &m) == RAD_OK);
+    double face_patch = 1.0 / 64; /* a room face's patch at level 3 */
+    for (size_t p = 0; p < m.patch_count; p++)
+        if (m.patches[p].source_face == 0) /* floor pieces: patches within 4x of the face's own */
+            RAD_CHECK(m.patches[p].area <= 4 * face_patch && m.patches[p].area >= face_patch / 16);
+    rad_mesh_free(&m);
+    rad_scene_free(&scene);
+}
+
+/* Scenes without contacts: cut = keep, patch for patch. */
+static void test_no_contacts(void)
+{
+    const char *names[] = {RAD_SCENES "/closed_box.obj", RAD_SCENES "/cornell_sphere.obj"};
+    for (int s = 0; s < 2; s++) {
+        rad_scene scene;
+        rad_scene_options so = {0};
+        RAD_CHECK(rad_scene_load_file(names[s], &so, &scene) == RAD_OK);
+        rad_mesh cut, keep;
+        rad_mesh_options oc = {.subdiv = 2}, ok = {.subdiv = 2, .contacts = RAD_MESH_CONTACTS_KEEP};
+        RAD_CHECK(rad_mesh_build(&scene, &oc, &cut) == RAD_OK && rad_mesh_build(&scene, &ok, &keep) == RAD_OK);
+        RAD_CHECK(cut.patch_count == keep.patch_count && cut.vertex_count == keep.vertex_count);
+        RAD_CHECK(cut.patch_count == keep.patch_count &&
+                  memcmp(cut.patches, keep.patches, cut.patch_count * sizeof *cut.patches) == 0);
+        RAD_CHECK(cut.vertex_count == keep.vertex_count &&
+                  memcmp(cut.positions, keep.positions, 3 * cut.vertex_count * sizeof *cut.positions) == 0);
+        rad_mesh_free(&cut);
+        rad_mesh_free(&keep);
+        rad_scene_free(&scene);
+    }
+    rad_mesh_options bad = {.contacts = (rad_mesh_contacts)7};
+    rad_scene scene;
+    rad_mesh m;
+    RAD_CHECK(rad_scene_load_default(&scene) == RAD_OK);
+    RAD_CHECK(rad_mesh_build(&scene, &bad, &m) == RAD_ERR_INVALID);
+    rad_scene_free(&scene);
+}
+
+int main(void)
+{
+    test_cornell_box();
+    test_contact_room();
+    test_no_contacts();
+    return rad_test_finish();
+}
