@@ -23,7 +23,11 @@ import os
 import subprocess
 import sys
 
-import numpy as np
+try:
+    import numpy as np
+except ImportError:  # the device machine's Debian python: CTest counts 77 as skipped
+    print("numpy missing: skipped")
+    sys.exit(77)
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
 from ffread import read_formfactors  # noqa: E402

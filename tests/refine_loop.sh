@@ -13,10 +13,11 @@ export OMP_NUM_THREADS=2
 fail() { echo "FAIL: $*"; exit 1; }
 json_count() { tr -d '\n ' < "$1" | sed -n "s/.*\"$2\":\([0-9]*\).*/\1/p" | head -n 1; }
 
-# The Cornell box: --subdiv 1, then one refinement pass with reuse.
+# The Cornell box: --subdiv 1, then one refinement pass with reuse (the
+# CPU backend's: the CUDA backend computes every pair).
 "$ff" --subdiv 1 -q -o ff0 --stats ff0.json
 "$solve" ff0 -q -o rad0 2>/dev/null
-"$ff" --refine rad0 --reuse ff0 -q -o ff1 --stats ff1.json
+"$ff" --refine rad0 --reuse ff0 --backend cpu -q -o ff1 --stats ff1.json
 n0=$(json_count ff0.json patches)
 n1=$(json_count ff1.json patches)
 split=$(tr -d '\n ' < ff1.json | sed -n 's/.*"refine":{[^}]*"split":\([0-9]*\).*/\1/p')
@@ -45,7 +46,7 @@ if "$ff" --reuse ff0 -q -o bad 2>err.txt; then fail "--reuse without --refine ac
 # A closed box (every row sums to 1): two passes, a budget, reuse.
 "$ff" "$scenes/closed_box.obj" --subdiv 2 -q -o box0
 "$solve" box0 -q -o boxrad0
-"$ff" "$scenes/closed_box.obj" --refine boxrad0 --reuse box0 --refine-tol 0.01 -q -o box1 --stats box1.json
+"$ff" "$scenes/closed_box.obj" --refine boxrad0 --reuse box0 --refine-tol 0.01 --backend cpu -q -o box1 --stats box1.json
 "$solve" box1 -q -o boxrad1
 "$ff" "$scenes/closed_box.obj" --refine boxrad1 --reuse box1 --refine-tol 0.01 --refine-max-patches 400 -q -o box2 \
   --stats box2.json

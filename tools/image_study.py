@@ -57,9 +57,13 @@ Options of `run` / `reference` (defaults in brackets):
                         room's S = 4 has 47872)
   --ff-args "ARGS"      extra formfactor flags for every run
                         [--quad-rtol 1e-5 --shadow-rays 16]
-  --refine-tols T,T     tolerances for scripts/refine.sh [0.1,0.03,0.01]; "" for none
+  --refine-tols T,T     tolerances for scripts/refine.sh [0.05]; "" for none
+  --refine-budgets B,B  START:MAX_PATCHES pairs, each a refinement run from
+                        --subdiv START to about MAX_PATCHES patches [per scene,
+                        REFINE_BUDGETS: the uniform runs' patch counts]
   --refine-script PATH  the refinement script [scripts/refine.sh], called as
                         PATH --build DIR --scene OBJ|builtin --tol T --out DIR
+                        --start-subdiv START --max-patches MAX_PATCHES
                         (+ --ff-args "ARGS" when its --help mentions --ff-args);
                         it must leave DIR/radiosity (DIR/refine.json is kept)
   --width N, --height N image size for both renderers [512 x 512]
@@ -565,12 +569,24 @@ def timed(cmd, log_path):
     return dt
 
 
-def configurations(args):
-    """The list of configurations: uniform subdivisions, then refinement tolerances."""
+# Refinement runs per scene, START:MAX_PATCHES: the loop starts at --subdiv
+# START and stops at about MAX_PATCHES, which match the uniform runs' patch
+# counts (equal-patch-count comparisons) and a smaller budget between them.
+REFINE_BUDGETS = {"cornell_box": "2:1300,2:2400", "cornell_sphere": "2:1500,2:2944",
+                  "cluttered_room": "1:1600,1:3084"}
+
+
+def configurations(scene, args):
+    """The list of configurations: uniform subdivisions, then the refinement loop at each
+    tolerance (--refine-tols) and budget (REFINE_BUDGETS, or --refine-budgets)."""
     cfgs = [{"name": f"S{s}", "kind": "uniform", "subdiv": s}
             for s in range(args.min_subdiv, args.max_subdiv + 1)]
+    budgets = args.refine_budgets or REFINE_BUDGETS.get(scene, "2:2400")
     for t in [x for x in args.refine_tols.split(",") if x]:
-        cfgs.append({"name": f"refine_{t}", "kind": "refine", "tol": t})
+        for b in [x for x in budgets.split(",") if x]:
+            start, most = b.split(":")
+            cfgs.append({"name": f"refine_{t}_S{start}_N{most}", "kind": "refine", "tol": t,
+                         "start": start, "max_patches": most})
     return cfgs
 
 
@@ -617,6 +633,8 @@ def run_ours(scene, cfg, args, cam):
         help_text = subprocess.run([refine, "--help"], capture_output=True, text=True, cwd=REPO)
         cmd = [refine, "--build", build, "--scene", "builtin" if builtin else os.path.join(REPO, obj),
                "--tol", cfg["tol"], "--out", wd]
+        if "start" in cfg:
+            cmd += ["--start-subdiv", cfg["start"], "--max-patches", cfg["max_patches"]]
         if ff_args:
             if "--ff-args" in help_text.stdout + help_text.stderr:
                 cmd += ["--ff-args", args.ff_args]
@@ -792,7 +810,7 @@ def cmd_run(args):
         cam = load_camera(scene)
         noise = info.get("mean_ref_rel_rmse", 0.0)
         rows = []
-        for cfg in configurations(args):
+        for cfg in configurations(scene, args):
             rec = run_ours(scene, cfg, args, cam)
             rec = dict(rec)
             if "skipped" not in rec:
@@ -834,7 +852,9 @@ def parse_args(argv):
         r.add_argument("--max-patches", type=int, default=20000)
         r.add_argument("--ff-args", default="--quad-rtol 1e-5 --shadow-rays 16")
         r.add_argument("--render-args", default="", help="extra render flags (e.g. '--shading flat')")
-        r.add_argument("--refine-tols", default="0.1,0.03,0.01")
+        r.add_argument("--refine-tols", default="0.05")
+        r.add_argument("--refine-budgets", default="",
+                       help="START:MAX_PATCHES,... for every scene (default: REFINE_BUDGETS per scene)")
         r.add_argument("--refine-script", default=os.path.join(REPO, "scripts", "refine.sh"))
         r.add_argument("--width", type=int, default=512)
         r.add_argument("--height", type=int, default=512)
