@@ -47,6 +47,7 @@ typedef struct piece {
 typedef struct cutter {
     const rad_scene *scene;
     double tol, min_length, offset; /* absolute, scene units */
+    double gap;                     /* RAD_CONTACT_GAP, scene units */
     rad_vec3 *normal;               /* per face, unit */
     double (*box)[6];               /* per face: min xyz, max xyz */
     double *pos;
@@ -218,6 +219,20 @@ static void meet(cutter *C, uint32_t f, uint32_t g)
         for (uint32_t k = 0; k < G->vertex_count; k++) {
             uint32_t k1 = (k + 1) % G->vertex_count;
             add_segment(C, f, (segment){q[k], q[k1], G->v[k], G->v[k1]});
+        }
+        return;
+    }
+    /* g parallel to f, facing the same way, a gap in front of f no wider
+     * than RAD_CONTACT_GAP: f's region behind g (a light panel hung 1 cm
+     * under a ceiling) is shut in. g's outline, moved onto f's plane, cuts
+     * f; the inside test then finds the pieces behind g's back. */
+    if (neg == 0 && pos == (int)G->vertex_count && rad_v3_dot(n, C->normal[g]) > 1.0 - 1e-9) {
+        for (uint32_t k = 0; k < G->vertex_count; k++)
+            if (d[k] > C->gap) return;
+        for (uint32_t k = 0; k < G->vertex_count; k++) {
+            uint32_t k1 = (k + 1) % G->vertex_count;
+            add_segment(C, f, (segment){rad_v3_sub(q[k], rad_v3_scale(n, d[k])),
+                                        rad_v3_sub(q[k1], rad_v3_scale(n, d[k1])), NO_ID, NO_ID});
         }
         return;
     }
@@ -471,7 +486,7 @@ static void cut_face(cutter *C, uint32_t f)
     const rad_face *F = &C->scene->faces[f];
     C->seg_count = C->opposite_count = C->pool_count = C->piece_count = 0;
     for (uint32_t g = 0; g < C->scene->face_count && !C->failed; g++)
-        if (g != f && boxes_meet(C->box[f], C->box[g], C->tol)) meet(C, f, g);
+        if (g != f && boxes_meet(C->box[f], C->box[g], C->gap)) meet(C, f, g);
     if (C->failed) return;
     double diameter = sqrt((C->box[f][3] - C->box[f][0]) * (C->box[f][3] - C->box[f][0]) +
                            (C->box[f][4] - C->box[f][1]) * (C->box[f][4] - C->box[f][1]) +
@@ -532,6 +547,7 @@ rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, 
                                       (hi[2] - lo[2]) * (hi[2] - lo[2]))
                                : 0;
     C.tol = RAD_CONTACT_TOL * scene_diameter;
+    C.gap = RAD_CONTACT_GAP * scene_diameter;
     C.min_length = RAD_CONTACT_MIN_LENGTH * scene_diameter;
     C.offset = RAD_CONTACT_OFFSET * scene_diameter;
     for (uint32_t f = 0; f < nf && !C.failed; f++) cut_face(&C, f);

@@ -12,7 +12,10 @@
  * floor; or G crossing the plane: an intersection line), clipped to F.
  * Segments along F's boundary or shorter than RAD_CONTACT_MIN_LENGTH x the
  * scene diameter are ignored. A face G coplanar with F and facing the
- * other way (a box's bottom on the floor) gives its edges as cut lines.
+ * other way (a box's bottom on the floor) gives its edges as cut lines,
+ * and so does, moved onto F's plane, a face G parallel to F and facing the
+ * same way at most RAD_CONTACT_GAP x the scene diameter in front of F (a
+ * light panel hung 1 cm under a ceiling: the ceiling behind it is shut in).
  * F is first split into its grid at level g = min(face_level[f],
  * RAD_CONTACT_GRID_MAX), the cells rad_mesh makes of a face at level g
  * (same midpoints, bit for bit); then each segment, in turn, splits every
@@ -29,8 +32,9 @@
  * hemisphere first hit a back face: one whose normal points along the
  * ray; a ray that leaves the scene counts as open), and those pressed
  * against a coplanar face of opposite facing (centroid inside it). So the
- * floor under a block (a top seen from below) and the bottom of a box
- * resting on the floor disappear.
+ * floor under a block (a top seen from below), the bottom of a box
+ * resting on the floor and the ceiling behind a panel hung just under it
+ * (the panel's back seen from the ceiling) disappear.
  *
  * Distances below RAD_CONTACT_TOL x the scene diameter (the bounding-box
  * diagonal of all faces' vertices) count as zero. Faces without contacts
@@ -47,6 +51,8 @@
 
 #define RAD_CONTACT_TOL 1e-6        /* x scene diameter: "on the plane", "on the line" */
 #define RAD_CONTACT_MIN_LENGTH 1e-5 /* x scene diameter: shorter cut segments are ignored */
+#define RAD_CONTACT_GAP 1e-3        /* x scene diameter: a parallel face facing the same way this
+                                       close in front of a face shuts in what is behind it */
 #define RAD_CONTACT_OFFSET 1e-5     /* x scene diameter: how far off a piece the inside test starts */
 #define RAD_CONTACT_RAYS 7          /* rays of the inside test: the normal and 6 at 50 degrees */
 #define RAD_CONTACT_GRID_MAX 4      /* deepest grid a cut face starts from (256 cells) */

@@ -181,6 +181,40 @@ static void test_contact_room(void)
 }
 
 /* Scenes without contacts: cut = keep, patch for patch. */
+/* The cluttered room's light panel hangs 1 cm under the ceiling, facing
+ * down like the ceiling: the ceiling behind it is shut in (gap contact,
+ * RAD_CONTACT_GAP) and gets no patches; the rest of the ceiling keeps
+ * 100 - 4 m^2. Kept whole, the ceiling's patches straddle the panel's
+ * outline. */
+static void test_gap_contact(void)
+{
+    rad_scene scene;
+    rad_scene_options so = {0};
+    RAD_CHECK(rad_scene_load_file(RAD_SCENES "/cluttered_room.obj", &so, &scene) == RAD_OK);
+    for (int keep = 0; keep < 2; keep++) {
+        rad_mesh m;
+        rad_mesh_options mo = {.subdiv = 2, .contacts = keep ? RAD_MESH_CONTACTS_KEEP : RAD_MESH_CONTACTS_CUT};
+        RAD_CHECK(rad_mesh_build(&scene, &mo, &m) == RAD_OK);
+        size_t ceiling = group_index(&m, "ceiling"), behind = 0;
+        double area = 0.0;
+        for (size_t i = 0; i < m.patch_count; i++) {
+            if (m.patch_group[i] != ceiling) continue;
+            const rad_patch *p = &m.patches[i];
+            area += p->area;
+            behind += p->centroid.x > 4 && p->centroid.x < 6 && p->centroid.z > 4 && p->centroid.z < 6;
+        }
+        if (keep) {
+            RAD_CHECK_REL(area, 100.0, 1e-12);
+        } else {
+            RAD_CHECK(behind == 0);
+            RAD_CHECK_REL(area, 96.0, 1e-9);
+            RAD_CHECK(m.patch_count == 3088); /* 3084 with the floor cut alone */
+        }
+        rad_mesh_free(&m);
+    }
+    rad_scene_free(&scene);
+}
+
 static void test_no_contacts(void)
 {
     const char *names[] = {RAD_SCENES "/closed_box.obj", RAD_SCENES "/cornell_sphere.obj"};
@@ -212,6 +246,7 @@ int main(void)
 {
     test_cornell_box();
     test_contact_room();
+    test_gap_contact();
     test_no_contacts();
     return rad_test_finish();
 }
