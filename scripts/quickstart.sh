@@ -7,12 +7,16 @@ cd "$(dirname "$0")/.."
 cmake -S . -B build >/dev/null
 cmake --build build -j"$(nproc)"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-cd build
-# The built-in Cornell box; --subdiv 3 (1280 patches, ~2 s on 2 cores) for a
-# smooth picture; without it each face is a single patch.
-# --errors: each entry's standard error beside the matrix, so that solve
-# warns about a row sum only beyond what the shadow rays' noise explains.
-./formfactor --subdiv 3 --errors formfactors.err   # -> build/formfactors
-./solve --errors formfactors.err                   # -> build/radiosity
-if [ -x ./render ]; then ./render -o cornell_box.png && ./render -o cornell_box.exr; fi
-ls -l formfactors radiosity cornell_box.* 2>/dev/null || true
+# The built-in Cornell box, refined where the light changes: a coarse
+# solve (--subdiv 2), then passes of formfactor --refine that split the
+# patches where the solution says the mesh is too coarse (shadow edges,
+# corners, contact lines), each solved again, up to 2400 patches; about 15 s
+# on 2 cores (docs/accuracy.md: within 0.1 % of a path tracer's mean).
+# scripts/refine.sh --help says what it runs; the plain pipeline is
+#   build/formfactor --subdiv 3 && build/solve && build/render
+./scripts/refine.sh --build build --out build/refine
+if [ -x build/render ]; then
+  build/render build/refine/radiosity --spp 64 -o build/cornell_box.png
+  build/render build/refine/radiosity --spp 64 --quantity radiance -o build/cornell_box.exr
+fi
+ls -l build/refine/radiosity build/cornell_box.* 2>/dev/null || true
