@@ -82,7 +82,7 @@ for c in all none; do
   "$ff" far.obj --backend cpu --subdiv 2 --samples 128 --shadow-rays 128 --cull $c -q -o far.$c --stats far.$c.json
   "$ff" "$scenes/cornell_box.obj" --backend cpu --subdiv 2 --samples 128 --shadow-rays 128 --cull $c -q -o near.$c
 done
-if ! cmp -s far.all far.none && ! "${RAD_PYTHON3:-python3}" -c "import numpy" 2>/dev/null; then
+if ! "${RAD_PYTHON3:-python3}" -c "import numpy" 2>/dev/null; then
   echo "numpy missing: the far scene's entries cannot be compared here; skipped"
   exit 77
 fi
