@@ -334,8 +334,7 @@ done:
 void rad_radiosity_free(rad_radiosity *radiosity)
 {
     if (!radiosity) return;
-    free(radiosity->mesh.positions);
-    free(radiosity->mesh.patches);
+    rad_mesh_free(&radiosity->mesh); /* groups too, where a caller set them (formfactor --refine) */
     free(radiosity->radiosity);
     memset(radiosity, 0, sizeof *radiosity);
 }
