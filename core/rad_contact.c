@@ -437,7 +437,8 @@ static void finish_piece(cutter *C, uint32_t f, double diameter, int has_contact
     rad_vec3 centroid;
     if (polygon_area(C, v, n, nrm, &centroid) <= AREA_TOL * diameter * diameter) return;
     if (has_contact &&
-        (pressed(C, centroid) || inside_solid(C, f, rad_v3_add(centroid, rad_v3_scale(nrm, C->offset)), nrm))) {
+        ((pressed(C, centroid) && inside_solid(C, f, rad_v3_sub(centroid, rad_v3_scale(nrm, C->offset)), rad_v3_scale(nrm, -1))) ||
+         inside_solid(C, f, rad_v3_add(centroid, rad_v3_scale(nrm, C->offset)), nrm))) {
         C->hidden++;
         return;
     }

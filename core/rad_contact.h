@@ -31,7 +31,10 @@
  * inside a solid (most of RAD_CONTACT_RAYS rays into the normal's
  * hemisphere first hit a back face: one whose normal points along the
  * ray; a ray that leaves the scene counts as open), and those pressed
- * against a coplanar face of opposite facing (centroid inside it). So the
+ * against a coplanar face of opposite facing (centroid inside it) whose
+ * own back side is inside a solid (the same test, behind the piece): a
+ * box's bottom on the floor goes, the two faces of a double-sided wall
+ * (back to back, open space on either side) stay. So the
  * floor under a block (a top seen from below), the bottom of a box
  * resting on the floor and the ceiling behind a panel hung just under it
  * (the panel's back seen from the ceiling) disappear.

@@ -332,6 +332,12 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
                   need / (1024.0 * 1024 * 1024));
         goto done;
     }
+    if (patches == 0 && scene->face_count > 0) {
+        rad_error("%s: every face lies hidden inside or under other geometry (contact cutting); nothing is left to "
+                  "mesh (--contacts keep meshes the faces as they are)", scene->path);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
     if (only_group && subdivided == 0) rad_warn("mesh: no face is in group '%s'; nothing is subdivided", only_group);
 
     mesh.patches = malloc(((size_t)patches ? (size_t)patches : 1) * sizeof *mesh.patches);

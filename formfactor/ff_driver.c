@@ -361,7 +361,9 @@ static rad_status load(ff_run *run)
         if (st == RAD_OK) st = refine_mesh(run);
         if (st == RAD_OK && ff_comm_rank(run->comm) == 0) st = check_limits(run, run->mesh.patch_count);
     } else {
-        if (st == RAD_OK && ff_comm_rank(run->comm) == 0) st = check_limits(run, rad_mesh_count_patches(&run->scene, &mo));
+        uint64_t n = st == RAD_OK ? rad_mesh_count_patches(&run->scene, &mo) : 0;
+        /* 0: nothing left after contact cutting, which rad_mesh_build explains */
+        if (st == RAD_OK && n > 0 && ff_comm_rank(run->comm) == 0) st = check_limits(run, n);
         if (st == RAD_OK) st = rad_mesh_build(&run->scene, &mo, &run->mesh);
     }
     if (st == RAD_OK && run->mesh.patch_count == 0) {

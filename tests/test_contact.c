@@ -215,6 +215,30 @@ static void test_gap_contact(void)
     rad_scene_free(&scene);
 }
 
+/* A double-sided panel (two coincident faces, back to back) is coplanar
+ * with a face of opposite facing, but open on both sides: both faces keep
+ * their patches. (A box's bottom on the floor, whose back is inside the
+ * box, goes: test_contact_room.) */
+static void test_double_sided_panel(void)
+{
+    rad_scene scene;
+    rad_scene_options so = {0};
+    RAD_CHECK(rad_scene_load_file(RAD_TEST_DATA "/double_sided_room.obj", &so, &scene) == RAD_OK);
+    rad_mesh m;
+    rad_mesh_options mo = {.subdiv = 1};
+    RAD_CHECK(rad_mesh_build(&scene, &mo, &m) == RAD_OK);
+    size_t a = group_index(&m, "panel_a"), b = group_index(&m, "panel_b");
+    double area_a = 0.0, area_b = 0.0;
+    for (size_t i = 0; i < m.patch_count; i++) {
+        if (m.patch_group[i] == a) area_a += m.patches[i].area;
+        if (m.patch_group[i] == b) area_b += m.patches[i].area;
+    }
+    RAD_CHECK_REL(area_a, 0.36, 1e-12);
+    RAD_CHECK_REL(area_b, 0.36, 1e-12);
+    rad_mesh_free(&m);
+    rad_scene_free(&scene);
+}
+
 static void test_no_contacts(void)
 {
     const char *names[] = {RAD_SCENES "/closed_box.obj", RAD_SCENES "/cornell_sphere.obj"};
@@ -247,6 +271,7 @@ int main(void)
     test_cornell_box();
     test_contact_room();
     test_gap_contact();
+    test_double_sided_panel();
     test_no_contacts();
     return rad_test_finish();
 }
