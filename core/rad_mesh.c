@@ -17,20 +17,18 @@
 #include <string.h>
 
 #include "rad_contact.h"
+#include "rad_edge_map.h"
 #include "rad_log.h"
 
 _Static_assert(sizeof(rad_patch) == 128, "rad_patch is the 128-byte patch record of the file formats");
 
 /* Indices are uint32_t and RAD_NO_VERTEX (UINT32_MAX) is taken. */
 #define MESH_LIMIT ((uint64_t)UINT32_MAX - 1)
-#define EMPTY_EDGE UINT64_MAX
 
 typedef struct builder {
     const rad_scene *scene;
     rad_mesh *mesh;
-    uint64_t *edge_keys;     /* (lo << 32) | hi, or EMPTY_EDGE */
-    uint32_t *edge_midpoint; /* mesh vertex at the middle of that edge */
-    size_t edge_mask;        /* table size - 1 (a power of two) */
+    rad_edge_map midpoints;  /* edge -> mesh vertex at its middle */
     size_t vertex_cap;       /* room in mesh->positions (the bound) */
     const rad_face *face;
     uint32_t face_index;
@@ -181,17 +179,12 @@ static uint32_t add_vertex(builder *B, rad_vec3 p)
 
 static uint32_t midpoint(builder *B, uint32_t a, uint32_t b)
 {
-    uint64_t key = a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a;
-    size_t i = (size_t)((key * UINT64_C(0x9E3779B97F4A7C15)) >> 17) & B->edge_mask;
-    while (B->edge_keys[i] != EMPTY_EDGE) {
-        if (B->edge_keys[i] == key) return B->edge_midpoint[i];
-        i = (i + 1) & B->edge_mask;
-    }
+    uint32_t *slot;
+    if (rad_edge_map_find(&B->midpoints, a, b, &slot)) return *slot;
     /* (a + b) / 2 is symmetric, so the midpoint does not depend on which
      * face asked first. */
     rad_vec3 m = rad_v3_scale(rad_v3_add(mesh_position(B->mesh, a), mesh_position(B->mesh, b)), 0.5);
-    B->edge_keys[i] = key;
-    return B->edge_midpoint[i] = add_vertex(B, m);
+    return *slot = add_vertex(B, m);
 }
 
 static void emit_patch(builder *B, const uint32_t *v, int n)
@@ -345,19 +338,15 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
     mesh.patch_group = malloc(((size_t)patches ? (size_t)patches : 1) * sizeof *mesh.patch_group);
     group_of = malloc((scene->group_count ? scene->group_count : 1) * sizeof *group_of);
     vertex_of = malloc((cut.vertex_count ? cut.vertex_count : 1) * sizeof *vertex_of);
-    B.edge_keys = malloc(table * sizeof *B.edge_keys);
-    B.edge_midpoint = malloc(table * sizeof *B.edge_midpoint);
-    if (!mesh.patches || !mesh.positions || !mesh.patch_group || !group_of || !vertex_of || !B.edge_keys ||
-        !B.edge_midpoint) {
+    rad_status map = rad_edge_map_init(&B.midpoints, (size_t)midpoints);
+    if (!mesh.patches || !mesh.positions || !mesh.patch_group || !group_of || !vertex_of || map != RAD_OK) {
         rad_error("mesh: out of memory (%llu patches need about %.1f MiB)", (unsigned long long)patches,
                   need / (1024.0 * 1024));
         goto done;
     }
-    for (size_t i = 0; i < table; i++) B.edge_keys[i] = EMPTY_EDGE;
     for (size_t i = 0; i < cut.vertex_count; i++) vertex_of[i] = RAD_NO_VERTEX;
     B.scene = scene;
     B.mesh = &mesh;
-    B.edge_mask = table - 1;
     B.vertex_cap = (size_t)vertices;
 
     /* Scene and cut vertices in order of first use, then each piece's new vertices. */
@@ -389,8 +378,7 @@ done:
     free(level);
     free(group_of);
     free(vertex_of);
-    free(B.edge_keys);
-    free(B.edge_midpoint);
+    rad_edge_map_free(&B.midpoints);
     return status;
 }
 

@@ -7,9 +7,9 @@
 #include <string.h>
 
 #include "rad_adjacency.h"
+#include "rad_edge_map.h"
 #include "rad_log.h"
 
-#define EMPTY_EDGE UINT64_MAX
 /* The balance pass: a neighbour may be at most this much larger (in
  * sqrt(area)) than a split patch's children; 2 levels apart is a factor 4
  * in size, one level apart 2, so 2.5 allows one level. */
@@ -160,14 +160,11 @@ done:
 }
 
 /* Building the refined mesh: positions grow by the midpoints and quad
- * centres; edge midpoints are shared through an open-addressing map keyed
- * by the edge's vertex pair. */
+ * centres; edge midpoints are shared through rad_edge_map, as
+ * rad_mesh_build shares them. */
 typedef struct splitter {
     rad_mesh *out;
-    size_t vertex_cap;
-    uint64_t *keys;
-    uint32_t *mid;
-    size_t mask;
+    rad_edge_map midpoints;
 } splitter;
 
 static uint32_t push_vertex(splitter *S, const double *p)
@@ -179,16 +176,11 @@ static uint32_t push_vertex(splitter *S, const double *p)
 
 static uint32_t edge_midpoint(splitter *S, uint32_t a, uint32_t b)
 {
-    uint64_t key = a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a;
-    size_t i = (size_t)((key * UINT64_C(0x9E3779B97F4A7C15)) >> 17) & S->mask;
-    while (S->keys[i] != EMPTY_EDGE) {
-        if (S->keys[i] == key) return S->mid[i];
-        i = (i + 1) & S->mask;
-    }
+    uint32_t *slot;
+    if (rad_edge_map_find(&S->midpoints, a, b, &slot)) return *slot;
     const double *pa = S->out->positions + 3 * (size_t)a, *pb = S->out->positions + 3 * (size_t)b;
     double m[3] = {0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), 0.5 * (pa[2] + pb[2])};
-    S->keys[i] = key;
-    return S->mid[i] = push_vertex(S, m);
+    return *slot = push_vertex(S, m);
 }
 
 static void emit_child(splitter *S, const rad_patch *parent, uint32_t group, const uint32_t *v, int n)
@@ -212,27 +204,23 @@ rad_status rad_refine_split(const rad_mesh *mesh, const uint8_t *split, rad_mesh
     size_t n = mesh->patch_count, count = 0;
     for (size_t p = 0; p < n; p++) count += split[p] != 0;
     size_t patches = n + 3 * count, vertices = mesh->vertex_count + 5 * count;
-    size_t table = 16;
-    while (table < 8 * count) table *= 2;
     rad_mesh out;
     memset(&out, 0, sizeof out);
-    splitter S = {.out = &out, .vertex_cap = vertices, .mask = table - 1};
+    splitter S = {.out = &out};
+    rad_status map = rad_edge_map_init(&S.midpoints, 4 * count); /* at most 4 new edges per split patch */
     uint32_t *parent = out_parent ? malloc((patches ? patches : 1) * sizeof *parent) : NULL;
     out.patches = malloc((patches ? patches : 1) * sizeof *out.patches);
     out.positions = malloc((vertices ? vertices : 1) * 3 * sizeof *out.positions);
-    S.keys = malloc(table * sizeof *S.keys);
-    S.mid = malloc(table * sizeof *S.mid);
     int groups = mesh->group_count > 0 && mesh->patch_group;
     if (groups) {
         out.patch_group = malloc((patches ? patches : 1) * sizeof *out.patch_group);
         out.group_names = malloc(mesh->group_count * sizeof *out.group_names);
     }
-    if (!out.patches || !out.positions || !S.keys || !S.mid || (out_parent && !parent) ||
+    if (!out.patches || !out.positions || map != RAD_OK || (out_parent && !parent) ||
         (groups && (!out.patch_group || !out.group_names))) {
         rad_error("refine: out of memory for %zu patches", patches);
         rad_mesh_free(&out);
-        free(S.keys);
-        free(S.mid);
+        rad_edge_map_free(&S.midpoints);
         free(parent);
         return RAD_ERR_NOMEM;
     }
@@ -240,7 +228,6 @@ rad_status rad_refine_split(const rad_mesh *mesh, const uint8_t *split, rad_mesh
         memcpy(out.group_names, mesh->group_names, mesh->group_count * sizeof *out.group_names);
         out.group_count = mesh->group_count;
     }
-    for (size_t i = 0; i < table; i++) S.keys[i] = EMPTY_EDGE;
     memcpy(out.positions, mesh->positions, mesh->vertex_count * 3 * sizeof *out.positions);
     out.vertex_count = mesh->vertex_count;
     for (size_t p = 0; p < n; p++) {
@@ -270,8 +257,7 @@ rad_status rad_refine_split(const rad_mesh *mesh, const uint8_t *split, rad_mesh
         if (parent)
             for (size_t i = first; i < out.patch_count; i++) parent[i] = (uint32_t)p;
     }
-    free(S.keys);
-    free(S.mid);
+    rad_edge_map_free(&S.midpoints);
     double *shrunk = realloc(out.positions, (out.vertex_count ? out.vertex_count : 1) * 3 * sizeof *shrunk);
     if (shrunk) out.positions = shrunk;
     *out_mesh = out;

@@ -6,6 +6,7 @@
 
 #include "rad_adjacency.h"
 #include "rad_log.h"
+#include "tonemap.h"
 
 /* A vertex lies inside an edge when it is this close to the edge's line
  * (relative to the edge's length) and its parameter is this far from both
@@ -259,10 +260,7 @@ static int edge_shared(const rad_mesh *mesh, const rad_vertex_patches *adj, uint
 }
 
 /* Luminance of channel values (one channel: the value itself). */
-static double channel_luminance(const double *b, size_t nc)
-{
-    return nc == 3 ? 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2] : b[0];
-}
+static double channel_luminance(const double *b, size_t nc) { return nc == 3 ? render_luminance(b) : b[0]; }
 
 /* The linear reconstruction (RENDER_SHADING_LINEAR): each patch's
  * in-plane gradient, fitted by weighted least squares to the patches of
