@@ -308,6 +308,15 @@ static void split_pieces(cutter *C, uint32_t f, uint32_t si)
             pos += side[k] > 0, neg += side[k] < 0;
         }
         if (!pos || !neg) continue;
+        /* A convex piece changes side at most twice along its boundary; more
+         * changes are rounding (sides within a hair of tol) and would put up
+         * to 2 cn vertices into left and right: leave such a piece whole. */
+        int changes = 0;
+        for (k = 0; k < cn; k++) {
+            double here = side[k], next = side[(k + 1) % cn];
+            changes += (here > 0 && next < 0) || (here < 0 && next > 0);
+        }
+        if (changes > 2) continue;
         double t0 = 0, t1 = 1;
         if (!clip_to_polygon(n, c, cn, s->a, s->b, 0, &t0, &t1) ||
             (t1 - t0) * rad_v3_length(rad_v3_sub(s->b, s->a)) <= C->tol)

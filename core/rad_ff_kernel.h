@@ -212,6 +212,11 @@ static inline RAD_HD double rad_ff_point_kernel(rad_vec3 x, rad_vec3 nx, rad_vec
  * coplanar pairs and i == j exactly zero. */
 static inline RAD_HD int rad_ff_pair_facing(const rad_ff_patch *pi, const rad_ff_patch *pj, double eps)
 {
+    /* Pieces of one face (its patches, its contact-cut pieces) lie in one
+     * plane: the loader accepts a face only when it is planar to 1e-6 of
+     * its size, so their vertices may sit off each other's planes by more
+     * than eps, but they cannot see each other. F = 0 by definition. */
+    if (pi->face == pj->face) return 0;
     int front_j = 0, front_i = 0;
     for (uint32_t k = 0; k < pj->vertex_count; k++)
         front_j |= rad_v3_dot(pi->normal, rad_v3_sub(pj->p[k], pi->p[0])) > eps;
@@ -364,7 +369,11 @@ static inline RAD_HD uint32_t rad_ff_near_samples(uint32_t samples)
 static inline RAD_HD double rad_ff_point_polygon(rad_vec3 x, rad_vec3 n, const rad_ff_patch *to)
 {
     if (!(rad_v3_dot(to->normal, rad_v3_sub(x, to->p[0])) > 0.0)) return 0.0;
-    rad_vec3 clipped[5];
+    /* Each edge adds at most two vertices, whatever the signs of ha and hb
+     * come out as: with x in the target's plane to within rounding they
+     * may alternate around the polygon, so the bound is 2 per vertex, not
+     * the 5 that exact arithmetic gives a quad cut by one plane. */
+    rad_vec3 clipped[2 * 4];
     int m = 0;
     uint32_t count = to->vertex_count;
     for (uint32_t e = 0; e < count; e++) {

@@ -18,8 +18,12 @@
 
 /* ---- the signal guard ---- */
 
-static const int guarded_signals[] = {SIGTERM, SIGINT, SIGHUP,  SIGQUIT, SIGUSR1,   SIGUSR2,
-                                      SIGALRM, SIGPIPE, SIGXCPU, SIGXFSZ, SIGVTALRM, SIGPROF};
+/* The termination signals, and the faults (a crash removes its temporaries
+ * too: a SIGSEGV in the form-factor kernel once left a 0-byte one). The
+ * handler re-raises with the default action, so a fault still dumps core. */
+static const int guarded_signals[] = {SIGTERM, SIGINT,    SIGHUP,  SIGQUIT, SIGUSR1, SIGUSR2, SIGALRM,
+                                      SIGPIPE, SIGXCPU,   SIGXFSZ, SIGVTALRM, SIGPROF, SIGSEGV, SIGBUS,
+                                      SIGFPE,  SIGILL,    SIGABRT};
 #define GUARDED_COUNT (sizeof guarded_signals / sizeof guarded_signals[0])
 static char g_guard_name[RAD_FS_GUARD_SLOTS][4096];
 /* A slot's name counts only while its flag is set: the name is written

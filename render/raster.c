@@ -103,12 +103,20 @@ static int clip_polygon(const render_vertex *tri, double near_w, int nc, render_
     for (int plane = 0; plane < 5 && count > 0; plane++) {
         const render_vertex *src = buf[cur];
         render_vertex *dst = buf[1 - cur];
-        int n = 0;
+        double d[CLIP_MAX];
+        int n = 0, changes = 0;
+        for (int k = 0; k < count; k++) d[k] = plane_value(&src[k], plane, near_w);
+        for (int k = 0; k < count; k++) changes += (d[k] >= 0) != (d[(k + 1) % count] >= 0);
+        /* A convex polygon crosses a plane at most twice, adding at most one
+         * vertex. More crossings are rounding of vertices that lie in the
+         * plane (values alternating around 0): keep the inside ones only,
+         * so the buffer's bound holds whatever the signs come out as. */
+        int split = changes <= 2;
         for (int k = 0; k < count; k++) {
             const render_vertex *a = &src[k], *b = &src[(k + 1) % count];
-            double da = plane_value(a, plane, near_w), db = plane_value(b, plane, near_w);
+            double da = d[k], db = d[(k + 1) % count];
             if (da >= 0) dst[n++] = *a;
-            if ((da >= 0) != (db >= 0))
+            if (split && (da >= 0) != (db >= 0))
                 dst[n++] = da >= 0 ? clip_point(a, da, b, db, nc) : clip_point(b, db, a, da, nc);
         }
         count = n;
