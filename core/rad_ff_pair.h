@@ -6,9 +6,10 @@
  * The including file supplies the two things that differ:
  *
  *     #define RAD_FF_TRACER     my_tracer      (a type; passed by pointer)
- *     #define RAD_FF_OCCLUDED(tracer, o, d, face_a, face_b)  ...
- *         1 if the segment o + t d (float[3] each, t in [FF_RAY_T_MIN,
- *         FF_RAY_T_MAX]) hits an occluder on neither face
+ *     #define RAD_FF_OCCLUDED(tracer, x, nx, face_x, y, ny, face_y)  ...
+ *         1 if the segment from x (on face_x, unit normal nx) to y (on
+ *         face_y, normal ny), rad_vec3 each, hits an occluder on neither
+ *         face (formfactor/ff_bvh.h, ff_segment: what counts as a hit)
  *     #define RAD_FF_TICKS()    a long long clock (time spent tracing)
  *     #define RAD_FF_LANE_SUM(x, lanes)
  *         optional: sums over the threads that share a pair (rad_ff_quad.h)
@@ -27,6 +28,7 @@
 
 #include <stdint.h>
 
+#include "rad_ff_contour.h"
 #include "rad_ff_kernel.h"
 #include "rad_ff_quad.h"
 #include "rad_ff_visibility.h"
@@ -95,14 +97,11 @@ static inline RAD_HD void rad_ff_pair_rays_add(const rad_ff_pair_params *pp, con
     out->rays_blocked += traced - visible;
 }
 
-/* One shadow segment from a on patch pa to b on patch pb (double),
- * traced as float. */
+/* One shadow segment from a on patch pa to b on patch pb. */
 static inline RAD_HD int rad_ff_pair_visible(const RAD_FF_TRACER *tracer, rad_vec3 a, const rad_ff_patch *pa,
                                              rad_vec3 b, const rad_ff_patch *pb)
 {
-    float o[3] = {(float)a.x, (float)a.y, (float)a.z};
-    float d[3] = {(float)b.x - o[0], (float)b.y - o[1], (float)b.z - o[2]};
-    return !(RAD_FF_OCCLUDED(tracer, o, d, pa->face, pb->face));
+    return !(RAD_FF_OCCLUDED(tracer, a, pa->normal, pa->face, b, pb->normal, pb->face));
 }
 
 /* Monte Carlo terms of samples [k0, k1): G(x, y) (far) or near-field terms. */
@@ -220,9 +219,26 @@ static inline RAD_HD rad_ff_quad_result rad_ff_pair_quad_unoccluded(const rad_ff
                                                                     uint32_t i, uint32_t j)
 {
     int i_is_q = rad_ff_quad_roles(pi, pj, i, j);
+    const rad_ff_patch *q = i_is_q ? pi : pj, *p = i_is_q ? pj : pi;
     double rtol = pp->quad_rtol > 0.0 ? pp->quad_rtol : RAD_FF_QUAD_RTOL; /* 0: the defaults */
     double atol = pp->quad_atol > 0.0 ? pp->quad_atol : RAD_FF_QUAD_ATOL;
-    return rad_ff_quad_unoccluded(i_is_q ? pi : pj, i_is_q ? pj : pi, rtol, atol, pp->lane, pp->lanes);
+    /* Near pairs (shared edges and vertices among them): the double
+     * contour integral, which needs a few hundred analytic inner integrals
+     * where the area rule needs thousands of point factors; the area rule
+     * where it does not reach the tolerance (rad_ff_contour.h). */
+    uint32_t contour_points = 0;
+    if (rad_ff_contour_applies(q, p)) {
+        rad_ff_contour_result c = rad_ff_contour_g(q, p, rtol, atol, pp->lane, pp->lanes);
+        if (c.converged) {
+            rad_ff_quad_result out;
+            out.g = c.g, out.error = c.error, out.points = c.points, out.cells = 0, out.capped = 0;
+            return out;
+        }
+        contour_points = c.points;
+    }
+    rad_ff_quad_result out = rad_ff_quad_unoccluded(q, p, rtol, atol, pp->lane, pp->lanes);
+    out.points += contour_points;
+    return out;
 }
 
 /* Does stage 2 trace rays for G0 (given a tracer)? */

@@ -28,7 +28,7 @@
 typedef struct ff_setup {
     const rad_ff_patch *patches; /* patch_count */
     uint32_t patch_count;
-    const float *triangles;      /* occluders: triangle_count * 9 floats (3 vertices) */
+    const double *triangles;     /* occluders: triangle_count * 9 doubles (3 vertices) */
     const uint32_t *triangle_face; /* scene face of each triangle (to skip source/target) */
     uint32_t triangle_count;
     uint32_t samples;            /* K point pairs per patch pair, >= 1 */
@@ -53,7 +53,8 @@ typedef struct ff_setup {
      * could not have hit anything, so the matrix is byte-identical. */
     int cull;
     int scene_convex;
-    float cull_margin;           /* scene units */
+    float cull_margin;           /* scene units: the float shaft box */
+    double ray_delta;            /* scene units: what a shadow segment counts as a hit (ff_segment) */
     /* Compute only the entries rad_ff_row_computes assigns to their row
      * (each unordered pair once); the others are set to 0 and filled in by
      * the driver from the other row (ff_rows.h). */

@@ -39,12 +39,14 @@ struct cuda_tracer {
     const ff_bvh_tri *tris;
     int32_t root;
     uint32_t root_count;
+    double delta; /* ff_segment */
 };
 
-static inline RAD_HD int cuda_occluded(const cuda_tracer *t, const float o[3], const float d[3], uint32_t a,
-                                       uint32_t b)
+static inline RAD_HD int cuda_occluded(const cuda_tracer *t, rad_vec3 x, rad_vec3 nx, uint32_t a, rad_vec3 y,
+                                       rad_vec3 ny, uint32_t b)
 {
-    return ff_bvh_occluded(t->nodes, t->tris, t->root, t->root_count, o, d, a, b);
+    ff_segment seg = ff_segment_make(x, nx, a, y, ny, b, t->delta);
+    return ff_bvh_occluded(t->nodes, t->tris, t->root, t->root_count, &seg);
 }
 
 static inline RAD_HD long long cuda_ticks(void)
@@ -85,7 +87,7 @@ template <typename T> static inline RAD_HD T cuda_lane_sum(T v, unsigned lanes)
 
 #define RAD_FF_LANE_SUM(x, lanes) cuda_lane_sum(x, lanes)
 #define RAD_FF_TRACER cuda_tracer
-#define RAD_FF_OCCLUDED(t, o, d, a, b) cuda_occluded(t, o, d, a, b)
+#define RAD_FF_OCCLUDED(t, x, nx, a, y, ny, b) cuda_occluded(t, x, nx, a, y, ny, b)
 #define RAD_FF_TICKS() cuda_ticks()
 #include "rad_ff_pair.h"
 
@@ -219,7 +221,8 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint8_t 
     else {
         uint8_t clear = p.pair.rays == 0 || (p.cull && p.scene_convex) ||
                         (p.cull && !ff_pair_may_be_occluded(p.tracer.nodes, p.tracer.tris, p.tracer.root,
-                                                            p.tracer.root_count, pi, pj, p.cull_margin, 0,
+                                                            p.tracer.root_count, pi, pj, p.cull_margin,
+                                                            p.tracer.delta, 0,
                                                             p.pair.estimator == RAD_ESTIMATOR_QUADRATURE));
         uint64_t at = rad_ff_pair_near(pi, pj) ? capacity - 1 - atomicAdd(&counts[1], 1u) : atomicAdd(&counts[0], 1u);
         pairs[at] = (uint32_t)t;
@@ -562,6 +565,7 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
     p.tracer.tris = s->d_tris;
     p.tracer.root = s->root;
     p.tracer.root_count = s->root_count;
+    p.tracer.delta = su->ray_delta;
     p.pair = ff_pair_params(su);
     p.cull = su->cull;
     p.cull_margin = su->cull_margin;

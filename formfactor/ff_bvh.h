@@ -3,12 +3,19 @@
  *
  * ff_bvh_build (ff_bvh_build.c) builds it with Embree's binned-SAH builder
  * (rtcBuildBVH) and flattens it; the CUDA backend copies the two arrays to
- * the GPU and calls ff_bvh_occluded per shadow ray; tests call the same
- * function on the host and compare it with Embree's own rtcOccluded1.
+ * the GPU and calls ff_bvh_occluded per shadow segment, the CPU backend
+ * calls it on the host; tests compare the walk with a scan of every
+ * triangle.
  *
- * Layout (all 16-byte aligned so the GPU loads them as float4):
- *   node     64 bytes: both children's boxes and references
- *   triangle 48 bytes: v0 + face id, edge1, edge2
+ * Layout (16-byte aligned):
+ *   node     64 bytes: both children's boxes (float, grown by FF_BVH_PAD
+ *            so that a float walk never misses a leaf a double segment
+ *            reaches) and references
+ *   triangle 80 bytes: v0, edge1, edge2 in double, face id
+ *
+ * Boxes are float (the walk is the cheap, conservative part); the hit test
+ * is double (exact enough for faces 1e-9 of the scene apart, where float
+ * end points would put both faces in one plane).
  * A child reference c >= 0 is an inner node index; c < 0 is a leaf holding
  * the triangles [~c, ~c + count).
  */
@@ -40,12 +47,11 @@ typedef struct ff_bvh_node {
 } ff_bvh_node;
 
 typedef struct ff_bvh_tri {
-    FF_ALIGN16 float v0[3];
+    FF_ALIGN16 double v0[3];
+    double e1[3];  /* v1 - v0 */
+    double e2[3];  /* v2 - v0 */
     uint32_t face; /* scene face: rays from or to this face ignore it */
-    float e1[3];   /* v1 - v0 */
-    float pad1;
-    float e2[3];   /* v2 - v0 */
-    float pad2;
+    uint32_t pad;
 } ff_bvh_tri;
 
 typedef struct ff_bvh {
@@ -57,49 +63,92 @@ typedef struct ff_bvh {
     uint32_t root_count;
 } ff_bvh;
 
-/* Builds from triangle_count triangles (9 floats each) and their faces.
+/* Builds from triangle_count triangles (9 doubles each) and their faces.
  * An empty scene gives an empty BVH (every ray unoccluded). */
-rad_status ff_bvh_build(const float *triangles, const uint32_t *triangle_face, uint32_t triangle_count,
+rad_status ff_bvh_build(const double *triangles, const uint32_t *triangle_face, uint32_t triangle_count,
                         ff_bvh *out_bvh);
 void ff_bvh_free(ff_bvh *bvh);
 
 #define FF_BVH_STACK 64 /* > depth of Embree's builder (maxDepth 32 + leaves) */
 
-/* A shadow segment x -> y is tested over t in [FF_RAY_T_MIN, FF_RAY_T_MAX]
- * of o + t (y - x), on CPU (Embree) and GPU alike: hits within 1e-4 of the
- * segment's length from either end are ignored. Those are the faces that
- * meet the source or target face at an edge, touched only because the end
- * points were rounded to float; counting them darkened pairs at corners
- * at random. */
-#define FF_RAY_T_MIN 1e-4f
-#define FF_RAY_T_MAX (1.0f - 1e-4f)
+/* Boxes are grown by FF_BVH_PAD float ulps of the largest coordinate,
+ * and the walk accepts t a hair outside [0, 1]: the float segment (end
+ * points rounded) then never misses a box the double segment enters. */
+#define FF_BVH_PAD (16.0f * FLT_EPSILON)
+#define FF_BVH_T_SLACK 1e-6f
 
-/* Does the segment o + t d, t in [FF_RAY_T_MIN, FF_RAY_T_MAX], hit a triangle whose face
- * is neither skip_a nor skip_b? Moller-Trumbore in float. */
-static inline RAD_HD int ff_bvh_hit_tri(const ff_bvh_tri *t, const float o[3], const float d[3])
+/* A shadow segment from x, on face a with unit normal na, to y, on face b
+ * with normal nb (double, the backends' centred frame).
+ *
+ * What counts as a hit (the same on CPU and GPU, ff_bvh_hit_tri): the
+ * segment meets a triangle of a face other than a and b at a point that
+ * lies more than `delta` in front of both end planes - of na through x and
+ * of nb through y. Heights, not fractions of the segment: a face 1e-9 of
+ * the scene in front of x blocks whatever the segment's length (the old
+ * rule, t in [1e-4, 1 - 1e-4], let a 5-unit ray pass through anything
+ * within half a millimetre of either end: two facing squares 1e-4 apart
+ * saw each other and the whole room, rows summed to 2). delta is
+ * FF_RAY_DELTA of the scene's diagonal, far above double rounding (1e-16)
+ * and far below any gap a model means: faces that share an edge with the
+ * source or target face, or lie in its plane, meet the segment only at
+ * its end, at height 0, and never count. A segment that leaves x's plane
+ * backwards (na.(y - x) <= 0) carries no weight and is never blocked. */
+#define FF_RAY_DELTA 1e-12
+
+typedef struct ff_segment {
+    double o[3], d[3];     /* x, and y - x */
+    double rise_a, rise_b; /* na.(y - x) and nb.(x - y): height over each end plane per unit of t */
+    double delta;
+    float fo[3], inv_fd[3]; /* the segment in float, for the box tests */
+    uint32_t skip_a, skip_b;
+} ff_segment;
+
+static inline RAD_HD ff_segment ff_segment_make(rad_vec3 x, rad_vec3 nx, uint32_t face_x, rad_vec3 y, rad_vec3 ny,
+                                                uint32_t face_y, double delta)
 {
-    float px = d[1] * t->e2[2] - d[2] * t->e2[1];
-    float py = d[2] * t->e2[0] - d[0] * t->e2[2];
-    float pz = d[0] * t->e2[1] - d[1] * t->e2[0];
-    float det = t->e1[0] * px + t->e1[1] * py + t->e1[2] * pz;
-    if (det == 0.0f) return 0; /* segment parallel to the triangle's plane */
-    float inv = 1.0f / det;
-    float sx = o[0] - t->v0[0], sy = o[1] - t->v0[1], sz = o[2] - t->v0[2];
-    float u = (sx * px + sy * py + sz * pz) * inv;
-    if (u < 0.0f || u > 1.0f) return 0;
-    float qx = sy * t->e1[2] - sz * t->e1[1];
-    float qy = sz * t->e1[0] - sx * t->e1[2];
-    float qz = sx * t->e1[1] - sy * t->e1[0];
-    float v = (d[0] * qx + d[1] * qy + d[2] * qz) * inv;
-    if (v < 0.0f || u + v > 1.0f) return 0;
-    float tt = (t->e2[0] * qx + t->e2[1] * qy + t->e2[2] * qz) * inv;
-    return tt >= FF_RAY_T_MIN && tt <= FF_RAY_T_MAX;
+    ff_segment s;
+    rad_vec3 d = rad_v3_sub(y, x);
+    s.o[0] = x.x, s.o[1] = x.y, s.o[2] = x.z;
+    s.d[0] = d.x, s.d[1] = d.y, s.d[2] = d.z;
+    s.rise_a = rad_v3_dot(nx, d);
+    s.rise_b = -rad_v3_dot(ny, d);
+    s.delta = delta;
+    for (int a = 0; a < 3; a++) {
+        s.fo[a] = (float)s.o[a];
+        s.inv_fd[a] = 1.0f / (float)s.d[a];
+    }
+    s.skip_a = face_x, s.skip_b = face_y;
+    return s;
 }
 
-/* Entry distance of the segment into a box, or a miss (returns 0). */
+/* Does the segment hit the triangle (see ff_segment)? Moller-Trumbore in
+ * double. */
+static inline RAD_HD int ff_bvh_hit_tri(const ff_bvh_tri *t, const ff_segment *s)
+{
+    const double *d = s->d;
+    double px = d[1] * t->e2[2] - d[2] * t->e2[1];
+    double py = d[2] * t->e2[0] - d[0] * t->e2[2];
+    double pz = d[0] * t->e2[1] - d[1] * t->e2[0];
+    double det = t->e1[0] * px + t->e1[1] * py + t->e1[2] * pz;
+    if (det == 0.0) return 0; /* segment parallel to the triangle's plane */
+    double inv = 1.0 / det;
+    double sx = s->o[0] - t->v0[0], sy = s->o[1] - t->v0[1], sz = s->o[2] - t->v0[2];
+    double u = (sx * px + sy * py + sz * pz) * inv;
+    if (u < 0.0 || u > 1.0) return 0;
+    double qx = sy * t->e1[2] - sz * t->e1[1];
+    double qy = sz * t->e1[0] - sx * t->e1[2];
+    double qz = sx * t->e1[1] - sy * t->e1[0];
+    double v = (d[0] * qx + d[1] * qy + d[2] * qz) * inv;
+    if (v < 0.0 || u + v > 1.0) return 0;
+    double tt = (t->e2[0] * qx + t->e2[1] * qy + t->e2[2] * qz) * inv;
+    /* Inside the segment, and in front of both end planes by more than delta. */
+    return tt > 0.0 && tt < 1.0 && tt * s->rise_a > s->delta && (1.0 - tt) * s->rise_b > s->delta;
+}
+
+/* Does the float segment meet a box (t within [0, 1] and a slack)? */
 static inline RAD_HD int ff_bvh_hit_box(const float lo[3], const float hi[3], const float o[3], const float inv_d[3])
 {
-    float tmin = FF_RAY_T_MIN, tmax = FF_RAY_T_MAX;
+    float tmin = -FF_BVH_T_SLACK, tmax = 1.0f + FF_BVH_T_SLACK;
     for (int a = 0; a < 3; a++) {
         float t0 = (lo[a] - o[a]) * inv_d[a], t1 = (hi[a] - o[a]) * inv_d[a];
         float near_t = t0 < t1 ? t0 : t1, far_t = t0 < t1 ? t1 : t0;
@@ -110,38 +159,35 @@ static inline RAD_HD int ff_bvh_hit_box(const float lo[3], const float hi[3], co
     return tmin <= tmax;
 }
 
-static inline RAD_HD int ff_bvh_leaf_hit(const ff_bvh_tri *tris, int32_t ref, uint32_t count, const float o[3],
-                                         const float d[3], uint32_t skip_a, uint32_t skip_b)
+static inline RAD_HD int ff_bvh_leaf_hit(const ff_bvh_tri *tris, int32_t ref, uint32_t count, const ff_segment *s)
 {
     for (uint32_t k = 0; k < count; k++) {
         const ff_bvh_tri *t = &tris[~ref + (int32_t)k];
-        if (t->face != skip_a && t->face != skip_b && ff_bvh_hit_tri(t, o, d)) return 1;
+        if (t->face != s->skip_a && t->face != s->skip_b && ff_bvh_hit_tri(t, s)) return 1;
     }
     return 0;
 }
 
-/* Any-hit query for the segment from o to o + d (first hit returns). */
+/* Any-hit query for a segment (first hit returns). */
 static inline RAD_HD int ff_bvh_occluded(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
-                                         uint32_t root_count, const float o[3], const float d[3], uint32_t skip_a,
-                                         uint32_t skip_b)
+                                         uint32_t root_count, const ff_segment *s)
 {
-    if (root < 0) return root_count ? ff_bvh_leaf_hit(tris, root, root_count, o, d, skip_a, skip_b) : 0;
-    float inv_d[3] = {1.0f / d[0], 1.0f / d[1], 1.0f / d[2]};
+    if (root < 0) return root_count ? ff_bvh_leaf_hit(tris, root, root_count, s) : 0;
     int32_t stack[FF_BVH_STACK];
     int top = 0;
     stack[top++] = root;
     while (top > 0) {
         const ff_bvh_node *n = &nodes[stack[--top]];
-        if (ff_bvh_hit_box(n->lo0, n->hi0, o, inv_d)) {
+        if (ff_bvh_hit_box(n->lo0, n->hi0, s->fo, s->inv_fd)) {
             if (n->child0 < 0) {
-                if (ff_bvh_leaf_hit(tris, n->child0, n->count0, o, d, skip_a, skip_b)) return 1;
+                if (ff_bvh_leaf_hit(tris, n->child0, n->count0, s)) return 1;
             } else if (top < FF_BVH_STACK) {
                 stack[top++] = n->child0;
             }
         }
-        if (ff_bvh_hit_box(n->lo1, n->hi1, o, inv_d)) {
+        if (ff_bvh_hit_box(n->lo1, n->hi1, s->fo, s->inv_fd)) {
             if (n->child1 < 0) {
-                if (ff_bvh_leaf_hit(tris, n->child1, n->count1, o, d, skip_a, skip_b)) return 1;
+                if (ff_bvh_leaf_hit(tris, n->child1, n->count1, s)) return 1;
             } else if (top < FF_BVH_STACK) {
                 stack[top++] = n->child1;
             }
@@ -157,8 +203,9 @@ static inline RAD_HD int ff_bvh_occluded(const ff_bvh_node *nodes, const ff_bvh_
  * than boxed), and a triangle is out of the way if
  *  - its bounding box misses the box around both patches, or
  *  - all three of its vertices lie outside one plane of the hull (farther
- *    than the margin that covers the rays' float rounding), or
- *  - it lies wholly on or behind the plane of pi or of pj, and only the
+ *    than the segments' delta, ff_segment), or
+ *  - it lies wholly on or behind the plane of pi or of pj (within delta:
+ *    ff_bvh_hit_tri counts no hit there), and only the
  *    segments that carry weight count: those join a point of pi to one of
  *    pj strictly in front of pi's plane, and a point of pj to one of pi
  *    strictly in front of pj's, so their insides are strictly in front of
@@ -168,11 +215,12 @@ static inline RAD_HD int ff_bvh_occluded(const ff_bvh_node *nodes, const ff_bvh_
  *    one that counts); the Monte Carlo estimators' visible fraction counts
  *    every ray alike. This also drops triangles lying in a patch's plane,
  *    which the hull keeps; or
- *  - both patches lie wholly on one side of its own plane (within the
- *    margin): a segment between them then meets that plane at most at an
- *    end (the walls of a room, for every pair inside it).
- * BVH nodes are pruned the same way: by the box, and by a hull plane that
- * has the whole node box outside it. */
+ *  - both patches lie wholly on one side of its own plane (within delta):
+ *    a segment between them then meets that plane at most at an end (the
+ *    walls of a room, for every pair inside it).
+ * BVH nodes are pruned the same way: by the box (float, grown by the
+ * margin that covers float rounding of the coordinates), and by a hull
+ * plane that has the whole node box outside it. */
 #define FF_SHAFT_PLANES 32 /* hull faces of <= 8 points: <= 12; more triples may share a plane */
 
 typedef struct ff_shaft {
@@ -181,9 +229,9 @@ typedef struct ff_shaft {
     int point_count;
     int drop_behind;      /* the patch-plane rule applies (see above) */
     int plane_count;      /* hull planes; -1 = not built yet (built at the first triangle the box keeps) */
-    double margin, extent;
+    double margin, delta, extent; /* margin: the float box; delta: the planes (ff_segment) */
     double n[FF_SHAFT_PLANES][3]; /* unit outward normals: inside is n.p <= d */
-    double d[FF_SHAFT_PLANES];    /* offsets, grown by the margin */
+    double d[FF_SHAFT_PLANES];    /* offsets, grown by delta */
 } ff_shaft;
 
 static inline RAD_HD int ff_bvh_box_overlaps(const float a_lo[3], const float a_hi[3], const float b_lo[3],
@@ -242,9 +290,9 @@ static inline RAD_HD int ff_pair_vertices(const rad_ff_patch *pi, const rad_ff_p
     return count;
 }
 
-/* The shaft of pair (pi, pj); margin in scene units. */
-static inline RAD_HD void ff_shaft_build(const rad_ff_patch *pi, const rad_ff_patch *pj, float margin, int weighted,
-                                          ff_shaft *s)
+/* The shaft of pair (pi, pj); margin and delta in scene units. */
+static inline RAD_HD void ff_shaft_build(const rad_ff_patch *pi, const rad_ff_patch *pj, float margin, double delta,
+                                          int weighted, ff_shaft *s)
 {
     s->drop_behind = weighted || (ff_patch_in_front(pi, pj) && ff_patch_in_front(pj, pi));
     rad_vec3 *points = s->points;
@@ -265,6 +313,7 @@ static inline RAD_HD void ff_shaft_build(const rad_ff_patch *pi, const rad_ff_pa
     }
     s->plane_count = -1;
     s->margin = margin;
+    s->delta = delta;
     s->extent = extent;
 }
 
@@ -273,19 +322,19 @@ static inline RAD_HD void ff_shaft_build(const rad_ff_patch *pi, const rad_ff_pa
 static inline RAD_HD void ff_shaft_need_hull(ff_shaft *s)
 {
     if (s->plane_count >= 0) return;
-    ff_shaft_hull(s, s->points, s->point_count, 1e-9 * s->extent, s->margin);
+    ff_shaft_hull(s, s->points, s->point_count, 1e-9 * s->extent, s->delta);
 }
 
 /* Do the pair's points all lie on one side of the triangle's plane
- * (within the margin)? */
-static inline RAD_HD int ff_tri_plane_separates(const float v[3][3], const ff_shaft *s)
+ * (within delta)? */
+static inline RAD_HD int ff_tri_plane_separates(const double v[3][3], const ff_shaft *s)
 {
     rad_vec3 a = rad_v3(v[0][0], v[0][1], v[0][2]);
     rad_vec3 n = rad_v3_cross(rad_v3_sub(rad_v3(v[1][0], v[1][1], v[1][2]), a),
                               rad_v3_sub(rad_v3(v[2][0], v[2][1], v[2][2]), a));
     double len = rad_v3_length(n);
     if (!(len > 0.0)) return 0;
-    double tol = s->margin * len;
+    double tol = s->delta * len;
     int front = 1, back = 1;
     for (int k = 0; k < s->point_count; k++) {
         double h = rad_v3_dot(n, rad_v3_sub(s->points[k], a));
@@ -295,21 +344,19 @@ static inline RAD_HD int ff_tri_plane_separates(const float v[3][3], const ff_sh
     return front || back;
 }
 
-/* Is the triangle on or behind q's plane? "On" within the rounding of
- * its float vertices: the vertices a neighbouring face shares with q's
- * come back a hair in front. */
-static inline RAD_HD int ff_tri_behind(const float v[3][3], const rad_ff_patch *q)
+/* Is the triangle on or behind q's plane, within delta (where
+ * ff_bvh_hit_tri counts no hit)? */
+static inline RAD_HD int ff_tri_behind(const double v[3][3], const rad_ff_patch *q, double delta)
 {
     for (int k = 0; k < 3; k++) {
-        double size = fmax(fabs((double)v[k][0]), fmax(fabs((double)v[k][1]), fabs((double)v[k][2])));
         double h = rad_v3_dot(q->normal, rad_v3_sub(rad_v3(v[k][0], v[k][1], v[k][2]), q->p[0]));
-        if (h > 4.0 * FLT_EPSILON * size) return 0;
+        if (h > delta) return 0;
     }
     return 1;
 }
 
 /* Are all the points outside one hull plane? */
-static inline RAD_HD int ff_shaft_separates(const ff_shaft *s, const float (*v)[3], int count)
+static inline RAD_HD int ff_shaft_separates(const ff_shaft *s, const double (*v)[3], int count)
 {
     for (int p = 0; p < s->plane_count; p++) {
         int outside = 1;
@@ -335,19 +382,20 @@ static inline RAD_HD int ff_tri_in_shaft(const ff_bvh_tri *t, ff_shaft *s, const
                                          const rad_ff_patch *pj)
 {
     if (t->face == pi->face || t->face == pj->face) return 0;
-    float v[3][3], tlo[3], thi[3];
+    double v[3][3];
+    float tlo[3], thi[3];
     for (int a = 0; a < 3; a++) {
         v[0][a] = t->v0[a];
         v[1][a] = t->v0[a] + t->e1[a];
         v[2][a] = t->v0[a] + t->e2[a];
-        tlo[a] = fminf(v[0][a], fminf(v[1][a], v[2][a]));
-        thi[a] = fmaxf(v[0][a], fmaxf(v[1][a], v[2][a]));
+        tlo[a] = (float)fmin(v[0][a], fmin(v[1][a], v[2][a]));
+        thi[a] = (float)fmax(v[0][a], fmax(v[1][a], v[2][a]));
     }
     if (!ff_bvh_box_overlaps(tlo, thi, s->lo, s->hi)) return 0;
-    if (s->drop_behind && (ff_tri_behind(v, pi) || ff_tri_behind(v, pj))) return 0;
+    if (s->drop_behind && (ff_tri_behind(v, pi, s->delta) || ff_tri_behind(v, pj, s->delta))) return 0;
     if (ff_tri_plane_separates(v, s)) return 0;
     ff_shaft_need_hull(s);
-    return !ff_shaft_separates(s, (const float(*)[3])v, 3);
+    return !ff_shaft_separates(s, (const double(*)[3])v, 3);
 }
 
 static inline RAD_HD int ff_bvh_leaf_in_shaft(const ff_bvh_tri *tris, int32_t ref, uint32_t count, ff_shaft *s,
@@ -392,10 +440,10 @@ static inline RAD_HD int ff_bvh_shaft_may_occlude(const ff_bvh_node *nodes, cons
  * only segments that carry weight count (the quadrature estimator). */
 static inline RAD_HD int ff_pair_may_be_occluded(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
                                                  uint32_t root_count, const rad_ff_patch *pi, const rad_ff_patch *pj,
-                                                 float margin, int hull, int weighted)
+                                                 float margin, double delta, int hull, int weighted)
 {
     ff_shaft s;
-    ff_shaft_build(pi, pj, margin, weighted, &s);
+    ff_shaft_build(pi, pj, margin, delta, weighted, &s);
     if (!hull) s.plane_count = 0; /* built, and empty */
     return ff_bvh_shaft_may_occlude(nodes, tris, root, root_count, &s, pi, pj);
 }

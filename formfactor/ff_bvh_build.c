@@ -3,6 +3,7 @@
  * thread-local allocator; one depth-first walk numbers the inner nodes and
  * gathers leaf triangles contiguously. */
 #include <embree3/rtcore.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -54,13 +55,13 @@ static void *create_leaf(RTCThreadLocalAllocator alloc, const struct RTCBuildPri
 
 typedef struct flatten_ctx {
     ff_bvh *bvh;
-    const float *triangles;
+    const double *triangles;
     const uint32_t *triangle_face;
 } flatten_ctx;
 
 static void put_tri(flatten_ctx *c, uint32_t src)
 {
-    const float *v = c->triangles + 9 * (size_t)src;
+    const double *v = c->triangles + 9 * (size_t)src;
     ff_bvh_tri *t = &c->bvh->tris[c->bvh->tri_count++];
     memset(t, 0, sizeof *t);
     for (int a = 0; a < 3; a++) {
@@ -95,7 +96,7 @@ static int32_t flatten(flatten_ctx *c, const build_node *n, uint32_t *out_count)
     return (int32_t)index;
 }
 
-rad_status ff_bvh_build(const float *triangles, const uint32_t *triangle_face, uint32_t triangle_count,
+rad_status ff_bvh_build(const double *triangles, const uint32_t *triangle_face, uint32_t triangle_count,
                         ff_bvh *out_bvh)
 {
     rad_status status = RAD_OK;
@@ -116,18 +117,20 @@ rad_status ff_bvh_build(const float *triangles, const uint32_t *triangle_face, u
         goto done;
     }
     if (triangle_count == 0) goto done;
+    /* Float boxes around double triangles, grown by FF_BVH_PAD of the
+     * largest coordinate (ff_bvh.h): the walk in float then never misses
+     * a triangle that the double hit test would count. */
+    double largest = 0.0;
+    for (size_t k = 0; k < 9 * (size_t)triangle_count; k++) largest = fmax(largest, fabs(triangles[k]));
+    float pad = (float)(FF_BVH_PAD * largest);
     for (uint32_t t = 0; t < triangle_count; t++) {
-        const float *v = triangles + 9 * (size_t)t;
+        const double *v = triangles + 9 * (size_t)t;
+        double lo[3] = {v[0], v[1], v[2]}, hi[3] = {v[0], v[1], v[2]};
+        for (int k = 1; k < 3; k++)
+            for (int a = 0; a < 3; a++) lo[a] = fmin(lo[a], v[3 * k + a]), hi[a] = fmax(hi[a], v[3 * k + a]);
         struct RTCBuildPrimitive *p = &prims[t];
-        p->lower_x = p->upper_x = v[0];
-        p->lower_y = p->upper_y = v[1];
-        p->lower_z = p->upper_z = v[2];
-        for (int k = 1; k < 3; k++) {
-            const float *w = v + 3 * k;
-            p->lower_x = w[0] < p->lower_x ? w[0] : p->lower_x, p->upper_x = w[0] > p->upper_x ? w[0] : p->upper_x;
-            p->lower_y = w[1] < p->lower_y ? w[1] : p->lower_y, p->upper_y = w[1] > p->upper_y ? w[1] : p->upper_y;
-            p->lower_z = w[2] < p->lower_z ? w[2] : p->lower_z, p->upper_z = w[2] > p->upper_z ? w[2] : p->upper_z;
-        }
+        p->lower_x = (float)lo[0] - pad, p->lower_y = (float)lo[1] - pad, p->lower_z = (float)lo[2] - pad;
+        p->upper_x = (float)hi[0] + pad, p->upper_y = (float)hi[1] + pad, p->upper_z = (float)hi[2] + pad;
         p->geomID = 0;
         p->primID = t;
     }

@@ -37,7 +37,7 @@ typedef struct ff_run {
     rad_mesh mesh;
     rad_ff_patch *patches;
     double *area; /* the patches' areas, contiguous: ff_rows_finish reads one per entry */
-    float *triangles;
+    double *triangles;
     uint32_t *triangle_face, triangle_count;
     uint32_t *row_begin; /* ranks + 1 */
     const ff_backend *backend;
@@ -430,6 +430,7 @@ static rad_status setup(ff_run *run)
                        .max_samples = run->opt.max_samples, .errors = run->want_errors,
                        .cull = run->opt.cull == FF_CULL_ALL, .scene_convex = convex,
                        .cull_margin = ff_cull_margin(&run->mesh, centre, eps), .plane_eps = eps,
+                       .ray_delta = ff_ray_delta(&run->mesh),
                        .pairs_once = run->plan.pairs_once, .threads = run->stats.threads,
                        .reuse_old = run->reuse_old, .reuse_coupling = run->reuse_coupling,
                        .reuse_n = (uint32_t)run->refine_patches_before,

@@ -4,6 +4,7 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "ff_bvh.h"
 #include "rad_log.h"
 
 void ff_frame_centre(const rad_mesh *mesh, double centre[3])
@@ -57,12 +58,12 @@ rad_status ff_patches_build(const rad_mesh *mesh, const double centre[3], rad_ff
     return RAD_OK;
 }
 
-rad_status ff_occluders_build(const rad_scene *scene, const double centre[3], float **out_triangles,
+rad_status ff_occluders_build(const rad_scene *scene, const double centre[3], double **out_triangles,
                               uint32_t **out_triangle_face, uint32_t *out_triangle_count)
 {
     uint32_t count = 0;
     for (size_t f = 0; f < scene->face_count; f++) count += scene->faces[f].vertex_count - 2;
-    float *tri = malloc(sizeof *tri * 9 * (count ? count : 1));
+    double *tri = malloc(sizeof *tri * 9 * (count ? count : 1));
     uint32_t *face = malloc(sizeof *face * (count ? count : 1));
     if (!tri || !face) {
         free(tri);
@@ -77,7 +78,7 @@ rad_status ff_occluders_build(const rad_scene *scene, const double centre[3], fl
             uint32_t corner[3] = {fc->v[0], fc->v[k], fc->v[k + 1]};
             for (int c = 0; c < 3; c++)
                 for (int a = 0; a < 3; a++)
-                    tri[9 * t + 3 * c + a] = (float)(scene->positions[3 * corner[c] + a] - centre[a]);
+                    tri[9 * t + 3 * c + a] = scene->positions[3 * corner[c] + a] - centre[a];
             face[t] = (uint32_t)f;
         }
     }
@@ -108,7 +109,8 @@ int ff_scene_is_convex_enclosure(const rad_scene *scene, double eps)
     return scene->face_count > 0;
 }
 
-double ff_plane_eps(const rad_mesh *mesh)
+/* The bounding-box diagonal of the mesh. */
+static double mesh_diagonal(const rad_mesh *mesh)
 {
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t v = 0; v < mesh->vertex_count; v++)
@@ -118,7 +120,17 @@ double ff_plane_eps(const rad_mesh *mesh)
         }
     double d2 = 0;
     for (int a = 0; a < 3; a++) d2 += mesh->vertex_count ? (hi[a] - lo[a]) * (hi[a] - lo[a]) : 0;
-    return 1e-9 * sqrt(d2);
+    return sqrt(d2);
+}
+
+double ff_plane_eps(const rad_mesh *mesh)
+{
+    return 1e-11 * mesh_diagonal(mesh);
+}
+
+double ff_ray_delta(const rad_mesh *mesh)
+{
+    return FF_RAY_DELTA * mesh_diagonal(mesh);
 }
 
 float ff_cull_margin(const rad_mesh *mesh, const double centre[3], double eps)
@@ -161,3 +173,4 @@ rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps
     free(prefix);
     return RAD_OK;
 }
+

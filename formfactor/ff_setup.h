@@ -22,9 +22,9 @@ void ff_frame_centre(const rad_mesh *mesh, double centre[3]);
 /* One rad_ff_patch per mesh patch, moved by -centre (caller frees *out_patches). */
 rad_status ff_patches_build(const rad_mesh *mesh, const double centre[3], rad_ff_patch **out_patches);
 
-/* Occluders: every scene face as float triangles (a quad gives two),
+/* Occluders: every scene face as triangles (a quad gives two),
  * moved by -centre, with the face each came from. Caller frees both arrays. */
-rad_status ff_occluders_build(const rad_scene *scene, const double centre[3], float **out_triangles,
+rad_status ff_occluders_build(const rad_scene *scene, const double centre[3], double **out_triangles,
                               uint32_t **out_triangle_face, uint32_t *out_triangle_count);
 
 /* Is the scene one convex enclosure seen from inside (every vertex on or
@@ -32,14 +32,20 @@ rad_status ff_occluders_build(const rad_scene *scene, const double centre[3], fl
  * others and no shadow ray is needed. */
 int ff_scene_is_convex_enclosure(const rad_scene *scene, double eps);
 
-/* Tolerance of the facing test: 1e-9 of the scene's bounding-box diagonal. */
+/* Tolerance of the facing test: 1e-11 of the scene's bounding-box diagonal
+ * (rounding, not geometry: faces 1e-9 of the scene apart face each other;
+ * pieces of one face never do, rad_ff_pair_facing). */
 double ff_plane_eps(const rad_mesh *mesh);
 
-/* How far the culling tests grow a pair's shaft (scene units): shadow rays
- * run between float end points, and float rounding grows with the size of
- * the coordinates, not of the scene, so: the larger of 1e4 eps and 8 float
- * ulps of the largest coordinate (a room 1 km from the origin). */
+/* How far the culling tests grow a pair's float shaft box (scene units):
+ * float rounding grows with the size of the coordinates, not of the
+ * scene, so: the larger of 1e4 eps and 8 float ulps of the largest
+ * coordinate (a room 1 km from the origin). */
 float ff_cull_margin(const rad_mesh *mesh, const double centre[3], double eps);
+
+/* The shadow segments' delta (ff_segment in ff_bvh.h): FF_RAY_DELTA of the
+ * scene's bounding-box diagonal. */
+double ff_ray_delta(const rad_mesh *mesh);
 
 /* Splits rows 0..n-1 into `ranks` contiguous blocks of about equal work
  * (for ranks that hold all their rows: reciprocity on; streamed rows go

@@ -43,7 +43,7 @@ typedef struct fixture {
     rad_scene scene;
     rad_mesh mesh;
     rad_ff_patch *patches;
-    float *triangles;
+    double *triangles;
     uint32_t *triangle_face, triangle_count;
     double centre[3]; /* the frame (ff_frame_centre) */
 } fixture;
@@ -103,7 +103,7 @@ static double *compute_full(const ff_backend *backend, const fixture *fx, uint32
                    .triangle_face = fx->triangle_face, .triangle_count = fx->triangle_count, .samples = samples,
                    .shadow_rays = rays, .seed = seed, .estimator = estimator, .plane_eps = ff_plane_eps(&fx->mesh), .threads = 2,
                    .cull = 1, .scene_convex = ff_scene_is_convex_enclosure(&fx->scene, ff_plane_eps(&fx->mesh)),
-                   .cull_margin = ff_cull_margin(&fx->mesh, fx->centre, ff_plane_eps(&fx->mesh)), .target_error = extra->target_error,
+                   .cull_margin = ff_cull_margin(&fx->mesh, fx->centre, ff_plane_eps(&fx->mesh)), .ray_delta = ff_ray_delta(&fx->mesh), .target_error = extra->target_error,
                    .max_samples = extra->max_samples ? extra->max_samples : 64 * samples,
                    .pairs_once = extra->pairs_once};
     void *state = NULL;

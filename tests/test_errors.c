@@ -30,7 +30,7 @@ static int estimate(const fixture *fx, rad_estimator_id estimator, uint32_t samp
                    .triangle_face = fx->triangle_face, .triangle_count = fx->triangle_count, .samples = samples,
                    .shadow_rays = rays, .seed = seed, .estimator = estimator, .plane_eps = eps, .threads = 1,
                    .target_error = target, .max_samples = 64 * samples, .cull = 1,
-                   .scene_convex = ff_scene_is_convex_enclosure(&fx->scene, eps), .cull_margin = ff_cull_margin(&fx->mesh, fx->centre, eps)};
+                   .scene_convex = ff_scene_is_convex_enclosure(&fx->scene, eps), .cull_margin = ff_cull_margin(&fx->mesh, fx->centre, eps), .ray_delta = ff_ray_delta(&fx->mesh)};
     double *f = malloc(sizeof(double) * n * n), *e = malloc(sizeof(double) * n * n);
     void *state = NULL;
     int ok = f && e && ff_backend_cpu.create(&su, &state) == RAD_OK;

@@ -193,7 +193,7 @@ static void check_split_invariance(void)
     double *whole = compute(&fx, 64, 8, 3, NULL);
     ff_setup su = {.patches = fx.patches, .patch_count = n, .triangles = fx.triangles,
                    .triangle_face = fx.triangle_face, .triangle_count = fx.triangle_count, .samples = 64,
-                   .shadow_rays = 8, .seed = 3, .plane_eps = ff_plane_eps(&fx.mesh), .threads = 1};
+                   .shadow_rays = 8, .seed = 3, .plane_eps = ff_plane_eps(&fx.mesh), .ray_delta = ff_ray_delta(&fx.mesh), .threads = 1};
     void *state = NULL;
     double *parts = malloc(sizeof(double) * n * n);
     ff_counters c = {0};
@@ -222,7 +222,7 @@ static void check_pairs_once(const char *path, rad_estimator_id estimator)
                    .triangle_face = fx.triangle_face, .triangle_count = fx.triangle_count, .samples = 64,
                    .shadow_rays = 8, .seed = 5, .estimator = estimator, .plane_eps = ff_plane_eps(&fx.mesh),
                    .cull = 1, .scene_convex = ff_scene_is_convex_enclosure(&fx.scene, ff_plane_eps(&fx.mesh)),
-                   .cull_margin = ff_cull_margin(&fx.mesh, fx.centre, ff_plane_eps(&fx.mesh)), .pairs_once = 1, .threads = 2};
+                   .cull_margin = ff_cull_margin(&fx.mesh, fx.centre, ff_plane_eps(&fx.mesh)), .ray_delta = ff_ray_delta(&fx.mesh), .pairs_once = 1, .threads = 2};
     void *state = NULL;
     double *once = malloc(sizeof(double) * n * n);
     ff_counters c = {0};

@@ -1,0 +1,263 @@
+/* rad_ff_contour.h - the unoccluded interchange area of two touching or
+ * near patches by the double contour integral (host and device).
+ *
+ * Stokes' theorem applied twice (Sparrow 1963; Mitalas & Stephenson 1967)
+ * turns the area integral of cos cos / (pi r^2) into one over the two
+ * boundaries:
+ *
+ *     G = A_q F_qp = 1/(2 pi) sum_k sum_l (e_k . f_l) int_0^1 int_0^1 ln |c_kl(s) - t f_l| dt ds,
+ *     c_kl(s) = a_k + s e_k - b_l,
+ *
+ * over the edges e_k = a_k+1 - a_k of q and f_l = b_l+1 - b_l of p, both
+ * wound as the patches are (counter-clockwise about their own normals).
+ * It holds when each patch lies on or in front of the other's plane.
+ * Perpendicular edge pairs drop out. For each remaining pair:
+ *  - collinear edges (a shared edge, or two edges on one line): the whole
+ *    double integral in closed form, from H(z) = z^2 ln|z| / 2 - 3 z^2 / 4;
+ *  - otherwise the inner integral over t in closed form,
+ *        int ln(A (u^2 + D)) / 2 du = [u ln(A (u^2 + D)) - 2 u + 2 sqrt(D) atan(u / sqrt(D))] / 2,
+ *    A = |f|^2, D = |c x f|^2 / A^2 (the squared distance from c to f's
+ *    line over A), and the outer integral over s by Gauss-Legendre on
+ *    pieces graded (s = s* +- (..) tau^3) towards the point s* of e_k
+ *    nearest f_l, where the integrand behaves like (s - s*) ln |s - s*|
+ *    when the edges meet (a shared vertex, a T-junction).
+ * Orders 10 and 12 on the same pieces give the error estimate (the sum of
+ * their differences, plus the rounding of the terms, which cancel:
+ * 64 ulps of their magnitudes); level L splits every piece into 2^L.
+ *
+ * Why: the area quadrature (rad_ff_quad.h) needs thousands of point
+ * factors for a pair that shares an edge or vertex at rtol 1e-8 (measured:
+ * 3 000 - 11 000 for two triangles hinged at 10 ... 179 degrees, against
+ * 13 - 60 for a far pair); this needs at most (16 edge pairs) x 2 pieces x
+ * 20 nodes at level 0. Far apart, the edge terms (|e|^2 ln d) cancel down
+ * to G ~ |e|^4 / d^2 and lose digits: used for near pairs only
+ * (rad_ff_contour_applies), where the area rule is kept as the fallback.
+ */
+#ifndef RAD_FF_CONTOUR_H
+#define RAD_FF_CONTOUR_H
+
+#include <float.h>
+#include <stdint.h>
+
+#include "rad_ff_kernel.h"
+#include "rad_ff_quad.h" /* the Gauss-Legendre tables, RAD_FF_LANE_SUM */
+#include "rad_math.h"
+
+#define RAD_FF_CONTOUR_MAX_LEVEL 4
+#define RAD_FF_CONTOUR_LO 10 /* Gauss-Legendre orders of the estimate (rad_ff_quad.h's tables) */
+#define RAD_FF_CONTOUR_HI 12
+
+/* H(z) = z^2 ln|z| / 2 - 3 z^2 / 4, with H(0) = 0. */
+static inline RAD_HD double rad_ff_contour_h(double z)
+{
+    double z2 = z * z;
+    return z2 > 0.0 ? 0.5 * z2 * log(fabs(z)) - 0.75 * z2 : 0.0;
+}
+
+/* int_{x0}^{x1} int_{y0}^{y1} ln|x - y| dy dx. */
+static inline RAD_HD double rad_ff_contour_collinear(double x0, double x1, double y0, double y1)
+{
+    return -(rad_ff_contour_h(x1 - y1) - rad_ff_contour_h(x1 - y0) - rad_ff_contour_h(x0 - y1) +
+             rad_ff_contour_h(x0 - y0));
+}
+
+/* [u ln(A (u^2 + D)) - 2 u + 2 sqrt(D) atan(u / sqrt(D))] / 2 (D >= 0). */
+static inline RAD_HD double rad_ff_contour_antiderivative(double u, double a, double d, double sqrt_d)
+{
+    double w = u * u + d;
+    double log_term = w > 0.0 ? u * log(a * w) : 0.0;
+    return 0.5 * (log_term - 2.0 * u + 2.0 * sqrt_d * atan2(u, sqrt_d));
+}
+
+/* int_0^1 ln |c - t f| dt (A = f.f > 0). */
+static inline RAD_HD double rad_ff_contour_inner(rad_vec3 c, rad_vec3 f, double a)
+{
+    double along = rad_v3_dot(c, f) / a;
+    rad_vec3 x = rad_v3_cross(c, f);
+    double d = rad_v3_dot(x, x) / (a * a);
+    double sqrt_d = sqrt(d);
+    return rad_ff_contour_antiderivative(1.0 - along, a, d, sqrt_d) -
+           rad_ff_contour_antiderivative(-along, a, d, sqrt_d);
+}
+
+/* Parameter s in [0, 1] of the point of segment a + s e nearest segment
+ * b + t f, and that distance. */
+static inline RAD_HD double rad_ff_contour_nearest(rad_vec3 a, rad_vec3 e, rad_vec3 b, rad_vec3 f, double *distance)
+{
+    /* Minimise |a + s e - b - t f| over the square by checking the interior
+     * stationary point and the four sides. */
+    rad_vec3 w = rad_v3_sub(a, b);
+    double ee = rad_v3_dot(e, e), ff = rad_v3_dot(f, f), ef = rad_v3_dot(e, f);
+    double we = rad_v3_dot(w, e), wf = rad_v3_dot(w, f);
+    double det = ee * ff - ef * ef;
+    double best_s = 0.0, best = INFINITY;
+    if (det > 1e-14 * ee * ff) {
+        double s = (ef * wf - ff * we) / det, t = (ee * wf - ef * we) / det;
+        if (s >= 0.0 && s <= 1.0 && t >= 0.0 && t <= 1.0) {
+            rad_vec3 g = rad_v3_sub(rad_v3_add(w, rad_v3_scale(e, s)), rad_v3_scale(f, t));
+            best = rad_v3_dot(g, g), best_s = s;
+        }
+    }
+    for (int side = 0; side < 4; side++) {
+        double s, t;
+        if (side < 2) { /* s fixed at 0 or 1: t free */
+            s = (double)side;
+            t = (wf + s * ef) / ff;
+            t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+        } else { /* t fixed: s free */
+            t = (double)(side - 2);
+            s = (t * ef - we) / ee;
+            s = s < 0.0 ? 0.0 : s > 1.0 ? 1.0 : s;
+        }
+        rad_vec3 g = rad_v3_sub(rad_v3_add(w, rad_v3_scale(e, s)), rad_v3_scale(f, t));
+        double d2 = rad_v3_dot(g, g);
+        if (d2 < best) best = d2, best_s = s;
+    }
+    *distance = sqrt(best);
+    return best_s;
+}
+
+/* Is every vertex of a on or in front of b's plane (within eps)? */
+static inline RAD_HD int rad_ff_contour_in_front(const rad_ff_patch *a, const rad_ff_patch *b, double eps)
+{
+    for (uint32_t k = 0; k < a->vertex_count; k++)
+        if (rad_v3_dot(b->normal, rad_v3_sub(a->p[k], b->p[0])) < -eps) return 0;
+    return 1;
+}
+
+/* Does the pair take the contour integral? Near pairs (centres closer
+ * than RAD_FF_NEAR_FACTOR times the sum of their radii), each patch on or
+ * in front of the other's plane. */
+static inline RAD_HD int rad_ff_contour_applies(const rad_ff_patch *q, const rad_ff_patch *p)
+{
+    double eps = 1e-12 * (q->radius + p->radius);
+    return rad_ff_pair_near(q, p) && rad_ff_contour_in_front(q, p, eps) && rad_ff_contour_in_front(p, q, eps);
+}
+
+/* What rad_ff_contour_g found. */
+typedef struct rad_ff_contour_result {
+    double g;        /* G = A_q F_qp */
+    double error;    /* estimate of |G - exact| */
+    uint32_t points; /* inner integrals evaluated */
+    int converged;   /* error <= tolerance by RAD_FF_CONTOUR_MAX_LEVEL */
+} rad_ff_contour_result;
+
+/* The edge pair's outer integral over one graded piece: s runs from
+ * s_from (the singular end, tau = 0) to s_to, s = s_from + (s_to - s_from)
+ * tau^3, tau in [tau0, tau0 + dtau]; both rules at once. */
+static inline RAD_HD void rad_ff_contour_piece(rad_vec3 a, rad_vec3 e, rad_vec3 b, rad_vec3 f, double ff, int graded,
+                                               double s_from, double s_to, double tau0, double dtau, double *lo,
+                                               double *hi, double *magnitude)
+{
+    double sum_lo = 0.0, sum_hi = 0.0, mag = 0.0;
+    rad_vec3 base = rad_v3_sub(a, b);
+    for (int rule = 0; rule < 2; rule++) {
+        int n = rule ? RAD_FF_CONTOUR_HI : RAD_FF_CONTOUR_LO;
+        for (int k = 0; k < n; k++) {
+            double tau = tau0 + dtau * rad_ff_gl_node(n, k);
+            double s = s_from + (s_to - s_from) * (graded ? tau * tau * tau : tau);
+            double ds = (s_to - s_from) * (graded ? 3.0 * tau * tau : 1.0) * dtau;
+            double v = rad_ff_gl_weight(n, k) * ds * rad_ff_contour_inner(rad_v3_add(base, rad_v3_scale(e, s)), f, ff);
+            if (rule)
+                sum_hi += v, mag += fabs(v);
+            else
+                sum_lo += v;
+        }
+    }
+    *lo = sum_lo, *hi = sum_hi, *magnitude = mag;
+}
+
+/* G of q and p (rad_ff_contour_applies) to max(rtol |G|, atol A_q);
+ * this thread is `lane` of `lanes` (rad_ff_quad.h, "Lanes"). */
+static inline RAD_HD rad_ff_contour_result rad_ff_contour_g(const rad_ff_patch *q, const rad_ff_patch *p, double rtol,
+                                                           double atol, unsigned lane, unsigned lanes)
+{
+    rad_ff_contour_result out;
+    out.g = 0.0, out.error = 0.0, out.points = 0, out.converged = 0;
+    uint32_t nq = q->vertex_count, np = p->vertex_count;
+    double scale = q->radius + p->radius;
+    /* The closed-form (collinear) part and the singular points depend on
+     * the geometry only: computed once, by every lane alike. */
+    double exact = 0.0, exact_mag = 0.0;
+    double s_star[16];
+    int kind[16]; /* 0: dropped (perpendicular, or collinear: in `exact`); 1: graded towards s*;
+                     2: apart (nearest distance over a quarter of the shorter edge): one plain piece */
+    for (uint32_t k = 0; k < nq; k++)
+        for (uint32_t l = 0; l < np; l++) {
+            int kl = (int)(k * 4 + l);
+            rad_vec3 a = q->p[k], e = rad_v3_sub(q->p[k + 1 < nq ? k + 1 : 0], a);
+            rad_vec3 b = p->p[l], f = rad_v3_sub(p->p[l + 1 < np ? l + 1 : 0], b);
+            double ee = rad_v3_dot(e, e), ff = rad_v3_dot(f, f), ef = rad_v3_dot(e, f);
+            kind[kl] = 0, s_star[kl] = 0.0;
+            if (!(ee > 0.0 && ff > 0.0) || fabs(ef) <= 1e-15 * sqrt(ee * ff)) continue;
+            /* Collinear: both ends of e on f's line. */
+            rad_vec3 c0 = rad_v3_cross(rad_v3_sub(a, b), f), c1 = rad_v3_cross(rad_v3_sub(rad_v3_add(a, e), b), f);
+            double tol_line = 1e-12 * scale * sqrt(ff);
+            if (rad_v3_length(c0) <= tol_line && rad_v3_length(c1) <= tol_line) {
+                double lf = sqrt(ff);
+                rad_vec3 w = rad_v3_scale(f, 1.0 / lf);
+                double x0 = rad_v3_dot(rad_v3_sub(a, b), w), x1 = rad_v3_dot(rad_v3_sub(rad_v3_add(a, e), b), w);
+                if (x1 != x0) {
+                    double v = ef * rad_ff_contour_collinear(x0, x1, 0.0, lf) / ((x1 - x0) * lf);
+                    exact += v, exact_mag += fabs(v);
+                }
+                continue;
+            }
+            double distance;
+            s_star[kl] = rad_ff_contour_nearest(a, e, b, f, &distance);
+            kind[kl] = distance * distance > 0.0625 * (ee < ff ? ee : ff) ? 2 : 1;
+            if (kind[kl] == 2) s_star[kl] = 0.0;
+        }
+    double tol = -1.0;
+    for (int level = 0; level <= RAD_FF_CONTOUR_MAX_LEVEL; level++) {
+        int parts = 1 << level;
+        double sum_lo = 0.0, sum_hi = 0.0, diff = 0.0, mag = 0.0;
+        /* Work items: (edge pair, side of s*, part), taken by the lanes in turn. */
+        int item = 0;
+        for (uint32_t k = 0; k < nq; k++)
+            for (uint32_t l = 0; l < np; l++) {
+                int kl = (int)(k * 4 + l);
+                if (!kind[kl]) continue;
+                rad_vec3 a = q->p[k], e = rad_v3_sub(q->p[k + 1 < nq ? k + 1 : 0], a);
+                rad_vec3 b = p->p[l], f = rad_v3_sub(p->p[l + 1 < np ? l + 1 : 0], b);
+                double ff = rad_v3_dot(f, f), ef = rad_v3_dot(e, f), st = s_star[kl];
+                int graded = kind[kl] == 1;
+                for (int side = 0; side < 2; side++) {
+                    double s_to = side ? 1.0 : 0.0;
+                    if (s_to == st) continue; /* s* at this end: one piece only */
+                    for (int part = 0; part < parts; part++, item++) {
+                        if (item % (int)lanes != (int)lane) continue;
+                        double lo, hi, m;
+                        rad_ff_contour_piece(a, e, b, f, ff, graded, st, s_to, (double)part / parts, 1.0 / parts, &lo,
+                                             &hi, &m);
+                        /* s decreasing on the side towards 0: the integral's sign flips. */
+                        double sign = side ? 1.0 : -1.0;
+                        sum_lo += sign * ef * lo;
+                        sum_hi += sign * ef * hi;
+                        diff += fabs(ef * (hi - lo));
+                        mag += fabs(ef) * m;
+                        out.points += RAD_FF_CONTOUR_LO + RAD_FF_CONTOUR_HI;
+                    }
+                }
+            }
+        sum_hi = RAD_FF_LANE_SUM(sum_hi, lanes);
+        diff = RAD_FF_LANE_SUM(diff, lanes);
+        mag = RAD_FF_LANE_SUM(mag, lanes);
+        (void)sum_lo;
+        double g = (exact + sum_hi) / (2.0 * RAD_PI);
+        double error = (diff + 64.0 * DBL_EPSILON * (mag + exact_mag)) / (2.0 * RAD_PI);
+        if (tol < 0.0) {
+            double rel = rtol * fabs(g), abs_tol = atol * q->area;
+            tol = rel > abs_tol ? rel : abs_tol;
+        }
+        out.g = g, out.error = error;
+        if (error <= tol) {
+            out.converged = 1;
+            break;
+        }
+    }
+    out.points = RAD_FF_LANE_SUM(out.points, lanes);
+    return out;
+}
+
+#endif
