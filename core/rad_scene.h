@@ -35,8 +35,15 @@
  * diameter is the bounding-box diagonal; "zero" area (and a zero turn, for
  * convexity) means below 1e-12 * diameter^2. A corner repeated right after
  * itself is removed (warning). Triangulation is ear clipping on the plane
- * of the dominant normal axis; a planar polygon that crosses itself is an
+ * of the dominant normal axis; a planar polygon that crosses itself (its
+ * triangles' areas do not add up to its own, or they overlap) is an
  * error, a warped one where clipping gets stuck is fanned.
+ * Polygons with holes are read as exporters write them, one ring: the
+ * outer ring, a bridge edge to a hole's ring wound the other way round,
+ * back along the same edge (LightWave, the assimp corpus). The triangles
+ * cover the polygon minus its holes; a hole's ring wound the same way as
+ * the outer one, or reaching outside it, "crosses itself" (with a hint),
+ * and a warped polygon with a hole is never fanned (that would fill it).
  */
 #ifndef RAD_SCENE_H
 #define RAD_SCENE_H

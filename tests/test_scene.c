@@ -272,6 +272,101 @@ static void test_cleanup(void)
     rad_scene_free(&s);
 }
 
+/* How many faces have their centroid strictly inside the convex polygon
+ * hole[0..count) of the plane of axes (u, v): none may, for a hole. */
+static int centroids_in_hole(const rad_scene *s, int u, int v, const double (*hole)[2], int count)
+{
+    int inside_count = 0;
+    for (size_t f = 0; f < s->face_count; f++) {
+        const rad_face *face = &s->faces[f];
+        double c[2] = {0, 0};
+        for (uint32_t i = 0; i < face->vertex_count; i++) {
+            c[0] += s->positions[3 * face->v[i] + u] / face->vertex_count;
+            c[1] += s->positions[3 * face->v[i] + v] / face->vertex_count;
+        }
+        int positive = 0, negative = 0;
+        for (int i = 0; i < count; i++) {
+            const double *a = hole[i], *b = hole[(i + 1) % count];
+            double t = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+            positive += t > 0;
+            negative += t < 0;
+        }
+        inside_count += positive == count || negative == count;
+    }
+    return inside_count;
+}
+
+/* Polygons with holes as exporters write them (LightWave, the assimp test
+ * corpus): one `f` with an outer ring, a bridge edge to an inner ring wound
+ * the other way, and back along the same edge. Once refused as "face
+ * crosses itself"; now triangulated over the polygon minus its holes. */
+static void test_holes(void)
+{
+    rad_scene s;
+    /* A 4 x 4 square (+z) with a 2 x 2 square hole, bridged from corner 1
+     * to corner 5: area 16 - 4. */
+    const char *ring = "v 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\nv 1 1 0\nv 3 1 0\nv 3 3 0\nv 1 3 0\n";
+    const double square_hole[4][2] = {{1, 1}, {3, 1}, {3, 3}, {1, 3}};
+    char obj[512];
+    snprintf(obj, sizeof obj, "%sf 1 2 3 4 1 5 8 7 6 5\n", ring);
+    RAD_CHECK(load_text(obj, NULL, &s) == RAD_OK);
+    RAD_CHECK_REL(total_area(&s, rad_v3(0, 0, 1)), 12.0, 1e-12);
+    RAD_CHECK(centroids_in_hole(&s, 0, 1, square_hole, 4) == 0);
+    RAD_CHECK(s.face_count == 8); /* 8 corners, 1 hole: 8 + 2 - 2 triangles */
+    RAD_CHECK(rad_test_log_contains("x.obj:9: 10-vertex face triangulated into 8 triangles (1 hole joined by bridge edges)"));
+    RAD_CHECK(!rad_test_log_contains("crosses itself"));
+    rad_scene_free(&s);
+
+    /* LightWave's form, with normals: the list starts mid-ring, the bridge
+     * (2 -> 8) in the middle. An L (area 20) in the plane x = 2 facing +x,
+     * a triangular hole (area 1) in its foot. */
+    const char *l_shape = "v 2 0 0\nv 2 6 0\nv 2 6 2\nv 2 2 2\nv 2 2 6\nv 2 0 6\n"
+                          "v 2 3 0.5\nv 2 5 0.5\nv 2 4 1.5\nvn 1 0 0\n"
+                          "f 3//1 4//1 5//1 6//1 1//1 2//1 8//1 7//1 9//1 8//1 2//1\n";
+    const double triangle_hole[3][2] = {{3, 0.5}, {5, 0.5}, {4, 1.5}};
+    RAD_CHECK(load_text(l_shape, NULL, &s) == RAD_OK);
+    RAD_CHECK_REL(total_area(&s, rad_v3(1, 0, 0)), 19.0, 1e-12);
+    RAD_CHECK(centroids_in_hole(&s, 1, 2, triangle_hole, 3) == 0);
+    RAD_CHECK(!rad_test_log_contains("wound against"));
+    rad_scene_free(&s);
+
+    /* Two holes, bridged from two corners of an 8 x 4 rectangle in the
+     * plane y = 0 facing +y: area 32 - 4 - 4. */
+    const char *two = "v 0 0 0\nv 0 0 4\nv 8 0 4\nv 8 0 0\n"
+                      "v 1 0 1\nv 3 0 1\nv 3 0 3\nv 1 0 3\n"
+                      "v 5 0 1\nv 7 0 1\nv 7 0 3\nv 5 0 3\n"
+                      "f 1 5 6 7 8 5 1 2 3 4 10 11 12 9 10 4\n";
+    const double hole_a[4][2] = {{1, 1}, {3, 1}, {3, 3}, {1, 3}}, hole_b[4][2] = {{5, 1}, {7, 1}, {7, 3}, {5, 3}};
+    RAD_CHECK(load_text(two, NULL, &s) == RAD_OK);
+    RAD_CHECK_REL(total_area(&s, rad_v3(0, 1, 0)), 24.0, 1e-12);
+    RAD_CHECK(centroids_in_hole(&s, 0, 2, hole_a, 4) == 0 && centroids_in_hole(&s, 0, 2, hole_b, 4) == 0);
+    RAD_CHECK(rad_test_log_contains("(2 holes joined by bridge edges)"));
+    rad_scene_free(&s);
+
+    /* Warped (one outer corner lifted): triangulated with the note, the
+     * hole still empty. */
+    RAD_CHECK(load_text("v 0 0 0\nv 4 0 0\nv 4 4 0.01\nv 0 4 0\nv 1 1 0\nv 3 1 0\nv 3 3 0\nv 1 3 0\n"
+                        "f 1 2 3 4 1 5 8 7 6 5\n",
+                        NULL, &s) == RAD_OK);
+    RAD_CHECK(centroids_in_hole(&s, 0, 1, square_hole, 4) == 0);
+    RAD_CHECK(rad_test_log_contains("(non-planar, 1 hole joined by bridge edges; off its plane"));
+    rad_scene_free(&s);
+
+    /* Still refused: an inner ring wound the same way as the outer one
+     * (not a hole: the rings overlap), and a "hole" reaching outside. */
+    snprintf(obj, sizeof obj, "%sf 1 2 3 4 1 5 6 7 8 5\n", ring);
+    expect_error(obj, NULL, RAD_ERR_INVALID,
+                 "x.obj:9: face crosses itself; cannot triangulate (it has an edge walked both ways, a bridge to a "
+                 "hole: the hole's ring must wind the other way round from the outer one and lie inside it)");
+    expect_error("v 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\nv 1 1 0\nv 5 1 0\nv 5 3 0\nv 1 3 0\nf 1 2 3 4 1 5 8 7 6 5\n",
+                 NULL, RAD_ERR_INVALID, "x.obj:9: face crosses itself; cannot triangulate");
+    /* A ring and the same ring back: no area, dropped as before. */
+    snprintf(obj, sizeof obj, "%sf 1 2 3 4 1 4 3 2\nf 1 2 3\n", ring);
+    RAD_CHECK(load_text(obj, NULL, &s) == RAD_OK && s.face_count == 1);
+    RAD_CHECK(rad_test_log_contains("x.obj:9: face has zero area; dropped"));
+    rad_scene_free(&s);
+}
+
 /* Returns the summed area of the faces of group `name` and checks their
  * normals: inward (toward `centre`) when sign = +1, outward when -1. */
 static double group_area(const rad_scene *s, const char *name, rad_vec3 centre, double sign, size_t *out_faces)
@@ -554,6 +649,7 @@ int main(void)
     test_encodings();
     test_warnings();
     test_cleanup();
+    test_holes();
     test_cornell_box();
     test_cornell_sphere_and_closed_box();
     test_mutations();
