@@ -199,8 +199,20 @@ static void scene_warn(loader *L, const char *format, ...)
 
 static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
+/* Keys whose argument is a name that runs to the end of the line (blanks
+ * inside kept: `o Wall left` is the object "Wall left", not "Wall"). The
+ * OBJ standard reads `g a b` as the face belonging to two groups; a face
+ * here has one group, so the whole line is one name, as Blender's exporter
+ * means it when it writes an object's name with blanks in it. */
+static int takes_whole_line(const char *key)
+{
+    return !strcmp(key, "g") || !strcmp(key, "o") || !strcmp(key, "usemtl") || !strcmp(key, "newmtl");
+}
+
 /* Splits `line` in place into whitespace-separated tokens; a token starting
- * with '#' ends the line (comment). */
+ * with '#' ends the line (comment). After a takes_whole_line key the rest
+ * of the line (up to such a comment) is one token, trimmed of blanks at
+ * both ends. */
 static rad_status tokenize(char *line, char ***tokens, size_t *cap, size_t *out_count)
 {
     size_t n = 0;
@@ -212,6 +224,15 @@ static rad_status tokenize(char *line, char ***tokens, size_t *cap, size_t *out_
         if (!t) return RAD_ERR_NOMEM;
         *tokens = t;
         t[n++] = p;
+        if (n == 2 && takes_whole_line(t[0])) {
+            char *end = p;
+            while (*p && !(*p == '#' && is_space(p[-1]))) {
+                if (!is_space(*p)) end = p + 1;
+                p++;
+            }
+            *end = 0;
+            break;
+        }
         while (*p && !is_space(*p)) p++;
         if (*p) *p++ = 0;
     }
@@ -241,7 +262,10 @@ static rad_status parse_numbers(const source *src, char **tok, size_t n, size_t 
     return RAD_OK;
 }
 
-/* Copies a `g`/`o`/`usemtl`/`newmtl` name, which must fit RAD_NAME_MAX. */
+/* Copies a `g`/`o`/`usemtl`/`newmtl` name (the whole rest of the line,
+ * tokenize), which must fit RAD_NAME_MAX: the form-factor file's group
+ * table stores 64-byte names, so a longer one is an error, not cut short
+ * (two names alike in their first 63 bytes would merge). */
 static rad_status parse_name(const source *src, char **tok, size_t n, char *out)
 {
     if (n < 2) return fail(src, RAD_ERR_PARSE, "'%s' needs a name", tok[0]);

@@ -13,6 +13,9 @@
  * index forms (v, v/vt, v//vn, v/vt/vn; negative = relative); `g`, `o`, `s`,
  * `usemtl`, `mtllib` (several files, several names per line); in MTL:
  * `newmtl`, `Kd` (reflectance rho, RGB in [0,1)), `Ke` (emission E, RGB >= 0).
+ * The names of `g`, `o`, `usemtl` and `newmtl` are the rest of the line,
+ * blanks inside kept (`o Wall left`; `g a b` is one group "a b", not two),
+ * at most RAD_NAME_MAX - 1 bytes (longer: RAD_ERR_INVALID, never cut).
  * `vt` and other known-but-unused keys are accepted and ignored; `vn`
  * normals only check the winding: a patch faces the way its winding says
  * (counter-clockwise seen from the front), and faces wound against their

@@ -367,6 +367,50 @@ static void test_holes(void)
     rad_scene_free(&s);
 }
 
+/* `o`/`g` (and material) names run to the end of the line: two objects
+ * "Wall left" and "Wall right" were both cut to "Wall" and merged. */
+static void test_names_with_blanks(void)
+{
+    rad_scene s;
+    const char *obj = QUAD "o Wall left\nf 1 2 3\n"
+                      "o Wall right\nf 1 3 4\n"
+                      "g \t Wall   centre \t # a comment\nf 1 2 4\n"
+                      "g a b\nf 2 3 4\n"
+                      "g Wall#2\nf 1 2 3\n";
+    RAD_CHECK(load_text(obj, NULL, &s) == RAD_OK);
+    RAD_CHECK(s.face_count == 5 && s.group_count == 6);
+    const char *expect[5] = {"Wall left", "Wall right", "Wall   centre", "a b", "Wall#2"};
+    for (size_t f = 0; f < s.face_count && f < 5; f++) {
+        if (strcmp(s.groups[s.faces[f].group], expect[f]) != 0) {
+            fprintf(stderr, "face %zu: group '%s', expected '%s'\n", f, s.groups[s.faces[f].group], expect[f]);
+            rad_test_failures++;
+        }
+    }
+    rad_scene_free(&s);
+    /* Material names the same way ("Red" and "Red paint" are two). */
+    RAD_CHECK(load_text("mtllib x.mtl\n" QUAD "usemtl Red paint\nf 1 2 3\n",
+                        "newmtl Red paint\nKd 0.5 0 0\nnewmtl Red\nKd 0.2 0 0\n", &s) == RAD_OK);
+    RAD_CHECK(s.face_count == 1 && s.material_count == 3);
+    if (s.face_count == 1) {
+        RAD_CHECK(strcmp(s.materials[s.faces[0].material].name, "Red paint") == 0);
+        RAD_CHECK_NEAR(s.materials[s.faces[0].material].rho[0], 0.5, 0);
+    }
+    rad_scene_free(&s);
+    /* `o` alone: back to "default", as before. */
+    RAD_CHECK(load_text(QUAD "o A\nf 1 2 3\no\nf 1 3 4\n", NULL, &s) == RAD_OK);
+    RAD_CHECK(s.group_count == 2 && s.faces[1].group == 0 && strcmp(s.groups[0], "default") == 0);
+    rad_scene_free(&s);
+    /* The limit (the form-factor file's 64-byte group names) counts the
+     * whole name: refused, not cut short. */
+    expect_error(QUAD "o Wall on the left side of the room, behind the tall bookcase by the door\n", NULL,
+                 RAD_ERR_INVALID, "x.obj:5: name 'Wall on the left sid...' too long (at most 63 bytes)");
+    char exact[128];
+    snprintf(exact, sizeof exact, QUAD "o %s\nf 1 2 3\n",
+             "Wall 6789 123456789 123456789 123456789 123456789 123456789 123");
+    RAD_CHECK(load_text(exact, NULL, &s) == RAD_OK && strlen(s.groups[1]) == 63);
+    rad_scene_free(&s);
+}
+
 /* Returns the summed area of the faces of group `name` and checks their
  * normals: inward (toward `centre`) when sign = +1, outward when -1. */
 static double group_area(const rad_scene *s, const char *name, rad_vec3 centre, double sign, size_t *out_faces)
@@ -650,6 +694,7 @@ int main(void)
     test_warnings();
     test_cleanup();
     test_holes();
+    test_names_with_blanks();
     test_cornell_box();
     test_cornell_sphere_and_closed_box();
     test_mutations();
