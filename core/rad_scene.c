@@ -702,6 +702,30 @@ static rad_status parse_face(loader *L, const source *src, char **tok, size_t n)
 
 static rad_status parse_text(loader *L, const char *path, char *text, int is_mtl);
 
+/* Names the encoding of a file of UTF-16 or UTF-32 text, which has NUL
+ * bytes between its characters and would only be called "not a text
+ * file": by its byte-order mark, or, without one, by NULs in every other
+ * byte of its first characters. NULL for anything else (a UTF-8 BOM is
+ * skipped by parse_text). */
+static const char *wide_encoding(const unsigned char *data, size_t size)
+{
+    if (size >= 4 && !memcmp(data, "\xFF\xFE\0\0", 4)) return "UTF-32 text (byte-order mark FF FE 00 00)";
+    if (size >= 4 && !memcmp(data, "\0\0\xFE\xFF", 4)) return "UTF-32 text (byte-order mark 00 00 FE FF)";
+    if (size >= 2 && data[0] == 0xFF && data[1] == 0xFE) return "UTF-16 text (byte-order mark FF FE)";
+    if (size >= 2 && data[0] == 0xFE && data[1] == 0xFF) return "UTF-16 text (byte-order mark FE FF)";
+    /* No mark: mostly ASCII characters as 16-bit units, the NUL high byte
+     * second (little-endian) or first (big-endian), in at least 3/4 of the
+     * first 64 pairs (a binary file of small integers has NUL pairs too). */
+    size_t pairs = size / 2 < 64 ? size / 2 : 64, low_nul = 0, high_nul = 0;
+    for (size_t i = 0; i < pairs; i++) {
+        low_nul += data[2 * i] != 0 && data[2 * i + 1] == 0;
+        high_nul += data[2 * i] == 0 && data[2 * i + 1] != 0;
+    }
+    if (pairs >= 2 && 4 * low_nul >= 3 * pairs) return "UTF-16 text (little-endian, no byte-order mark)";
+    if (pairs >= 2 && 4 * high_nul >= 3 * pairs) return "UTF-16 text (big-endian, no byte-order mark)";
+    return NULL;
+}
+
 /* Reads and parses `path`; `from` is the mtllib statement that named it as
  * `name` (NULL for the OBJ itself). */
 static rad_status load(loader *L, const char *path, const source *from, const char *name, int is_mtl)
@@ -726,6 +750,12 @@ static rad_status load(loader *L, const char *path, const source *from, const ch
     }
     data = text;
     data[size] = 0;
+    const char *encoding = wide_encoding((const unsigned char *)data, size);
+    if (encoding) {
+        rad_error("%s: is %s; save it as UTF-8 or ASCII", path, encoding);
+        status = RAD_ERR_PARSE;
+        goto done;
+    }
     const char *nul = memchr(data, 0, size);
     if (nul) {
         here.line = 1;

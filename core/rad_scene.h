@@ -21,7 +21,9 @@
  * (counter-clockwise seen from the front), and faces wound against their
  * corners' vn get one warning per scene saying what to do;
  * unknown keys produce one warning each. CRLF, a UTF-8 BOM and a missing
- * final newline are tolerated.
+ * final newline are tolerated; a UTF-16 or UTF-32 file (by its byte-order
+ * mark, or NULs in every other byte) is refused as such (RAD_ERR_PARSE,
+ * "file: is UTF-16 text (byte-order mark FF FE); save it as UTF-8 or ASCII").
  * Details (rad_scene.c): `v` may carry a w or an r g b after x y z (checked,
  * ignored); vt/vn indices are range-checked too; `Kd r` (one value) means
  * grey; a `newmtl` without Kd warns and gets grey 0.5; a material defined

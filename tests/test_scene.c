@@ -411,6 +411,62 @@ static void test_names_with_blanks(void)
     rad_scene_free(&s);
 }
 
+/* UTF-16 and UTF-32 files are named as such, not just "not a text file". */
+static void expect_wide(const char *name, const char *data, size_t size, const char *message)
+{
+    vfile files[] = {{name, data, size}, {NULL, NULL, 0}};
+    rad_scene_options opt = {.read_file = vfs_read, .read_file_user = files};
+    rad_scene scene = {0};
+    rad_test_capture_log();
+    RAD_CHECK(rad_scene_load_file(name, &opt, &scene) == RAD_ERR_PARSE);
+    if (!rad_test_log_contains(message)) {
+        fprintf(stderr, "expected message \"%s\", log was:\n%s", message, rad_test_log);
+        rad_test_failures++;
+    }
+    RAD_CHECK(!rad_test_log_contains("NUL byte"));
+    rad_scene_free(&scene);
+}
+
+static void test_wide_encodings(void)
+{
+    const char *text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    size_t n = strlen(text);
+    char le[128], be[128], le_bom[130], be_bom[130], utf32[260];
+    for (size_t i = 0; i < n; i++) {
+        le[2 * i] = text[i], le[2 * i + 1] = 0;
+        be[2 * i] = 0, be[2 * i + 1] = text[i];
+        memcpy(utf32 + 4 + 4 * i, (const char[4]){text[i], 0, 0, 0}, 4);
+    }
+    memcpy(le_bom, "\xFF\xFE", 2), memcpy(le_bom + 2, le, 2 * n);
+    memcpy(be_bom, "\xFE\xFF", 2), memcpy(be_bom + 2, be, 2 * n);
+    memcpy(utf32, "\xFF\xFE\0\0", 4);
+    expect_wide("scene.obj", le_bom, 2 + 2 * n,
+                "scene.obj: is UTF-16 text (byte-order mark FF FE); save it as UTF-8 or ASCII");
+    expect_wide("scene.obj", be_bom, 2 + 2 * n,
+                "scene.obj: is UTF-16 text (byte-order mark FE FF); save it as UTF-8 or ASCII");
+    expect_wide("scene.obj", le, 2 * n, "scene.obj: is UTF-16 text (little-endian, no byte-order mark); save it as UTF-8");
+    expect_wide("scene.obj", be, 2 * n, "scene.obj: is UTF-16 text (big-endian, no byte-order mark); save it as UTF-8");
+    expect_wide("scene.obj", utf32, 4 + 4 * n, "scene.obj: is UTF-32 text (byte-order mark FF FE 00 00)");
+    /* An MTL file too; a plain NUL further on stays "not a text file". */
+    rad_scene s;
+    vfile files[] = {{"x.obj", "mtllib x.mtl\n", 0}, {"x.mtl", le_bom, 2 + 2 * n}, {NULL, NULL, 0}};
+    rad_scene_options opt = {.read_file = vfs_read, .read_file_user = files};
+    rad_test_capture_log();
+    memset(&s, 0, sizeof s);
+    RAD_CHECK(rad_scene_load_file("x.obj", &opt, &s) == RAD_ERR_PARSE);
+    RAD_CHECK(rad_test_log_contains("x.mtl: is UTF-16 text (byte-order mark FF FE)"));
+    static const char one_nul[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\0\n";
+    vfile binary[] = {{"b.obj", one_nul, sizeof one_nul - 1}, {NULL, NULL, 0}};
+    opt.read_file_user = binary;
+    rad_test_capture_log();
+    RAD_CHECK(rad_scene_load_file("b.obj", &opt, &s) == RAD_ERR_PARSE);
+    RAD_CHECK(rad_test_log_contains("b.obj:4: contains a NUL byte (not a text file)"));
+    /* A UTF-8 byte-order mark is skipped without a word. */
+    RAD_CHECK(load_text("\xEF\xBB\xBFv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", NULL, &s) == RAD_OK && s.face_count == 1);
+    RAD_CHECK(!rad_test_log_contains("x.obj:1:"));
+    rad_scene_free(&s);
+}
+
 /* Returns the summed area of the faces of group `name` and checks their
  * normals: inward (toward `centre`) when sign = +1, outward when -1. */
 static double group_area(const rad_scene *s, const char *name, rad_vec3 centre, double sign, size_t *out_faces)
@@ -695,6 +751,7 @@ int main(void)
     test_cleanup();
     test_holes();
     test_names_with_blanks();
+    test_wide_encodings();
     test_cornell_box();
     test_cornell_sphere_and_closed_box();
     test_mutations();
