@@ -79,6 +79,10 @@ typedef struct loader {
     char warned[WARNED_KEYS_MAX][32]; /* unknown keys warned about */
     int warned_count;
     size_t warnings, warnings_hidden; /* shown so far; past SCENE_WARNINGS_SHOWN, counted only */
+    struct flat_triangle *flat; /* scratch for one face: its triangles (faces_overlap) */
+    size_t flat_cap;
+    struct poly_edge *edges; /* scratch for one face: its edges (count_bridges) */
+    size_t edge_cap;
     uint32_t *poly; /* scratch for one face: vertex indices */
     size_t poly_cap;
     double *uv; /* scratch: projected 2D points */
@@ -195,8 +199,20 @@ static void scene_warn(loader *L, const char *format, ...)
 
 static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
+/* Keys whose argument is a name that runs to the end of the line (blanks
+ * inside kept: `o Wall left` is the object "Wall left", not "Wall"). The
+ * OBJ standard reads `g a b` as the face belonging to two groups; a face
+ * here has one group, so the whole line is one name, as Blender's exporter
+ * means it when it writes an object's name with blanks in it. */
+static int takes_whole_line(const char *key)
+{
+    return !strcmp(key, "g") || !strcmp(key, "o") || !strcmp(key, "usemtl") || !strcmp(key, "newmtl");
+}
+
 /* Splits `line` in place into whitespace-separated tokens; a token starting
- * with '#' ends the line (comment). */
+ * with '#' ends the line (comment). After a takes_whole_line key the rest
+ * of the line (up to such a comment) is one token, trimmed of blanks at
+ * both ends. */
 static rad_status tokenize(char *line, char ***tokens, size_t *cap, size_t *out_count)
 {
     size_t n = 0;
@@ -208,6 +224,15 @@ static rad_status tokenize(char *line, char ***tokens, size_t *cap, size_t *out_
         if (!t) return RAD_ERR_NOMEM;
         *tokens = t;
         t[n++] = p;
+        if (n == 2 && takes_whole_line(t[0])) {
+            char *end = p;
+            while (*p && !(*p == '#' && is_space(p[-1]))) {
+                if (!is_space(*p)) end = p + 1;
+                p++;
+            }
+            *end = 0;
+            break;
+        }
         while (*p && !is_space(*p)) p++;
         if (*p) *p++ = 0;
     }
@@ -237,7 +262,10 @@ static rad_status parse_numbers(const source *src, char **tok, size_t n, size_t 
     return RAD_OK;
 }
 
-/* Copies a `g`/`o`/`usemtl`/`newmtl` name, which must fit RAD_NAME_MAX. */
+/* Copies a `g`/`o`/`usemtl`/`newmtl` name (the whole rest of the line,
+ * tokenize), which must fit RAD_NAME_MAX: the form-factor file's group
+ * table stores 64-byte names, so a longer one is an error, not cut short
+ * (two names alike in their first 63 bytes would merge). */
 static rad_status parse_name(const source *src, char **tok, size_t n, char *out)
 {
     if (n < 2) return fail(src, RAD_ERR_PARSE, "'%s' needs a name", tok[0]);
@@ -326,12 +354,31 @@ static rad_status push_face(loader *L, const source *src, const uint32_t *v, uin
     return RAD_OK;
 }
 
+/* Vertex v projected on the plane perpendicular to the dominant axis of
+ * `normal`, turned so that the polygon runs counter-clockwise there. */
+static void project(const rad_scene *s, rad_vec3 normal, uint32_t v, double out[2])
+{
+    double nv[3] = {normal.x, normal.y, normal.z};
+    int axis = fabs(nv[0]) > fabs(nv[1]) ? (fabs(nv[0]) > fabs(nv[2]) ? 0 : 2) : (fabs(nv[1]) > fabs(nv[2]) ? 1 : 2);
+    const double *p = s->positions + 3 * (size_t)v;
+    out[0] = p[(axis + 1) % 3];
+    out[1] = p[(axis + 2) % 3] * (nv[axis] < 0 ? -1 : 1);
+}
+
 /* Signed doubled area of the projected triangle (a, b, c), positive when it
  * turns the same way as the polygon. */
 static double turn(const double *uv, uint32_t a, uint32_t b, uint32_t c)
 {
     return (uv[2 * b] - uv[2 * a]) * (uv[2 * c + 1] - uv[2 * a + 1]) -
            (uv[2 * b + 1] - uv[2 * a + 1]) * (uv[2 * c] - uv[2 * a]);
+}
+
+/* Do corners a and b of the projection lie on one point? A polygon with a
+ * hole passes its bridge's ends twice; a copy of an ear's corner is on the
+ * ear's boundary, not inside it, and must not block it. */
+static int same_point(const double *uv, uint32_t a, uint32_t b)
+{
+    return uv[2 * a] == uv[2 * b] && uv[2 * a + 1] == uv[2 * b + 1];
 }
 
 /* Ear clipping of poly[0..n) (positions in L->uv, indexed by position in
@@ -341,17 +388,12 @@ static double turn(const double *uv, uint32_t a, uint32_t b, uint32_t c)
 static rad_status ear_clip(loader *L, const source *src, size_t n, rad_vec3 normal, double min_area)
 {
     rad_scene *s = L->scene;
-    double nv[3] = {normal.x, normal.y, normal.z};
-    int axis = fabs(nv[0]) > fabs(nv[1]) ? (fabs(nv[0]) > fabs(nv[2]) ? 0 : 2) : (fabs(nv[1]) > fabs(nv[2]) ? 1 : 2);
-    double sign = nv[axis] < 0 ? -1 : 1;
     double *uv = reserve(L->uv, &L->uv_cap, 2 * n, sizeof *uv);
     if (!uv) return out_of_memory(src);
     L->uv = uv;
     uint32_t *idx = L->poly + n; /* idx[k] = position in poly of remaining vertex k */
     for (size_t i = 0; i < n; i++) {
-        const double *p = s->positions + 3 * (size_t)L->poly[i];
-        uv[2 * i] = p[(axis + 1) % 3];
-        uv[2 * i + 1] = p[(axis + 2) % 3] * sign;
+        project(s, normal, L->poly[i], uv + 2 * i);
         idx[i] = (uint32_t)i;
     }
     size_t left = n;
@@ -370,7 +412,7 @@ static rad_status ear_clip(loader *L, const source *src, size_t n, rad_vec3 norm
             int empty = 1;
             for (size_t m = 0; m < left && empty; m++) {
                 uint32_t p = idx[m];
-                if (p == a || p == b || p == c) continue;
+                if (same_point(uv, p, a) || same_point(uv, p, b) || same_point(uv, p, c)) continue;
                 empty = !(turn(uv, a, b, p) >= 0 && turn(uv, b, c, p) >= 0 && turn(uv, c, a, p) >= 0);
             }
             if (empty) {
@@ -390,8 +432,101 @@ static rad_status ear_clip(loader *L, const source *src, size_t n, rad_vec3 norm
     return RAD_OK;
 }
 
+/* A triangle ear_clip emitted, projected as it was clipped (project). */
+typedef struct flat_triangle {
+    double p[3][2];
+    double x_lo, x_hi;
+} flat_triangle;
+
+static int flat_triangle_compare(const void *pa, const void *pb)
+{
+    const flat_triangle *a = pa, *b = pb;
+    return a->x_lo < b->x_lo ? -1 : a->x_lo > b->x_lo;
+}
+
+/* Does an edge of counter-clockwise triangle a have all of b on its outer
+ * side (within `tol`, a doubled area)? Then their interiors are apart. */
+static int separated_by_edge_of(const flat_triangle *a, const flat_triangle *b, double tol)
+{
+    for (int e = 0; e < 3; e++) {
+        const double *p = a->p[e], *q = a->p[(e + 1) % 3];
+        int outside = 1;
+        for (int k = 0; k < 3 && outside; k++)
+            outside = (q[0] - p[0]) * (b->p[k][1] - p[1]) - (q[1] - p[1]) * (b->p[k][0] - p[0]) <= tol;
+        if (outside) return 1;
+    }
+    return 0;
+}
+
+/* Do two of the faces [first, face_count) overlap in the projection by
+ * more than `tol` (touching along edges and corners is fine)? Ear clipping
+ * covers each point as often as the polygon winds around it, so this is
+ * how a polygon that winds twice round some region (an inner ring wound
+ * the same way as the outer one, a spiral) shows; its triangles' areas
+ * add up to the polygon's all the same. Sweep over x, then separating
+ * edges. */
+static rad_status faces_overlap(loader *L, const source *src, size_t first, rad_vec3 normal, double tol, int *out_overlap)
+{
+    rad_scene *s = L->scene;
+    size_t count = s->face_count - first;
+    flat_triangle *t = reserve(L->flat, &L->flat_cap, count, sizeof *t);
+    if (!t) return out_of_memory(src);
+    L->flat = t;
+    for (size_t i = 0; i < count; i++) {
+        for (int k = 0; k < 3; k++) project(s, normal, s->faces[first + i].v[k], t[i].p[k]);
+        t[i].x_lo = fmin(t[i].p[0][0], fmin(t[i].p[1][0], t[i].p[2][0]));
+        t[i].x_hi = fmax(t[i].p[0][0], fmax(t[i].p[1][0], t[i].p[2][0]));
+    }
+    qsort(t, count, sizeof *t, flat_triangle_compare);
+    *out_overlap = 0;
+    for (size_t i = 0; i < count && !*out_overlap; i++)
+        for (size_t j = i + 1; j < count && t[j].x_lo < t[i].x_hi && !*out_overlap; j++)
+            *out_overlap = !separated_by_edge_of(&t[i], &t[j], tol) && !separated_by_edge_of(&t[j], &t[i], tol);
+    return RAD_OK;
+}
+
+typedef struct poly_edge {
+    uint32_t lo, hi; /* its two vertex indices, lo < hi */
+    uint32_t forward; /* walked lo -> hi */
+} poly_edge;
+
+static int poly_edge_compare(const void *pa, const void *pb)
+{
+    const poly_edge *a = pa, *b = pb;
+    if (a->lo != b->lo) return a->lo < b->lo ? -1 : 1;
+    return a->hi < b->hi ? -1 : a->hi > b->hi;
+}
+
+/* Counts the bridges of L->poly[0..n): edges walked both ways (a -> b and
+ * b -> a). Exporters (LightWave, the assimp test corpus) write a polygon
+ * with holes as one ring: the outer ring, a bridge to an inner ring, the
+ * inner ring the other way round, back along the bridge. Vertices are
+ * compared by index; copies of a vertex under another index are not seen
+ * here (ear_clip copes with them all the same). */
+static rad_status count_bridges(loader *L, const source *src, size_t n, size_t *out_count)
+{
+    poly_edge *edge = reserve(L->edges, &L->edge_cap, n, sizeof *edge);
+    if (!edge) return out_of_memory(src);
+    L->edges = edge;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t a = L->poly[i], b = L->poly[(i + 1) % n];
+        edge[i] = (poly_edge){a < b ? a : b, a < b ? b : a, a < b};
+    }
+    qsort(edge, n, sizeof *edge, poly_edge_compare);
+    size_t bridges = 0;
+    for (size_t i = 0, j; i < n; i = j) {
+        size_t forward = 0;
+        for (j = i; j < n && edge[j].lo == edge[i].lo && edge[j].hi == edge[i].hi; j++) forward += edge[j].forward;
+        size_t backward = (j - i) - forward;
+        bridges += forward < backward ? forward : backward;
+    }
+    *out_count = bridges;
+    return RAD_OK;
+}
+
 /* Adds the polygon L->poly[0..n): drops it if it has zero area, keeps it if
- * it is a planar convex triangle or quad, triangulates it otherwise. */
+ * it is a planar convex triangle or quad, triangulates it otherwise (a
+ * polygon with holes, written with bridges, included: see count_bridges). */
 static rad_status add_polygon(loader *L, const source *src, size_t n)
 {
     rad_scene *s = L->scene;
@@ -429,8 +564,14 @@ static rad_status add_polygon(loader *L, const source *src, size_t n)
     uint32_t *p = reserve(L->poly, &L->poly_cap, 2 * n, sizeof *p);
     if (!p) return out_of_memory(src);
     L->poly = p;
+    size_t bridges = 0;
+    rad_status status = count_bridges(L, src, n, &bridges);
+    if (status) return status;
     size_t first = s->face_count;
-    rad_status status = ear_clip(L, src, n, N, min_area);
+    status = ear_clip(L, src, n, N, min_area);
+    if (status == RAD_ERR_INVALID && !planar && bridges) /* a fan would cover the hole */
+        return fail(src, RAD_ERR_INVALID,
+                    "face with a hole is off its plane by more than 1e-6 of its size; cannot triangulate");
     if (status == RAD_ERR_INVALID && !planar) {
         s->face_count = first; /* a badly warped polygon: fan instead */
         status = RAD_OK;
@@ -443,12 +584,25 @@ static rad_status add_polygon(loader *L, const source *src, size_t n)
     double sum = 0; /* a simple planar polygon is covered exactly once */
     for (size_t f = first; f < s->face_count; f++)
         sum += triangle_area(s, s->faces[f].v[0], s->faces[f].v[1], s->faces[f].v[2]);
-    if (status || (planar && fabs(sum - area) > SELF_INTERSECT_TOL * area))
-        return fail(src, RAD_ERR_INVALID, "face crosses itself; cannot triangulate");
+    int overlap = 0;
+    if (!status && planar) {
+        rad_status checked = faces_overlap(L, src, first, N, 2 * min_area, &overlap);
+        if (checked) return checked;
+    }
+    if (status || overlap || (planar && fabs(sum - area) > SELF_INTERSECT_TOL * area))
+        return fail(src, RAD_ERR_INVALID, "face crosses itself; cannot triangulate%s",
+                    bridges ? " (it has an edge walked both ways, a bridge to a hole: the hole's ring must "
+                              "wind the other way round from the outer one and lie inside it)"
+                            : "");
     size_t emitted = s->face_count - first;
-    const char *why = !planar ? "non-planar" : !convex ? "non-convex" : "more than 4 vertices";
+    char why[80];
+    if (bridges)
+        snprintf(why, sizeof why, "%s%zu hole%s joined by bridge edges", planar ? "" : "non-planar, ", bridges,
+                 bridges > 1 ? "s" : "");
+    else
+        snprintf(why, sizeof why, "%s", !planar ? "non-planar" : !convex ? "non-convex" : "more than 4 vertices");
     scene_warn(L, "%s:%u: %zu-vertex face triangulated into %zu triangles (%s%s)", src->path, src->line, n, emitted, why,
-             planar ? "" : "; off its plane by more than 1e-6 of its size");
+               planar ? "" : "; off its plane by more than 1e-6 of its size");
     return RAD_OK;
 }
 
@@ -548,6 +702,30 @@ static rad_status parse_face(loader *L, const source *src, char **tok, size_t n)
 
 static rad_status parse_text(loader *L, const char *path, char *text, int is_mtl);
 
+/* Names the encoding of a file of UTF-16 or UTF-32 text, which has NUL
+ * bytes between its characters and would only be called "not a text
+ * file": by its byte-order mark, or, without one, by NULs in every other
+ * byte of its first characters. NULL for anything else (a UTF-8 BOM is
+ * skipped by parse_text). */
+static const char *wide_encoding(const unsigned char *data, size_t size)
+{
+    if (size >= 4 && !memcmp(data, "\xFF\xFE\0\0", 4)) return "UTF-32 text (byte-order mark FF FE 00 00)";
+    if (size >= 4 && !memcmp(data, "\0\0\xFE\xFF", 4)) return "UTF-32 text (byte-order mark 00 00 FE FF)";
+    if (size >= 2 && data[0] == 0xFF && data[1] == 0xFE) return "UTF-16 text (byte-order mark FF FE)";
+    if (size >= 2 && data[0] == 0xFE && data[1] == 0xFF) return "UTF-16 text (byte-order mark FE FF)";
+    /* No mark: mostly ASCII characters as 16-bit units, the NUL high byte
+     * second (little-endian) or first (big-endian), in at least 3/4 of the
+     * first 64 pairs (a binary file of small integers has NUL pairs too). */
+    size_t pairs = size / 2 < 64 ? size / 2 : 64, low_nul = 0, high_nul = 0;
+    for (size_t i = 0; i < pairs; i++) {
+        low_nul += data[2 * i] != 0 && data[2 * i + 1] == 0;
+        high_nul += data[2 * i] == 0 && data[2 * i + 1] != 0;
+    }
+    if (pairs >= 2 && 4 * low_nul >= 3 * pairs) return "UTF-16 text (little-endian, no byte-order mark)";
+    if (pairs >= 2 && 4 * high_nul >= 3 * pairs) return "UTF-16 text (big-endian, no byte-order mark)";
+    return NULL;
+}
+
 /* Reads and parses `path`; `from` is the mtllib statement that named it as
  * `name` (NULL for the OBJ itself). */
 static rad_status load(loader *L, const char *path, const source *from, const char *name, int is_mtl)
@@ -572,6 +750,12 @@ static rad_status load(loader *L, const char *path, const source *from, const ch
     }
     data = text;
     data[size] = 0;
+    const char *encoding = wide_encoding((const unsigned char *)data, size);
+    if (encoding) {
+        rad_error("%s: is %s; save it as UTF-8 or ASCII", path, encoding);
+        status = RAD_ERR_PARSE;
+        goto done;
+    }
     const char *nul = memchr(data, 0, size);
     if (nul) {
         here.line = 1;
@@ -865,6 +1049,8 @@ done:
     free(L.poly_normal);
     free(L.normals);
     free(L.uv);
+    free(L.edges);
+    free(L.flat);
     free(L.mtl_loaded);
     return status;
 }

@@ -13,12 +13,17 @@
  * index forms (v, v/vt, v//vn, v/vt/vn; negative = relative); `g`, `o`, `s`,
  * `usemtl`, `mtllib` (several files, several names per line); in MTL:
  * `newmtl`, `Kd` (reflectance rho, RGB in [0,1)), `Ke` (emission E, RGB >= 0).
+ * The names of `g`, `o`, `usemtl` and `newmtl` are the rest of the line,
+ * blanks inside kept (`o Wall left`; `g a b` is one group "a b", not two),
+ * at most RAD_NAME_MAX - 1 bytes (longer: RAD_ERR_INVALID, never cut).
  * `vt` and other known-but-unused keys are accepted and ignored; `vn`
  * normals only check the winding: a patch faces the way its winding says
  * (counter-clockwise seen from the front), and faces wound against their
  * corners' vn get one warning per scene saying what to do;
  * unknown keys produce one warning each. CRLF, a UTF-8 BOM and a missing
- * final newline are tolerated.
+ * final newline are tolerated; a UTF-16 or UTF-32 file (by its byte-order
+ * mark, or NULs in every other byte) is refused as such (RAD_ERR_PARSE,
+ * "file: is UTF-16 text (byte-order mark FF FE); save it as UTF-8 or ASCII").
  * Details (rad_scene.c): `v` may carry a w or an r g b after x y z (checked,
  * ignored); vt/vn indices are range-checked too; `Kd r` (one value) means
  * grey; a `newmtl` without Kd warns and gets grey 0.5; a material defined
@@ -35,8 +40,15 @@
  * diameter is the bounding-box diagonal; "zero" area (and a zero turn, for
  * convexity) means below 1e-12 * diameter^2. A corner repeated right after
  * itself is removed (warning). Triangulation is ear clipping on the plane
- * of the dominant normal axis; a planar polygon that crosses itself is an
+ * of the dominant normal axis; a planar polygon that crosses itself (its
+ * triangles' areas do not add up to its own, or they overlap) is an
  * error, a warped one where clipping gets stuck is fanned.
+ * Polygons with holes are read as exporters write them, one ring: the
+ * outer ring, a bridge edge to a hole's ring wound the other way round,
+ * back along the same edge (LightWave, the assimp corpus). The triangles
+ * cover the polygon minus its holes; a hole's ring wound the same way as
+ * the outer one, or reaching outside it, "crosses itself" (with a hint),
+ * and a warped polygon with a hole is never fanned (that would fill it).
  */
 #ifndef RAD_SCENE_H
 #define RAD_SCENE_H

@@ -272,6 +272,201 @@ static void test_cleanup(void)
     rad_scene_free(&s);
 }
 
+/* How many faces have their centroid strictly inside the convex polygon
+ * hole[0..count) of the plane of axes (u, v): none may, for a hole. */
+static int centroids_in_hole(const rad_scene *s, int u, int v, const double (*hole)[2], int count)
+{
+    int inside_count = 0;
+    for (size_t f = 0; f < s->face_count; f++) {
+        const rad_face *face = &s->faces[f];
+        double c[2] = {0, 0};
+        for (uint32_t i = 0; i < face->vertex_count; i++) {
+            c[0] += s->positions[3 * face->v[i] + u] / face->vertex_count;
+            c[1] += s->positions[3 * face->v[i] + v] / face->vertex_count;
+        }
+        int positive = 0, negative = 0;
+        for (int i = 0; i < count; i++) {
+            const double *a = hole[i], *b = hole[(i + 1) % count];
+            double t = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+            positive += t > 0;
+            negative += t < 0;
+        }
+        inside_count += positive == count || negative == count;
+    }
+    return inside_count;
+}
+
+/* Polygons with holes as exporters write them (LightWave, the assimp test
+ * corpus): one `f` with an outer ring, a bridge edge to an inner ring wound
+ * the other way, and back along the same edge. Once refused as "face
+ * crosses itself"; now triangulated over the polygon minus its holes. */
+static void test_holes(void)
+{
+    rad_scene s;
+    /* A 4 x 4 square (+z) with a 2 x 2 square hole, bridged from corner 1
+     * to corner 5: area 16 - 4. */
+    const char *ring = "v 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\nv 1 1 0\nv 3 1 0\nv 3 3 0\nv 1 3 0\n";
+    const double square_hole[4][2] = {{1, 1}, {3, 1}, {3, 3}, {1, 3}};
+    char obj[512];
+    snprintf(obj, sizeof obj, "%sf 1 2 3 4 1 5 8 7 6 5\n", ring);
+    RAD_CHECK(load_text(obj, NULL, &s) == RAD_OK);
+    RAD_CHECK_REL(total_area(&s, rad_v3(0, 0, 1)), 12.0, 1e-12);
+    RAD_CHECK(centroids_in_hole(&s, 0, 1, square_hole, 4) == 0);
+    RAD_CHECK(s.face_count == 8); /* 8 corners, 1 hole: 8 + 2 - 2 triangles */
+    RAD_CHECK(rad_test_log_contains("x.obj:9: 10-vertex face triangulated into 8 triangles (1 hole joined by bridge edges)"));
+    RAD_CHECK(!rad_test_log_contains("crosses itself"));
+    rad_scene_free(&s);
+
+    /* LightWave's form, with normals: the list starts mid-ring, the bridge
+     * (2 -> 8) in the middle. An L (area 20) in the plane x = 2 facing +x,
+     * a triangular hole (area 1) in its foot. */
+    const char *l_shape = "v 2 0 0\nv 2 6 0\nv 2 6 2\nv 2 2 2\nv 2 2 6\nv 2 0 6\n"
+                          "v 2 3 0.5\nv 2 5 0.5\nv 2 4 1.5\nvn 1 0 0\n"
+                          "f 3//1 4//1 5//1 6//1 1//1 2//1 8//1 7//1 9//1 8//1 2//1\n";
+    const double triangle_hole[3][2] = {{3, 0.5}, {5, 0.5}, {4, 1.5}};
+    RAD_CHECK(load_text(l_shape, NULL, &s) == RAD_OK);
+    RAD_CHECK_REL(total_area(&s, rad_v3(1, 0, 0)), 19.0, 1e-12);
+    RAD_CHECK(centroids_in_hole(&s, 1, 2, triangle_hole, 3) == 0);
+    RAD_CHECK(!rad_test_log_contains("wound against"));
+    rad_scene_free(&s);
+
+    /* Two holes, bridged from two corners of an 8 x 4 rectangle in the
+     * plane y = 0 facing +y: area 32 - 4 - 4. */
+    const char *two = "v 0 0 0\nv 0 0 4\nv 8 0 4\nv 8 0 0\n"
+                      "v 1 0 1\nv 3 0 1\nv 3 0 3\nv 1 0 3\n"
+                      "v 5 0 1\nv 7 0 1\nv 7 0 3\nv 5 0 3\n"
+                      "f 1 5 6 7 8 5 1 2 3 4 10 11 12 9 10 4\n";
+    const double hole_a[4][2] = {{1, 1}, {3, 1}, {3, 3}, {1, 3}}, hole_b[4][2] = {{5, 1}, {7, 1}, {7, 3}, {5, 3}};
+    RAD_CHECK(load_text(two, NULL, &s) == RAD_OK);
+    RAD_CHECK_REL(total_area(&s, rad_v3(0, 1, 0)), 24.0, 1e-12);
+    RAD_CHECK(centroids_in_hole(&s, 0, 2, hole_a, 4) == 0 && centroids_in_hole(&s, 0, 2, hole_b, 4) == 0);
+    RAD_CHECK(rad_test_log_contains("(2 holes joined by bridge edges)"));
+    rad_scene_free(&s);
+
+    /* Warped (one outer corner lifted): triangulated with the note, the
+     * hole still empty. */
+    RAD_CHECK(load_text("v 0 0 0\nv 4 0 0\nv 4 4 0.01\nv 0 4 0\nv 1 1 0\nv 3 1 0\nv 3 3 0\nv 1 3 0\n"
+                        "f 1 2 3 4 1 5 8 7 6 5\n",
+                        NULL, &s) == RAD_OK);
+    RAD_CHECK(centroids_in_hole(&s, 0, 1, square_hole, 4) == 0);
+    RAD_CHECK(rad_test_log_contains("(non-planar, 1 hole joined by bridge edges; off its plane"));
+    rad_scene_free(&s);
+
+    /* Still refused: an inner ring wound the same way as the outer one
+     * (not a hole: the rings overlap), and a "hole" reaching outside. */
+    snprintf(obj, sizeof obj, "%sf 1 2 3 4 1 5 6 7 8 5\n", ring);
+    expect_error(obj, NULL, RAD_ERR_INVALID,
+                 "x.obj:9: face crosses itself; cannot triangulate (it has an edge walked both ways, a bridge to a "
+                 "hole: the hole's ring must wind the other way round from the outer one and lie inside it)");
+    expect_error("v 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\nv 1 1 0\nv 5 1 0\nv 5 3 0\nv 1 3 0\nf 1 2 3 4 1 5 8 7 6 5\n",
+                 NULL, RAD_ERR_INVALID, "x.obj:9: face crosses itself; cannot triangulate");
+    /* A ring and the same ring back: no area, dropped as before. */
+    snprintf(obj, sizeof obj, "%sf 1 2 3 4 1 4 3 2\nf 1 2 3\n", ring);
+    RAD_CHECK(load_text(obj, NULL, &s) == RAD_OK && s.face_count == 1);
+    RAD_CHECK(rad_test_log_contains("x.obj:9: face has zero area; dropped"));
+    rad_scene_free(&s);
+}
+
+/* `o`/`g` (and material) names run to the end of the line: two objects
+ * "Wall left" and "Wall right" were both cut to "Wall" and merged. */
+static void test_names_with_blanks(void)
+{
+    rad_scene s;
+    const char *obj = QUAD "o Wall left\nf 1 2 3\n"
+                      "o Wall right\nf 1 3 4\n"
+                      "g \t Wall   centre \t # a comment\nf 1 2 4\n"
+                      "g a b\nf 2 3 4\n"
+                      "g Wall#2\nf 1 2 3\n";
+    RAD_CHECK(load_text(obj, NULL, &s) == RAD_OK);
+    RAD_CHECK(s.face_count == 5 && s.group_count == 6);
+    const char *expect[5] = {"Wall left", "Wall right", "Wall   centre", "a b", "Wall#2"};
+    for (size_t f = 0; f < s.face_count && f < 5; f++) {
+        if (strcmp(s.groups[s.faces[f].group], expect[f]) != 0) {
+            fprintf(stderr, "face %zu: group '%s', expected '%s'\n", f, s.groups[s.faces[f].group], expect[f]);
+            rad_test_failures++;
+        }
+    }
+    rad_scene_free(&s);
+    /* Material names the same way ("Red" and "Red paint" are two). */
+    RAD_CHECK(load_text("mtllib x.mtl\n" QUAD "usemtl Red paint\nf 1 2 3\n",
+                        "newmtl Red paint\nKd 0.5 0 0\nnewmtl Red\nKd 0.2 0 0\n", &s) == RAD_OK);
+    RAD_CHECK(s.face_count == 1 && s.material_count == 3);
+    if (s.face_count == 1) {
+        RAD_CHECK(strcmp(s.materials[s.faces[0].material].name, "Red paint") == 0);
+        RAD_CHECK_NEAR(s.materials[s.faces[0].material].rho[0], 0.5, 0);
+    }
+    rad_scene_free(&s);
+    /* `o` alone: back to "default", as before. */
+    RAD_CHECK(load_text(QUAD "o A\nf 1 2 3\no\nf 1 3 4\n", NULL, &s) == RAD_OK);
+    RAD_CHECK(s.group_count == 2 && s.faces[1].group == 0 && strcmp(s.groups[0], "default") == 0);
+    rad_scene_free(&s);
+    /* The limit (the form-factor file's 64-byte group names) counts the
+     * whole name: refused, not cut short. */
+    expect_error(QUAD "o Wall on the left side of the room, behind the tall bookcase by the door\n", NULL,
+                 RAD_ERR_INVALID, "x.obj:5: name 'Wall on the left sid...' too long (at most 63 bytes)");
+    char exact[128];
+    snprintf(exact, sizeof exact, QUAD "o %s\nf 1 2 3\n",
+             "Wall 6789 123456789 123456789 123456789 123456789 123456789 123");
+    RAD_CHECK(load_text(exact, NULL, &s) == RAD_OK && strlen(s.groups[1]) == 63);
+    rad_scene_free(&s);
+}
+
+/* UTF-16 and UTF-32 files are named as such, not just "not a text file". */
+static void expect_wide(const char *name, const char *data, size_t size, const char *message)
+{
+    vfile files[] = {{name, data, size}, {NULL, NULL, 0}};
+    rad_scene_options opt = {.read_file = vfs_read, .read_file_user = files};
+    rad_scene scene = {0};
+    rad_test_capture_log();
+    RAD_CHECK(rad_scene_load_file(name, &opt, &scene) == RAD_ERR_PARSE);
+    if (!rad_test_log_contains(message)) {
+        fprintf(stderr, "expected message \"%s\", log was:\n%s", message, rad_test_log);
+        rad_test_failures++;
+    }
+    RAD_CHECK(!rad_test_log_contains("NUL byte"));
+    rad_scene_free(&scene);
+}
+
+static void test_wide_encodings(void)
+{
+    const char *text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    size_t n = strlen(text);
+    char le[128], be[128], le_bom[130], be_bom[130], utf32[260];
+    for (size_t i = 0; i < n; i++) {
+        le[2 * i] = text[i], le[2 * i + 1] = 0;
+        be[2 * i] = 0, be[2 * i + 1] = text[i];
+        memcpy(utf32 + 4 + 4 * i, (const char[4]){text[i], 0, 0, 0}, 4);
+    }
+    memcpy(le_bom, "\xFF\xFE", 2), memcpy(le_bom + 2, le, 2 * n);
+    memcpy(be_bom, "\xFE\xFF", 2), memcpy(be_bom + 2, be, 2 * n);
+    memcpy(utf32, "\xFF\xFE\0\0", 4);
+    expect_wide("scene.obj", le_bom, 2 + 2 * n,
+                "scene.obj: is UTF-16 text (byte-order mark FF FE); save it as UTF-8 or ASCII");
+    expect_wide("scene.obj", be_bom, 2 + 2 * n,
+                "scene.obj: is UTF-16 text (byte-order mark FE FF); save it as UTF-8 or ASCII");
+    expect_wide("scene.obj", le, 2 * n, "scene.obj: is UTF-16 text (little-endian, no byte-order mark); save it as UTF-8");
+    expect_wide("scene.obj", be, 2 * n, "scene.obj: is UTF-16 text (big-endian, no byte-order mark); save it as UTF-8");
+    expect_wide("scene.obj", utf32, 4 + 4 * n, "scene.obj: is UTF-32 text (byte-order mark FF FE 00 00)");
+    /* An MTL file too; a plain NUL further on stays "not a text file". */
+    rad_scene s;
+    vfile files[] = {{"x.obj", "mtllib x.mtl\n", 0}, {"x.mtl", le_bom, 2 + 2 * n}, {NULL, NULL, 0}};
+    rad_scene_options opt = {.read_file = vfs_read, .read_file_user = files};
+    rad_test_capture_log();
+    memset(&s, 0, sizeof s);
+    RAD_CHECK(rad_scene_load_file("x.obj", &opt, &s) == RAD_ERR_PARSE);
+    RAD_CHECK(rad_test_log_contains("x.mtl: is UTF-16 text (byte-order mark FF FE)"));
+    static const char one_nul[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\0\n";
+    vfile binary[] = {{"b.obj", one_nul, sizeof one_nul - 1}, {NULL, NULL, 0}};
+    opt.read_file_user = binary;
+    rad_test_capture_log();
+    RAD_CHECK(rad_scene_load_file("b.obj", &opt, &s) == RAD_ERR_PARSE);
+    RAD_CHECK(rad_test_log_contains("b.obj:4: contains a NUL byte (not a text file)"));
+    /* A UTF-8 byte-order mark is skipped without a word. */
+    RAD_CHECK(load_text("\xEF\xBB\xBFv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", NULL, &s) == RAD_OK && s.face_count == 1);
+    RAD_CHECK(!rad_test_log_contains("x.obj:1:"));
+    rad_scene_free(&s);
+}
+
 /* Returns the summed area of the faces of group `name` and checks their
  * normals: inward (toward `centre`) when sign = +1, outward when -1. */
 static double group_area(const rad_scene *s, const char *name, rad_vec3 centre, double sign, size_t *out_faces)
@@ -554,6 +749,9 @@ int main(void)
     test_encodings();
     test_warnings();
     test_cleanup();
+    test_holes();
+    test_names_with_blanks();
+    test_wide_encodings();
     test_cornell_box();
     test_cornell_sphere_and_closed_box();
     test_mutations();

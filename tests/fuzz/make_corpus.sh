@@ -25,6 +25,7 @@ seed quad_slashes 'mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 
 seed pentagon_crlf '\357\273\277v 0 0 0\r\nv 2 0 0\r\nv 2 1 0\r\nv 1 2 0\r\nv 0 1 0\r\nf 1 2 3 4 5\r\ns off\r\no thing'
 seed nonplanar 'v 0 0 0 1\nv 1 0 0 1 0 0\nv 1 1 0.5\nv 0 1 0\nv 0.5 0.5 -1\nf 1 2 3 4\nf 1 2 5\nf 2 3 4 1 5\n'
 seed concave 'v 0 0 0\nv 4 0 0\nv 4 4 0\nv 2 1 0\nv 0 4 0\nf 1 2 3 4 5\nf 1 1 2 3\nf 1 2 3 2\n'
+seed holes 'o Plate with a hole\nv 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\nv 1 1 0\nv 3 1 0\nv 3 3 0\nv 1 3 0\nf 1 2 3 4 1 5 8 7 6 5\ng Same  way\nf 1 2 3 4 1 5 6 7 8 5\n'
 seed two_mtllibs 'mtllib a.mtl b.mtl\nmtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\nusemtl light\nf 3 2 1\n\0newmtl red\nKd 0.5 0 0\nillum 2\nmap_Kd x.png\n\0newmtl light\nKe 10 10 10\nNs 3\n'
 
 # Hostile shapes (issue 16): classic Mac OS line ends, coordinates and
