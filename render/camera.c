@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <stdint.h>
 #include <sys/stat.h>
 
 #include "rad_fs.h"
@@ -163,10 +164,35 @@ done:
 
 rad_status render_camera_load(const char *path, render_camera *out_camera)
 {
+    rad_status status = RAD_ERR_IO;
     char *text = NULL;
-    size_t size = 0;
-    rad_status status = rad_fs_read_all(path, &text, &size);
-    if (status != RAD_OK) goto done;
+    /* Read at most one byte past the cap, so a huge file (or one that grows
+     * while read) costs RENDER_CAMERA_FILE_MAX bytes, not its size. */
+    FILE *f = rad_fs_open_input(path); /* regular files only: no FIFO, no /dev/zero */
+    if (!f) goto done;
+    text = malloc(RENDER_CAMERA_FILE_MAX + 2);
+    if (!text) {
+        rad_error("%s: out of memory", path);
+        status = RAD_ERR_NOMEM;
+        goto done;
+    }
+    size_t size = fread(text, 1, RENDER_CAMERA_FILE_MAX + 1, f);
+    if (ferror(f)) {
+        rad_error("%s: read error", path);
+        goto done;
+    }
+    if (size > RENDER_CAMERA_FILE_MAX) {
+        struct stat st;
+        if (fstat(fileno(f), &st) == 0 && (uint64_t)st.st_size > RENDER_CAMERA_FILE_MAX)
+            rad_error("%s: %llu bytes; a camera file (four short lines) is at most %d bytes: not a camera file?",
+                      path, (unsigned long long)st.st_size, RENDER_CAMERA_FILE_MAX);
+        else
+            rad_error("%s: more than %d bytes; a camera file (four short lines) is at most that: not a camera file?",
+                      path, RENDER_CAMERA_FILE_MAX);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
+    text[size] = 0;
     if (strlen(text) != size) {
         rad_error("%s: contains a NUL byte; not a camera file", path);
         status = RAD_ERR_PARSE;
@@ -174,6 +200,7 @@ rad_status render_camera_load(const char *path, render_camera *out_camera)
     }
     status = render_camera_parse(path, text, out_camera);
 done:
+    if (f) fclose(f);
     free(text);
     return status;
 }
@@ -334,19 +361,4 @@ int render_view_project(const render_view *view, int width, int height, rad_vec3
     *out_x = 0.5 * (ndc_x + 1.0) * width;
     *out_y = 0.5 * (1.0 - ndc_y) * height;
     return 1;
-}
-
-int render_camera_sidecar(const char *scene_path, char *out_path, size_t size)
-{
-    if (!scene_path || !scene_path[0] || size == 0) return 0;
-    const char *slash = strrchr(scene_path, '/');
-    const char *dot = strrchr(slash ? slash + 1 : scene_path, '.');
-    size_t stem = dot && dot != (slash ? slash + 1 : scene_path) ? (size_t)(dot - scene_path) : strlen(scene_path);
-    int n = snprintf(out_path, size, "%.*s.camera", (int)stem, scene_path);
-    if (n < 0 || (size_t)n >= size) {
-        out_path[0] = '\0';
-        return 0;
-    }
-    struct stat st;
-    return stat(out_path, &st) == 0;
 }

@@ -21,8 +21,8 @@
  *
  * Sidecar: the camera file `<scene>.camera` beside the scene's OBJ
  * (`scenes/room.obj` -> `scenes/room.camera`), which render loads when no
- * --camera is given and the radiosity file names its scene
- * (render_camera_sidecar).
+ * --camera is given and the radiosity file names its scene; which file
+ * that is, when the path is relative, is sidecar.h's business.
  *
  * Default camera (no file, no sidecar): a scene whose bounding box is the
  * Cornell box's (0..556 x 0..548.8 x 0..559.2 mm, within
@@ -68,14 +68,15 @@ render_camera render_camera_cornell(void);
 
 /* Parses camera-file text; `name` is used in messages. */
 rad_status render_camera_parse(const char *name, const char *text, render_camera *out_camera);
-/* Reads and parses a camera file. */
-rad_status render_camera_load(const char *path, render_camera *out_camera);
+/* Largest camera file read: the four statements take under 200 bytes;
+ * 16 KiB leaves room for comments and refuses a stray large file (a
+ * sidecar that is really something else) before it is read whole. */
+#define RENDER_CAMERA_FILE_MAX 16384
 
-/* The sidecar of the scene at scene_path: its name with the extension
- * (if any) replaced by ".camera", into out_path (size bytes). Returns 1
- * when that names an existing file, 0 when there is none or scene_path is
- * empty. */
-int render_camera_sidecar(const char *scene_path, char *out_path, size_t size);
+/* Reads and parses a camera file: a regular file (through symlinks) of at
+ * most RENDER_CAMERA_FILE_MAX bytes; anything else is refused with
+ * "path: why" (RAD_ERR_IO, RAD_ERR_INVALID). */
+rad_status render_camera_load(const char *path, render_camera *out_camera);
 
 /* Checks the values (see above); `what` names the camera in messages. */
 rad_status render_camera_validate(const render_camera *camera, const char *what);

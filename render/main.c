@@ -23,6 +23,7 @@
 #include "rad_rfile.h"
 #include "rad_status.h"
 #include "raster.h"
+#include "sidecar.h"
 #include "tonemap.h"
 
 #define RENDER_DEFAULT_INPUT "radiosity"
@@ -53,10 +54,19 @@ static const char usage_text[] =
     "  --height N           image height in pixels (default: 512)\n"
     "  --spp N              samples per pixel, a square: 1, 4, 9, 16, ... 256 (default: 16)\n"
     "  --camera FILE|auto   camera file (lines: eye X Y Z, look_at X Y Z, up X Y Z,\n"
-    "                       fov_y DEGREES; # comments). Default: the scene's sidecar\n"
-    "                       <scene>.camera beside its OBJ when there is one, else the\n"
-    "                       measured camera for the Cornell box, automatic framing\n"
-    "                       for other scenes; auto: the default without the sidecar\n"
+    "                       fov_y DEGREES; # comments; at most 16 KiB). Default: the\n"
+    "                       scene's sidecar <scene>.camera beside its OBJ when there\n"
+    "                       is one, else the measured camera for the Cornell box,\n"
+    "                       automatic framing for other scenes; auto: the default\n"
+    "                       without the sidecar. The OBJ is the path RADIOSITY\n"
+    "                       records (as formfactor was given it): a relative one is\n"
+    "                       tried from the current folder and from RADIOSITY's\n"
+    "                       folder, and the file that is the scene solved (its\n"
+    "                       fingerprint) wins; stderr says which sidecar is used or\n"
+    "                       why none, and warns of one whose OBJ is missing or not\n"
+    "                       the scene solved, or that lies outside the OBJ's folder.\n"
+    "                       Scene paths of 88 bytes or more are not recorded: give\n"
+    "                       --camera FILE\n"
     "  --eye X,Y,Z          camera position (overrides the camera file or default)\n"
     "  --look-at X,Y,Z      point at the image centre\n"
     "  --up X,Y,Z           up direction\n"
@@ -312,19 +322,20 @@ static void warn_if_black(const char *input, const rad_mesh *mesh, const double 
 }
 
 /* The camera: file or default, then the flags on top. */
-static rad_status choose_camera(const render_cli *cli, const rad_mesh *mesh, const char *scene_path, double aspect,
-                                render_camera *out)
+static rad_status choose_camera(const render_cli *cli, const rad_radiosity *rf, double aspect, render_camera *out)
 {
     rad_status status = RAD_OK;
     int cornell = 0;
-    char source[600];
-    char sidecar[400];
+    char source[RENDER_SIDECAR_PATH_MAX + 100];
+    char sidecar[RENDER_SIDECAR_PATH_MAX];
+    const char *scene_path = rf->scene_path;
+    const render_sidecar_query query = {scene_path, cli->input, rf->scene_fingerprint};
     int automatic = cli->camera_path && strcmp(cli->camera_path, "auto") == 0;
     if (cli->camera_path && !automatic) {
         status = render_camera_load(cli->camera_path, out);
         if (status != RAD_OK) return status;
         snprintf(source, sizeof source, "from %s", cli->camera_path);
-    } else if (!automatic && render_camera_sidecar(scene_path, sidecar, sizeof sidecar)) {
+    } else if (!automatic && render_sidecar_find(&query, sidecar, sizeof sidecar)) {
         status = render_camera_load(sidecar, out);
         if (status != RAD_OK) {
             rad_error("%s: the camera sidecar of scene %s; fix it, or give --camera FILE or --camera auto",
@@ -333,7 +344,7 @@ static rad_status choose_camera(const render_cli *cli, const rad_mesh *mesh, con
         }
         snprintf(source, sizeof source, "from %s, the scene's sidecar (--camera auto ignores it)", sidecar);
     } else {
-        render_camera_default(mesh, aspect, out, &cornell);
+        render_camera_default(&rf->mesh, aspect, out, &cornell);
         snprintf(source, sizeof source, "%s", cornell ? "the Cornell box's measured camera" : "automatic framing");
     }
     if (cli->have_eye) out->eye = cli->eye;
@@ -389,7 +400,7 @@ static rad_status run(const render_cli *cli)
     }
 
     render_camera camera;
-    status = choose_camera(cli, &rf.mesh, rf.scene_path, (double)frame.width / frame.height, &camera);
+    status = choose_camera(cli, &rf, (double)frame.width / frame.height, &camera);
     if (status != RAD_OK) goto done;
     char camera_text[512];
     render_camera_format(&camera, camera_text, sizeof camera_text);

@@ -361,6 +361,14 @@ rad_status solve_stage_run(const solve_options *options)
     const char *scene = rad_ff_file_info(s.file)->scene_name;
     if (strcmp(scene, rad_default_scene_name) != 0 && strlen(scene) < sizeof out.scene_path)
         memcpy(out.scene_path, scene, strlen(scene) + 1);
+    else if (strcmp(scene, rad_default_scene_name) != 0 && rank == 0)
+        /* A cut path would name another file; none is better, and said. */
+        rad_warn("%s: the scene path %s is %zu bytes%s; the radiosity file holds at most %zu, so it records "
+                 "none and render cannot find the scene's camera sidecar: give render --camera FILE",
+                 input, scene, strlen(scene),
+                 strlen(scene) + 1 == sizeof rad_ff_file_info(s.file)->scene_name
+                     ? " (or more: formfactor cuts scene names there)" : "",
+                 sizeof out.scene_path - 1);
     for (uint32_t c = 0; c < 3; c++) {
         const solve_report *r = &s.reports[grey ? 0 : c];
         out.iterations[c] = r->iterations;

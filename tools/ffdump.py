@@ -30,13 +30,14 @@ import argparse
 import csv
 import io
 import os
+import struct
 import sys
 import tempfile
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from ffread import PATCH, group_count, read_groups, read_header, read_rows  # noqa: E402
+from ffread import PATCH, FormatError, _read, is_sparse, read_groups, read_header, read_row_index, read_rows  # noqa: E402,E501
 
 FLAG_STANDARD_ERRORS = 2
 BLOCK_BYTES = 64 << 20     # rows read at once by group-matrix
@@ -51,27 +52,19 @@ class FormFactors:
 
     def __init__(self, path):
         self.path = path
-        try:
-            h = read_header(path)
-        except (OSError, ValueError) as e:
-            raise DumpError(str(e))
-        size = os.path.getsize(path)
-        if size != int(h["file_bytes"]):
-            raise DumpError(f"{path}: {size} bytes, the header says {int(h['file_bytes'])} (truncated or damaged)")
+        h = read_header(path)   # checks the sizes against the file (FormatError)
         self.header = h
         self.n = n = int(h["patch_count"])
         self.version = int(h["version"])
         self.errors = bool(int(h["flags"]) & FLAG_STANDARD_ERRORS)
         self.scene = bytes(h["scene_name"]).rstrip(b"\0").decode("utf-8", errors="replace")
-        self.patches = np.fromfile(path, dtype=PATCH, count=n, offset=int(h["patch_offset"]))
+        self.patches = _read(path, PATCH, n, int(h["patch_offset"]), "patch table")
         self.area = self.patches["area"].astype(np.float64)
-        element = {1: "<f4", 2: "<f8"}.get(int(h["element_type"]))
-        if element is None or len(self.patches) != n:
-            raise DumpError(f"{path}: damaged header or patch table")
-        try:
-            self.names, self.patch_group = read_groups(path, h)
-        except ValueError as e:
-            raise DumpError(str(e))
+        if not np.isfinite(self.area).all() or (self.area <= 0).any():
+            raise FormatError(f"{path}: damaged patch table (an area not finite and positive)")
+        self.names, self.patch_group = read_groups(path, h)
+        if is_sparse(h):
+            read_row_index(path, h)   # checked before any command trusts it (N + 1 numbers)
 
     def require_groups(self):
         if self.names is None:
@@ -271,10 +264,21 @@ def main(argv=None):
     args = p.parse_args(argv)
     if getattr(args, "pixels", 100) < 100:
         p.error("--pixels must be at least 100")
+    path = args.formfactors
     try:
-        args.run(FormFactors(args.formfactors), args)
+        args.run(FormFactors(path), args)
     except DumpError as e:
         print(f"ffdump.py: {e}", file=sys.stderr)
+        return 1
+    except OSError as e:   # the input or an output
+        print(f"ffdump.py: {e.filename or path}: {e.strerror or e}", file=sys.stderr)
+        return 1
+    except (ValueError, struct.error) as e:   # FormatError, and numpy on what slipped past the checks
+        msg = str(e)
+        print(f"ffdump.py: {msg if msg.startswith(path) else f'{path}: damaged file: {msg}'}", file=sys.stderr)
+        return 1
+    except MemoryError:
+        print(f"ffdump.py: {path}: out of memory (`matrix` and `heatmap` hold 8 N^2 bytes)", file=sys.stderr)
         return 1
     return 0
 
