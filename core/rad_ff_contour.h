@@ -10,7 +10,14 @@
  *
  * over the edges e_k = a_k+1 - a_k of q and f_l = b_l+1 - b_l of p, both
  * wound as the patches are (counter-clockwise about their own normals).
- * It holds when each patch lies on or in front of the other's plane.
+ * It holds when each patch lies on or in front of the other's plane; a
+ * pair that straddles (one patch's plane cuts the other) is first clipped:
+ * the kernel vanishes unless each point is in front of the other's plane,
+ * so G(q, p) = G(q in front of p, p in front of q), two convex polygons
+ * that meet, if at all, along the planes' intersection line - a collinear
+ * edge pair. (The area rule meets a kink there, inside q, that no grading
+ * follows: straddling pairs of Suzanne cost it 27 000 - 33 000 point
+ * factors each, 99 % of the whole run.)
  * Perpendicular edge pairs drop out. For each remaining pair:
  *  - collinear edges (a shared edge, or two edges on one line): the whole
  *    double integral in closed form, from H(z) = z^2 ln|z| / 2 - 3 z^2 / 4;
@@ -23,7 +30,7 @@
  *    when the edges meet (a shared vertex, a T-junction).
  * Orders 10 and 12 on the same pieces give the error estimate (the sum of
  * their differences, plus the rounding of the terms, which cancel:
- * 64 ulps of their magnitudes); level L splits every piece into 2^L.
+ * 16 ulps of their magnitudes); level L splits every piece into 2^L.
  *
  * Why: the area quadrature (rad_ff_quad.h) needs thousands of point
  * factors for a pair that shares an edge or vertex at rtol 1e-8 (measured:
@@ -125,13 +132,56 @@ static inline RAD_HD int rad_ff_contour_in_front(const rad_ff_patch *a, const ra
     return 1;
 }
 
-/* Does the pair take the contour integral? Near pairs (centres closer
- * than RAD_FF_NEAR_FACTOR times the sum of their radii), each patch on or
- * in front of the other's plane. */
-static inline RAD_HD int rad_ff_contour_applies(const rad_ff_patch *q, const rad_ff_patch *p)
+/* Does one patch reach behind the other's plane? */
+static inline RAD_HD int rad_ff_contour_straddles(const rad_ff_patch *q, const rad_ff_patch *p)
 {
     double eps = 1e-12 * (q->radius + p->radius);
-    return rad_ff_pair_near(q, p) && rad_ff_contour_in_front(q, p, eps) && rad_ff_contour_in_front(p, q, eps);
+    return !rad_ff_contour_in_front(q, p, eps) || !rad_ff_contour_in_front(p, q, eps);
+}
+
+/* Does the pair take the contour integral? Near pairs (centres closer
+ * than RAD_FF_NEAR_FACTOR times the sum of their radii) and pairs that
+ * straddle. Where it does not reach the tolerance, near pairs that do not
+ * straddle fall back to the area rule; straddling ones keep the contour's
+ * value and error (measured on Suzanne: the area rule is then off by up to
+ * 2e-3 relative with error bounds of 1e-21, where the contour integral
+ * agrees with a brute-force sum of 1600^2 points to 1e-8). */
+static inline RAD_HD int rad_ff_contour_applies(const rad_ff_patch *q, const rad_ff_patch *p)
+{
+    return rad_ff_pair_near(q, p) || rad_ff_contour_straddles(q, p);
+}
+
+/* A convex polygon of up to RAD_FF_POLY_MAX vertices: a patch, or a patch
+ * clipped by one plane (at most one vertex more). */
+#define RAD_FF_POLY_MAX 6
+typedef struct rad_ff_poly {
+    rad_vec3 v[RAD_FF_POLY_MAX];
+    uint32_t n;
+} rad_ff_poly;
+
+/* The part of patch a on or in front of b's plane. Heights within eps of
+ * the plane count as on it. A convex polygon crosses a plane at most
+ * twice; more crossings are rounding, and then only the vertices on or in
+ * front are kept, so the bound holds whatever the signs. */
+static inline RAD_HD rad_ff_poly rad_ff_poly_in_front(const rad_ff_patch *a, const rad_ff_patch *b, double eps)
+{
+    rad_ff_poly out;
+    out.n = 0;
+    uint32_t n = a->vertex_count;
+    double h[4];
+    int changes = 0;
+    for (uint32_t k = 0; k < n; k++) {
+        h[k] = rad_v3_dot(b->normal, rad_v3_sub(a->p[k], b->p[0]));
+        if (fabs(h[k]) <= eps) h[k] = 0.0;
+    }
+    for (uint32_t k = 0; k < n; k++) changes += (h[k] >= 0.0) != (h[k + 1 < n ? k + 1 : 0] >= 0.0);
+    for (uint32_t k = 0; k < n; k++) {
+        uint32_t k1 = k + 1 < n ? k + 1 : 0;
+        if (h[k] >= 0.0) out.v[out.n++] = a->p[k];
+        if (changes <= 2 && ((h[k] > 0.0 && h[k1] < 0.0) || (h[k] < 0.0 && h[k1] > 0.0)))
+            out.v[out.n++] = rad_v3_lerp(a->p[k], a->p[k1], h[k] / (h[k] - h[k1]));
+    }
+    return out;
 }
 
 /* What rad_ff_contour_g found. */
@@ -174,19 +224,24 @@ static inline RAD_HD rad_ff_contour_result rad_ff_contour_g(const rad_ff_patch *
 {
     rad_ff_contour_result out;
     out.g = 0.0, out.error = 0.0, out.points = 0, out.converged = 0;
-    uint32_t nq = q->vertex_count, np = p->vertex_count;
     double scale = q->radius + p->radius;
+    rad_ff_poly qc = rad_ff_poly_in_front(q, p, 1e-14 * scale), pc = rad_ff_poly_in_front(p, q, 1e-14 * scale);
+    uint32_t nq = qc.n, np = pc.n;
+    if (nq < 3 || np < 3) { /* nothing of one in front of the other */
+        out.converged = 1;
+        return out;
+    }
     /* The closed-form (collinear) part and the singular points depend on
      * the geometry only: computed once, by every lane alike. */
     double exact = 0.0, exact_mag = 0.0;
-    double s_star[16];
-    int kind[16]; /* 0: dropped (perpendicular, or collinear: in `exact`); 1: graded towards s*;
+    double s_star[RAD_FF_POLY_MAX * RAD_FF_POLY_MAX];
+    int kind[RAD_FF_POLY_MAX * RAD_FF_POLY_MAX]; /* 0: dropped (perpendicular, or collinear: in `exact`); 1: graded towards s*;
                      2: apart (nearest distance over a quarter of the shorter edge): one plain piece */
     for (uint32_t k = 0; k < nq; k++)
         for (uint32_t l = 0; l < np; l++) {
-            int kl = (int)(k * 4 + l);
-            rad_vec3 a = q->p[k], e = rad_v3_sub(q->p[k + 1 < nq ? k + 1 : 0], a);
-            rad_vec3 b = p->p[l], f = rad_v3_sub(p->p[l + 1 < np ? l + 1 : 0], b);
+            int kl = (int)(k * RAD_FF_POLY_MAX + l);
+            rad_vec3 a = qc.v[k], e = rad_v3_sub(qc.v[k + 1 < nq ? k + 1 : 0], a);
+            rad_vec3 b = pc.v[l], f = rad_v3_sub(pc.v[l + 1 < np ? l + 1 : 0], b);
             double ee = rad_v3_dot(e, e), ff = rad_v3_dot(f, f), ef = rad_v3_dot(e, f);
             kind[kl] = 0, s_star[kl] = 0.0;
             if (!(ee > 0.0 && ff > 0.0) || fabs(ef) <= 1e-15 * sqrt(ee * ff)) continue;
@@ -216,10 +271,10 @@ static inline RAD_HD rad_ff_contour_result rad_ff_contour_g(const rad_ff_patch *
         int item = 0;
         for (uint32_t k = 0; k < nq; k++)
             for (uint32_t l = 0; l < np; l++) {
-                int kl = (int)(k * 4 + l);
+                int kl = (int)(k * RAD_FF_POLY_MAX + l);
                 if (!kind[kl]) continue;
-                rad_vec3 a = q->p[k], e = rad_v3_sub(q->p[k + 1 < nq ? k + 1 : 0], a);
-                rad_vec3 b = p->p[l], f = rad_v3_sub(p->p[l + 1 < np ? l + 1 : 0], b);
+                rad_vec3 a = qc.v[k], e = rad_v3_sub(qc.v[k + 1 < nq ? k + 1 : 0], a);
+                rad_vec3 b = pc.v[l], f = rad_v3_sub(pc.v[l + 1 < np ? l + 1 : 0], b);
                 double ff = rad_v3_dot(f, f), ef = rad_v3_dot(e, f), st = s_star[kl];
                 int graded = kind[kl] == 1;
                 for (int side = 0; side < 2; side++) {
@@ -245,7 +300,7 @@ static inline RAD_HD rad_ff_contour_result rad_ff_contour_g(const rad_ff_patch *
         mag = RAD_FF_LANE_SUM(mag, lanes);
         (void)sum_lo;
         double g = (exact + sum_hi) / (2.0 * RAD_PI);
-        double error = (diff + 64.0 * DBL_EPSILON * (mag + exact_mag)) / (2.0 * RAD_PI);
+        double error = (diff + 16.0 * DBL_EPSILON * (mag + exact_mag)) / (2.0 * RAD_PI);
         if (tol < 0.0) {
             double rel = rtol * fabs(g), abs_tol = atol * q->area;
             tol = rel > abs_tol ? rel : abs_tol;

@@ -222,16 +222,18 @@ static inline RAD_HD rad_ff_quad_result rad_ff_pair_quad_unoccluded(const rad_ff
     const rad_ff_patch *q = i_is_q ? pi : pj, *p = i_is_q ? pj : pi;
     double rtol = pp->quad_rtol > 0.0 ? pp->quad_rtol : RAD_FF_QUAD_RTOL; /* 0: the defaults */
     double atol = pp->quad_atol > 0.0 ? pp->quad_atol : RAD_FF_QUAD_ATOL;
-    /* Near pairs (shared edges and vertices among them): the double
-     * contour integral, which needs a few hundred analytic inner integrals
-     * where the area rule needs thousands of point factors; the area rule
-     * where it does not reach the tolerance (rad_ff_contour.h). */
+    /* Near pairs (shared edges and vertices among them) and pairs that
+     * straddle: the double contour integral, which needs a few hundred
+     * analytic inner integrals where the area rule needs thousands of
+     * point factors (tens of thousands, and then wrong, for a straddling
+     * pair); the area rule for a near pair it does not bring to the
+     * tolerance (rad_ff_contour.h). */
     uint32_t contour_points = 0;
     if (rad_ff_contour_applies(q, p)) {
         rad_ff_contour_result c = rad_ff_contour_g(q, p, rtol, atol, pp->lane, pp->lanes);
-        if (c.converged) {
+        if (c.converged || rad_ff_contour_straddles(q, p)) {
             rad_ff_quad_result out;
-            out.g = c.g, out.error = c.error, out.points = c.points, out.cells = 0, out.capped = 0;
+            out.g = c.g, out.error = c.error, out.points = c.points, out.cells = 0, out.capped = !c.converged;
             return out;
         }
         contour_points = c.points;
