@@ -10,6 +10,20 @@
 #include "ff_bvh.h"
 #include "rad_log.h"
 
+/* Embree's error codes in words (rtcore_device.h). */
+static const char *embree_error_name(enum RTCError code)
+{
+    switch (code) {
+    case RTC_ERROR_NONE: return "no error";
+    case RTC_ERROR_INVALID_ARGUMENT: return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION: return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY: return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU: return "unsupported CPU";
+    case RTC_ERROR_CANCELLED: return "cancelled";
+    default: return "unknown error";
+    }
+}
+
 typedef struct build_node {
     int is_leaf;
     void *child[2];
@@ -135,10 +149,17 @@ rad_status ff_bvh_build(const double *triangles, const uint32_t *triangle_face, 
         p->primID = t;
     }
     device = rtcNewDevice(NULL);
-    handle = device ? rtcNewBVH(device) : NULL;
+    if (!device) {
+        enum RTCError code = rtcGetDeviceError(NULL);
+        rad_error("embree: cannot create a device: %s (error %d)", embree_error_name(code), (int)code);
+        status = code == RTC_ERROR_OUT_OF_MEMORY ? RAD_ERR_NOMEM : RAD_ERR_BACKEND;
+        goto done;
+    }
+    handle = rtcNewBVH(device);
     if (!handle) {
-        rad_error("embree: cannot create a BVH builder");
-        status = RAD_ERR_BACKEND;
+        enum RTCError code = rtcGetDeviceError(device);
+        rad_error("embree: cannot create a BVH builder: %s (error %d)", embree_error_name(code), (int)code);
+        status = code == RTC_ERROR_OUT_OF_MEMORY ? RAD_ERR_NOMEM : RAD_ERR_BACKEND;
         goto done;
     }
     struct RTCBuildArguments args = rtcDefaultBuildArguments();
@@ -158,8 +179,9 @@ rad_status ff_bvh_build(const double *triangles, const uint32_t *triangle_face, 
     args.setNodeBounds = set_bounds;
     args.createLeaf = create_leaf;
     build_node *root = rtcBuildBVH(&args);
-    if (!root || rtcGetDeviceError(device) != RTC_ERROR_NONE) {
-        rad_error("embree: rtcBuildBVH failed");
+    enum RTCError build_error = rtcGetDeviceError(device);
+    if (!root || build_error != RTC_ERROR_NONE) {
+        rad_error("embree: rtcBuildBVH failed: %s", embree_error_name(build_error));
         status = RAD_ERR_BACKEND;
         goto done;
     }
