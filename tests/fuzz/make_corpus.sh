@@ -8,7 +8,7 @@
 set -eu
 out=$1 bin=$2
 src=$(cd "$(dirname "$0")/../.." && pwd)
-mkdir -p "$out/scene" "$out/ffile" "$out/rfile" "$out/work"
+mkdir -p "$out/scene" "$out/ffile" "$out/rfile" "$out/pair" "$out/work"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1
 
 # scene: OBJ text, then NUL + each MTL (the fuzz target's input format).
@@ -54,4 +54,9 @@ done
 "$solve" -q --method jacobi --max-iter 2 "$out/ffile/closed_box" -o "$out/rfile/closed_box_unconverged" || true
 "$solve" -q --method cg "$out/ffile/two_f64" -o "$out/rfile/two_cg"
 cd "$out" && rm -rf work
+# pair: one input per configuration of pair_cases.h (its first byte), the
+# rest fixed bytes.
+for k in 0 1 2 3 4 5 6 7; do
+  { printf "\\$(printf '%03o' $k)"; printf 'seed-bytes-of-the-pair-target-0123456789abcdefghijklmnopqrstuvw'; } > "$out/pair/kind$k"
+done
 echo "make_corpus: $(ls scene | wc -l) scene, $(ls ffile | wc -l) ffile, $(ls rfile | wc -l) rfile seeds in $out"
