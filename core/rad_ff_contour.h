@@ -27,7 +27,8 @@
  *    line over A), and the outer integral over s by Gauss-Legendre on
  *    pieces graded (s = s* +- (..) tau^3) towards the point s* of e_k
  *    nearest f_l, where the integrand behaves like (s - s*) ln |s - s*|
- *    when the edges meet (a shared vertex, a T-junction).
+ *    when the edges meet (a shared vertex, a T-junction), and towards
+ *    where the foot of c(s) on f passes f's ends (close parallel edges).
  * Orders 10 and 12 on the same pieces give the error estimate (the sum of
  * their differences, plus the rounding of the terms, which cancel:
  * 16 ulps of their magnitudes); level L splits every piece into 2^L.
@@ -53,6 +54,9 @@
 #define RAD_FF_CONTOUR_MAX_LEVEL 4
 #define RAD_FF_CONTOUR_LO 10 /* Gauss-Legendre orders of the estimate (rad_ff_quad.h's tables) */
 #define RAD_FF_CONTOUR_HI 12
+#define RAD_FF_CONTOUR_SIZE_RATIO 0.01 /* smaller radius over larger, at least */
+#define RAD_FF_CONTOUR_SLIVER 1e-3     /* area over radius squared, at least */
+#define RAD_FF_CONTOUR_CUTS 3 /* interior breakpoints of one edge pair's outer integral, at most */
 
 /* H(z) = z^2 ln|z| / 2 - 3 z^2 / 4, with H(0) = 0. */
 static inline RAD_HD double rad_ff_contour_h(double z)
@@ -148,6 +152,17 @@ static inline RAD_HD int rad_ff_contour_straddles(const rad_ff_patch *q, const r
  * agrees with a brute-force sum of 1600^2 points to 1e-8). */
 static inline RAD_HD int rad_ff_contour_applies(const rad_ff_patch *q, const rad_ff_patch *p)
 {
+    /* Not for a patch far smaller than the other (radii 1 : 100 or more):
+     * its edge terms, |e| |f| ln r, cancel down to G ~ |e|^2 F, and the
+     * area rule over the small one converges fast anyway (a straddling one
+     * clipped first: rad_ff_pair_quad_unoccluded). */
+    double small = q->radius < p->radius ? q->radius : p->radius, large = q->radius < p->radius ? p->radius : q->radius;
+    if (small < RAD_FF_CONTOUR_SIZE_RATIO * large) return 0;
+    /* Nor for slivers (area under RAD_FF_CONTOUR_SLIVER of the radius
+     * squared): their two long edges' terms cancel the same way. */
+    if (q->area < RAD_FF_CONTOUR_SLIVER * q->radius * q->radius ||
+        p->area < RAD_FF_CONTOUR_SLIVER * p->radius * p->radius)
+        return 0;
     return rad_ff_pair_near(q, p) || rad_ff_contour_straddles(q, p);
 }
 
@@ -181,6 +196,24 @@ static inline RAD_HD rad_ff_poly rad_ff_poly_in_front(const rad_ff_patch *a, con
         if (changes <= 2 && ((h[k] > 0.0 && h[k1] < 0.0) || (h[k] < 0.0 && h[k1] > 0.0)))
             out.v[out.n++] = rad_v3_lerp(a->p[k], a->p[k1], h[k] / (h[k] - h[k1]));
     }
+    return out;
+}
+
+/* Triangle t (1 .. n - 2) of the fan of poly from its vertex 0, as a
+ * patch lying on `like`'s plane (its normal and face). */
+static inline RAD_HD rad_ff_patch rad_ff_poly_fan_triangle(const rad_ff_poly *poly, uint32_t t, const rad_ff_patch *like)
+{
+    rad_ff_patch out = *like;
+    out.p[0] = poly->v[0], out.p[1] = poly->v[t], out.p[2] = poly->v[t + 1], out.p[3] = poly->v[t + 1];
+    out.vertex_count = 3;
+    out.area = 0.5 * rad_v3_length(rad_v3_cross(rad_v3_sub(out.p[1], out.p[0]), rad_v3_sub(out.p[2], out.p[0])));
+    out.centre = rad_v3_scale(rad_v3_add(out.p[0], rad_v3_add(out.p[1], out.p[2])), 1.0 / 3.0);
+    out.radius = 0.0;
+    for (int k = 0; k < 3; k++) {
+        double r = rad_v3_length(rad_v3_sub(out.p[k], out.centre));
+        out.radius = r > out.radius ? r : out.radius;
+    }
+    out.split = 1.0, out.inv_split = 1.0, out.inv_rest = 0.0;
     return out;
 }
 
@@ -231,19 +264,25 @@ static inline RAD_HD rad_ff_contour_result rad_ff_contour_g(const rad_ff_patch *
         out.converged = 1;
         return out;
     }
-    /* The closed-form (collinear) part and the singular points depend on
-     * the geometry only: computed once, by every lane alike. */
+    /* The closed-form (collinear) part and the breakpoints depend on the
+     * geometry only: computed once, by every lane alike. The outer
+     * integrand is smooth but where c(s) comes close to f: at the point s*
+     * of e nearest f, and where the foot of c(s) on f's line passes f's
+     * ends (close, nearly parallel edges: a kink of the width of their
+     * distance). Each such point closer than a quarter of the shorter
+     * edge is a breakpoint; every interval between breakpoints (and 0, 1)
+     * is split in halves graded towards their ends. */
     double exact = 0.0, exact_mag = 0.0;
-    double s_star[RAD_FF_POLY_MAX * RAD_FF_POLY_MAX];
-    int kind[RAD_FF_POLY_MAX * RAD_FF_POLY_MAX]; /* 0: dropped (perpendicular, or collinear: in `exact`); 1: graded towards s*;
-                     2: apart (nearest distance over a quarter of the shorter edge): one plain piece */
+    double cut[RAD_FF_POLY_MAX * RAD_FF_POLY_MAX][RAD_FF_CONTOUR_CUTS];
+    int cuts[RAD_FF_POLY_MAX * RAD_FF_POLY_MAX]; /* -1: dropped (perpendicular, or collinear: in `exact`);
+                                                     0: apart, one plain piece; else interior breakpoints + 1 */
     for (uint32_t k = 0; k < nq; k++)
         for (uint32_t l = 0; l < np; l++) {
             int kl = (int)(k * RAD_FF_POLY_MAX + l);
             rad_vec3 a = qc.v[k], e = rad_v3_sub(qc.v[k + 1 < nq ? k + 1 : 0], a);
             rad_vec3 b = pc.v[l], f = rad_v3_sub(pc.v[l + 1 < np ? l + 1 : 0], b);
             double ee = rad_v3_dot(e, e), ff = rad_v3_dot(f, f), ef = rad_v3_dot(e, f);
-            kind[kl] = 0, s_star[kl] = 0.0;
+            cuts[kl] = -1;
             if (!(ee > 0.0 && ff > 0.0) || fabs(ef) <= 1e-15 * sqrt(ee * ff)) continue;
             /* Collinear: both ends of e on f's line. */
             rad_vec3 c0 = rad_v3_cross(rad_v3_sub(a, b), f), c1 = rad_v3_cross(rad_v3_sub(rad_v3_add(a, e), b), f);
@@ -258,40 +297,69 @@ static inline RAD_HD rad_ff_contour_result rad_ff_contour_g(const rad_ff_patch *
                 }
                 continue;
             }
-            double distance;
-            s_star[kl] = rad_ff_contour_nearest(a, e, b, f, &distance);
-            kind[kl] = distance * distance > 0.0625 * (ee < ff ? ee : ff) ? 2 : 1;
-            if (kind[kl] == 2) s_star[kl] = 0.0;
+            double near2 = 0.0625 * (ee < ff ? ee : ff), distance;
+            double candidates[3];
+            int n = 0;
+            candidates[n++] = rad_ff_contour_nearest(a, e, b, f, &distance);
+            if (distance * distance > near2) n = 0;
+            /* The foot of c(s) = a + s e - b on f's line is at t = (c.f)/ff: t = 0 and t = 1. */
+            double af = rad_v3_dot(rad_v3_sub(a, b), f);
+            for (int end = 0; end < 2; end++) {
+                double sc = (end * ff - af) / ef;
+                if (!(sc > 0.0 && sc < 1.0)) continue;
+                rad_vec3 g = rad_v3_sub(rad_v3_add(a, rad_v3_scale(e, sc)), end ? rad_v3_add(b, f) : b);
+                if (rad_v3_dot(g, g) <= near2) candidates[n++] = sc;
+            }
+            if (n == 0) {
+                cuts[kl] = 0;
+                continue;
+            }
+            /* Sorted, distinct, inside (0, 1): the interior breakpoints. */
+            int m = 0;
+            for (int i = 0; i < n; i++) {
+                double x = candidates[i];
+                if (!(x > 1e-12 && x < 1.0 - 1e-12)) continue;
+                int at = m;
+                while (at > 0 && cut[kl][at - 1] > x) at--;
+                if ((at > 0 && x - cut[kl][at - 1] < 1e-9) || (at < m && cut[kl][at] - x < 1e-9)) continue;
+                for (int j = m; j > at; j--) cut[kl][j] = cut[kl][j - 1];
+                cut[kl][at] = x;
+                m++;
+            }
+            cuts[kl] = m + 1;
         }
     double tol = -1.0;
     for (int level = 0; level <= RAD_FF_CONTOUR_MAX_LEVEL; level++) {
         int parts = 1 << level;
         double sum_lo = 0.0, sum_hi = 0.0, diff = 0.0, mag = 0.0;
-        /* Work items: (edge pair, side of s*, part), taken by the lanes in turn. */
+        /* Work items: (edge pair, interval half, part), taken by the lanes in turn. */
         int item = 0;
         for (uint32_t k = 0; k < nq; k++)
             for (uint32_t l = 0; l < np; l++) {
                 int kl = (int)(k * RAD_FF_POLY_MAX + l);
-                if (!kind[kl]) continue;
+                if (cuts[kl] < 0) continue;
                 rad_vec3 a = qc.v[k], e = rad_v3_sub(qc.v[k + 1 < nq ? k + 1 : 0], a);
                 rad_vec3 b = pc.v[l], f = rad_v3_sub(pc.v[l + 1 < np ? l + 1 : 0], b);
-                double ff = rad_v3_dot(f, f), ef = rad_v3_dot(e, f), st = s_star[kl];
-                int graded = kind[kl] == 1;
-                for (int side = 0; side < 2; side++) {
-                    double s_to = side ? 1.0 : 0.0;
-                    if (s_to == st) continue; /* s* at this end: one piece only */
-                    for (int part = 0; part < parts; part++, item++) {
-                        if (item % (int)lanes != (int)lane) continue;
-                        double lo, hi, m;
-                        rad_ff_contour_piece(a, e, b, f, ff, graded, st, s_to, (double)part / parts, 1.0 / parts, &lo,
-                                             &hi, &m);
-                        /* s decreasing on the side towards 0: the integral's sign flips. */
-                        double sign = side ? 1.0 : -1.0;
-                        sum_lo += sign * ef * lo;
-                        sum_hi += sign * ef * hi;
-                        diff += fabs(ef * (hi - lo));
-                        mag += fabs(ef) * m;
-                        out.points += RAD_FF_CONTOUR_LO + RAD_FF_CONTOUR_HI;
+                double ff = rad_v3_dot(f, f), ef = rad_v3_dot(e, f);
+                int intervals = cuts[kl] > 0 ? cuts[kl] : 1, halves = cuts[kl] > 0 ? 2 : 1;
+                for (int iv = 0; iv < intervals; iv++) {
+                    double x = iv == 0 ? 0.0 : cut[kl][iv - 1], y = iv == intervals - 1 ? 1.0 : cut[kl][iv];
+                    for (int half = 0; half < halves; half++) {
+                        /* graded from s_from (a breakpoint or end) towards the middle; plain: 0 to 1 */
+                        double s_from = half ? y : x, s_to = halves == 2 ? 0.5 * (x + y) : 1.0;
+                        for (int part = 0; part < parts; part++, item++) {
+                            if (item % (int)lanes != (int)lane) continue;
+                            double lo, hi, mg;
+                            rad_ff_contour_piece(a, e, b, f, ff, halves == 2, s_from, s_to, (double)part / parts,
+                                                 1.0 / parts, &lo, &hi, &mg);
+                            /* The piece integrates from s_from to s_to: backwards on an upper half. */
+                            double sign = s_to > s_from ? 1.0 : -1.0;
+                            sum_lo += sign * ef * lo;
+                            sum_hi += sign * ef * hi;
+                            diff += fabs(ef * (hi - lo));
+                            mag += fabs(ef) * mg;
+                            out.points += RAD_FF_CONTOUR_LO + RAD_FF_CONTOUR_HI;
+                        }
                     }
                 }
             }
@@ -305,6 +373,8 @@ static inline RAD_HD rad_ff_contour_result rad_ff_contour_g(const rad_ff_patch *
             double rel = rtol * fabs(g), abs_tol = atol * q->area;
             tol = rel > abs_tol ? rel : abs_tol;
         }
+        /* G >= 0: a pair that sees next to nothing may cancel to -1e-16 or so. */
+        if (g < 0.0) error += -g, g = 0.0;
         out.g = g, out.error = error;
         if (error <= tol) {
             out.converged = 1;

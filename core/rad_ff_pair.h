@@ -231,12 +231,28 @@ static inline RAD_HD rad_ff_quad_result rad_ff_pair_quad_unoccluded(const rad_ff
     uint32_t contour_points = 0;
     if (rad_ff_contour_applies(q, p)) {
         rad_ff_contour_result c = rad_ff_contour_g(q, p, rtol, atol, pp->lane, pp->lanes);
-        if (c.converged || rad_ff_contour_straddles(q, p)) {
+        if (c.converged) {
             rad_ff_quad_result out;
-            out.g = c.g, out.error = c.error, out.points = c.points, out.cells = 0, out.capped = !c.converged;
+            out.g = c.g, out.error = c.error, out.points = c.points, out.cells = 0, out.capped = 0;
             return out;
         }
         contour_points = c.points;
+    }
+    if (rad_ff_contour_straddles(q, p)) {
+        /* The area rule over the part of q in front of p, fanned into
+         * triangles: its integrand has no kink inside them (the one
+         * across p's plane is now an edge, graded towards). */
+        rad_ff_poly qc = rad_ff_poly_in_front(q, p, 1e-14 * (q->radius + p->radius));
+        rad_ff_quad_result out;
+        out.g = 0.0, out.error = 0.0, out.points = contour_points, out.cells = 0, out.capped = 0;
+        for (uint32_t t = 1; t + 1 < qc.n; t++) {
+            rad_ff_patch tri = rad_ff_poly_fan_triangle(&qc, t, q);
+            if (!(tri.area > 0.0)) continue;
+            rad_ff_quad_result part = rad_ff_quad_unoccluded(&tri, p, rtol, atol, pp->lane, pp->lanes);
+            out.g += part.g, out.error += part.error, out.points += part.points, out.cells += part.cells;
+            out.capped |= part.capped;
+        }
+        return out;
     }
     rad_ff_quad_result out = rad_ff_quad_unoccluded(q, p, rtol, atol, pp->lane, pp->lanes);
     out.points += contour_points;
