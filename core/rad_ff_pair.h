@@ -59,7 +59,8 @@ typedef struct rad_ff_pair_result {
     uint32_t rays_skipped; /* rays the pair would have cast without a tracer (culled) */
     int near;              /* took the near-field (contour) estimator, or near-pair ray sampling */
     int refined;           /* took more than one batch */
-    int capped;            /* error above the target (or the quadrature's limit) when it stopped */
+    int capped;            /* --target-error: its error still above the target when it stopped;
+                              without: the quadrature stopped at its limit (rad_ff_quad.h) */
     long long ray_ticks;   /* RAD_FF_TICKS spent tracing */
 } rad_ff_pair_result;
 
@@ -288,21 +289,19 @@ static inline RAD_HD void rad_ff_pair_quad_finish(const rad_ff_pair_params *pp, 
         rad_ff_sums sums = {0};
         rad_ff_pair_quad_rays(pp, q, p, iq, ip, near, 0, R, tracer, out, &sums);
         nu = rad_ff_fraction(&sums, &nu_error);
-        /* More rays (doubling) while the error is above the target: the
-         * user's --target-error for every traced pair; by default
-         * RAD_FF_PARTIAL_TARGET, for the pairs their first rays found
-         * partly hidden (0 < nu^ < 1), or learnt nothing of (no ray with
-         * weight) - the only ones whose fraction is uncertain beyond its
-         * one-ray floor. */
+        /* More rays (doubling) while the error is above the target: by
+         * default RAD_FF_PARTIAL_TARGET, for the pairs their first rays
+         * found partly hidden (0 < nu^ < 1), or learnt nothing of (no ray
+         * with weight) - the only ones whose fraction is uncertain beyond
+         * its one-ray floor - else RAD_FF_CONFIRM_TARGET; --target-error
+         * only adds rays (up to its cap) where the default would stop, so
+         * a loose target is never worse than none. */
         double area = pi->area > pj->area ? pi->area : pj->area;
         for (;;) {
             uint64_t cap, least = 0;
             double target;
             int partial = nu > 0.0 && nu < 1.0;
-            if (pp->target_error > 0.0) {
-                target = pp->target_error;
-                cap = (uint64_t)R * (pp->max_samples / pp->samples);
-            } else if (partial || !(sums.ray_terms > 0.0)) {
+            if (partial || !(sums.ray_terms > 0.0)) {
                 target = RAD_FF_PARTIAL_TARGET;
                 cap = (uint64_t)R * RAD_FF_PARTIAL_RAYS;
             } else {
@@ -310,8 +309,14 @@ static inline RAD_HD void rad_ff_pair_quad_finish(const rad_ff_pair_params *pp, 
                 cap = (uint64_t)R * RAD_FF_CONFIRM_RAYS;
             }
             if (partial) least = 2 * (uint64_t)R < cap ? 2 * (uint64_t)R : cap;
-            if (!(sums.rays < cap && (sums.rays < least || (g0->error + g0->g * nu_error) * scale * area > target)))
-                break;
+            double err = (g0->error + g0->g * nu_error) * scale * area;
+            int more = sums.rays < cap && (sums.rays < least || err > target);
+            if (pp->target_error > 0.0) {
+                uint64_t user_cap = (uint64_t)R * (pp->max_samples / pp->samples);
+                more |= sums.rays < user_cap && err > pp->target_error;
+                if (user_cap > cap) cap = user_cap;
+            }
+            if (!more) break;
             uint64_t to = 2 * (uint64_t)sums.rays < cap ? 2 * (uint64_t)sums.rays : cap;
             rad_ff_pair_quad_rays(pp, q, p, iq, ip, near, sums.rays, (uint32_t)to, tracer, out, &sums);
             nu = rad_ff_fraction(&sums, &nu_error);
@@ -321,8 +326,9 @@ static inline RAD_HD void rad_ff_pair_quad_finish(const rad_ff_pair_params *pp, 
     }
     out->coupling = g0->g * nu * scale;
     out->error = (g0->error * nu + g0->g * nu_error) * scale;
-    if (pp->target_error > 0.0)
-        out->capped |= !rad_ff_error_reached(out->error, pi, pj, pp->target_error);
+    /* Under --target-error, capped counts a missed target only (a
+     * quadrature limit whose error still meets the target is no miss). */
+    if (pp->target_error > 0.0) out->capped = !rad_ff_error_reached(out->error, pi, pj, pp->target_error);
 }
 
 /* The quadrature estimator, both stages at once. */

@@ -219,12 +219,43 @@ rad_status rad_fs_check_output(const char *option, const char *path)
         return RAD_ERR_USAGE;
     }
     struct stat st;
-    if (stat(path, &st) != 0) return RAD_OK; /* to be made (its folder is checked when it is) */
-    if (S_ISREG(st.st_mode) || S_ISCHR(st.st_mode)) return RAD_OK;
-    rad_error("%s: %s: is %s; outputs are regular files, new ones, or character devices such as /dev/null "
-              "(docs/reliability.md)",
-              option, path, kind_name(st.st_mode));
-    return RAD_ERR_USAGE;
+    int exists = stat(path, &st) == 0;
+    if (exists && S_ISCHR(st.st_mode)) return RAD_OK; /* written in place */
+    if (exists && !S_ISREG(st.st_mode)) {
+        rad_error("%s: %s: is %s; outputs are regular files, new ones, or character devices such as /dev/null "
+                  "(docs/reliability.md)",
+                  option, path, kind_name(st.st_mode));
+        return RAD_ERR_USAGE;
+    }
+    /* A new or regular file is written as a temporary beside it and renamed:
+     * its folder must exist and take new files. Checked now, before any
+     * work, so that a late output cannot fail after an earlier one has
+     * replaced its old file. */
+    char dir[4096];
+    const char *slash = strrchr(path, '/');
+    if (!slash) {
+        strcpy(dir, ".");
+    } else if ((size_t)(slash - path) >= sizeof dir) {
+        rad_error("%s: %s: path too long", option, path);
+        return RAD_ERR_USAGE;
+    } else {
+        size_t len = slash == path ? 1 : (size_t)(slash - path);
+        memcpy(dir, path, len);
+        dir[len] = 0;
+    }
+    if (stat(dir, &st) != 0) {
+        rad_error("%s: %s: cannot write: folder %s: %s", option, path, dir, strerror(errno));
+        return RAD_ERR_USAGE;
+    }
+    if (!S_ISDIR(st.st_mode)) {
+        rad_error("%s: %s: cannot write: %s is not a folder", option, path, dir);
+        return RAD_ERR_USAGE;
+    }
+    if (access(dir, W_OK | X_OK) != 0) {
+        rad_error("%s: %s: cannot write into folder %s: %s", option, path, dir, strerror(errno));
+        return RAD_ERR_USAGE;
+    }
+    return RAD_OK;
 }
 
 /* A file's identity: device and inode when it exists; else its folder's

@@ -54,7 +54,10 @@ void rad_fs_unguard(const char *temp_path);
 
 /* Outputs are new files, regular files, or character devices (written in
  * place: `-o /dev/null` times a run). A directory, FIFO, socket or block
- * device, or an empty name, is refused: "option: path: why" (logged). */
+ * device, or an empty name, is refused: "option: path: why" (logged); so
+ * is a new or regular file whose folder is missing, not a folder, or does
+ * not take new files (its temporary is made there). Called for every
+ * output before any work. */
 rad_status rad_fs_check_output(const char *option, const char *path);
 
 /* One file a program reads or writes, named by the option that gave it. */

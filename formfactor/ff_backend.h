@@ -106,8 +106,10 @@ typedef struct ff_counters {
     uint64_t rays_saved;     /* shadow rays those pairs would have cast */
     uint64_t samples;        /* point pairs evaluated */
     uint64_t pairs_refined;  /* pairs that took more than one batch (--target-error) */
-    uint64_t pairs_capped;   /* pairs whose error was still above the target when they
-                                stopped at max_samples (refined or not) */
+    uint64_t pairs_capped;   /* --target-error: pairs whose error was still above the
+                                target when they stopped at max_samples (refined or
+                                not); without it: pairs whose quadrature stopped at its
+                                limit (rad_ff_pair_result.capped) */
     uint64_t rays;           /* shadow rays traced */
     uint64_t rays_occluded;  /* of those, blocked */
     double kernel_seconds;   /* time sampling points and evaluating the kernel */

@@ -159,7 +159,8 @@ static ff_plan_choices plan_choices(const ff_options *o)
 {
     return (ff_plan_choices){.element = o->element, .format = o->format, .errors_file = o->errors_path != NULL,
                              .standard_errors = !o->no_errors, .reciprocity = o->reciprocity,
-                             .backend = o->backend, .max_bytes = o->max_bytes};
+                             .backend = o->backend, .max_bytes = o->max_bytes,
+                             .allow_disk_overcommit = o->allow_disk_overcommit};
 }
 
 /* Rank 0, before the mesh is built: plans the run and refuses, with the
@@ -183,7 +184,7 @@ static rad_status check_limits(ff_run *run, uint64_t n)
     ff_plan_choices choices = plan_choices(&run->opt);
     ff_plan_make(&limits, &choices, &run->plan);
     const ff_plan *plan = &run->plan;
-    char why[4200] = "", have[32];
+    char why[4400] = "", have[32];
     if (plan->refusal == FF_PLAN_ACCEPTED && run->opt.format == FF_FORMAT_SPARSE && plan->file_bytes > free_bytes) {
         char bound[32];
         rad_warn("%s has %s free and the sparse file may need up to %s (all N^2 entries); most scenes need a "
@@ -196,7 +197,12 @@ static rad_status check_limits(ff_run *run, uint64_t n)
         snprintf(why, sizeof why, "more than the format's limit of %" PRIu64 " patches", FF_MAX_PATCHES);
         break;
     case FF_PLAN_DISK:
-        snprintf(why, sizeof why, "%s has %s free", dir, format_bytes(free_bytes, have, sizeof have));
+        if (run->opt.format == FF_FORMAT_SPARSE)
+            snprintf(why, sizeof why, "%s has %s free, less than a tenth of that bound (the sparse file is often a "
+                     "tenth of it: --allow-disk-overcommit runs anyway; a full disk stops the run, old output kept)",
+                     dir, format_bytes(free_bytes, have, sizeof have));
+        else
+            snprintf(why, sizeof why, "%s has %s free", dir, format_bytes(free_bytes, have, sizeof have));
         break;
     case FF_PLAN_MAX_BYTES:
         snprintf(why, sizeof why, "--max-bytes is %s", format_bytes(run->opt.max_bytes, have, sizeof have));
@@ -233,6 +239,49 @@ static rad_status read_scene_file(const char *path, char **out_data, size_t *out
  * every pair is computed. */
 #define FF_REUSE_MAX_BYTES (2.0 * 1024 * 1024 * 1024)
 
+/* --reuse: the old matrix F (N_old x N_old) is a form-factor matrix as
+ * formfactor writes it, or it is refused naming the first entry that is
+ * not (row, column, value): every entry finite, >= 0 and at most 1 (to the
+ * rounding of float32 sums: FF_REUSE_F_SLACK); and, reciprocal by
+ * construction (RAD_FF_FLAG_RECIPROCAL), c_ij = F_ij / A_j equal to
+ * c_ji = F_ji / A_i to the element type's rounding (FF_REUSE_C_RTOL, plus
+ * float32's smallest step divided by the areas for subnormal entries).
+ * The checksums only say that the file is as written; this says that
+ * what was written are form factors. */
+#define FF_REUSE_F_SLACK 1e-6
+#define FF_REUSE_C_RTOL 1e-6
+static rad_status check_reused(const char *path, const rad_mesh *mesh, const double *F, int reciprocal)
+{
+    size_t n = mesh->patch_count;
+    for (size_t i = 0; i < n; i++)
+        for (size_t j = 0; j < n; j++) {
+            double f = F[i * n + j];
+            const char *why = !isfinite(f) ? "not a finite number"
+                            : f < 0 ? "negative"
+                            : f > 1 + FF_REUSE_F_SLACK ? "above 1" : NULL;
+            if (why) {
+                rad_error("--reuse %s: F[%zu][%zu] = %.9g is %s; a form factor is a fraction in [0, 1], so the file "
+                          "is damaged or not formfactor's; refused",
+                          path, i, j, f, why);
+                return RAD_ERR_INVALID;
+            }
+        }
+    if (!reciprocal) return RAD_OK;
+    for (size_t i = 0; i < n; i++)
+        for (size_t j = i + 1; j < n; j++) {
+            double ai = mesh->patches[i].area, aj = mesh->patches[j].area;
+            double cij = F[i * n + j] / aj, cji = F[j * n + i] / ai;
+            double slack = FF_REUSE_C_RTOL * (cij > cji ? cij : cji) + 1.5e-45 * (1 / ai + 1 / aj);
+            if (fabs(cij - cji) > slack) {
+                rad_error("--reuse %s: F[%zu][%zu] = %.9g and F[%zu][%zu] = %.9g break reciprocity (A_i F_ij = "
+                          "%.9g, A_j F_ji = %.9g), which the file says holds by construction; it is damaged; refused",
+                          path, i, j, F[i * n + j], j, i, F[j * n + i], ai * F[i * n + j], aj * F[j * n + i]);
+                return RAD_ERR_INVALID;
+            }
+        }
+    return RAD_OK;
+}
+
 /* --reuse: the couplings c = F / A_column of `mesh` (the mesh refined
  * from) out of its form-factor file, one value per unordered pair (taken
  * from the entry above the diagonal, so that c_ij = c_ji to the bit), and
@@ -266,6 +315,14 @@ static rad_status load_reuse(ff_run *run, const rad_mesh *mesh, const uint8_t *s
                   info->samples, info->shadow_rays, rad_estimator_name(run->opt.estimator), run->opt.samples,
                   run->opt.shadow_rays);
         st = RAD_ERR_INVALID;
+    } else if (info->seed != run->opt.seed) {
+        rad_error("--reuse %s: computed with --seed %llu, this run with --seed %llu; reuse needs the same settings",
+                  path, (unsigned long long)info->seed, (unsigned long long)run->opt.seed);
+        st = RAD_ERR_INVALID;
+    } else if (info->element_type != (uint32_t)run->opt.element) {
+        rad_error("--reuse %s: stored as --element %s, this run writes --element %s; reuse needs the same settings",
+                  path, ff_element_name((rad_element_type)info->element_type), ff_element_name(run->opt.element));
+        st = RAD_ERR_INVALID;
     }
     double *matrix = NULL;
     if (st == RAD_OK) {
@@ -277,6 +334,7 @@ static rad_status load_reuse(ff_run *run, const rad_mesh *mesh, const uint8_t *s
         }
     }
     if (st == RAD_OK) st = rad_ff_read_rows(file, 0, n_old, matrix);
+    if (st == RAD_OK) st = check_reused(path, mesh, matrix, info->flags & RAD_FF_FLAG_RECIPROCAL);
     rad_ff_close(file);
     if (st != RAD_OK) {
         free(matrix);
@@ -294,6 +352,56 @@ static rad_status load_reuse(ff_run *run, const rad_mesh *mesh, const uint8_t *s
     return RAD_OK;
 }
 
+/* Why a solution's mesh (`prev`, read from a radiosity file) is not of
+ * this run's scene, for the message: the first difference found, patch by
+ * patch, against its source face - wound the other way (--flip-normals),
+ * another Kd (--clamp-rho, or an edited MTL), another Ke, a face this
+ * scene lacks, or else the geometry. */
+static void explain_other_scene(const ff_run *run, const rad_mesh *prev, char *out, size_t size)
+{
+    const rad_scene *sc = &run->scene;
+    for (size_t p = 0; p < prev->patch_count; p++) {
+        const rad_patch *pa = &prev->patches[p];
+        if (pa->source_face >= sc->face_count) {
+            snprintf(out, size, "its patch %zu comes from face %u, and this scene has %zu faces (another OBJ)", p,
+                     pa->source_face, sc->face_count);
+            return;
+        }
+        const rad_face *f = &sc->faces[pa->source_face];
+        double nx = 0, ny = 0, nz = 0; /* Newell's normal of the face as this run wound it */
+        for (uint32_t k = 0; k < f->vertex_count; k++) {
+            const double *a = &sc->positions[3 * (size_t)f->v[k]];
+            const double *b = &sc->positions[3 * (size_t)f->v[(k + 1) % f->vertex_count]];
+            nx += (a[1] - b[1]) * (a[2] + b[2]);
+            ny += (a[2] - b[2]) * (a[0] + b[0]);
+            nz += (a[0] - b[0]) * (a[1] + b[1]);
+        }
+        if (nx * pa->normal.x + ny * pa->normal.y + nz * pa->normal.z < 0) {
+            snprintf(out, size, "its faces are wound the other way round (face %u, OBJ line %u): %s",
+                     pa->source_face, f->line,
+                     run->opt.flip_normals ? "this run has --flip-normals and that solution's formfactor run did not"
+                                           : "that solution's formfactor run had --flip-normals and this one does not");
+            return;
+        }
+        const rad_material *m = &sc->materials[f->material];
+        for (int c = 0; c < 3; c++) {
+            if (m->rho[c] != pa->rho[c]) {
+                snprintf(out, size, "material '%s' has Kd %g %g %g here and %g %g %g there (another --clamp-rho%s, or "
+                         "an edited MTL)", m->name, m->rho[0], m->rho[1], m->rho[2], pa->rho[0], pa->rho[1],
+                         pa->rho[2], run->opt.clamp_rho > 0 ? "" : ": this run has none");
+                return;
+            }
+            if (m->emission[c] != pa->emission[c]) {
+                snprintf(out, size, "material '%s' has Ke %g %g %g here and %g %g %g there (an edited MTL)", m->name,
+                         m->emission[0], m->emission[1], m->emission[2], pa->emission[0], pa->emission[1],
+                         pa->emission[2]);
+                return;
+            }
+        }
+    }
+    snprintf(out, size, "the same faces and materials, so the geometry differs (moved vertices, or another OBJ)");
+}
+
 /* --refine: the mesh of a solution of this scene, split where the
  * solution says it is too coarse (core/rad_refine.h). Every rank reads the
  * file and computes the same split. */
@@ -306,9 +414,11 @@ static rad_status refine_mesh(ff_run *run)
     uint8_t *split = NULL;
     uint32_t *parent = NULL;
     if (prev.scene_fingerprint != run->scene.fingerprint) {
-        rad_error("%s: solved for another scene (fingerprint %016llx) than %s (%016llx); refine the solution of the "
-                  "same scene", path, (unsigned long long)prev.scene_fingerprint, run->scene.path,
-                  (unsigned long long)run->scene.fingerprint);
+        char why[512];
+        explain_other_scene(run, &prev.mesh, why, sizeof why);
+        rad_error("%s: solved for another scene (fingerprint %016llx) than %s (%016llx): %s; refine the solution of "
+                  "the same scene, loaded with the same settings", path, (unsigned long long)prev.scene_fingerprint,
+                  run->scene.path, (unsigned long long)run->scene.fingerprint, why);
         st = RAD_ERR_INVALID;
         goto done;
     }
@@ -346,6 +456,20 @@ done:
     return st;
 }
 
+/* Before any work: a scene where no face emits gives solve nothing to
+ * spread, so its image will be black (docs/reliability.md). The matrix is
+ * still computed and written: it serves uses without light (thermal
+ * exchange, view factors). */
+static void warn_if_dark(const rad_scene *scene)
+{
+    for (size_t f = 0; f < scene->face_count; f++) {
+        const double *e = scene->materials[scene->faces[f].material].emission;
+        if (e[0] > 0 || e[1] > 0 || e[2] > 0) return;
+    }
+    rad_warn("%s: no face emits light (no material it uses has Ke > 0), so solve's radiosity and render's image "
+             "will be black; the form factors are computed and written all the same", scene->path);
+}
+
 static rad_status load(ff_run *run)
 {
     double t0 = ff_comm_time();
@@ -354,6 +478,7 @@ static rad_status load(ff_run *run)
     rad_status st = run->opt.scene_path ? rad_scene_load_file(run->opt.scene_path, &loader, &run->scene)
                                         : rad_scene_load_default(&run->scene);
     double t1 = ff_comm_time();
+    if (st == RAD_OK && ff_comm_rank(run->comm) == 0) warn_if_dark(&run->scene);
     rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only,
                            .contacts = run->opt.contacts};
     if (run->opt.refine_path) {
@@ -528,12 +653,16 @@ static void free_buffer(ff_run *run, size_t count, double *buffer)
  * comes from a calibration: FF_CALIBRATION_CHUNKS chunks of rows spread
  * over the matrix, together about 1/64 of it, computed by the run's own
  * backend (and computed again later: 1.6 % more work) and scaled to the
- * rows of the busiest rank (busiest_rows). A GPU's chunks of a small scene are
+ * rows of the busiest rank (busiest_rows); at most FF_CALIBRATION_PAIRS
+ * pairs in all (at least one row a chunk), so that a huge run's
+ * calibration takes bounded memory and time (N = 326 698: 4 rows, not
+ * 1/64 of the run). A GPU's chunks of a small scene are
  * mostly launch latency, so small runs are overestimated; runs of fewer
  * than FF_CALIBRATION_MIN patches take seconds and are not calibrated.
  * Sets the progress lines' cadence from the estimate. */
 #define FF_CALIBRATION_CHUNKS 4
 #define FF_CALIBRATION_MIN 1024
+#define FF_CALIBRATION_PAIRS ((uint64_t)1 << 21)
 /* The first row of calibration chunk k: chunks centred in equal parts of the matrix. */
 static uint32_t calibration_row(uint32_t n, uint32_t chunk, uint32_t k)
 {
@@ -552,11 +681,25 @@ static double busiest_rows(const ff_run *run)
     return run->plan.most_rows;
 }
 
-static void estimate(ff_run *run)
+/* Rows in each calibration chunk: 1/64 of the matrix over the chunks (at
+ * least 2 rows a chunk), within FF_CALIBRATION_PAIRS (at least 1). */
+static uint32_t calibration_chunk(uint32_t n)
+{
+    uint32_t chunk = n / 64 / FF_CALIBRATION_CHUNKS > 2 ? n / 64 / FF_CALIBRATION_CHUNKS : 2;
+    uint64_t most = FF_CALIBRATION_PAIRS / FF_CALIBRATION_CHUNKS / (n ? n : 1);
+    if (most < 1) most = 1;
+    return chunk > most ? (uint32_t)most : chunk;
+}
+
+/* Rank 0 (estimate's contract above); with --max-seconds, refuses
+ * (RAD_ERR_USAGE, logged) a run whose estimate exceeds it, or whose
+ * calibration could not run. Returns RAD_OK otherwise. */
+static rad_status estimate(ff_run *run)
 {
     uint32_t n = (uint32_t)run->mesh.patch_count;
     double seconds = -1, calibration = 0;
-    uint32_t chunk = n / 64 / FF_CALIBRATION_CHUNKS > 2 ? n / 64 / FF_CALIBRATION_CHUNKS : 2;
+    uint32_t chunk = calibration_chunk(n);
+    const char *failed = NULL; /* why a calibrated run has no time */
     if (n >= FF_CALIBRATION_MIN && records_from_backend(run)) {
         /* Rows the backend finishes itself: calibrated the same way, so
          * that no rows cross to the host (at N = 188 416 those copies took
@@ -576,6 +719,8 @@ static void estimate(ff_run *run)
         run->calibrating = 0;
         if (st == RAD_OK)
             seconds = calibration * (busiest_rows(run) / (FF_CALIBRATION_CHUNKS * chunk));
+        else
+            failed = "its rows failed";
     } else if (n >= FF_CALIBRATION_MIN) {
         double *rows = alloc_buffer(run, (size_t)chunk * n);
         double *errors = run->want_errors ? alloc_buffer(run, (size_t)chunk * n) : NULL;
@@ -592,6 +737,10 @@ static void estimate(ff_run *run)
             run->calibrating = 0;
             if (st == RAD_OK)
                 seconds = calibration * (busiest_rows(run) / (FF_CALIBRATION_CHUNKS * chunk));
+            else
+                failed = "its rows failed";
+        } else {
+            failed = "out of memory for its rows";
         }
         if (rows) free_buffer(run, (size_t)chunk * n, rows);
         if (errors) free_buffer(run, (size_t)chunk * n, errors);
@@ -606,6 +755,12 @@ static void estimate(ff_run *run)
                  format_bytes(run->plan.memory_bytes, memory, sizeof memory),
                  format_seconds(seconds, time, sizeof time), ff_comm_size(run->comm), FF_CALIBRATION_CHUNKS * chunk,
                  n, format_seconds(calibration, took, sizeof took));
+    else if (failed)
+        rad_info("estimate: %s%s to write, about %s of memory per rank, time of form factors unknown (the "
+                 "calibration on %u of %u rows could not run: %s)", bound,
+                 format_bytes(run->plan.file_bytes, bytes, sizeof bytes),
+                 format_bytes(run->plan.memory_bytes, memory, sizeof memory), FF_CALIBRATION_CHUNKS * chunk, n,
+                 failed);
     else
         rad_info("estimate: %s%s to write, about %s of memory per rank, seconds of form factors", bound,
                  format_bytes(run->plan.file_bytes, bytes, sizeof bytes),
@@ -616,6 +771,21 @@ static void estimate(ff_run *run)
     /* Tests ask for lines at a cadence of their own. */
     const char *every = getenv("RAD_PROGRESS_SECONDS");
     if (every && atof(every) > 0) run->progress_every = atof(every);
+    double limit = run->opt.max_seconds;
+    if (limit > 0 && failed) {
+        rad_error("--max-seconds %g: the run's time is unknown (its calibration could not run: %s); refused "
+                  "(drop --max-seconds to run it anyway)", limit, failed);
+        return RAD_ERR_USAGE;
+    }
+    if (limit > 0 && seconds > limit) {
+        char limit_text[32];
+        rad_error("--max-seconds %g: the run is estimated at about %s of form factors on %d rank(s), more than %s; "
+                  "refused before writing anything (more ranks or GPUs, a lower --subdiv, fewer --shadow-rays, or a "
+                  "larger --max-seconds)", limit, format_seconds(seconds, time, sizeof time), ff_comm_size(run->comm),
+                  format_seconds(limit, limit_text, sizeof limit_text));
+        return RAD_ERR_USAGE;
+    }
+    return RAD_OK;
 }
 
 /* Row buffers of `count` doubles, for the values and (if wanted) the
@@ -849,8 +1019,11 @@ static rad_status run_formfactor(ff_run *run)
     run->estimated_seconds = -1;
     run->progress_tty = rank == 0 && isatty(STDERR_FILENO) && rad_log_get_level() >= RAD_LOG_INFO;
     double t_estimate = ff_comm_time();
-    if (rank == 0 && rad_log_get_level() >= RAD_LOG_INFO) estimate(run);
+    /* Under -q only for --max-seconds, which needs the time (the line is not shown). */
+    if (rank == 0 && (rad_log_get_level() >= RAD_LOG_INFO || run->opt.max_seconds > 0)) st = estimate(run);
     run->stats.estimate = ff_comm_time() - t_estimate;
+    if (run->opt.max_seconds > 0) st = ff_comm_agree(run->comm, st); /* every rank knows the option */
+    if (st != RAD_OK) return st;
 
     ff_files files = {0};
     double t0 = ff_comm_time();

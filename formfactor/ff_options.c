@@ -23,7 +23,8 @@ const char ff_options_help[] =
     "built-in Cornell box) and writes the N x N matrix with the patch table.\n"
     "\n"
     "  -o, --output FILE        output file (default: formfactors)\n"
-    "      --subdiv S           split every face into 4^S patches (default: 0)\n"
+    "      --subdiv S           split every face into 4^S patches (default: 0; not with\n"
+    "                           --refine, whose mesh comes from RADIOSITY)\n"
     "      --subdiv-only GROUP  subdivide only faces of OBJ group GROUP (the paper's\n"
     "                           code subdivided only the box: --subdiv-only box)\n"
     "      --refine RADIOSITY   instead of --subdiv: take the mesh of RADIOSITY (solve's\n"
@@ -38,7 +39,11 @@ const char ff_options_help[] =
     "      --refine-max-patches N  at most N patches: the largest errors split first\n"
     "      --reuse FORMFACTORS  with --refine: the form-factor file RADIOSITY was solved\n"
     "                           from; pairs of two unsplit patches copy their entries\n"
-    "                           instead of computing them (CPU backend)\n"
+    "                           instead of computing them (CPU backend); refused if it\n"
+    "                           was computed with other settings (--estimator, --samples,\n"
+    "                           --shadow-rays, --seed, --element; --quad-rtol and\n"
+    "                           --quad-atol, which the file does not record, must be the\n"
+    "                           defaults) or holds an entry that is not a form factor\n"
     "      --contacts C         cut | keep (default: cut): cut faces where other faces\n"
     "                           rest on or pass through them (a floor along a block's\n"
     "                           footprint) and drop the pieces hidden inside or under\n"
@@ -46,16 +51,19 @@ const char ff_options_help[] =
     "                           face's; keep: mesh the faces as they are\n"
     "      --flip-normals       wind every face the other way round: for scenes whose\n"
     "                           faces all point away from where the light is (a closed\n"
-    "                           object used as a room, faces wound against their vn)\n"
+    "                           object used as a room, faces wound against their vn);\n"
+    "                           OBJ scenes only\n"
     "      --clamp-rho R        set every Kd value above R (0 < R < 1) to R, saying which,\n"
-    "                           instead of refusing Kd >= 1 (Blender's white is Kd 1)\n"
+    "                           instead of refusing Kd >= 1 (Blender's white is Kd 1);\n"
+    "                           OBJ scenes only\n"
     "      --samples K          point pairs per patch pair (default: 512)\n"
     "      --shadow-rays R      of those, pairs that carry a shadow ray (default: 32;\n"
     "                           0 = no occlusion)\n"
     "      --seed N             random seed (default: 1); same seed, same bytes\n"
     "      --target-error E     keep sampling each pair (batches that double the samples\n"
     "                           and shadow rays) until the standard error of F_ij and\n"
-    "                           F_ji is at most E, or --max-samples is reached\n"
+    "                           F_ji is at most E, or --max-samples is reached; a pair\n"
+    "                           never takes fewer samples or rays than without it\n"
     "      --max-samples M      cap per pair for --target-error (default: 64 x --samples)\n"
     "      --errors FILE        also write each entry's standard error (float32, same\n"
     "                           layout as the form factors; docs/formats.md)\n"
@@ -91,6 +99,14 @@ const char ff_options_help[] =
     "      --max-bytes SIZE     refuse, before any work, a run whose output (with --errors)\n"
     "                           would be larger (e.g. 20G, 512Mi); runs larger than the\n"
     "                           free space of the output's file system are always refused\n"
+    "                           (sparse files: whose bound, all N^2 entries, is more than\n"
+    "                           10 times that free space)\n"
+    "      --allow-disk-overcommit  run a sparse file whose bound is more than 10 times the\n"
+    "                           free space anyway (most scenes' files are a tenth of\n"
+    "                           their bound; a full disk stops the run, old output kept)\n"
+    "      --max-seconds S      refuse, before writing anything, a run whose calibrated\n"
+    "                           estimate (the estimate line) is longer than S seconds;\n"
+    "                           runs under 1024 patches are not calibrated and pass\n"
     "  -q, --quiet              only errors on stderr\n"
     "  -h, --help               this help\n"
     "      --version            print the version\n"
@@ -197,7 +213,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
-           O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS };
+           O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -215,7 +231,8 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"max-bytes", required_argument, 0, O_MAX_BYTES}, {"refine", required_argument, 0, O_REFINE},
         {"refine-tol", required_argument, 0, O_REFINE_TOL}, {"refine-min-size", required_argument, 0, O_REFINE_MIN_SIZE},
         {"refine-max-patches", required_argument, 0, O_REFINE_MAX_PATCHES}, {"reuse", required_argument, 0, O_REUSE},
-        {"contacts", required_argument, 0, O_CONTACTS},
+        {"contacts", required_argument, 0, O_CONTACTS}, {"max-seconds", required_argument, 0, O_MAX_SECONDS},
+        {"allow-disk-overcommit", no_argument, 0, O_OVERCOMMIT},
         {0, 0, 0, 0}};
     uint64_t v = 0;
     int named = 0; /* an option's value read through a name table */
@@ -228,7 +245,11 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case 'q': o->quiet = 1; break;
         case 'h': o->help = 1; break;
         case O_VERSION: o->version = 1; break;
-        case O_SUBDIV: st = rad_parse_uint("--subdiv", optarg, 0, 12, &v); o->subdiv = (int)v; break;
+        case O_SUBDIV:
+            st = rad_parse_uint("--subdiv", optarg, 0, 12, &v);
+            o->subdiv = (int)v;
+            o->subdiv_given = 1;
+            break;
         case O_ONLY: o->subdiv_only = optarg; break;
         case O_SAMPLES: st = rad_parse_uint("--samples", optarg, 1, 1u << 24, &v); o->samples = (uint32_t)v; break;
         case O_RAYS: st = rad_parse_uint("--shadow-rays", optarg, 0, 1u << 24, &v); o->shadow_rays = (uint32_t)v; break;
@@ -248,6 +269,8 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
         case O_FLIP_NORMALS: o->flip_normals = 1; break;
         case O_MAX_BYTES: st = rad_parse_bytes("--max-bytes", optarg, &o->max_bytes); break;
+        case O_MAX_SECONDS: st = rad_parse_real("--max-seconds", optarg, 0, 0, 1e12, 1, &o->max_seconds); break;
+        case O_OVERCOMMIT: o->allow_disk_overcommit = 1; break;
         case O_REFINE: o->refine_path = optarg; break;
         case O_REUSE: o->reuse_path = optarg; break;
         case O_REFINE_TOL: st = rad_parse_real("--refine-tol", optarg, 0, 0, 1e6, 0, &o->refine_tol); break;
@@ -332,6 +355,24 @@ static rad_status check_options(ff_options *o)
     }
     if (o->reuse_path && o->errors_path) {
         rad_error("--reuse and --errors: reused entries have no standard errors here; drop one");
+        return RAD_ERR_USAGE;
+    }
+    if (o->refine_path && o->subdiv_given) {
+        rad_error("--subdiv %d with --refine %s: the refined mesh is that solution's, split where it is too coarse; "
+                  "drop --subdiv (--refine-tol and --refine-min-size set how fine)",
+                  o->subdiv, o->refine_path);
+        return RAD_ERR_USAGE;
+    }
+    if (!o->scene_path && (o->flip_normals || o->clamp_rho > 0)) {
+        rad_error("%s: applies to OBJ scenes; the built-in Cornell box's faces point inward and its Kd are below 1",
+                  o->flip_normals ? "--flip-normals" : "--clamp-rho");
+        return RAD_ERR_USAGE;
+    }
+    if (o->reuse_path && o->estimator == RAD_ESTIMATOR_QUADRATURE &&
+        (o->quad_rtol != RAD_FF_QUAD_RTOL || o->quad_atol != RAD_FF_QUAD_ATOL)) {
+        rad_error("--reuse %s with --quad-rtol or --quad-atol: a form-factor file does not record the quadrature "
+                  "tolerances it was computed with, so reuse takes only the defaults (%g, %g); drop them or --reuse",
+                  o->reuse_path, RAD_FF_QUAD_RTOL, RAD_FF_QUAD_ATOL);
         return RAD_ERR_USAGE;
     }
     if (o->refine_path && o->subdiv_only) {

@@ -55,6 +55,7 @@ typedef struct ff_options {
     rad_mesh_contacts contacts; /* --contacts cut|keep (rad_mesh.h); 0 = cut */
     ff_backend_choice backend;
     int subdiv;
+    int subdiv_given;        /* --subdiv was on the command line (refused with --refine) */
     uint32_t samples, shadow_rays;
     uint64_t seed;
     rad_element_type element;
@@ -62,6 +63,8 @@ typedef struct ff_options {
     double quad_rtol, quad_atol; /* --quad-rtol, --quad-atol */
     double clamp_rho;        /* --clamp-rho: Kd above it set to it; 0 = refuse Kd >= 1 */
     double max_bytes;        /* --max-bytes: refuse a larger output; 0 = only the disk's free space */
+    double max_seconds;      /* --max-seconds: refuse a run estimated to take longer; 0 = no limit */
+    int allow_disk_overcommit; /* --allow-disk-overcommit: run a sparse file whose bound is over 10x the free space */
     int flip_normals;        /* --flip-normals: every face wound the other way */
     const char *refine_path; /* --refine RADIOSITY: split that solution's mesh; NULL = none */
     const char *reuse_path;  /* --reuse FORMFACTORS: that mesh's matrix, for the unsplit pairs */

@@ -89,9 +89,13 @@ static ff_plan_refusal refusal_of(const ff_plan_limits *limits, const ff_plan_ch
 {
     if (limits->patch_count > FF_MAX_PATCHES) return FF_PLAN_TOO_MANY_PATCHES;
     /* A sparse file's size is known once written: file_bytes, the dense
-     * size, only bounds it, so the disk does not refuse it (the driver
-     * warns; a full disk fails the write, which removes the file). */
+     * size, only bounds it, so the disk refuses it only when the bound is
+     * far beyond the free space (between, the driver warns; a full disk
+     * fails the write, which removes the file). */
     if (choices->format != FF_FORMAT_SPARSE && plan->file_bytes > limits->free_bytes) return FF_PLAN_DISK;
+    if (choices->format == FF_FORMAT_SPARSE && !choices->allow_disk_overcommit &&
+        plan->file_bytes > FF_PLAN_SPARSE_OVERCOMMIT * limits->free_bytes)
+        return FF_PLAN_DISK;
     if (choices->max_bytes > 0 && plan->file_bytes > choices->max_bytes) return FF_PLAN_MAX_BYTES;
     if (plan->memory_bytes > limits->memory_per_rank) return FF_PLAN_MEMORY;
     return FF_PLAN_ACCEPTED;

@@ -78,13 +78,20 @@ typedef struct ff_plan_choices {
     ff_reciprocity reciprocity;
     ff_backend_choice backend;
     double max_bytes;          /* --max-bytes: refuse larger outputs; 0 = no limit */
+    int allow_disk_overcommit; /* --allow-disk-overcommit: no FF_PLAN_DISK for a sparse file */
 } ff_plan_choices;
+
+/* A sparse file whose bound (file_bytes) is more than this many times the
+ * free space is refused (FF_PLAN_DISK) unless allow_disk_overcommit: most
+ * scenes' sparse files are about a tenth of their bound. */
+#define FF_PLAN_SPARSE_OVERCOMMIT 10.0
 
 /* Why a run is refused: the first that applies, in this order. */
 typedef enum ff_plan_refusal {
     FF_PLAN_ACCEPTED = 0,
     FF_PLAN_TOO_MANY_PATCHES, /* N > FF_MAX_PATCHES */
-    FF_PLAN_DISK,             /* file_bytes > free_bytes (not for the sparse format: file_bytes bounds it) */
+    FF_PLAN_DISK,             /* file_bytes > free_bytes; sparse (file_bytes bounds it): file_bytes >
+                                 FF_PLAN_SPARSE_OVERCOMMIT x free_bytes, unless allow_disk_overcommit */
     FF_PLAN_MAX_BYTES,        /* file_bytes > --max-bytes (sparse: its bound) */
     FF_PLAN_MEMORY            /* memory_bytes > memory_per_rank */
 } ff_plan_refusal;

@@ -277,7 +277,8 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
         rad_info("--target-error %.3g: met by every pair (%llu took more samples or rays)", run->target_error,
                  (unsigned long long)c->pairs_refined);
     else if (run->target_error > 0)
-        rad_warn("--target-error %.3g: %llu pairs are still above it at their cap (%llu took more samples or rays); "
+        rad_warn("--target-error %.3g: %llu pairs are still above it at their cap (%llu took more samples or rays; "
+                 "quadrature limits are not counted unless their error misses the target too); "
                  "the worst is F[%u][%u] = %.6g with a standard error of %.3g; --errors FILE lists every entry's, "
                  "a larger --max-samples raises the cap",
                  run->target_error, (unsigned long long)c->pairs_capped, (unsigned long long)c->pairs_refined,

@@ -134,10 +134,15 @@ disk-full)
   $mpirun "$ff" --subdiv 3 --format dense -o full/out.ff > err.txt 2>&1; rc=$?
   expect_failed "formfactor --subdiv 3 --format dense into a 256 KiB file system (refused up front)" $rc err.txt \
     full/out.ff good.ff "1294 patches: full/out.ff would need .* but full has .* free; refused"
-  # The sparse default's size is only bounded: a warning, then the write fails.
+  # The sparse default's size is only bounded: more than 10x the free
+  # space is refused up front; --allow-disk-overcommit runs it anyway: a
+  # warning, then the write fails.
   $mpirun "$ff" --subdiv 3 -o full/out.ff > err.txt 2>&1; rc=$?
-  expect_failed "formfactor --subdiv 3 (sparse) into a 256 KiB file system" $rc err.txt full/out.ff good.ff \
-    "full/out.ff.tmp-[0-9a-f]+: (short write|write failed)"
+  expect_failed "formfactor --subdiv 3 (sparse, bound 50x the space) into a 256 KiB file system (refused up front)" \
+    $rc err.txt full/out.ff good.ff "full has .* free, less than a tenth of that bound .*--allow-disk-overcommit"
+  $mpirun "$ff" --subdiv 3 --allow-disk-overcommit -o full/out.ff > err.txt 2>&1; rc=$?
+  expect_failed "formfactor --subdiv 3 --allow-disk-overcommit into a 256 KiB file system" $rc err.txt full/out.ff \
+    good.ff "full/out.ff.tmp-[0-9a-f]+: (short write|write failed)"
   grep -q "full has .* free and the sparse file may need up to" err.txt || fail "no warning: $(cat err.txt)"
   umount full && mounted=
   mount_tmpfs full 16m

@@ -136,6 +136,11 @@ static void test_outputs(void)
     RAD_CHECK(mkfifo(fifo, 0600) == 0);
     RAD_CHECK(rad_fs_check_output("-o", fifo) == RAD_ERR_USAGE && rad_test_log_contains("is a FIFO"));
     RAD_CHECK(rad_fs_check_output("-o", in_dir("new.txt")) == RAD_OK);
+    /* A new file's folder is checked up front (a late output must not fail
+     * after an earlier one replaced its file). */
+    RAD_CHECK(rad_fs_check_output("--stats", in_dir("no/such/s.json")) == RAD_ERR_USAGE &&
+              rad_test_log_contains("--stats: ") && rad_test_log_contains("no/such/s.json: cannot write"));
+    RAD_CHECK(rad_fs_check_output("-o", "/dev/null/x") == RAD_ERR_USAGE && rad_test_log_contains("not a folder"));
     RAD_CHECK(rad_fs_check_output("-o", "/dev/null") == RAD_OK);
     rad_log_set_sink(NULL, NULL);
     /* /dev/null stays a device: written in place, never renamed over. */

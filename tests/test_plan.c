@@ -170,6 +170,17 @@ static void refusals(void)
     RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_MAX_BYTES);
     choices.max_bytes = 0;
     RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_ACCEPTED);
+    /* ... unless its bound is more than FF_PLAN_SPARSE_OVERCOMMIT times the
+     * free space (69.8 MB against 6.9 MB: 10.1x), which
+     * --allow-disk-overcommit lets through. */
+    limits.free_bytes = 6.9e6;
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_DISK);
+    limits.free_bytes = 7.0e6; /* 9.97x */
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_ACCEPTED);
+    limits.free_bytes = 6.9e6;
+    choices.allow_disk_overcommit = 1;
+    RAD_CHECK(make(&limits, &choices).refusal == FF_PLAN_ACCEPTED);
+    limits.free_bytes = 50e6;
     choices = (ff_plan_choices){.element = RAD_ELEMENT_F64, .format = FF_FORMAT_DENSE, .max_bytes = 10e6};
     /* The format's limit before everything. */
     limits.patch_count = (uint64_t)1 << 31;
