@@ -61,6 +61,8 @@ typedef struct cutter {
     size_t seg_count, seg_cap;
     uint32_t *opposite; /* this face's coplanar faces of opposite facing */
     size_t opposite_count, opposite_cap;
+    uint32_t *covering; /* its coplanar faces of the same facing that win where they overlap it */
+    size_t covering_count, covering_cap;
     uint32_t *hash;  /* cut vertices by position: index or NO_ID */
     size_t hash_mask;
     rad_contact_piece *out;
@@ -94,6 +96,15 @@ static rad_vec3 vertex(const cutter *C, uint32_t i)
 }
 
 static rad_vec3 face_corner(const cutter *C, uint32_t f, uint32_t k) { return vertex(C, C->scene->faces[f].v[k]); }
+
+static double face_area(const cutter *C, uint32_t f)
+{
+    const rad_face *F = &C->scene->faces[f];
+    rad_vec3 o = face_corner(C, f, 0), sum = rad_v3(0, 0, 0);
+    for (uint32_t k = 1; k + 1 < F->vertex_count; k++)
+        sum = rad_v3_add(sum, rad_v3_cross(rad_v3_sub(face_corner(C, f, k), o), rad_v3_sub(face_corner(C, f, k + 1), o)));
+    return 0.5 * rad_v3_length(sum);
+}
 
 /* Lines that piece edges lie on: a cut segment (its index, tagged), or
  * the grid edge between two vertices (their indices, lower first). */
@@ -213,7 +224,25 @@ static void meet(cutter *C, uint32_t f, uint32_t g)
         pos += d[k] > 0, neg += d[k] < 0;
     }
     if (pos == 0 && neg == 0) {
-        if (rad_v3_dot(n, C->normal[g]) >= 0) return; /* coplanar, same facing: side by side */
+        if (rad_v3_dot(n, C->normal[g]) >= 0) {
+            /* Coplanar, same facing: side by side (a floor of two
+             * triangles), or overlapping - one surface given twice, a
+             * decal or a light panel snapped onto a wall. Where they
+             * overlap, one wins: the smaller (the panel), the later on a
+             * tie; f is cut along its outline and its pieces under it go
+             * (otherwise the overlap is seen twice: rows of 1.13 in a
+             * model with overlapping coplanar faces). Side by side, the
+             * outline lies outside f or on its boundary and cuts nothing. */
+            double area_f = face_area(C, f), area_g = face_area(C, g);
+            if (area_g > area_f || (area_g == area_f && g < f)) return;
+            if (!GROW(C, covering, covering_cap, C->covering_count + 1)) return;
+            C->covering[C->covering_count++] = g;
+            for (uint32_t k = 0; k < G->vertex_count; k++) {
+                uint32_t k1 = (k + 1) % G->vertex_count;
+                add_segment(C, f, (segment){q[k], q[k1], G->v[k], G->v[k1]});
+            }
+            return;
+        }
         if (!GROW(C, opposite, opposite_cap, C->opposite_count + 1)) return;
         C->opposite[C->opposite_count++] = g;
         for (uint32_t k = 0; k < G->vertex_count; k++) {
@@ -401,10 +430,11 @@ static int inside_solid(const cutter *C, uint32_t f, rad_vec3 p, rad_vec3 n)
     return 2 * back > RAD_CONTACT_RAYS;
 }
 
-static int pressed(const cutter *C, rad_vec3 p)
+/* Does p (in their plane) lie inside one of the faces list[0..count)? */
+static int inside_any(const cutter *C, const uint32_t *list, size_t count, rad_vec3 p)
 {
-    for (size_t i = 0; i < C->opposite_count; i++) {
-        uint32_t g = C->opposite[i];
+    for (size_t i = 0; i < count; i++) {
+        uint32_t g = list[i];
         const rad_face *G = &C->scene->faces[g];
         int in = 1;
         for (uint32_t k = 0; k < G->vertex_count && in; k++)
@@ -412,6 +442,11 @@ static int pressed(const cutter *C, rad_vec3 p)
         if (in) return 1;
     }
     return 0;
+}
+
+static int pressed(const cutter *C, rad_vec3 p)
+{
+    return inside_any(C, C->opposite, C->opposite_count, p);
 }
 
 static void emit(cutter *C, uint32_t f, const uint32_t *v, uint32_t n)
@@ -445,6 +480,10 @@ static void finish_piece(cutter *C, uint32_t f, double diameter, int has_contact
     if (n < 3) return;
     rad_vec3 centroid;
     if (polygon_area(C, v, n, nrm, &centroid) <= AREA_TOL * diameter * diameter) return;
+    if (has_contact && inside_any(C, C->covering, C->covering_count, centroid)) {
+        C->hidden++;
+        return;
+    }
     if (has_contact &&
         ((pressed(C, centroid) && inside_solid(C, f, rad_v3_sub(centroid, rad_v3_scale(nrm, C->offset)), rad_v3_scale(nrm, -1))) ||
          inside_solid(C, f, rad_v3_add(centroid, rad_v3_scale(nrm, C->offset)), nrm))) {
@@ -494,14 +533,14 @@ static void grid(cutter *C, const uint32_t *v, uint32_t n, int level)
 static void cut_face(cutter *C, uint32_t f)
 {
     const rad_face *F = &C->scene->faces[f];
-    C->seg_count = C->opposite_count = C->pool_count = C->piece_count = 0;
+    C->seg_count = C->opposite_count = C->covering_count = C->pool_count = C->piece_count = 0;
     for (uint32_t g = 0; g < C->scene->face_count && !C->failed; g++)
         if (g != f && boxes_meet(C->box[f], C->box[g], C->gap)) meet(C, f, g);
     if (C->failed) return;
     double diameter = sqrt((C->box[f][3] - C->box[f][0]) * (C->box[f][3] - C->box[f][0]) +
                            (C->box[f][4] - C->box[f][1]) * (C->box[f][4] - C->box[f][1]) +
                            (C->box[f][5] - C->box[f][2]) * (C->box[f][5] - C->box[f][2]));
-    if (C->seg_count == 0 && C->opposite_count == 0) {
+    if (C->seg_count == 0 && C->opposite_count == 0 && C->covering_count == 0) {
         emit(C, f, F->v, F->vertex_count);
         return;
     }
@@ -582,6 +621,7 @@ done:
     free(C.pieces);
     free(C.segs);
     free(C.opposite);
+    free(C.covering);
     free(C.out);
     return status;
 }

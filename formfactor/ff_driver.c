@@ -533,7 +533,7 @@ static rad_status setup(ff_run *run)
     uint32_t n = (uint32_t)run->mesh.patch_count;
     double centre[3];
     ff_frame_centre(&run->mesh, centre);
-    rad_status st = ff_patches_build(&run->mesh, centre, &run->patches);
+    rad_status st = ff_patches_build(&run->scene, &run->mesh, centre, &run->patches);
     if (st == RAD_OK && !(run->area = malloc((n ? n : 1) * sizeof *run->area))) st = RAD_ERR_NOMEM;
     for (uint32_t j = 0; st == RAD_OK && j < n; j++) run->area[j] = run->patches[j].area;
     if (st == RAD_OK)

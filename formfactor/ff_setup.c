@@ -18,7 +18,26 @@ void ff_frame_centre(const rad_mesh *mesh, double centre[3])
     for (int a = 0; a < 3; a++) centre[a] = mesh->vertex_count ? 0.5 * (lo[a] + hi[a]) : 0.0;
 }
 
-rad_status ff_patches_build(const rad_mesh *mesh, const double centre[3], rad_ff_patch **out_patches)
+/* A mesh vertex in patch p's corner k, in the backends' frame; a vertex
+ * that is not one of the source face's own (a midpoint, a contact-cut
+ * vertex, another face's vertex a cut piece reuses) is put into the face's
+ * plane. Contact cutting can leave such vertices off it by the rounding of
+ * the other face's geometry (1e-8 in a model with a double-sided sheet:
+ * its two coincident faces then faced each other, F = 1, rows of 2). */
+static rad_vec3 patch_corner(const rad_scene *scene, const rad_mesh *mesh, const rad_patch *p, uint32_t k,
+                             rad_vec3 face_normal, rad_vec3 face_point, const double centre[3])
+{
+    uint32_t v = p->v[k < p->vertex_count ? k : 2];
+    rad_vec3 x = rad_v3(mesh->positions[3 * v], mesh->positions[3 * v + 1], mesh->positions[3 * v + 2]);
+    const rad_face *face = &scene->faces[p->source_face];
+    int own = 0;
+    for (uint32_t c = 0; c < face->vertex_count; c++) own |= face->v[c] == v;
+    if (!own) x = rad_v3_sub(x, rad_v3_scale(face_normal, rad_v3_dot(face_normal, rad_v3_sub(x, face_point))));
+    return rad_v3(x.x - centre[0], x.y - centre[1], x.z - centre[2]);
+}
+
+rad_status ff_patches_build(const rad_scene *scene, const rad_mesh *mesh, const double centre[3],
+                            rad_ff_patch **out_patches)
 {
     rad_ff_patch *out = malloc(sizeof *out * (mesh->patch_count ? mesh->patch_count : 1));
     if (!out) {
@@ -28,11 +47,14 @@ rad_status ff_patches_build(const rad_mesh *mesh, const double centre[3], rad_ff
     for (size_t i = 0; i < mesh->patch_count; i++) {
         const rad_patch *p = &mesh->patches[i];
         rad_ff_patch *q = &out[i];
-        for (uint32_t k = 0; k < 4; k++) {
-            uint32_t v = p->v[k < p->vertex_count ? k : 2];
-            q->p[k] = rad_v3(mesh->positions[3 * v] - centre[0], mesh->positions[3 * v + 1] - centre[1],
-                             mesh->positions[3 * v + 2] - centre[2]);
-        }
+        const rad_face *face = &scene->faces[p->source_face];
+        rad_vec3 fv[4], face_normal, face_point;
+        double face_area;
+        for (uint32_t c = 0; c < face->vertex_count; c++)
+            fv[c] = rad_v3(scene->positions[3 * (size_t)face->v[c]], scene->positions[3 * (size_t)face->v[c] + 1],
+                           scene->positions[3 * (size_t)face->v[c] + 2]);
+        rad_polygon_geometry(fv, (int)face->vertex_count, &face_area, &face_normal, &face_point);
+        for (uint32_t k = 0; k < 4; k++) q->p[k] = patch_corner(scene, mesh, p, k, face_normal, face_point, centre);
         q->normal = p->normal;
         q->centre = rad_v3(0, 0, 0);
         for (uint32_t k = 0; k < p->vertex_count; k++) q->centre = rad_v3_add(q->centre, q->p[k]);

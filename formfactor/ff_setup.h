@@ -19,8 +19,11 @@
  * built in this frame; the files keep the scene's own coordinates. */
 void ff_frame_centre(const rad_mesh *mesh, double centre[3]);
 
-/* One rad_ff_patch per mesh patch, moved by -centre (caller frees *out_patches). */
-rad_status ff_patches_build(const rad_mesh *mesh, const double centre[3], rad_ff_patch **out_patches);
+/* One rad_ff_patch per mesh patch, moved by -centre, each corner that is
+ * not one of its source face's own vertices put into that face's plane
+ * (caller frees *out_patches). */
+rad_status ff_patches_build(const rad_scene *scene, const rad_mesh *mesh, const double centre[3],
+                            rad_ff_patch **out_patches);
 
 /* Occluders: every scene face as triangles (a quad gives two),
  * moved by -centre, with the face each came from. Caller frees both arrays. */

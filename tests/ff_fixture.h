@@ -57,7 +57,7 @@ static int fixture_load(fixture *fx, const char *obj_text, const char *path, int
     if (rad_scene_load_file(path, &so, &fx->scene) != RAD_OK || rad_mesh_build(&fx->scene, &mo, &fx->mesh) != RAD_OK)
         return 0;
     ff_frame_centre(&fx->mesh, fx->centre);
-    return ff_patches_build(&fx->mesh, fx->centre, &fx->patches) == RAD_OK &&
+    return ff_patches_build(&fx->scene, &fx->mesh, fx->centre, &fx->patches) == RAD_OK &&
            ff_occluders_build(&fx->scene, fx->centre, &fx->triangles, &fx->triangle_face, &fx->triangle_count) == RAD_OK;
 }
 

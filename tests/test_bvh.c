@@ -71,7 +71,7 @@ static void check_scene(const char *path, int subdiv)
     RAD_CHECK(rad_mesh_build(&scene, &mo, &mesh) == RAD_OK);
     double centre[3];
     ff_frame_centre(&mesh, centre);
-    RAD_CHECK(ff_patches_build(&mesh, centre, &patches) == RAD_OK);
+    RAD_CHECK(ff_patches_build(&scene, &mesh, centre, &patches) == RAD_OK);
     RAD_CHECK(ff_occluders_build(&scene, centre, &tris, &face, &tri_count) == RAD_OK);
     ff_bvh bvh;
     RAD_CHECK(ff_bvh_build(tris, face, tri_count, &bvh) == RAD_OK);

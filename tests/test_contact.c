@@ -239,6 +239,50 @@ static void test_double_sided_panel(void)
     rad_scene_free(&scene);
 }
 
+/* Coplanar faces of the same facing that overlap: the smaller wins where
+ * they do (a panel snapped onto a floor), the later on a tie (a surface
+ * given twice); side by side, nothing is cut. */
+static const char *const overlap_obj =
+    "mtllib s.mtl\nusemtl grey\n"
+    "o panel\nv 0.5 0 0.5\nv 0.5 0 1\nv 1 0 1\nv 1 0 0.5\nf 1 2 3 4\n"
+    "o floor\nv 0 0 0\nv 0 0 2\nv 2 0 2\nv 2 0 0\nf 5 6 7 8\n"
+    "o dup_a\nv 3 0 0\nv 3 0 1\nv 4 0 1\nv 4 0 0\nf 9 10 11 12\n"
+    "o dup_b\nf 9 10 11 12\n"
+    "o beside\nv 3 0 2\nv 3 0 0\nf 7 13 14\nf 7 14 8\n";
+
+static rad_status overlap_read(const char *path, char **out_data, size_t *out_size, void *user)
+{
+    (void)user;
+    const char *text = strstr(path, ".mtl") ? "newmtl grey\nKd 0.5 0.5 0.5\n" : overlap_obj;
+    *out_size = strlen(text);
+    *out_data = malloc(*out_size + 1);
+    if (!*out_data) return RAD_ERR_NOMEM;
+    memcpy(*out_data, text, *out_size + 1);
+    return RAD_OK;
+}
+
+static void test_coplanar_overlap(void)
+{
+    rad_scene scene;
+    rad_scene_options so = {.read_file = overlap_read};
+    RAD_CHECK(rad_scene_load_file("overlap.obj", &so, &scene) == RAD_OK);
+    rad_mesh m;
+    rad_mesh_options mo = {.subdiv = 1};
+    RAD_CHECK(rad_mesh_build(&scene, &mo, &m) == RAD_OK);
+    const char *names[] = {"panel", "floor", "dup_a", "dup_b", "beside"};
+    const double expect[] = {0.25, 4.0 - 0.25, 0.0, 1.0, 2.0};
+    for (int k = 0; k < 5; k++) {
+        size_t g = group_index(&m, names[k]);
+        double area = 0.0;
+        for (size_t i = 0; g != SIZE_MAX && i < m.patch_count; i++)
+            if (m.patch_group[i] == g) area += m.patches[i].area;
+        if (fabs(area - expect[k]) > 1e-12) fprintf(stderr, "%s: area %.17g, expected %g\n", names[k], area, expect[k]);
+        RAD_CHECK_NEAR(area, expect[k], 1e-12);
+    }
+    rad_mesh_free(&m);
+    rad_scene_free(&scene);
+}
+
 static void test_no_contacts(void)
 {
     const char *names[] = {RAD_SCENES "/closed_box.obj", RAD_SCENES "/cornell_sphere.obj"};
@@ -272,6 +316,7 @@ int main(void)
     test_contact_room();
     test_gap_contact();
     test_double_sided_panel();
+    test_coplanar_overlap();
     test_no_contacts();
     return rad_test_finish();
 }
