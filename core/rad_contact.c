@@ -208,6 +208,20 @@ static void add_segment(cutter *C, uint32_t f, segment s)
     C->segs[C->seg_count++] = r;
 }
 
+/* Does p (in their plane) lie inside one of the faces list[0..count)? */
+static int inside_any(const cutter *C, const uint32_t *list, size_t count, rad_vec3 p)
+{
+    for (size_t i = 0; i < count; i++) {
+        uint32_t g = list[i];
+        const rad_face *G = &C->scene->faces[g];
+        int in = 1;
+        for (uint32_t k = 0; k < G->vertex_count && in; k++)
+            in = inside_edge(C->normal[g], face_corner(C, g, k), face_corner(C, g, (k + 1) % G->vertex_count), p) > C->tol;
+        if (in) return 1;
+    }
+    return 0;
+}
+
 /* Where face g meets face f's plane: the segment it cuts there (added),
  * or, for a coplanar g facing the other way, its edges (and g noted as
  * opposite). */
@@ -235,12 +249,21 @@ static void meet(cutter *C, uint32_t f, uint32_t g)
              * outline lies outside f or on its boundary and cuts nothing. */
             double area_f = face_area(C, f), area_g = face_area(C, g);
             if (area_g > area_f || (area_g == area_f && g < f)) return;
-            if (!GROW(C, covering, covering_cap, C->covering_count + 1)) return;
-            C->covering[C->covering_count++] = g;
+            size_t segments_before = C->seg_count;
             for (uint32_t k = 0; k < G->vertex_count; k++) {
                 uint32_t k1 = (k + 1) % G->vertex_count;
                 add_segment(C, f, (segment){q[k], q[k1], G->v[k], G->v[k1]});
             }
+            /* Overlapping: g's outline cuts f's inside, or f lies within g
+             * (a face given twice). Side by side it does neither, and f is
+             * left as it is (its grid vertices shared with its neighbours). */
+            const rad_face *F = &C->scene->faces[f];
+            rad_vec3 centre_f = rad_v3(0, 0, 0);
+            for (uint32_t k = 0; k < F->vertex_count; k++) centre_f = rad_v3_add(centre_f, face_corner(C, f, k));
+            centre_f = rad_v3_scale(centre_f, 1.0 / F->vertex_count);
+            if (C->seg_count == segments_before && !inside_any(C, &g, 1, centre_f)) return;
+            if (!GROW(C, covering, covering_cap, C->covering_count + 1)) return;
+            C->covering[C->covering_count++] = g;
             return;
         }
         if (!GROW(C, opposite, opposite_cap, C->opposite_count + 1)) return;
@@ -428,20 +451,6 @@ static int inside_solid(const cutter *C, uint32_t f, rad_vec3 p, rad_vec3 n)
         back += nearest < INFINITY && nearest_back;
     }
     return 2 * back > RAD_CONTACT_RAYS;
-}
-
-/* Does p (in their plane) lie inside one of the faces list[0..count)? */
-static int inside_any(const cutter *C, const uint32_t *list, size_t count, rad_vec3 p)
-{
-    for (size_t i = 0; i < count; i++) {
-        uint32_t g = list[i];
-        const rad_face *G = &C->scene->faces[g];
-        int in = 1;
-        for (uint32_t k = 0; k < G->vertex_count && in; k++)
-            in = inside_edge(C->normal[g], face_corner(C, g, k), face_corner(C, g, (k + 1) % G->vertex_count), p) > C->tol;
-        if (in) return 1;
-    }
-    return 0;
 }
 
 static int pressed(const cutter *C, rad_vec3 p)

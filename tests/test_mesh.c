@@ -263,12 +263,14 @@ static void test_scenes(void)
 
 static void test_limits(void)
 {
-    static const double pos[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+    static const double pos[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 2, 0, 0, 2, 1, 0};
     static const int quad[][4] = {{0, 1, 2, 3}};
-    static const int two[][4] = {{0, 1, 2, 3}, {0, 1, 2, 3}};
+    /* Side by side (a face given twice would count once: contact cutting
+     * keeps one copy of coplanar overlapping faces). */
+    static const int two[][4] = {{0, 1, 2, 3}, {1, 4, 5, 2}};
     test_scene t;
     rad_mesh m = {0};
-    make_scene(&t, pos, 4, quad, 1);
+    make_scene(&t, pos, 6, quad, 1);
     rad_mesh_options opt = {.subdiv = 16};
     RAD_CHECK(rad_mesh_count_patches(&t.scene, &opt) == UINT64_C(4294967296));
     rad_test_capture_log();
@@ -279,7 +281,7 @@ static void test_limits(void)
     opt.subdiv = 40; /* 4^40 saturates */
     RAD_CHECK(rad_mesh_count_patches(&t.scene, &opt) == UINT64_MAX);
     RAD_CHECK(rad_mesh_build(&t.scene, &opt, &m) == RAD_ERR_NOMEM);
-    make_scene(&t, pos, 4, two, 2);
+    make_scene(&t, pos, 6, two, 2);
     opt.subdiv = 15;
     RAD_CHECK(rad_mesh_count_patches(&t.scene, &opt) == UINT64_C(2147483648));
     opt.only_group = "first";
@@ -292,7 +294,7 @@ static void test_limits(void)
     rad_log_set_sink(NULL, NULL);
     /* NULL options: the faces as patches. */
     RAD_CHECK(rad_mesh_count_patches(&t.scene, NULL) == 2);
-    RAD_CHECK(rad_mesh_build(&t.scene, NULL, &m) == RAD_OK && m.patch_count == 2 && m.vertex_count == 4);
+    RAD_CHECK(rad_mesh_build(&t.scene, NULL, &m) == RAD_OK && m.patch_count == 2 && m.vertex_count == 6);
     rad_mesh_free(&m);
 }
 
