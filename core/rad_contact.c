@@ -97,13 +97,15 @@ static rad_vec3 vertex(const cutter *C, uint32_t i)
 
 static rad_vec3 face_corner(const cutter *C, uint32_t f, uint32_t k) { return vertex(C, C->scene->faces[f].v[k]); }
 
-static double face_area(const cutter *C, uint32_t f)
+/* Face f's area and centroid (rad_polygon_geometry). */
+static double face_area(const cutter *C, uint32_t f, rad_vec3 *out_centroid)
 {
     const rad_face *F = &C->scene->faces[f];
-    rad_vec3 o = face_corner(C, f, 0), sum = rad_v3(0, 0, 0);
-    for (uint32_t k = 1; k + 1 < F->vertex_count; k++)
-        sum = rad_v3_add(sum, rad_v3_cross(rad_v3_sub(face_corner(C, f, k), o), rad_v3_sub(face_corner(C, f, k + 1), o)));
-    return 0.5 * rad_v3_length(sum);
+    rad_vec3 c[4], normal;
+    double area;
+    for (uint32_t k = 0; k < F->vertex_count; k++) c[k] = face_corner(C, f, k);
+    rad_polygon_geometry(c, (int)F->vertex_count, &area, &normal, out_centroid);
+    return area;
 }
 
 /* Lines that piece edges lie on: a cut segment (its index, tagged), or
@@ -247,7 +249,8 @@ static void meet(cutter *C, uint32_t f, uint32_t g)
              * (otherwise the overlap is seen twice: rows of 1.13 in a
              * model with overlapping coplanar faces). Side by side, the
              * outline lies outside f or on its boundary and cuts nothing. */
-            double area_f = face_area(C, f), area_g = face_area(C, g);
+            rad_vec3 centre_f, unused;
+            double area_f = face_area(C, f, &centre_f), area_g = face_area(C, g, &unused);
             if (area_g > area_f || (area_g == area_f && g < f)) return;
             size_t segments_before = C->seg_count;
             for (uint32_t k = 0; k < G->vertex_count; k++) {
@@ -257,10 +260,6 @@ static void meet(cutter *C, uint32_t f, uint32_t g)
             /* Overlapping: g's outline cuts f's inside, or f lies within g
              * (a face given twice). Side by side it does neither, and f is
              * left as it is (its grid vertices shared with its neighbours). */
-            const rad_face *F = &C->scene->faces[f];
-            rad_vec3 centre_f = rad_v3(0, 0, 0);
-            for (uint32_t k = 0; k < F->vertex_count; k++) centre_f = rad_v3_add(centre_f, face_corner(C, f, k));
-            centre_f = rad_v3_scale(centre_f, 1.0 / F->vertex_count);
             if (C->seg_count == segments_before && !inside_any(C, &g, 1, centre_f)) return;
             if (!GROW(C, covering, covering_cap, C->covering_count + 1)) return;
             C->covering[C->covering_count++] = g;

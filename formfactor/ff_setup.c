@@ -44,16 +44,21 @@ rad_status ff_patches_build(const rad_scene *scene, const rad_mesh *mesh, const 
         rad_error("out of memory for %zu patches", mesh->patch_count);
         return RAD_ERR_NOMEM;
     }
+    rad_vec3 face_normal = rad_v3(0, 0, 0), face_point = rad_v3(0, 0, 0);
+    uint32_t plane_of = UINT32_MAX; /* the face whose plane those are: a face's patches are contiguous */
     for (size_t i = 0; i < mesh->patch_count; i++) {
         const rad_patch *p = &mesh->patches[i];
         rad_ff_patch *q = &out[i];
-        const rad_face *face = &scene->faces[p->source_face];
-        rad_vec3 fv[4], face_normal, face_point;
-        double face_area;
-        for (uint32_t c = 0; c < face->vertex_count; c++)
-            fv[c] = rad_v3(scene->positions[3 * (size_t)face->v[c]], scene->positions[3 * (size_t)face->v[c] + 1],
-                           scene->positions[3 * (size_t)face->v[c] + 2]);
-        rad_polygon_geometry(fv, (int)face->vertex_count, &face_area, &face_normal, &face_point);
+        if (p->source_face != plane_of) {
+            const rad_face *face = &scene->faces[p->source_face];
+            rad_vec3 fv[4];
+            double face_area;
+            for (uint32_t c = 0; c < face->vertex_count; c++)
+                fv[c] = rad_v3(scene->positions[3 * (size_t)face->v[c]], scene->positions[3 * (size_t)face->v[c] + 1],
+                               scene->positions[3 * (size_t)face->v[c] + 2]);
+            rad_polygon_geometry(fv, (int)face->vertex_count, &face_area, &face_normal, &face_point);
+            plane_of = p->source_face;
+        }
         for (uint32_t k = 0; k < 4; k++) q->p[k] = patch_corner(scene, mesh, p, k, face_normal, face_point, centre);
         q->normal = p->normal;
         q->centre = rad_v3(0, 0, 0);

@@ -37,7 +37,8 @@ import tempfile
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from ffread import PATCH, FormatError, _read, is_sparse, read_groups, read_header, read_row_index, read_rows  # noqa: E402,E501
+from ffread import (PATCH, FormatError, _read, damage_message, is_sparse, read_groups, read_header,  # noqa: E402
+                    read_row_index, read_rows)
 
 FLAG_STANDARD_ERRORS = 2
 BLOCK_BYTES = 64 << 20     # rows read at once by group-matrix
@@ -274,8 +275,7 @@ def main(argv=None):
         print(f"ffdump.py: {e.filename or path}: {e.strerror or e}", file=sys.stderr)
         return 1
     except (ValueError, struct.error) as e:   # FormatError, and numpy on what slipped past the checks
-        msg = str(e)
-        print(f"ffdump.py: {msg if msg.startswith(path) else f'{path}: damaged file: {msg}'}", file=sys.stderr)
+        print(f"ffdump.py: {damage_message(path, e)}", file=sys.stderr)
         return 1
     except MemoryError:
         print(f"ffdump.py: {path}: out of memory (`matrix` and `heatmap` hold 8 N^2 bytes)", file=sys.stderr)

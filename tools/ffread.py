@@ -43,6 +43,14 @@ class FormatError(ValueError):
     """A damaged or foreign file: the message is "path: what is wrong"."""
 
 
+def damage_message(path, e):
+    """One line for a ValueError/struct.error met reading `path`: the error
+    as it is when it names the file (FormatError does), else marked as
+    damage."""
+    msg = str(e)
+    return msg if msg.startswith(path) else f"{path}: damaged file: {msg}"
+
+
 def _pad8(x):
     return (x + 7) // 8 * 8
 
@@ -214,8 +222,7 @@ def main(argv):
         print(f"ffread.py: {path}: {e.strerror or e}", file=sys.stderr)
         return 1
     except (ValueError, struct.error) as e:   # FormatError, and numpy on what slipped past the checks
-        msg = str(e)
-        print(f"ffread.py: {msg if msg.startswith(path) else f'{path}: damaged file: {msg}'}", file=sys.stderr)
+        print(f"ffread.py: {damage_message(path, e)}", file=sys.stderr)
         return 1
     except MemoryError:
         print(f"ffread.py: {path}: out of memory for its matrix", file=sys.stderr)
