@@ -370,10 +370,12 @@ static rad_status check_options(ff_options *o)
     }
     if (o->reuse_path && o->estimator == RAD_ESTIMATOR_QUADRATURE &&
         (o->quad_rtol != RAD_FF_QUAD_RTOL || o->quad_atol != RAD_FF_QUAD_ATOL)) {
-        rad_error("--reuse %s with --quad-rtol or --quad-atol: a form-factor file does not record the quadrature "
-                  "tolerances it was computed with, so reuse takes only the defaults (%g, %g); drop them or --reuse",
-                  o->reuse_path, RAD_FF_QUAD_RTOL, RAD_FF_QUAD_ATOL);
-        return RAD_ERR_USAGE;
+        /* A warning, not a refusal: the refinement loop (scripts/refine.sh,
+         * the quick start) passes the same tolerances to every pass. */
+        rad_warn("--reuse %s with --quad-rtol or --quad-atol: a form-factor file does not record the quadrature "
+                 "tolerances it was computed with, so they cannot be checked; its entries are copied as they "
+                 "are (give every pass the same tolerances)",
+                 o->reuse_path);
     }
     if (o->refine_path && o->subdiv_only) {
         rad_error("--refine splits the mesh of %s as it is; drop --subdiv-only", o->refine_path);
