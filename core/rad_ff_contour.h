@@ -266,27 +266,48 @@ typedef struct rad_ff_contour_result {
 
 /* The edge pair's outer integral over one graded piece: s runs from
  * s_from (the singular end, tau = 0) to s_to, s = s_from + (s_to - s_from)
- * tau^3, tau in [tau0, tau0 + dtau]; both rules at once. */
+ * tau^3, tau in [tau0, tau0 + dtau]; both rules at once. Their nodes are
+ * numbered 0 .. LO + HI - 1 (the low rule's first); this thread takes
+ * those congruent to `sub` modulo `subs` (all of them: sub 0 of 1), and
+ * returns its part of each sum. */
 static inline RAD_HD void rad_ff_contour_piece(rad_vec3 a, rad_vec3 e, rad_vec3 b, rad_vec3 f, double ff, int graded,
-                                               double s_from, double s_to, double tau0, double dtau, double *lo,
-                                               double *hi, double *magnitude)
+                                               double s_from, double s_to, double tau0, double dtau, unsigned sub,
+                                               unsigned subs, double *lo, double *hi, double *magnitude)
 {
     double sum_lo = 0.0, sum_hi = 0.0, mag = 0.0;
     rad_vec3 base = rad_v3_sub(a, b);
-    for (int rule = 0; rule < 2; rule++) {
-        int n = rule ? RAD_FF_CONTOUR_HI : RAD_FF_CONTOUR_LO;
-        for (int k = 0; k < n; k++) {
-            double tau = tau0 + dtau * rad_ff_gl_node(n, k);
-            double s = s_from + (s_to - s_from) * (graded ? tau * tau * tau : tau);
-            double ds = (s_to - s_from) * (graded ? 3.0 * tau * tau : 1.0) * dtau;
-            double v = rad_ff_gl_weight(n, k) * ds * rad_ff_contour_inner(rad_v3_add(base, rad_v3_scale(e, s)), f, ff);
-            if (rule)
-                sum_hi += v, mag += fabs(v);
-            else
-                sum_lo += v;
-        }
+    for (unsigned node = sub; node < RAD_FF_CONTOUR_LO + RAD_FF_CONTOUR_HI; node += subs) {
+        int rule = node >= RAD_FF_CONTOUR_LO;
+        int n = rule ? RAD_FF_CONTOUR_HI : RAD_FF_CONTOUR_LO, k = rule ? (int)node - RAD_FF_CONTOUR_LO : (int)node;
+        double tau = tau0 + dtau * rad_ff_gl_node(n, k);
+        double s = s_from + (s_to - s_from) * (graded ? tau * tau * tau : tau);
+        double ds = (s_to - s_from) * (graded ? 3.0 * tau * tau : 1.0) * dtau;
+        double v = rad_ff_gl_weight(n, k) * ds * rad_ff_contour_inner(rad_v3_add(base, rad_v3_scale(e, s)), f, ff);
+        if (rule)
+            sum_hi += v, mag += fabs(v);
+        else
+            sum_lo += v;
     }
     *lo = sum_lo, *hi = sum_hi, *magnitude = mag;
+}
+
+/* Lanes that share one work item of the contour integral (a power of two
+ * dividing `lanes`): the fewest that take the level's `items` in the
+ * fewest rounds of node evaluations. A work item is LO + HI evaluations
+ * of the inner integral; a near pair of two triangles has 9 items at
+ * level 0, which one item a lane would leave 23 of a warp's 32 lanes
+ * idle; 8 lanes an item take them in 3 rounds of 3 instead of 22. */
+static inline RAD_HD unsigned rad_ff_contour_item_lanes(int items, unsigned lanes)
+{
+    const int nodes = RAD_FF_CONTOUR_LO + RAD_FF_CONTOUR_HI;
+    unsigned best = 1;
+    long best_cost = -1;
+    for (unsigned subs = 1; subs <= lanes; subs *= 2) {
+        long groups = (long)(lanes / subs);
+        long cost = ((items + groups - 1) / groups) * ((nodes + (long)subs - 1) / (long)subs);
+        if (best_cost < 0 || cost < best_cost) best = subs, best_cost = cost;
+    }
+    return best;
 }
 
 /* G of q and p (rad_ff_contour_applies) to max(rtol |G|, atol A_q);
@@ -371,7 +392,18 @@ static inline RAD_HD rad_ff_contour_result rad_ff_contour_g(const rad_ff_patch *
     for (int level = 0; level <= RAD_FF_CONTOUR_MAX_LEVEL; level++) {
         int parts = 1 << level;
         double sum_hi = 0.0, diff = 0.0, mag = 0.0;
-        /* Work items: (edge pair, interval half, part), taken by the lanes in turn. */
+        /* Work items: (edge pair, interval half, part), taken by groups
+         * of `subs` lanes in turn, each lane of a group some of the item's
+         * nodes (rad_ff_contour_item_lanes). */
+        int items = 0;
+        for (uint32_t k = 0; k < nq; k++)
+            for (uint32_t l = 0; l < np; l++) {
+                int c = cuts[k * RAD_FF_POLY_MAX + l];
+                items += c < 0 ? 0 : (c > 0 ? 2 * c : 1) * parts;
+            }
+        unsigned subs = rad_ff_contour_item_lanes(items, lanes);
+        int groups = (int)(lanes / subs), group = (int)(lane / subs);
+        unsigned sub = lane % subs;
         int item = 0;
         for (uint32_t k = 0; k < nq; k++)
             for (uint32_t l = 0; l < np; l++) {
@@ -387,10 +419,14 @@ static inline RAD_HD rad_ff_contour_result rad_ff_contour_g(const rad_ff_patch *
                         /* graded from s_from (a breakpoint or end) towards the middle; plain: 0 to 1 */
                         double s_from = half ? y : x, s_to = halves == 2 ? 0.5 * (x + y) : 1.0;
                         for (int part = 0; part < parts; part++, item++) {
-                            if (item % (int)lanes != (int)lane) continue;
+                            if (item % groups != group) continue;
                             double lo, hi, mg;
                             rad_ff_contour_piece(a, e, b, f, ff, halves == 2, s_from, s_to, (double)part / parts,
-                                                 1.0 / parts, &lo, &hi, &mg);
+                                                 1.0 / parts, sub, subs, &lo, &hi, &mg);
+                            lo = RAD_FF_LANE_SUM(lo, subs);
+                            hi = RAD_FF_LANE_SUM(hi, subs);
+                            mg = RAD_FF_LANE_SUM(mg, subs);
+                            if (sub != 0) continue; /* the group's first lane adds the item */
                             /* The piece integrates from s_from to s_to: backwards on an upper half. */
                             double sign = s_to > s_from ? 1.0 : -1.0;
                             sum_hi += sign * ef * hi;

@@ -100,6 +100,11 @@ enum { FF_CUDA_BLOCK = 256 };
 #ifndef FF_CUDA_FAR_LANES
 #define FF_CUDA_FAR_LANES 4
 #endif
+/* Lanes per near pair: adaptive cells of up to 100 points, or the
+ * contour integral's work items (rad_ff_contour.h). */
+#ifndef FF_CUDA_NEAR_LANES
+#define FF_CUDA_NEAR_LANES 32
+#endif
 /* Blocks per SM the pair kernel is compiled for: bounds its registers
  * (65536 / (256 * blocks) per thread), trading spills for occupancy. */
 #ifndef FF_CUDA_MIN_BLOCKS
@@ -193,6 +198,18 @@ static rad_status cuda_check(cudaError_t err, const char *what, int line)
         if ((status = cuda_check((call), #call, __LINE__)) != RAD_OK) goto done; \
     } while (0)
 
+/* Does the pair take a warp (the near list)? Near pairs, and pairs whose
+ * smaller patch reaches behind the other's plane: the contour integral
+ * over their clipped parts, or the area rule over its fan, takes hundreds
+ * to thousands of points; in the far list such a pair held its warp's
+ * other seven pairs (suzanne_subsurf, H100: form factors 0.72 -> 0.52 s). */
+__device__ static int cuda_pair_listed_near(const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j)
+{
+    if (rad_ff_pair_near(pi, pj)) return 1;
+    int i_is_q = rad_ff_quad_roles(pi, pj, i, j);
+    return rad_ff_contour_straddles(i_is_q ? pi : pj, i_is_q ? pj : pi);
+}
+
 /* Pass 1: thread per pair; zeros for pairs that cannot exchange light; far
  * pairs listed from the front of p.pairs, near pairs from the back, so each
  * list gets a launch of its own: near pairs (adaptive quadrature, contour
@@ -224,12 +241,18 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint8_t 
                                                             p.tracer.root_count, pi, pj, p.cull_margin,
                                                             p.tracer.delta, 0,
                                                             p.pair.estimator == RAD_ESTIMATOR_QUADRATURE));
-        uint64_t at = rad_ff_pair_near(pi, pj) ? capacity - 1 - atomicAdd(&counts[1], 1u) : atomicAdd(&counts[0], 1u);
+        uint64_t at = cuda_pair_listed_near(pi, pj, i, j) ? capacity - 1 - atomicAdd(&counts[1], 1u) : atomicAdd(&counts[0], 1u);
         pairs[at] = (uint32_t)t;
         open[at] = clear;
         if (!clear) atomicAdd(&counts[2], 1u);
     }
 }
+
+#ifdef FF_CUDA_PROFILE
+/* A study build's account (-DFF_CUDA_PROFILE): per list (far, near) and
+ * log2 of the quadrature points, pairs, clock cycles and points. */
+__device__ unsigned long long ff_cuda_profile[2][24][3];
+#endif
 
 /* A pair's counters into its block's. */
 __device__ static void cuda_count_pair(unsigned long long *block_counts, const rad_ff_pair_result *r,
@@ -318,6 +341,16 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_QUAD_MIN_BLOCKS)
         pp.lanes = p.lanes;
         const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
         rad_ff_quad_result g0 = rad_ff_pair_quad_unoccluded(&pp, pi, pj, i, j);
+#ifdef FF_CUDA_PROFILE
+        if (lane == 0) {
+            int bucket = 0;
+            while (bucket < 23 && (1u << bucket) < g0.points) bucket++;
+            unsigned long long *slot = ff_cuda_profile[p.step < 0][bucket];
+            atomicAdd(&slot[0], 1ull);
+            atomicAdd(&slot[1], (unsigned long long)(clock64() - start));
+            atomicAdd(&slot[2], (unsigned long long)g0.points);
+        }
+#endif
         if (lane == 0) {
             rad_ff_pair_result r = {0};
             if (!open && rad_ff_pair_quad_traces(&pp, &g0)) {
@@ -603,16 +636,41 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
         p.pairs = list == 0 ? s->d_pairs : s->d_pairs + need - 1;
         p.open = list == 0 ? s->d_open : s->d_open + need - 1;
         p.step = list == 0 ? 1 : -1;
-        p.lanes = list == 0 ? FF_CUDA_FAR_LANES : 32;
+        p.lanes = list == 0 ? FF_CUDA_FAR_LANES : FF_CUDA_NEAR_LANES;
         uint64_t per_block = FF_CUDA_BLOCK / p.lanes;
         uint64_t blocks = ((uint64_t)p.pair_count + per_block - 1) / per_block;
+#ifdef FF_CUDA_PROFILE
+        CUDA_TRY(cudaDeviceSynchronize());
+        double t_list = now_seconds();
+#endif
         if (quadrature)
             ff_quad_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
         else
             ff_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
         CUDA_TRY(cudaGetLastError());
+#ifdef FF_CUDA_PROFILE
+        CUDA_TRY(cudaDeviceSynchronize());
+        fprintf(stderr, "ff_cuda_profile: %s list: %u pairs, %u lanes, %.3f ms\n", list ? "near" : "far",
+                pair_counts[list], p.lanes, 1e3 * (now_seconds() - t_list));
+#endif
     }
     CUDA_TRY(cudaEventRecord(s->middle));
+#ifdef FF_CUDA_PROFILE
+    {
+        unsigned long long prof[2][24][3];
+        CUDA_TRY(cudaDeviceSynchronize());
+        CUDA_TRY(cudaMemcpyFromSymbol(prof, ff_cuda_profile, sizeof prof));
+        for (int list = 0; list < 2; list++)
+            for (int b = 0; b < 24; b++)
+                if (prof[list][b][0])
+                    fprintf(stderr, "ff_cuda_profile: %s points<=2^%d: %llu pairs, %.3g Gcycles, %.1f points/pair, %.0f cycles/pair\n",
+                            list ? "near" : "far", b, prof[list][b][0], prof[list][b][1] * 1e-9,
+                            (double)prof[list][b][2] / prof[list][b][0], (double)prof[list][b][1] / prof[list][b][0]);
+        float ms = 0.0f;
+        CUDA_TRY(cudaEventElapsedTime(&ms, s->start, s->middle));
+        fprintf(stderr, "ff_cuda_profile: far %u + near %u pairs: %.3f ms\n", pair_counts[0], pair_counts[1], ms);
+    }
+#endif
     if (quadrature && pair_counts[2] > 0) { /* pass 3: the rays of the pairs pass 2 appended */
         p.lanes = FF_CUDA_RAY_LANES;
         uint64_t per_block = FF_CUDA_BLOCK / p.lanes;

@@ -7,7 +7,9 @@
 #   . .devdeps/setup.sh && scripts/bench-near-field.sh
 # STAGES picks what runs (default "build test time"); SCENES the scenes
 # timed (default below); CPU_SCENES those also timed on the CPU backend;
-# LIMIT the seconds one run may take (default 150). summary.txt (the
+# LIMIT the seconds one run may take (default 150); VARIANTS builds of
+# this tree with other CUDA flags ("label=-DFF_CUDA_NEAR_LANES=8 ...",
+# space-separated, flags joined by commas), timed on SCENES as "label". summary.txt (the
 # table: patches, facing pairs, form-factor and visibility seconds, ns per
 # pair), ctest.log and the build logs go to $OUT; each run's log and stats
 # JSON to $WORK/runs.
@@ -39,6 +41,15 @@ if [[ "$stages" == *" build "* ]]; then
       echo "old tree: build failed (see build_old.log)"
   fi
 fi
+
+for variant in ${VARIANTS:-}; do
+  [[ "$stages" == *" build "* ]] || break
+  label=${variant%%=*} flags=${variant#*=}
+  cmake -S . -B "$build-$label" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CUDA_ARCHITECTURES=${CUDA_ARCH:-90} \
+    -DCMAKE_CUDA_FLAGS="${flags//,/ }" > "$work/cmake-$label.log" 2>&1 &&
+    cmake --build "$build-$label" -j"$(nproc)" --target formfactor > "$work/build-$label.log" 2>&1 ||
+    echo "variant $label: build failed"
+done
 
 if [[ "$stages" == *" test "* ]]; then
   ctest --test-dir "$build" -R "formfactor_cuda|formfactor_gpu|bvh|near_faces|quadrature|pair_fuzz|hard_cases|formfactor_cpu" \
@@ -75,8 +86,9 @@ pairs = (find(d, "pairs") or 0) - (find(d, "pairs_culled") or 0)
 ff = find(d, "form_factors") or find(d, "kernel_seconds") or 0
 vis = find(d, "visibility") or find(d, "visibility_seconds") or 0
 total = find(d, "total") or 0
-print("%-44s rc=%d N=%s facing pairs=%d  form factors %.3f s  visibility %.3f s  total %.3f s  %.1f ns/pair (ff+vis)  samples %s" %
-      (name, rc, n, pairs, ff, vis, total, 1e9 * (ff + vis) / max(pairs, 1), find(d, "samples")))
+print("%-44s rc=%d N=%s facing pairs=%d  form factors %.3f s  visibility %.3f s  total %.3f s  %.1f ns/pair (ff+vis)  %.1f ns/pair (ff)  samples %s  rays %s  near %s" %
+      (name, rc, n, pairs, ff, vis, total, 1e9 * (ff + vis) / max(pairs, 1), 1e9 * ff / max(pairs, 1),
+       find(d, "samples"), find(d, "rays"), find(d, "pairs_near")))
 EOF
 }
 
@@ -84,6 +96,10 @@ if [[ "$stages" == *" time "* ]]; then
   for spec in $scenes; do
     run new "$build/formfactor" "$spec" cuda
     [ -x "$old_build/formfactor" ] && run old "$old_build/formfactor" "$spec" cuda
+    for variant in ${VARIANTS:-}; do
+      label=${variant%%=*}
+      [ -x "$build-$label/formfactor" ] && run "$label" "$build-$label/formfactor" "$spec" cuda
+    done
   done
   for spec in $cpu_scenes; do
     run new "$build/formfactor" "$spec" cpu
