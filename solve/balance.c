@@ -12,7 +12,7 @@
  */
 #include <stddef.h>
 
-#include "iterate.h"
+#include "run.h" /* SOLVE_PARALLEL_MIN_ROWS */
 #include "solver.h"
 
 solve_balance solve_balance_compute(const solve_system *system, const double *rho, const double *emission,

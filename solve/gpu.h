@@ -68,7 +68,7 @@ typedef struct solve_gpu_tiles {
     int exact;             /* 1 when every float is its double (an f32 file) */
 } solve_gpu_tiles;
 
-/* Rows per OpenMP thread pass, as SOLVE_PARALLEL_MIN_ROWS (iterate.h). */
+/* Rows per OpenMP thread pass, as SOLVE_PARALLEL_MIN_ROWS (run.h). */
 #define SOLVE_GPU_PARALLEL_MIN_ROWS 256
 
 /* Builds the tiles of F on the host threads (gpu_tiles.c; no CUDA).
@@ -96,7 +96,7 @@ rad_status solve_gpu_multiply(solve_gpu *gpu, size_t count, const double *const 
 
 /* Loads `count` (<= SOLVE_GPU_LANES) lanes: lane c iterates on
  * (I - diag(rho[c]) F) B = E[c] from B[c], its stopping rule scaled by
- * e_norm[c] (iterate.h). Host arrays of n doubles; copied. */
+ * e_norm[c] (run.h). Host arrays of n doubles; copied. */
 rad_status solve_gpu_lanes_load(solve_gpu *gpu, size_t count, const double *const *rho, const double *const *E,
                                 const double *const *B, const double *e_norm);
 /* Copies lane c's current B (n doubles) to the host. */

@@ -8,10 +8,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "iterate.h"
 #include "rad_bytes.h"
 #include "rad_fs.h"
 #include "rad_log.h"
+#include "run.h" /* SOLVE_PARALLEL_MIN_ROWS */
 
 typedef struct group_row {
     uint64_t patches;

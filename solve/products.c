@@ -4,7 +4,9 @@
  * double matrix, and reading F once for all channels is what a pass costs.
  * y_c[i] is summed exactly as solve_row_dot(F, i, x_c, 0, n): the same
  * bits as one vector at a time, whatever the thread count. */
-#include "iterate.h"
+#include "products.h"
+
+#include "run.h" /* SOLVE_PARALLEL_MIN_ROWS */
 
 void solve_rows_multiply(const solve_rows *F, size_t begin, size_t end, size_t count, const double *const *x,
                          double *const *y)

@@ -12,13 +12,17 @@
  * relative size of F - F32 (6e-8) times the system's amplification, so
  * the second round meets any tolerance solve allows. The right-hand side
  * keeps E's sign pattern up to that tiny term, so the per-patch stopping
- * rule (iterate.h) applies to every round unchanged.
+ * rule (run.h) applies to every round unchanged.
  */
+#include "rounds.h"
+
 #include <math.h>
 #include <stdlib.h>
 
-#include "iterate.h"
+#include "cg.h"
+#include "products.h"
 #include "rad_log.h"
+#include "stationary.h"
 
 /* out_i = E_i + rho_i sum_j (F_ij - float(F_ij)) B_j, rows by one thread
  * each (no dependence on the thread count). */

@@ -186,7 +186,7 @@ typedef struct solve_channels_result {
  * channels that stopped and finish with Gauss-Seidel, follow one by one.
  * With system->gpu, CG and Jacobi channels iterate on the GPU in lockstep
  * and are verified (and refined) with the double matrix on the CPU
- * (solve_gpu_channels, iterate.h); Gauss-Seidel runs on the CPU.
+ * (solve_gpu_channels, rounds.h); Gauss-Seidel runs on the CPU.
  * Status: as solve_channel's, the worst over the channels; on
  * RAD_ERR_NOT_CONVERGED every channel's outputs are filled. A report's
  * seconds run from its channel's start to its end. */

@@ -1,6 +1,7 @@
-/* stage.c - the solve stage: read and validate the form factors, solve
- * the channels together (once for grey scenes; solve_channels), write the
- * radiosity and stats.
+/* stage.c - the solve stage in three steps: load (open the file, choose
+ * the backend, read and check the rows, upload them to the GPU), solve
+ * (the channels together, once for grey scenes; solve_channels) and write
+ * (the radiosity, the stats, the results by group).
  *
  * Across ranks (docs/solve.md, "Across ranks"): every rank opens the file
  * and reads the patch table, then only its block of rows
@@ -57,8 +58,29 @@ static int scene_is_grey(const rad_mesh *mesh)
     return 1;
 }
 
-/* Everything the stage allocates, freed in one place. */
+static const char *const rgb_names[3] = {"red", "green", "blue"};
+static const char *const grey_names[1] = {"grey"};
+
+/* What the three steps share; what the stage allocates is freed in one
+ * place (stage_state_free). */
 typedef struct stage_state {
+    /* the run */
+    const solve_options *options;
+    const char *input, *output;         /* resolved: never NULL */
+    solve_comm *comm;
+    int rank, ranks;
+    rad_log_level asked;                /* the log level the stage was called with */
+    double t0;                          /* solve_now() at the start */
+    /* the load step's */
+    solve_backend backend;              /* auto until the matrix is loaded, then cpu or cuda */
+    double load_seconds, upload_seconds;
+    const rad_mesh *mesh;               /* the file's (borrowed from it) */
+    solve_row_sum_summary row_sums;
+    int grey;                           /* solved once, stored in all three channels */
+    uint32_t channels;                  /* 1 when grey, else 3 */
+    /* the solve step's */
+    rad_status solved;                  /* RAD_OK, or RAD_ERR_NOT_CONVERGED: written all the same */
+    /* owned */
     rad_ff_file *file;
     solve_matrix matrix;
     solve_gpu *gpu;                     /* the matrix on the GPU (--backend cuda), or NULL */
@@ -81,57 +103,6 @@ static void stage_state_free(stage_state *s)
     free(s->channel_b);
     free(s->radiosity);
     for (int c = 0; c < 3; c++) solve_report_free(&s->reports[c]);
-}
-
-/* Solves the channels (one when grey) of `sys` into s->radiosity. */
-static rad_status solve_system_all(stage_state *s, const solve_system *sys, const char *input, const rad_mesh *mesh,
-                                   uint32_t channels, int grey, const solve_params *base, const char *const *labels)
-{
-    const size_t n = mesh->patch_count;
-    const double *rho[3], *emission[3];
-    double *b[3];
-    solve_params p[3];
-    for (uint32_t c = 0; c < channels; c++) {
-        double *rc = s->rho + c * n, *ec = s->emission + c * n;
-        for (size_t i = 0; i < n; i++) {
-            rc[i] = mesh->patches[i].rho[c];
-            ec[i] = mesh->patches[i].emission[c];
-        }
-        rho[c] = rc;
-        emission[c] = ec;
-        b[c] = s->channel_b + c * n;
-        p[c] = *base;
-        p[c].label = labels[c];
-    }
-    solve_channels_result joint;
-    const char *backend = sys->gpu ? "cuda" : "cpu";
-    rad_status status = solve_channels(sys, channels, rho, emission, p, b, s->reports, &joint);
-    if (status != RAD_OK && status != RAD_ERR_NOT_CONVERGED) return status;
-    for (uint32_t c = 0; c < channels; c++) {
-        for (size_t i = 0; i < n; i++)
-            for (uint32_t k = grey ? 0 : c; k <= (grey ? 2 : c); k++) s->radiosity[3 * i + k] = b[c][i];
-        const solve_report *r = &s->reports[c];
-        char rounds[48] = "";
-        if (r->rounds > 1) snprintf(rounds, sizeof rounds, " (%u rounds)", r->rounds);
-        rad_info("%s: %s: %s, %u iterations, residual %.3g, %.3f s, backend %s%s", input, labels[c],
-                 solve_method_name(r->method_used), r->iterations, r->residual, r->seconds, backend, rounds);
-        rad_info("%s: %s: energy: emitted %.9g, absorbed %.9g, escaped %.9g (imbalance %.2g)", input, labels[c],
-                 r->balance.emitted, r->balance.absorbed, r->balance.escaped, r->balance.imbalance);
-    }
-    if (joint.lockstep_channels > 1)
-        rad_info("%s: %s on %zu channels in lockstep (one pass over the matrix per iteration): %.3f s", input,
-                 sys->gpu ? "the GPU" : "CG", joint.lockstep_channels, joint.lockstep_seconds);
-    return status;
-}
-
-/* Solves the channels (one when grey) into s->radiosity. */
-static rad_status solve_all(stage_state *s, solve_comm *comm, const char *input, const rad_mesh *mesh,
-                            uint32_t channels, int grey, const solve_params *base, const char *const *labels)
-{
-    solve_system sys = solve_matrix_system(&s->matrix);
-    sys.gpu = s->gpu;
-    sys.comm = comm;
-    return solve_system_all(s, &sys, input, mesh, channels, grey, base, labels);
 }
 
 /* The backend to use, once the file's header is read: cuda without a
@@ -271,162 +242,245 @@ static rad_status load_rows(stage_state *s, solve_comm *comm, const solve_option
     return RAD_OK;
 }
 
-rad_status solve_stage_run(const solve_options *options)
+/* Opens the file and decides the backend; refuses a file of standard
+ * errors, and one without a group table under --by-group. */
+static rad_status stage_open(stage_state *s)
 {
-    static const char *const rgb_names[3] = {"red", "green", "blue"};
-    const char *input = options->input ? options->input : SOLVE_DEFAULT_INPUT;
-    const char *output = options->output ? options->output : SOLVE_DEFAULT_OUTPUT;
-    solve_comm *comm = options->comm;
-    const int rank = solve_comm_rank(comm), ranks = solve_comm_size(comm);
-    const rad_log_level asked = rad_log_get_level();
-    rad_status status, solved = RAD_OK;
-    stage_state s;
-    memset(&s, 0, sizeof s);
-    double t0 = solve_now(), upload_seconds = 0;
-    solve_backend backend = SOLVE_BACKEND_CPU;
-
-    stage_speak(comm, asked, STAGE_ALIKE);
-    status = solve_comm_agree(comm, rad_ff_open(input, &s.file));
-    if (status != RAD_OK) goto done;
+    const solve_options *options = s->options;
+    rad_status status = solve_comm_agree(s->comm, rad_ff_open(s->input, &s->file));
+    if (status != RAD_OK) return status;
     /* CUDA starts while the matrix loads where the GPU will be asked for. */
-    if (ranks == 1 && options->backend != SOLVE_BACKEND_CPU && solve_gpu_built() &&
+    if (s->ranks == 1 && options->backend != SOLVE_BACKEND_CPU && solve_gpu_built() &&
         (options->backend == SOLVE_BACKEND_CUDA ||
-         stored_entries_estimate(rad_ff_file_info(s.file)) >= SOLVE_GPU_AUTO_MIN_ENTRIES))
+         stored_entries_estimate(rad_ff_file_info(s->file)) >= SOLVE_GPU_AUTO_MIN_ENTRIES))
         solve_gpu_prestart();
-    status = solve_comm_agree(comm, resolve_backend(options->backend, ranks, &backend));
-    if (status != RAD_OK) goto done;
-    if (rad_ff_file_info(s.file)->flags & RAD_FF_FLAG_STANDARD_ERRORS) {
+    status = solve_comm_agree(s->comm, resolve_backend(options->backend, s->ranks, &s->backend));
+    if (status != RAD_OK) return status;
+    if (rad_ff_file_info(s->file)->flags & RAD_FF_FLAG_STANDARD_ERRORS) {
         rad_error("%s: holds the standard errors of a form-factor matrix (formfactor --errors), not form factors",
-                  input);
-        status = RAD_ERR_INVALID;
-        goto done;
+                  s->input);
+        return RAD_ERR_INVALID;
     }
-    if (options->by_group && rad_ff_file_mesh(s.file)->group_count == 0) {
+    if (options->by_group && rad_ff_file_mesh(s->file)->group_count == 0) {
         rad_error("%s: has no group table (the OBJ groups of its patches, which formfactor records since "
                   "form-factor file version 2): --by-group needs one; run formfactor again",
-                  input);
-        status = RAD_ERR_INVALID;
-        goto done;
+                  s->input);
+        return RAD_ERR_INVALID;
     }
-    status = load_rows(&s, comm, options, input, asked);
-    if (status != RAD_OK) goto done;
-    double load_seconds = solve_now() - t0;
-    const rad_mesh *mesh = rad_ff_file_mesh(s.file);
+    return RAD_OK;
+}
+
+/* The load step: the file opened, this rank's rows read and checked
+ * against the patch table, the channels' buffers, the matrix on the GPU
+ * when it goes there. */
+static rad_status stage_load(stage_state *s)
+{
+    rad_status status = stage_open(s);
+    if (status != RAD_OK) return status;
+    status = load_rows(s, s->comm, s->options, s->input, s->asked);
+    if (status != RAD_OK) return status;
+    s->load_seconds = solve_now() - s->t0;
+    const rad_mesh *mesh = s->mesh = rad_ff_file_mesh(s->file);
     const size_t n = mesh->patch_count;
-    status = solve_matrix_check_reflectance(&s.matrix, mesh, input);
-    if (status != RAD_OK) goto done;
-    const solve_row_sum_summary row_sums = solve_matrix_warn_row_sums(&s.matrix, input);
-    s.rho = malloc(3 * n * sizeof(double));
-    s.emission = malloc(3 * n * sizeof(double));
-    s.channel_b = malloc(3 * n * sizeof(double));
-    s.radiosity = malloc(3 * n * sizeof(double));
-    status = s.rho && s.emission && s.channel_b && s.radiosity ? RAD_OK : RAD_ERR_NOMEM;
-    if (status != RAD_OK) rad_error("%s: out of memory for %zu patches", input, n);
-    status = solve_comm_agree(comm, status);
-    if (status != RAD_OK) goto done;
+    status = solve_matrix_check_reflectance(&s->matrix, mesh, s->input);
+    if (status != RAD_OK) return status;
+    s->row_sums = solve_matrix_warn_row_sums(&s->matrix, s->input);
+    s->rho = malloc(3 * n * sizeof(double));
+    s->emission = malloc(3 * n * sizeof(double));
+    s->channel_b = malloc(3 * n * sizeof(double));
+    s->radiosity = malloc(3 * n * sizeof(double));
+    status = s->rho && s->emission && s->channel_b && s->radiosity ? RAD_OK : RAD_ERR_NOMEM;
+    if (status != RAD_OK) rad_error("%s: out of memory for %zu patches", s->input, n);
+    status = solve_comm_agree(s->comm, status);
+    if (status != RAD_OK) return status;
     int emits = 0;
     for (size_t i = 0; i < n && !emits; i++)
         emits = mesh->patches[i].emission[0] > 0 || mesh->patches[i].emission[1] > 0 || mesh->patches[i].emission[2] > 0;
     if (!emits)
         rad_warn("%s: no patch emits light (no material has Ke > 0; Blender exports before 2.9 write no Ke): every "
                  "radiosity is 0 and an image of it is black",
-                 input);
-    const int grey = scene_is_grey(mesh);
-    const uint32_t channels = grey ? 1 : 3;
-    rad_info("%s: %zu patches, %s, loaded in %.2f s", input, n, grey ? "grey (solved once)" : "RGB", load_seconds);
-    if (backend == SOLVE_BACKEND_AUTO) backend = auto_backend(&s.matrix);
-    status = upload_matrix(&s, input, options->backend, &backend, &upload_seconds);
-    if (status != RAD_OK) goto done;
-    if (ranks > 1)
-        rad_info("%s: rows split over %d ranks: rank 0 holds %llu rows (%llu stored entries)", input, ranks,
-                 (unsigned long long)s.rank_counts[0], (unsigned long long)s.rank_counts[ranks]);
-    static const char *const grey_names[1] = {"grey"};
-    status = solve_all(&s, comm, input, mesh, channels, grey, &options->params, grey ? grey_names : rgb_names);
-    if (status == RAD_ERR_NOT_CONVERGED)
-        solved = status;
-    else if (status != RAD_OK)
-        goto done;
+                 s->input);
+    s->grey = scene_is_grey(mesh);
+    s->channels = s->grey ? 1 : 3;
+    rad_info("%s: %zu patches, %s, loaded in %.2f s", s->input, n, s->grey ? "grey (solved once)" : "RGB",
+             s->load_seconds);
+    if (s->backend == SOLVE_BACKEND_AUTO) s->backend = auto_backend(&s->matrix);
+    status = upload_matrix(s, s->input, s->options->backend, &s->backend, &s->upload_seconds);
+    if (status != RAD_OK) return status;
+    if (s->ranks > 1)
+        rad_info("%s: rows split over %d ranks: rank 0 holds %llu rows (%llu stored entries)", s->input, s->ranks,
+                 (unsigned long long)s->rank_counts[0], (unsigned long long)s->rank_counts[s->ranks]);
+    return RAD_OK;
+}
 
+/* The solve step: the channels (one when grey) into s->radiosity, each
+ * reported. A channel that does not converge sets s->solved and is still
+ * written (RAD_OK here); another failure is returned. */
+static rad_status stage_solve(stage_state *s)
+{
+    const size_t n = s->mesh->patch_count;
+    const char *const *labels = s->grey ? grey_names : rgb_names;
+    solve_system sys = solve_matrix_system(&s->matrix);
+    sys.gpu = s->gpu;
+    sys.comm = s->comm;
+    const double *rho[3], *emission[3];
+    double *b[3];
+    solve_params p[3];
+    for (uint32_t c = 0; c < s->channels; c++) {
+        double *rc = s->rho + c * n, *ec = s->emission + c * n;
+        for (size_t i = 0; i < n; i++) {
+            rc[i] = s->mesh->patches[i].rho[c];
+            ec[i] = s->mesh->patches[i].emission[c];
+        }
+        rho[c] = rc;
+        emission[c] = ec;
+        b[c] = s->channel_b + c * n;
+        p[c] = s->options->params;
+        p[c].label = labels[c];
+    }
+    solve_channels_result joint;
+    const char *backend = sys.gpu ? "cuda" : "cpu";
+    rad_status status = solve_channels(&sys, s->channels, rho, emission, p, b, s->reports, &joint);
+    if (status != RAD_OK && status != RAD_ERR_NOT_CONVERGED) return status;
+    s->solved = status;
+    for (uint32_t c = 0; c < s->channels; c++) {
+        for (size_t i = 0; i < n; i++)
+            for (uint32_t k = s->grey ? 0 : c; k <= (s->grey ? 2 : c); k++) s->radiosity[3 * i + k] = b[c][i];
+        const solve_report *r = &s->reports[c];
+        char rounds[48] = "";
+        if (r->rounds > 1) snprintf(rounds, sizeof rounds, " (%u rounds)", r->rounds);
+        rad_info("%s: %s: %s, %u iterations, residual %.3g, %.3f s, backend %s%s", s->input, labels[c],
+                 solve_method_name(r->method_used), r->iterations, r->residual, r->seconds, backend, rounds);
+        rad_info("%s: %s: energy: emitted %.9g, absorbed %.9g, escaped %.9g (imbalance %.2g)", s->input,
+                 labels[c], r->balance.emitted, r->balance.absorbed, r->balance.escaped, r->balance.imbalance);
+    }
+    if (joint.lockstep_channels > 1)
+        rad_info("%s: %s on %zu channels in lockstep (one pass over the matrix per iteration): %.3f s", s->input,
+                 sys.gpu ? "the GPU" : "CG", joint.lockstep_channels, joint.lockstep_seconds);
+    return RAD_OK;
+}
+
+/* The tolerance the channels were solved to. */
+static double stage_tolerance(const stage_state *s)
+{
+    return s->options->params.tolerance > 0 ? s->options->params.tolerance : SOLVE_DEFAULT_TOLERANCE;
+}
+
+/* The radiosity file (rank 0 writes it), marked unconverged when a
+ * channel did not converge. */
+static rad_status write_radiosity(const stage_state *s)
+{
+    rad_status status = RAD_OK;
     rad_radiosity out;
     memset(&out, 0, sizeof out);
-    out.mesh = *mesh; /* borrowed from the file; not freed here */
-    out.radiosity = s.radiosity;
-    out.channel_count = channels;
-    out.method = (uint32_t)s.reports[0].method_used;
-    out.converged = solved == RAD_OK;
-    out.tolerance = options->params.tolerance > 0 ? options->params.tolerance : SOLVE_DEFAULT_TOLERANCE;
-    out.scene_fingerprint = rad_ff_file_info(s.file)->scene_fingerprint;
+    out.mesh = *s->mesh; /* borrowed from the file; not freed here */
+    out.radiosity = s->radiosity;
+    out.channel_count = s->channels;
+    out.method = (uint32_t)s->reports[0].method_used;
+    out.converged = s->solved == RAD_OK;
+    out.tolerance = stage_tolerance(s);
+    out.scene_fingerprint = rad_ff_file_info(s->file)->scene_fingerprint;
     /* The scene's path, for render's camera sidecar: only a real path that
      * fits whole (not the built-in box's name). */
-    const char *scene = rad_ff_file_info(s.file)->scene_name;
+    const char *scene = rad_ff_file_info(s->file)->scene_name;
     if (strcmp(scene, rad_default_scene_name) != 0 && strlen(scene) < sizeof out.scene_path)
         memcpy(out.scene_path, scene, strlen(scene) + 1);
-    else if (strcmp(scene, rad_default_scene_name) != 0 && rank == 0)
+    else if (strcmp(scene, rad_default_scene_name) != 0 && s->rank == 0)
         /* A cut path would name another file; none is better, and said. */
         rad_warn("%s: the scene path %s is %zu bytes%s; the radiosity file holds at most %zu, so it records "
                  "none and render cannot find the scene's camera sidecar: give render --camera FILE",
-                 input, scene, strlen(scene),
-                 strlen(scene) + 1 == sizeof rad_ff_file_info(s.file)->scene_name
+                 s->input, scene, strlen(scene),
+                 strlen(scene) + 1 == sizeof rad_ff_file_info(s->file)->scene_name
                      ? " (or more: formfactor cuts scene names there)" : "",
                  sizeof out.scene_path - 1);
     for (uint32_t c = 0; c < 3; c++) {
-        const solve_report *r = &s.reports[grey ? 0 : c];
+        const solve_report *r = &s->reports[s->grey ? 0 : c];
         out.iterations[c] = r->iterations;
         out.residual[c] = r->residual;
         out.channel_method[c] = (uint32_t)r->method_used;
     }
-    if (rank == 0) status = rad_rf_write(output, &out);
-    status = solve_comm_agree(comm, status);
-    if (status != RAD_OK) goto done;
+    if (s->rank == 0) status = rad_rf_write(s->output, &out);
+    return solve_comm_agree(s->comm, status);
+}
 
-    if (options->stats) {
-        solve_stats st = {
-            .input = input,
-            .output = output,
-            .errors = options->errors,
-            .row_sums = row_sums,
-            .patch_count = n,
-            .method = options->params.method,
-            .tolerance = out.tolerance,
-            .max_iterations = options->params.max_iterations ? options->params.max_iterations
-                                                             : SOLVE_DEFAULT_MAX_ITERATIONS,
-            .load_seconds = load_seconds,
-            .backend = solve_backend_name(backend),
-            .device = s.gpu ? solve_gpu_device_name(s.gpu) : NULL,
-            .device_exact = s.gpu ? solve_gpu_exact(s.gpu) : -1,
-            .upload_seconds = upload_seconds,
-            .total_seconds = solve_now() - t0,
-            .converged = out.converged != 0,
-            .channel_count = channels,
-            .rank_count = (uint32_t)ranks,
-            .rank_rows = s.rank_counts,
-            .rank_entries = s.rank_counts + ranks,
-        };
-        for (uint32_t c = 0; c < channels; c++) {
-            st.channel_names[c] = grey ? "grey" : rgb_names[c];
-            st.reports[c] = &s.reports[c];
-        }
-        if (rank == 0) status = solve_stats_write(options->stats, &st);
-        status = solve_comm_agree(comm, status);
-        if (status != RAD_OK) goto done;
+/* The --stats JSON (rank 0 writes it). */
+static rad_status write_stats(const stage_state *s)
+{
+    const solve_options *options = s->options;
+    rad_status status = RAD_OK;
+    solve_stats st = {
+        .input = s->input,
+        .output = s->output,
+        .errors = options->errors,
+        .row_sums = s->row_sums,
+        .patch_count = s->mesh->patch_count,
+        .method = options->params.method,
+        .tolerance = stage_tolerance(s),
+        .max_iterations = options->params.max_iterations ? options->params.max_iterations
+                                                         : SOLVE_DEFAULT_MAX_ITERATIONS,
+        .load_seconds = s->load_seconds,
+        .backend = solve_backend_name(s->backend),
+        .device = s->gpu ? solve_gpu_device_name(s->gpu) : NULL,
+        .device_exact = s->gpu ? solve_gpu_exact(s->gpu) : -1,
+        .upload_seconds = s->upload_seconds,
+        .total_seconds = solve_now() - s->t0,
+        .converged = s->solved == RAD_OK,
+        .channel_count = s->channels,
+        .rank_count = (uint32_t)s->ranks,
+        .rank_rows = s->rank_counts,
+        .rank_entries = s->rank_counts + s->ranks,
+    };
+    for (uint32_t c = 0; c < s->channels; c++) {
+        st.channel_names[c] = s->grey ? "grey" : rgb_names[c];
+        st.reports[c] = &s->reports[c];
     }
-    if (options->by_group) {
-        solve_system sys = solve_matrix_system(&s.matrix);
-        sys.comm = comm;
-        status = solve_groups_write(options->by_group, &sys, mesh, s.radiosity);
-        if (status != RAD_OK) goto done;
+    if (s->rank == 0) status = solve_stats_write(options->stats, &st);
+    return solve_comm_agree(s->comm, status);
+}
+
+/* The write step: the radiosity file, then the stats and the results by
+ * group when asked for; RAD_ERR_NOT_CONVERGED once all is written if a
+ * channel did not converge. */
+static rad_status stage_write(stage_state *s)
+{
+    const solve_options *options = s->options;
+    rad_status status = write_radiosity(s);
+    if (status == RAD_OK && options->stats) status = write_stats(s);
+    if (status == RAD_OK && options->by_group) {
+        solve_system sys = solve_matrix_system(&s->matrix);
+        sys.comm = s->comm;
+        status = solve_groups_write(options->by_group, &sys, s->mesh, s->radiosity);
     }
-    if (solved != RAD_OK) {
-        rad_error("%s: not converged; wrote %s marked unconverged (raise --max-iter or try --method cg)", input,
-                  output);
-        status = solved;
-    } else {
-        rad_info("%s: wrote %s%s%s", input, output, options->by_group ? " and " : "",
-                 options->by_group ? options->by_group : "");
+    if (status != RAD_OK) return status;
+    if (s->solved != RAD_OK) {
+        rad_error("%s: not converged; wrote %s marked unconverged (raise --max-iter or try --method cg)", s->input,
+                  s->output);
+        return s->solved;
     }
-done:
+    rad_info("%s: wrote %s%s%s", s->input, s->output, options->by_group ? " and " : "",
+             options->by_group ? options->by_group : "");
+    return RAD_OK;
+}
+
+rad_status solve_stage_run(const solve_options *options)
+{
+    stage_state s;
+    memset(&s, 0, sizeof s);
+    s.options = options;
+    s.input = options->input ? options->input : SOLVE_DEFAULT_INPUT;
+    s.output = options->output ? options->output : SOLVE_DEFAULT_OUTPUT;
+    s.comm = options->comm;
+    s.rank = solve_comm_rank(s.comm);
+    s.ranks = solve_comm_size(s.comm);
+    s.asked = rad_log_get_level();
+    s.t0 = solve_now();
+    s.backend = SOLVE_BACKEND_CPU;
+    stage_speak(s.comm, s.asked, STAGE_ALIKE);
+    rad_status status = stage_load(&s);
+    if (status == RAD_OK) status = stage_solve(&s);
+    if (status == RAD_OK) status = stage_write(&s);
     stage_state_free(&s);
     solve_gpu_prestart_join();
-    rad_log_set_level(asked);
+    rad_log_set_level(s.asked);
     return status;
 }

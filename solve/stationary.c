@@ -17,12 +17,12 @@
  * within a block, Jacobi between blocks), which still contracts in the
  * max norm because rho_i sum_j F_ij < 1 on every row.
  */
+#include "stationary.h"
+
 #include <math.h>
 #include <string.h>
 
-#include "iterate.h"
-
-/* One Jacobi sweep: next = B + r(B) / d; returns omega(B) (iterate.h). */
+/* One Jacobi sweep: next = B + r(B) / d; returns omega(B) (run.h). */
 static double jacobi_sweep(const solve_run *run, const double *B, double *next)
 {
     const size_t n = run->n, begin = run->row_begin, end = run->row_end;
@@ -59,7 +59,7 @@ rad_status solve_jacobi(solve_run *run)
 }
 
 /* One Gauss-Seidel sweep over B in place; `old` holds the iterate it
- * starts from. Returns omega(old) (iterate.h). */
+ * starts from. Returns omega(old) (run.h). */
 static double gauss_seidel_sweep(const solve_run *run, double *B, const double *old)
 {
     const size_t n = run->n;
