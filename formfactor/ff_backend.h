@@ -1,8 +1,10 @@
 /* ff_backend.h - one interface, several form-factor backends.
  *
  * A backend computes whole matrix rows for a committed setup (patches +
- * occluder triangles). The CPU backend (Embree) is the reference; the CUDA
- * backend must agree with it. The driver (ff_driver.c) picks one at run time:
+ * occluder triangles). The CPU backend (OpenMP) is the reference; the
+ * CUDA backend must agree with it. Both trace the flat BVH of ff_bvh.h,
+ * which Embree's builder makes: ff_bvh_build.c is the one file that
+ * includes Embree. The driver (ff_driver.c) picks one at run time:
  *
  *     const ff_backend *b = &ff_backend_cpu;
  *     void *state;
@@ -98,7 +100,8 @@ static inline rad_ff_pair_params ff_pair_params(const ff_setup *su)
 typedef struct ff_counters {
     uint64_t pairs;          /* ordered pairs (i, j) computed (with pairs_once: about half) */
     uint64_t pairs_mirrored; /* entries copied from the other row's (reciprocity; driver) */
-    uint64_t pairs_culled;   /* of those, zero without sampling (facing test) */
+    uint64_t pairs_not_facing; /* of those, zero by the facing test (and i = j), not sampled;
+                                  the stats' "pairs_culled" (not --cull's occlusion culling) */
     uint64_t pairs_reused;   /* of those, copied from the refined-from matrix (--reuse) */
     uint64_t pairs_near;     /* of those, computed by the near-field estimator */
     uint64_t pairs_open_scene; /* facing pairs without rays: the scene is a convex enclosure */

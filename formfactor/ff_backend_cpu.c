@@ -115,7 +115,7 @@ static void compute_row(const cpu_state *s, uint32_t i, double *row, double *err
         if (su->pairs_once && !rad_ff_row_computes(i, j)) continue; /* row j computes this pair */
         c->pairs++;
         if (j == i || !rad_ff_pair_facing(pi, pj, su->plane_eps)) {
-            c->pairs_culled++;
+            c->pairs_not_facing++;
             continue;
         }
         if (su->reuse_old && su->reuse_old[i] != FF_REUSE_NONE && su->reuse_old[j] != FF_REUSE_NONE) {
@@ -168,7 +168,7 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
 #pragma omp critical
         {
             counters->pairs += c.pairs;
-            counters->pairs_culled += c.pairs_culled;
+            counters->pairs_not_facing += c.pairs_not_facing;
             counters->pairs_reused += c.pairs_reused;
             counters->pairs_near += c.pairs_near;
             counters->pairs_open_scene += c.pairs_open_scene;

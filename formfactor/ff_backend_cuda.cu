@@ -690,7 +690,7 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
         for (uint32_t r = 0; r < row_count; r++) computed += rad_ff_row_computes_count(row_begin + r, su->patch_count);
     }
     counters->pairs += computed;
-    counters->pairs_culled += computed - pair_counts[0] - pair_counts[1];
+    counters->pairs_not_facing += computed - pair_counts[0] - pair_counts[1];
     counters->samples += counts[C_SAMPLES];
     counters->pairs_refined += counts[C_REFINED];
     counters->pairs_capped += counts[C_CAPPED];

@@ -1,6 +1,8 @@
 /* ff_driver.h - one formfactor run as one call: options in, the
  * form-factor file (and the --errors and --stats files) out. main.c only
- * starts MPI and parses the command line; the decisions are ff_plan.h's.
+ * starts MPI and parses the command line; the decisions are ff_plan.h's,
+ * the scene and a refined mesh ff_load.h's, the machine's limits
+ * ff_limits.h's, the estimate and progress lines ff_progress.h's.
  *
  * Every rank loads the scene and builds the same patch mesh; rank 0
  * refuses, before the mesh is built, a run too large for the format, the

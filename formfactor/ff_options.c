@@ -13,7 +13,6 @@
 #include "rad_fs.h"
 #include "rad_log.h"
 #include "rad_parse.h"
-#include "rad_refine.h"
 
 const char ff_options_help[] =
     "usage: mpirun -n P formfactor [options] [SCENE.obj]\n"
@@ -273,10 +272,11 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_OVERCOMMIT: o->allow_disk_overcommit = 1; break;
         case O_REFINE: o->refine_path = optarg; break;
         case O_REUSE: o->reuse_path = optarg; break;
-        case O_REFINE_TOL: st = rad_parse_real("--refine-tol", optarg, 0, 0, 1e6, 0, &o->refine_tol); break;
-        case O_REFINE_MIN_SIZE: st = parse_tolerance("--refine-min-size", optarg, &o->refine_min_size); break;
+        case O_REFINE_TOL: st = rad_parse_real("--refine-tol", optarg, 0, 0, 1e6, 0, &o->refine.tolerance); break;
+        case O_REFINE_MIN_SIZE: st = parse_tolerance("--refine-min-size", optarg, &o->refine.min_size); break;
         case O_REFINE_MAX_PATCHES:
-            st = rad_parse_uint("--refine-max-patches", optarg, 1, UINT32_MAX - 1, &o->refine_max_patches);
+            st = rad_parse_uint("--refine-max-patches", optarg, 1, UINT32_MAX - 1, &v);
+            o->refine.max_patches = (size_t)v;
             break;
         case O_CLAMP_RHO: st = rad_parse_real("--clamp-rho", optarg, 0, 0, 1, 0, &o->clamp_rho); break;
         case O_CONTACTS:
@@ -322,6 +322,19 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         return RAD_ERR_USAGE;
     }
     return RAD_OK;
+}
+
+/* The settings formfactor takes from its environment, read here once.
+ * Values as the driver read them before (atoi, atof: a value that is not
+ * a positive number is ignored). */
+static void read_environment(ff_options *o)
+{
+    const char *threads = getenv("OMP_NUM_THREADS");
+    if (o->threads == 0 && threads && atoi(threads) > 0) o->threads = atoi(threads);
+    const char *every = getenv("RAD_PROGRESS_SECONDS"); /* tests ask for lines at a cadence of their own */
+    if (every && atof(every) > 0) o->progress_seconds = atof(every);
+    const char *finish = getenv("RAD_FF_FINISH");
+    o->finish_on_host = finish && strcmp(finish, "host") == 0;
 }
 
 /* The options together: contradictions, the --max-samples default, and
@@ -400,11 +413,11 @@ rad_status ff_options_parse(int argc, char **argv, ff_options *out)
     *out = (ff_options){.output = "formfactors", .samples = 512, .shadow_rays = 32, .seed = 1,
                         .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE,
                         .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL};
-    rad_refine_options refine = rad_refine_defaults();
-    out->refine_tol = refine.tolerance;
-    out->refine_min_size = refine.min_size;
+    out->refine = rad_refine_defaults();
     rad_status status = parse_argv(argc, argv, out);
-    return status == RAD_OK ? check_options(out) : status;
+    if (status != RAD_OK) return status;
+    read_environment(out);
+    return check_options(out);
 }
 
 /* "--backend" as getopt_long takes it: the whole name or an unambiguous

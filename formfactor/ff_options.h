@@ -19,6 +19,7 @@
 #include "rad_ff_kernel.h"
 #include "rad_ffile.h"
 #include "rad_mesh.h"
+#include "rad_refine.h"
 #include "rad_status.h"
 
 /* --backend: auto = the GPU when this process sees one, else the CPU. */
@@ -68,22 +69,27 @@ typedef struct ff_options {
     int flip_normals;        /* --flip-normals: every face wound the other way */
     const char *refine_path; /* --refine RADIOSITY: split that solution's mesh; NULL = none */
     const char *reuse_path;  /* --reuse FORMFACTORS: that mesh's matrix, for the unsplit pairs */
-    double refine_tol;       /* --refine-tol (rad_refine_options.tolerance) */
-    double refine_min_size;  /* --refine-min-size (rad_refine_options.min_size) */
-    uint64_t refine_max_patches; /* --refine-max-patches; 0 = no limit */
+    rad_refine_options refine; /* --refine-tol, --refine-min-size, --refine-max-patches
+                                  (0 = no limit); defaults rad_refine_defaults() */
     ff_format format;
-    int threads;             /* 0 = cores / ranks on this node */
+    int threads;             /* --threads, else OMP_NUM_THREADS; 0 = cores / ranks on this node */
     ff_cull cull;
     ff_reciprocity reciprocity;
     int quiet;
     int help, version;
+    /* From the environment, for tests and benchmarks (read once, by ff_options_parse): */
+    double progress_seconds; /* RAD_PROGRESS_SECONDS: progress lines every so many seconds; 0 = by the estimate */
+    int finish_on_host;      /* RAD_FF_FINISH=host: the CPU finishes rows a GPU would encode (the same bytes) */
 } ff_options;
 
 /* Parses argv (getopt_long: "--name VALUE", "--name=VALUE", unambiguous
- * abbreviations, "-oFILE") into *out, defaults filled in, and checks the
- * options together: contradictions, and the output files (new, regular
- * or character devices, no two roles naming one file; docs/reliability.md,
- * "Threat model: files on disk"). RAD_ERR_USAGE, logged, otherwise. */
+ * abbreviations, "-oFILE") into *out, defaults filled in, reads the
+ * environment's settings (OMP_NUM_THREADS where --threads is not given,
+ * RAD_PROGRESS_SECONDS, RAD_FF_FINISH: the only place formfactor reads
+ * its environment), and checks the options together: contradictions, and
+ * the output files (new, regular or character devices, no two roles
+ * naming one file; docs/reliability.md, "Threat model: files on disk").
+ * RAD_ERR_USAGE, logged, otherwise. */
 rad_status ff_options_parse(int argc, char **argv, ff_options *out);
 
 /* 0 when argv says the run will not touch a GPU (--backend cpu, --help,

@@ -160,3 +160,11 @@ uint32_t ff_plan_round_rows(const ff_plan *plan, uint64_t round, uint32_t *out_f
     *out_first = (uint32_t)first;
     return (uint32_t)per_round;
 }
+
+ff_plan_choices ff_plan_choices_of(const ff_options *o)
+{
+    return (ff_plan_choices){.element = o->element, .format = o->format, .errors_file = o->errors_path != NULL,
+                             .standard_errors = !o->no_errors, .reciprocity = o->reciprocity,
+                             .backend = o->backend, .max_bytes = o->max_bytes,
+                             .allow_disk_overcommit = o->allow_disk_overcommit};
+}

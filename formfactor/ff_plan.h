@@ -153,6 +153,10 @@ typedef struct ff_plan {
     size_t buffer_doubles;
 } ff_plan;
 
+/* The choices the options make (--element, --format, --errors, --no-errors,
+ * --reciprocity, --backend, --max-bytes, --allow-disk-overcommit). */
+ff_plan_choices ff_plan_choices_of(const ff_options *options);
+
 void ff_plan_make(const ff_plan_limits *limits, const ff_plan_choices *choices, ff_plan *out_plan);
 /* Round `round` of this rank's rows (rows_per_round says which):
  * returns its row count, 0 where the rank has no rows left, and sets

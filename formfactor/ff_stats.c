@@ -23,7 +23,7 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
 #undef FF_MAX
         all.counters.pairs += s->counters.pairs;
         all.counters.pairs_mirrored += s->counters.pairs_mirrored;
-        all.counters.pairs_culled += s->counters.pairs_culled;
+        all.counters.pairs_not_facing += s->counters.pairs_not_facing;
         all.counters.pairs_near += s->counters.pairs_near;
         all.counters.pairs_open_scene += s->counters.pairs_open_scene;
         all.counters.pairs_open_box += s->counters.pairs_open_box;
@@ -93,7 +93,7 @@ static void put_counters(rad_json_writer *w, const ff_counters *c)
     rad_json_line_begin(w);
     put_count(w, "pairs", c->pairs);
     put_count(w, "pairs_mirrored", c->pairs_mirrored);
-    put_count(w, "pairs_culled", c->pairs_culled);
+    put_count(w, "pairs_culled", c->pairs_not_facing); /* the key predates the name (docs/formats.md) */
     put_count(w, "pairs_reused", c->pairs_reused);
     put_count(w, "pairs_near", c->pairs_near);
     put_count(w, "samples", c->samples);
@@ -247,7 +247,7 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
     const ff_counters *c = &all.counters;
     rad_info("%u patches, %llu pairs computed (%llu culled, %llu near-field), %llu entries copied by reciprocity, "
              "%llu samples, %llu shadow rays (%.1f%% occluded), %d rank(s)",
-             run->patch_count, (unsigned long long)c->pairs, (unsigned long long)c->pairs_culled,
+             run->patch_count, (unsigned long long)c->pairs, (unsigned long long)c->pairs_not_facing,
              (unsigned long long)c->pairs_near, (unsigned long long)c->pairs_mirrored,
              (unsigned long long)c->samples, (unsigned long long)c->rays,
              c->rays ? 100.0 * c->rays_occluded / c->rays : 0.0, run->ranks);

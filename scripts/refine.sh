@@ -19,6 +19,9 @@
 # 0.088 with 1.5 and 6 passes where 2 gives 0.101, docs/accuracy.md), and
 # formfactor's --quad-rtol 1e-5 --shadow-rays 16 (image accuracy: the
 # quadrature's default 1e-8 costs 3x the time for no visible change).
+# Each pass's counts come from formfactor's --stats JSON, read with
+# python3's json (docs/formats.md); a key it lacks stops the loop with an
+# error naming it.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 build=$here/build scene=builtin tol=0.05 start=2 max_patches=2400 passes=4 growth=2
@@ -45,6 +48,34 @@ done
 for p in formfactor solve; do
   [ -x "$build/$p" ] || { echo "refine.sh: $build/$p not found; build first (cmake --build build)" >&2; exit 1; }
 done
+command -v python3 >/dev/null || { echo "refine.sh: python3 not found (it reads formfactor's --stats)" >&2; exit 1; }
+
+# stats FILE KEY...: the counts at those keys of formfactor's --stats JSON
+# (a dotted key looks inside an object: refine.split), on one line; fails,
+# naming the key, where the file lacks one or it is not a count, so that a
+# renamed key stops the loop instead of ending it quietly.
+stats() {
+  python3 - "$@" <<'PY'
+import json, sys
+path, keys = sys.argv[1], sys.argv[2:]
+try:
+    with open(path) as f:
+        doc = json.load(f)
+except (OSError, ValueError) as e:
+    sys.exit(f"refine.sh: {path}: cannot read formfactor's stats: {e}")
+values = []
+for key in keys:
+    v = doc
+    for part in key.split("."):
+        if not isinstance(v, dict) or part not in v:
+            sys.exit(f'refine.sh: {path}: formfactor\'s stats have no "{key}" (renamed? docs/formats.md)')
+        v = v[part]
+    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+        sys.exit(f'refine.sh: {path}: "{key}" is {json.dumps(v)}, not a count')
+    values.append(str(v))
+print(" ".join(values))
+PY
+}
 mkdir -p "$out"
 scene_arg=()
 [ "$scene" = builtin ] || scene_arg=("$scene")
@@ -62,17 +93,21 @@ for ((k = 0; k <= passes; k++)); do
     # Each pass may at most double the mesh, so that later passes split
     # where the finer solutions say (tripling: relative RMSE 0.050 where
     # doubling reaches 0.036, Cornell box, about 2400 patches).
-    n=$(sed -n 's/^ *"patches": \([0-9]*\),.*/\1/p' "$out/ff$((k - 1)).json" | head -1)
-    cap=$(awk -v n="$n" -v g="$growth" -v m="$max_patches" 'BEGIN { c = int(n * g); print c < m ? c : m }')
+    cap=$(awk -v n="$patches" -v g="$growth" -v m="$max_patches" 'BEGIN { c = int(n * g); print c < m ? c : m }')
     "$build/formfactor" "${scene_arg[@]}" --refine "$out/rad$((k - 1))" --reuse "$out/ff$((k - 1))" --refine-tol "$tol" \
       --refine-max-patches "$cap" $ff_args -q -o "$out/ff$k" --stats "$out/ff$k.json"
   fi
   t1=$(now)
   "$build/solve" "$out/ff$k" -q -o "$out/rad$k" 2>/dev/null
   t2=$(now)
-  patches=$(sed -n 's/^ *"patches": \([0-9]*\),.*/\1/p' "$out/ff$k.json" | head -1)
-  split=$(tr -d '\n' < "$out/ff$k.json" | sed -n 's/.*"refine": {[^}]*"split": \([0-9]*\).*/\1/p')
-  over=$(tr -d '\n' < "$out/ff$k.json" | sed -n 's/.*"over_max_patches": \([0-9]*\).*/\1/p')
+  # The first pass has no refine object: nothing split.
+  split="" over=""
+  if [ $k -eq 0 ]; then
+    patches=$(stats "$out/ff$k.json" patches)
+  else
+    counts=$(stats "$out/ff$k.json" patches refine.split refine.over_max_patches)
+    read -r patches split over <<< "$counts"
+  fi
   [ $k -eq 0 ] || printf ',\n' >> "$json"
   printf '    {"pass": %d, "patches": %s, "split": %s, "formfactor_s": %.3f, "solve_s": %.3f}' \
     $k "$patches" "${split:-0}" "$(awk "BEGIN{print $t1 - $t0}")" "$(awk "BEGIN{print $t2 - $t1}")" >> "$json"
