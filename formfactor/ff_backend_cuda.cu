@@ -23,12 +23,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 extern "C" {
 #include "ff_backend.h"
 #include "ff_bvh.h"
 #include "ff_cuda.h"
+#include "rad_clock.h"
 #include "rad_log.h"
 }
 #include "ff_cuda_records.h"
@@ -173,13 +173,6 @@ struct cuda_state {
     double *d_area;             /* the patches' areas, contiguous (compute_records) */
     ff_cuda_records *records;   /* compute_records' buffers; NULL until its first call */
 };
-
-static double now_seconds(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
 
 /* Logs a failed CUDA call with its place and returns RAD_ERR_BACKEND. */
 static rad_status cuda_check(cudaError_t err, const char *what, int line)
@@ -520,7 +513,7 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
     int quadrature = su->estimator == RAD_ESTIMATOR_QUADRATURE;
     uint64_t computed = 0; /* pairs this call computes */
     cuda_params p;
-    double t_mem = now_seconds();
+    double t_mem = rad_clock_seconds();
     if (need == 0) return RAD_OK;
     if (need > UINT32_MAX) {
         rad_error("cuda: %u rows of %u patches exceed one launch's pair index range", row_count, su->patch_count);
@@ -581,7 +574,7 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
     p.open = s->d_open;
     p.step = 1;
     p.pair_count = 0;
-    counters->memory_seconds += now_seconds() - t_mem;
+    counters->memory_seconds += rad_clock_seconds() - t_mem;
 
     CUDA_TRY(cudaEventRecord(s->start));
     ff_facing_kernel<<<(unsigned)((need + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK>>>(
@@ -662,10 +655,10 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     size_t need = (size_t)row_count * s->setup.patch_count;
     rad_status status = run_kernels(s, row_begin, row_count, errors != NULL, counters);
     if (status != RAD_OK || need == 0) return status;
-    double t_mem = now_seconds();
+    double t_mem = rad_clock_seconds();
     CUDA_TRY(cudaMemcpy(out, s->d_out, sizeof(double) * need, cudaMemcpyDeviceToHost));
     if (errors) CUDA_TRY(cudaMemcpy(errors, s->d_errors, sizeof(double) * need, cudaMemcpyDeviceToHost));
-    counters->memory_seconds += now_seconds() - t_mem;
+    counters->memory_seconds += rad_clock_seconds() - t_mem;
     if (s->setup.progress) s->setup.progress(s->setup.progress_user, row_count);
 done:
     return status;
@@ -691,11 +684,11 @@ static rad_status cuda_compute_records(void *state, uint32_t row_begin, uint32_t
     }
     rad_status status = run_kernels(s, row_begin, row_count, want_errors, counters);
     if (status != RAD_OK || row_count == 0) return status;
-    double t_mem = now_seconds();
+    double t_mem = rad_clock_seconds();
     status = ff_cuda_records_make(s->records, s->d_out, want_errors ? s->d_errors : NULL, s->d_area,
                                   s->setup.patch_count, row_begin, row_count, element, values,
                                   want_errors ? errors : NULL, summary);
-    counters->memory_seconds += now_seconds() - t_mem;
+    counters->memory_seconds += rad_clock_seconds() - t_mem;
     if (status == RAD_OK && s->setup.progress) s->setup.progress(s->setup.progress_user, row_count);
     return status;
 }

@@ -11,9 +11,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "camera.h"
+#include "rad_clock.h"
 #include "rad_fs.h"
 #include "rad_parse.h"
 #include "frame.h"
@@ -297,9 +297,7 @@ static rad_status render_default_output(const char *input, char *out, size_t out
 
 static double seconds_now(void)
 {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+    return rad_clock_seconds();
 }
 
 /* A black image is never silent: it says whether nothing emits (every

@@ -8,9 +8,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "iterate.h"
+#include "rad_clock.h"
 #include "rad_log.h"
 
 static const char *const method_names[] = {"auto", "jacobi", "gauss-seidel", "cg"};
@@ -34,9 +34,7 @@ rad_status solve_method_parse(const char *name, solve_method *out_method)
 
 double solve_now(void)
 {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+    return rad_clock_seconds();
 }
 
 solve_verdict solve_run_record(solve_run *run, double residual)
