@@ -205,7 +205,8 @@ static void add_segment(cutter *C, uint32_t f, segment s)
     for (uint32_t k = 0; k < F->vertex_count; k++) c[k] = face_corner(C, f, k);
     double t0 = 0, t1 = 1;
     if (!clip_to_polygon(C->normal[f], c, F->vertex_count, s.a, s.b, C->tol, &t0, &t1)) return;
-    segment r = {rad_v3_lerp(s.a, s.b, t0), rad_v3_lerp(s.a, s.b, t1), t0 == 0 ? s.ia : RAD_NO_VERTEX, t1 == 1 ? s.ib : RAD_NO_VERTEX};
+    segment r = {rad_v3_lerp(s.a, s.b, t0), rad_v3_lerp(s.a, s.b, t1), t0 == 0 ? s.ia : RAD_NO_VERTEX,
+                 t1 == 1 ? s.ib : RAD_NO_VERTEX};
     if (t0 == 0) r.a = s.a;
     if (t1 == 1) r.b = s.b;
     if (rad_v3_length(rad_v3_sub(r.b, r.a)) < C->min_length) return;
