@@ -23,19 +23,27 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rad_box.h"
 #include "rad_log.h"
 #include "rad_math.h"
-#include "rad_mesh.h"
+#include "rad_polygon.h"
 
 #define AREA_TOL 1e-12           /* x face diameter^2: a zero-area piece (as the loader's) */
 #define INSIDE_RAY_ANGLE 0.8726646259971648 /* 50 degrees off the normal, radians */
 #define TWO_PI 6.283185307179586
-#define NO_ID UINT32_MAX
 #define CUT_VERTEX_LIMIT ((size_t)UINT32_MAX - 2)
+/* Corners of a piece that split_pieces still splits. A grid cell has 3 or
+ * 4 and each cut line through it adds at most one to either half, so
+ * pieces of real scenes stay far below 64 (60 lines through one cell); a
+ * larger piece is left whole rather than growing the stack arrays. */
+#define PIECE_SPLIT_MAX 64
+/* Corners a piece can have: the halves of a piece of PIECE_SPLIT_MAX
+ * corners get at most the two split points more. */
+#define PIECE_CORNER_MAX (PIECE_SPLIT_MAX + 2)
 
 typedef struct segment {
     rad_vec3 a, b;
-    uint32_t ia, ib; /* scene vertex at a / b, or NO_ID */
+    uint32_t ia, ib; /* scene vertex at a / b, or RAD_NO_VERTEX */
 } segment;
 
 typedef struct piece {
@@ -49,7 +57,7 @@ typedef struct cutter {
     double tol, min_length, offset; /* absolute, scene units */
     double gap;                     /* RAD_CONTACT_GAP, scene units */
     rad_vec3 *normal;               /* per face, unit */
-    double (*box)[6];               /* per face: min xyz, max xyz */
+    rad_box *box;                   /* per face */
     double *pos;
     size_t vertex_count, vertex_cap;
     uint32_t *pool;  /* corners of the pieces */
@@ -63,7 +71,7 @@ typedef struct cutter {
     size_t opposite_count, opposite_cap;
     uint32_t *covering; /* its coplanar faces of the same facing that win where they overlap it */
     size_t covering_count, covering_cap;
-    uint32_t *hash;  /* cut vertices by position: index or NO_ID */
+    uint32_t *hash;  /* cut vertices by position: index or RAD_NO_VERTEX */
     size_t hash_mask;
     rad_contact_piece *out;
     size_t out_count, out_cap;
@@ -134,18 +142,18 @@ static uint32_t cut_vertex(cutter *C, rad_vec3 p)
             C->failed = 1;
             return 0;
         }
-        for (size_t i = 0; i < size; i++) table[i] = NO_ID;
+        for (size_t i = 0; i < size; i++) table[i] = RAD_NO_VERTEX;
         free(C->hash);
         C->hash = table;
         C->hash_mask = size - 1;
         for (size_t v = C->scene->vertex_count; v < C->vertex_count; v++) {
             size_t i = position_hash(vertex(C, (uint32_t)v), C->hash_mask);
-            while (table[i] != NO_ID) i = (i + 1) & C->hash_mask;
+            while (table[i] != RAD_NO_VERTEX) i = (i + 1) & C->hash_mask;
             table[i] = (uint32_t)v;
         }
     }
     size_t i = position_hash(p, C->hash_mask);
-    for (; C->hash[i] != NO_ID; i = (i + 1) & C->hash_mask) {
+    for (; C->hash[i] != RAD_NO_VERTEX; i = (i + 1) & C->hash_mask) {
         const double *q = C->pos + 3 * (size_t)C->hash[i];
         if (q[0] == p.x && q[1] == p.y && q[2] == p.z) return C->hash[i];
     }
@@ -181,10 +189,10 @@ static int clip_to_polygon(rad_vec3 nrm, const rad_vec3 *c, uint32_t n, rad_vec3
     return *t1 > *t0;
 }
 
-static int boxes_meet(const double *p, const double *q, double tol)
+static int boxes_meet(const rad_box *p, const rad_box *q, double tol)
 {
     for (int a = 0; a < 3; a++)
-        if (p[a] > q[3 + a] + tol || q[a] > p[3 + a] + tol) return 0;
+        if (p->lo[a] > q->hi[a] + tol || q->lo[a] > p->hi[a] + tol) return 0;
     return 1;
 }
 
@@ -197,7 +205,8 @@ static void add_segment(cutter *C, uint32_t f, segment s)
     for (uint32_t k = 0; k < F->vertex_count; k++) c[k] = face_corner(C, f, k);
     double t0 = 0, t1 = 1;
     if (!clip_to_polygon(C->normal[f], c, F->vertex_count, s.a, s.b, C->tol, &t0, &t1)) return;
-    segment r = {rad_v3_lerp(s.a, s.b, t0), rad_v3_lerp(s.a, s.b, t1), t0 == 0 ? s.ia : NO_ID, t1 == 1 ? s.ib : NO_ID};
+    segment r = {rad_v3_lerp(s.a, s.b, t0), rad_v3_lerp(s.a, s.b, t1), t0 == 0 ? s.ia : RAD_NO_VERTEX,
+                 t1 == 1 ? s.ib : RAD_NO_VERTEX};
     if (t0 == 0) r.a = s.a;
     if (t1 == 1) r.b = s.b;
     if (rad_v3_length(rad_v3_sub(r.b, r.a)) < C->min_length) return;
@@ -283,7 +292,7 @@ static void meet(cutter *C, uint32_t f, uint32_t g)
         for (uint32_t k = 0; k < G->vertex_count; k++) {
             uint32_t k1 = (k + 1) % G->vertex_count;
             add_segment(C, f, (segment){rad_v3_sub(q[k], rad_v3_scale(n, d[k])),
-                                        rad_v3_sub(q[k1], rad_v3_scale(n, d[k1])), NO_ID, NO_ID});
+                                        rad_v3_sub(q[k1], rad_v3_scale(n, d[k1])), RAD_NO_VERTEX, RAD_NO_VERTEX});
         }
         return;
     }
@@ -295,7 +304,7 @@ static void meet(cutter *C, uint32_t f, uint32_t g)
         uint32_t k1 = (k + 1) % G->vertex_count;
         if (d[k] == 0) pt[m] = q[k], id[m++] = G->v[k];
         if ((d[k] < 0 && d[k1] > 0) || (d[k] > 0 && d[k1] < 0))
-            pt[m] = rad_v3_lerp(q[k], q[k1], d[k] / (d[k] - d[k1])), id[m++] = NO_ID;
+            pt[m] = rad_v3_lerp(q[k], q[k1], d[k] / (d[k] - d[k1])), id[m++] = RAD_NO_VERTEX;
     }
     int best_i = -1, best_j = -1;
     double best = 0;
@@ -343,14 +352,13 @@ static void split_pieces(cutter *C, uint32_t f, uint32_t si)
     size_t count = C->piece_count;
     for (size_t p = 0; p < count && !C->failed; p++) {
         if (!C->pieces[p].live) continue;
-        enum { MAXC = 64 };
-        uint32_t k, cn = C->pieces[p].n, v[MAXC];
-        uint64_t e[MAXC], cut_line = SEGMENT_LINE(si);
-        if (cn > MAXC) continue; /* far more than contacts make; left whole */
+        uint32_t k, cn = C->pieces[p].n, v[PIECE_SPLIT_MAX];
+        uint64_t e[PIECE_SPLIT_MAX], cut_line = SEGMENT_LINE(si);
+        if (cn > PIECE_SPLIT_MAX) continue; /* far more than contacts make; left whole */
         memcpy(v, C->pool + C->pieces[p].start, cn * sizeof *v);
         memcpy(e, C->line + C->pieces[p].start, cn * sizeof *e);
-        double side[MAXC];
-        rad_vec3 c[MAXC];
+        double side[PIECE_SPLIT_MAX];
+        rad_vec3 c[PIECE_SPLIT_MAX];
         int pos = 0, neg = 0;
         for (k = 0; k < cn; k++) {
             c[k] = vertex(C, v[k]);
@@ -372,8 +380,8 @@ static void split_pieces(cutter *C, uint32_t f, uint32_t si)
         if (!clip_to_polygon(n, c, cn, s->a, s->b, 0, &t0, &t1) ||
             (t1 - t0) * rad_v3_length(rad_v3_sub(s->b, s->a)) <= C->tol)
             continue; /* the line crosses the piece, the segment does not */
-        uint32_t left[MAXC + 2], right[MAXC + 2], nl = 0, nr = 0;
-        uint64_t left_line[MAXC + 2], right_line[MAXC + 2];
+        uint32_t left[PIECE_CORNER_MAX], right[PIECE_CORNER_MAX], nl = 0, nr = 0;
+        uint64_t left_line[PIECE_CORNER_MAX], right_line[PIECE_CORNER_MAX];
         for (k = 0; k < cn && !C->failed; k++) {
             uint32_t k1 = (k + 1) % cn;
             if (side[k] >= 0) left[nl] = v[k], left_line[nl++] = side[k] == 0 && side[k1] < 0 ? cut_line : e[k];
@@ -386,9 +394,9 @@ static void split_pieces(cutter *C, uint32_t f, uint32_t si)
                                       : rad_v3_lerp(c[k], c[k1], side[k] / (side[k] - side[k1]));
                 uint32_t id;
                 if (rad_v3_length(rad_v3_sub(x, s->a)) <= C->tol)
-                    id = s->ia != NO_ID ? s->ia : cut_vertex(C, s->a);
+                    id = s->ia != RAD_NO_VERTEX ? s->ia : cut_vertex(C, s->a);
                 else if (rad_v3_length(rad_v3_sub(x, s->b)) <= C->tol)
-                    id = s->ib != NO_ID ? s->ib : cut_vertex(C, s->b);
+                    id = s->ib != RAD_NO_VERTEX ? s->ib : cut_vertex(C, s->b);
                 else
                     id = cut_vertex(C, x);
                 left[nl] = id, left_line[nl++] = side[k] > 0 ? cut_line : e[k];
@@ -463,7 +471,7 @@ static void emit(cutter *C, uint32_t f, const uint32_t *v, uint32_t n)
     rad_contact_piece *o = &C->out[C->out_count++];
     o->vertex_count = n;
     o->source_face = f;
-    for (uint32_t k = 0; k < 4; k++) o->v[k] = k < n ? v[k] : RAD_NO_VERTEX;
+    rad_polygon_corners_store(v, n, o->v);
 }
 
 /* Tidies piece v[0..n-1] of face f, drops it when empty or hidden, and
@@ -511,8 +519,17 @@ static void finish_piece(cutter *C, uint32_t f, double diameter, int has_contact
     }
 }
 
+/* rad_polygon_vertex_fn of the grid: a new vertex is the cut vertex at its
+ * position (one per position, so the same as rad_mesh's one per edge). */
+static uint32_t grid_vertex(void *context, uint32_t a, uint32_t b, rad_vec3 at)
+{
+    (void)a, (void)b;
+    return cut_vertex(context, at);
+}
+
 /* The face's grid: polygon v split `level` more times as rad_mesh splits
- * faces (the same midpoints and centres, bit for bit), as live pieces. */
+ * faces (rad_polygon_split: the same midpoints and centres, bit for bit),
+ * as live pieces. */
 static void grid(cutter *C, const uint32_t *v, uint32_t n, int level)
 {
     if (C->failed) return;
@@ -522,20 +539,11 @@ static void grid(cutter *C, const uint32_t *v, uint32_t n, int level)
         new_piece(C, v, line, n);
         return;
     }
-#define MID(a, b) cut_vertex(C, rad_v3_scale(rad_v3_add(vertex(C, a), vertex(C, b)), 0.5))
-    if (n == 3) {
-        uint32_t ab = MID(v[0], v[1]), bc = MID(v[1], v[2]), ca = MID(v[2], v[0]);
-        const uint32_t child[4][3] = {{v[0], ab, ca}, {ab, v[1], bc}, {ca, bc, v[2]}, {ab, bc, ca}};
-        for (int i = 0; i < 4; i++) grid(C, child[i], 3, level - 1);
-        return;
-    }
-    uint32_t ab = MID(v[0], v[1]), bc = MID(v[1], v[2]), cd = MID(v[2], v[3]), da = MID(v[3], v[0]);
-#undef MID
-    rad_vec3 sum = rad_v3(0, 0, 0);
-    for (int i = 0; i < 4; i++) sum = rad_v3_add(sum, vertex(C, v[i]));
-    uint32_t m = cut_vertex(C, rad_v3_scale(sum, 0.25));
-    const uint32_t child[4][4] = {{v[0], ab, m, da}, {ab, v[1], bc, m}, {m, bc, v[2], cd}, {da, m, cd, v[3]}};
-    for (int i = 0; i < 4; i++) grid(C, child[i], 4, level - 1);
+    rad_vec3 corner[4];
+    uint32_t child[4][4];
+    for (uint32_t k = 0; k < n; k++) corner[k] = vertex(C, v[k]);
+    rad_polygon_split(v, corner, (int)n, grid_vertex, C, child);
+    for (int i = 0; i < 4; i++) grid(C, child[i], n, level - 1);
 }
 
 static void cut_face(cutter *C, uint32_t f)
@@ -543,11 +551,9 @@ static void cut_face(cutter *C, uint32_t f)
     const rad_face *F = &C->scene->faces[f];
     C->seg_count = C->opposite_count = C->covering_count = C->pool_count = C->piece_count = 0;
     for (uint32_t g = 0; g < C->scene->face_count && !C->failed; g++)
-        if (g != f && boxes_meet(C->box[f], C->box[g], C->gap)) meet(C, f, g);
+        if (g != f && boxes_meet(&C->box[f], &C->box[g], C->gap)) meet(C, f, g);
     if (C->failed) return;
-    double diameter = sqrt((C->box[f][3] - C->box[f][0]) * (C->box[f][3] - C->box[f][0]) +
-                           (C->box[f][4] - C->box[f][1]) * (C->box[f][4] - C->box[f][1]) +
-                           (C->box[f][5] - C->box[f][2]) * (C->box[f][5] - C->box[f][2]));
+    double diameter = rad_box_diagonal(&C->box[f]);
     if (C->seg_count == 0 && C->opposite_count == 0 && C->covering_count == 0) {
         emit(C, f, F->v, F->vertex_count);
         return;
@@ -559,8 +565,8 @@ static void cut_face(cutter *C, uint32_t f)
     for (size_t s = 0; s < C->seg_count && !C->failed; s++) split_pieces(C, f, (uint32_t)s);
     for (size_t p = 0; p < C->piece_count && !C->failed; p++) {
         if (!C->pieces[p].live) continue;
-        uint32_t v[66], n = C->pieces[p].n;
-        if (n > 66) {
+        uint32_t v[PIECE_CORNER_MAX], n = C->pieces[p].n;
+        if (n > PIECE_CORNER_MAX) {
             emit(C, f, F->v, F->vertex_count); /* cannot happen: split_pieces leaves such pieces whole */
             continue;
         }
@@ -584,25 +590,17 @@ rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, 
     if (!C.normal || !C.box || !C.pos) goto done;
     memcpy(C.pos, scene->positions, 3 * scene->vertex_count * sizeof *C.pos);
     C.vertex_count = scene->vertex_count;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    rad_box scene_box = rad_box_empty(); /* of the faces' vertices (unused ones left out) */
     for (uint32_t f = 0; f < nf; f++) {
         const rad_face *F = &scene->faces[f];
         rad_vec3 c[4], centroid;
         double area;
         for (uint32_t k = 0; k < F->vertex_count; k++) c[k] = face_corner(&C, f, k);
         rad_polygon_geometry(c, (int)F->vertex_count, &area, &C.normal[f], &centroid);
-        for (int a = 0; a < 3; a++) C.box[f][a] = INFINITY, C.box[f][3 + a] = -INFINITY;
-        for (uint32_t k = 0; k < F->vertex_count; k++) {
-            double x[3] = {c[k].x, c[k].y, c[k].z};
-            for (int a = 0; a < 3; a++) {
-                C.box[f][a] = fmin(C.box[f][a], x[a]), C.box[f][3 + a] = fmax(C.box[f][3 + a], x[a]);
-                lo[a] = fmin(lo[a], x[a]), hi[a] = fmax(hi[a], x[a]);
-            }
-        }
+        C.box[f] = rad_box_of_corners(C.pos, F->v, F->vertex_count);
+        for (uint32_t k = 0; k < F->vertex_count; k++) rad_box_add(&scene_box, C.pos + 3 * (size_t)F->v[k]);
     }
-    double scene_diameter = nf ? sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                                      (hi[2] - lo[2]) * (hi[2] - lo[2]))
-                               : 0;
+    double scene_diameter = rad_box_diagonal(&scene_box);
     C.tol = RAD_CONTACT_TOL * scene_diameter;
     C.gap = RAD_CONTACT_GAP * scene_diameter;
     C.min_length = RAD_CONTACT_MIN_LENGTH * scene_diameter;

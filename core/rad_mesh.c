@@ -16,14 +16,19 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rad_box.h"
 #include "rad_contact.h"
 #include "rad_edge_map.h"
 #include "rad_log.h"
+#include "rad_polygon.h"
 
 _Static_assert(sizeof(rad_patch) == 128, "rad_patch is the 128-byte patch record of the file formats");
 
 /* Indices are uint32_t and RAD_NO_VERTEX (UINT32_MAX) is taken. */
 #define MESH_LIMIT ((uint64_t)UINT32_MAX - 1)
+/* A scene group that owns no face (collect_groups' scratch): a group index,
+ * not a vertex, so not RAD_NO_VERTEX, though of the same value. */
+#define NO_GROUP UINT32_MAX
 
 typedef struct builder {
     const rad_scene *scene;
@@ -43,14 +48,8 @@ static uint64_t add_saturating(uint64_t a, uint64_t b) { return a > UINT64_MAX -
 
 static double diameter_of(const double *positions, const uint32_t *v, uint32_t n)
 {
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY}, sum = 0;
-    for (uint32_t k = 0; k < n; k++)
-        for (int a = 0; a < 3; a++) {
-            double x = positions[3 * (size_t)v[k] + a];
-            lo[a] = fmin(lo[a], x), hi[a] = fmax(hi[a], x);
-        }
-    for (int a = 0; a < 3; a++) sum += (hi[a] - lo[a]) * (hi[a] - lo[a]);
-    return sqrt(sum);
+    rad_box box = rad_box_of_corners(positions, v, n);
+    return rad_box_diagonal(&box);
 }
 
 /* The pieces to subdivide (the faces cut along their contacts, or the
@@ -92,7 +91,7 @@ static rad_status make_pieces(const rad_scene *scene, const rad_mesh_options *op
             const rad_face *face = &scene->faces[f];
             rad_contact_piece *p = &cut.pieces[f];
             p->vertex_count = face->vertex_count;
-            for (int k = 0; k < 4; k++) p->v[k] = k < (int)face->vertex_count ? face->v[k] : RAD_NO_VERTEX;
+            rad_polygon_corners_store(face->v, face->vertex_count, p->v);
             p->source_face = (uint32_t)f;
         }
         cut.piece_count = scene->face_count;
@@ -138,28 +137,6 @@ uint64_t rad_mesh_count_patches(const rad_scene *scene, const rad_mesh_options *
     return total;
 }
 
-void rad_polygon_geometry(const rad_vec3 *v, int n, double *out_area, rad_vec3 *out_normal, rad_vec3 *out_centroid)
-{
-    assert(n == 3 || n == 4);
-    /* Newell's normal; for a quad it equals the cross product of the diagonals. */
-    rad_vec3 N = n == 3 ? rad_v3_cross(rad_v3_sub(v[1], v[0]), rad_v3_sub(v[2], v[0]))
-                        : rad_v3_cross(rad_v3_sub(v[2], v[0]), rad_v3_sub(v[3], v[1]));
-    double length = rad_v3_length(N);
-    rad_vec3 unit = rad_v3_normalize(N);
-    rad_vec3 centroid = rad_v3_scale(rad_v3_add(rad_v3_add(v[0], v[1]), v[2]), 1.0 / 3);
-    if (n == 4) {
-        /* Area-weighted centroids of the triangles (0,1,2) and (0,2,3). */
-        rad_vec3 c2 = rad_v3_scale(rad_v3_add(rad_v3_add(v[0], v[2]), v[3]), 1.0 / 3);
-        double a1 = rad_v3_dot(rad_v3_cross(rad_v3_sub(v[1], v[0]), rad_v3_sub(v[2], v[0])), unit);
-        double a2 = rad_v3_dot(rad_v3_cross(rad_v3_sub(v[2], v[0]), rad_v3_sub(v[3], v[0])), unit);
-        centroid = a1 + a2 != 0 ? rad_v3_scale(rad_v3_add(rad_v3_scale(centroid, a1), rad_v3_scale(c2, a2)), 1.0 / (a1 + a2))
-                                : rad_v3_scale(rad_v3_add(rad_v3_add(rad_v3_add(v[0], v[1]), v[2]), v[3]), 0.25);
-    }
-    *out_area = 0.5 * length;
-    *out_normal = unit;
-    *out_centroid = centroid;
-}
-
 static rad_vec3 mesh_position(const rad_mesh *mesh, uint32_t i)
 {
     const double *p = mesh->positions + 3 * (size_t)i;
@@ -177,14 +154,16 @@ static uint32_t add_vertex(builder *B, rad_vec3 p)
     return (uint32_t)mesh->vertex_count++;
 }
 
-static uint32_t midpoint(builder *B, uint32_t a, uint32_t b)
+/* rad_polygon_vertex_fn: an edge's midpoint, one per edge (the midpoint
+ * is symmetric in the edge's ends, so it does not depend on which face
+ * asked first), or a quad's centre. */
+static uint32_t split_vertex(void *context, uint32_t a, uint32_t b, rad_vec3 at)
 {
+    builder *B = context;
+    if (a == RAD_NO_VERTEX) return add_vertex(B, at);
     uint32_t *slot;
     if (rad_edge_map_find(&B->midpoints, a, b, &slot)) return *slot;
-    /* (a + b) / 2 is symmetric, so the midpoint does not depend on which
-     * face asked first. */
-    rad_vec3 m = rad_v3_scale(rad_v3_add(mesh_position(B->mesh, a), mesh_position(B->mesh, b)), 0.5);
-    return *slot = add_vertex(B, m);
+    return *slot = add_vertex(B, at);
 }
 
 static void emit_patch(builder *B, const uint32_t *v, int n)
@@ -195,7 +174,7 @@ static void emit_patch(builder *B, const uint32_t *v, int n)
     for (int i = 0; i < n; i++) corner[i] = mesh_position(mesh, v[i]);
     memset(p, 0, sizeof *p);
     p->vertex_count = (uint32_t)n;
-    for (int i = 0; i < 4; i++) p->v[i] = i < n ? v[i] : RAD_NO_VERTEX;
+    rad_polygon_corners_store(v, (uint32_t)n, p->v);
     p->source_face = B->face_index;
     rad_polygon_geometry(corner, n, &p->area, &p->normal, &p->centroid);
     const rad_material *m = &B->scene->materials[B->face->material];
@@ -210,19 +189,11 @@ static void split(builder *B, const uint32_t *v, int n, int level)
         emit_patch(B, v, n);
         return;
     }
-    if (n == 3) {
-        uint32_t ab = midpoint(B, v[0], v[1]), bc = midpoint(B, v[1], v[2]), ca = midpoint(B, v[2], v[0]);
-        const uint32_t child[4][3] = {{v[0], ab, ca}, {ab, v[1], bc}, {ca, bc, v[2]}, {ab, bc, ca}};
-        for (int i = 0; i < 4; i++) split(B, child[i], 3, level - 1);
-        return;
-    }
-    uint32_t ab = midpoint(B, v[0], v[1]), bc = midpoint(B, v[1], v[2]);
-    uint32_t cd = midpoint(B, v[2], v[3]), da = midpoint(B, v[3], v[0]);
-    rad_vec3 sum = rad_v3(0, 0, 0);
-    for (int i = 0; i < 4; i++) sum = rad_v3_add(sum, mesh_position(B->mesh, v[i]));
-    uint32_t m = add_vertex(B, rad_v3_scale(sum, 0.25));
-    const uint32_t child[4][4] = {{v[0], ab, m, da}, {ab, v[1], bc, m}, {m, bc, v[2], cd}, {da, m, cd, v[3]}};
-    for (int i = 0; i < 4; i++) split(B, child[i], 4, level - 1);
+    rad_vec3 corner[4];
+    uint32_t child[4][4];
+    for (int i = 0; i < n; i++) corner[i] = mesh_position(B->mesh, v[i]);
+    rad_polygon_split(v, corner, n, split_vertex, B, child);
+    for (int i = 0; i < 4; i++) split(B, child[i], n, level - 1);
 }
 
 /* The groups that own faces, in the scene's order, and each patch's index
@@ -230,17 +201,17 @@ static void split(builder *B, const uint32_t *v, int n, int level)
 static rad_status collect_groups(const rad_scene *scene, rad_mesh *mesh, uint32_t *group_of)
 {
     size_t used = 0;
-    for (size_t g = 0; g < scene->group_count; g++) group_of[g] = RAD_NO_VERTEX;
+    for (size_t g = 0; g < scene->group_count; g++) group_of[g] = NO_GROUP;
     for (size_t f = 0; f < scene->face_count; f++) group_of[scene->faces[f].group] = 0;
     for (size_t g = 0; g < scene->group_count; g++)
-        if (group_of[g] != RAD_NO_VERTEX) group_of[g] = (uint32_t)used++;
+        if (group_of[g] != NO_GROUP) group_of[g] = (uint32_t)used++;
     mesh->group_names = calloc(used ? used : 1, sizeof *mesh->group_names);
     if (!mesh->group_names) {
         rad_error("mesh: out of memory for %zu group names", used);
         return RAD_ERR_NOMEM;
     }
     for (size_t g = 0; g < scene->group_count; g++)
-        for (size_t k = 0; group_of[g] != RAD_NO_VERTEX && k < RAD_NAME_MAX - 1 && scene->groups[g][k]; k++)
+        for (size_t k = 0; group_of[g] != NO_GROUP && k < RAD_NAME_MAX - 1 && scene->groups[g][k]; k++)
             mesh->group_names[group_of[g]][k] = scene->groups[g][k];
     mesh->group_count = used;
     for (size_t i = 0; i < mesh->patch_count; i++)
@@ -284,7 +255,7 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
     rad_contact_cut cut;
     int *level = NULL;
     uint32_t *vertex_of = NULL; /* cut vertex (scene vertices first) -> mesh vertex */
-    uint32_t *group_of = NULL;  /* scene group -> mesh group (RAD_NO_VERTEX: owns no face) */
+    uint32_t *group_of = NULL;  /* scene group -> mesh group (NO_GROUP: owns no face) */
     memset(&mesh, 0, sizeof mesh);
     memset(&B, 0, sizeof B);
     memset(&cut, 0, sizeof cut);
@@ -395,12 +366,9 @@ void rad_mesh_free(rad_mesh *mesh)
 int rad_patch_centroid_inside(const rad_patch *patch, const double *positions)
 {
     const double c[3] = {patch->centroid.x, patch->centroid.y, patch->centroid.z};
+    rad_box box = rad_box_of_corners(positions, patch->v, patch->vertex_count);
     for (int a = 0; a < 3; a++) {
-        double lo = INFINITY, hi = -INFINITY;
-        for (uint32_t k = 0; k < patch->vertex_count; k++) {
-            double x = positions[3 * (size_t)patch->v[k] + a];
-            lo = fmin(lo, x), hi = fmax(hi, x);
-        }
+        double lo = box.lo[a], hi = box.hi[a];
         double slack = 1e-9 * fmax(hi - lo, fmax(fabs(lo), fabs(hi)));
         if (!(c[a] >= lo - slack && c[a] <= hi + slack)) return 0;
     }

@@ -8,9 +8,9 @@
  *
  * Subdivision level S splits every face into 4^S patches: a triangle into
  * four triangles through its edge midpoints, a quad into four quads through
- * its edge midpoints and its centre. Vertices are shared between patches
- * (one midpoint per mesh edge, also across faces that share the edge), so
- * render can interpolate. Patch vertices keep the face's winding, so
+ * its edge midpoints and its centre (rad_polygon_split, S times).
+ * Vertices are shared between patches (one midpoint per mesh edge, also
+ * across faces that share the edge), so render can interpolate. Patch vertices keep the face's winding, so
  * normals point the same way as the face's.
  *
  * Contacts (options.contacts, default RAD_MESH_CONTACTS_CUT): before
@@ -54,10 +54,9 @@
 #include <stdint.h>
 
 #include "rad_math.h"
+#include "rad_polygon.h"
 #include "rad_scene.h"
 #include "rad_status.h"
-
-#define RAD_NO_VERTEX UINT32_MAX
 
 typedef struct rad_patch {
     uint32_t vertex_count; /* 3 or 4 */
@@ -123,9 +122,5 @@ uint64_t rad_mesh_count_patches(const rad_scene *scene, const rad_mesh_options *
  * always does; both file readers check it, so that solve never writes a
  * file render refuses (a finite centroid at 1e165 once did). */
 int rad_patch_centroid_inside(const rad_patch *patch, const double *positions);
-
-/* Geometry of one polygon (3 or 4 vertices, planar): area, unit normal (by
- * Newell's method, following the winding) and area centroid. */
-void rad_polygon_geometry(const rad_vec3 *v, int n, double *out_area, rad_vec3 *out_normal, rad_vec3 *out_centroid);
 
 #endif

@@ -7,8 +7,11 @@
 #include <string.h>
 
 #include "rad_adjacency.h"
+#include "rad_box.h"
+#include "rad_color.h"
 #include "rad_edge_map.h"
 #include "rad_log.h"
+#include "rad_polygon.h"
 
 /* The balance pass: a neighbour may be at most this much larger (in
  * sqrt(area)) than a split patch's children; 2 levels apart is a factor 4
@@ -21,18 +24,10 @@ rad_refine_options rad_refine_defaults(void)
     return (rad_refine_options){.tolerance = 0.05, .min_size = 1.0 / 128, .max_patches = 0};
 }
 
-static double luminance(const double *b) { return 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2]; }
-
 static double scene_diagonal(const rad_mesh *mesh)
 {
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY}, d2 = 0.0;
-    for (size_t v = 0; v < mesh->vertex_count; v++)
-        for (int a = 0; a < 3; a++) {
-            lo[a] = fmin(lo[a], mesh->positions[3 * v + a]);
-            hi[a] = fmax(hi[a], mesh->positions[3 * v + a]);
-        }
-    for (int a = 0; a < 3; a++) d2 += mesh->vertex_count ? (hi[a] - lo[a]) * (hi[a] - lo[a]) : 0.0;
-    return sqrt(d2);
+    rad_box box = rad_box_of_points(mesh->positions, mesh->vertex_count);
+    return rad_box_diagonal(&box);
 }
 
 typedef struct ranked {
@@ -79,7 +74,7 @@ rad_status rad_refine_mark(const rad_mesh *mesh, const double *radiosity, const 
     double sum = 0.0, area = 0.0;
     for (size_t p = 0; p < n; p++) {
         if (emits(&mesh->patches[p])) continue;
-        sum += mesh->patches[p].area * luminance(&radiosity[3 * p]);
+        sum += mesh->patches[p].area * rad_luminance(&radiosity[3 * p]);
         area += mesh->patches[p].area;
     }
     double ybar = area > 0 && sum > 0 ? sum / area : 0.0;
@@ -91,7 +86,7 @@ rad_status rad_refine_mark(const rad_mesh *mesh, const double *radiosity, const 
     size_t candidates = 0;
     for (size_t p = 0; p < n; p++) {
         const rad_patch *patch = &mesh->patches[p];
-        double y = luminance(&radiosity[3 * p]), d = 0.0, ws = 0.0, wy = 0.0;
+        double y = rad_luminance(&radiosity[3 * p]), d = 0.0, ws = 0.0, wy = 0.0;
         for (uint32_t k = 0; k < patch->vertex_count; k++) {
             uint32_t v = patch->v[k];
             for (size_t e = adj.start[v]; e < adj.start[v + 1]; e++) {
@@ -100,7 +95,7 @@ rad_status rad_refine_mark(const rad_mesh *mesh, const double *radiosity, const 
                 rad_vec3 dc = rad_v3_sub(mesh->patches[q].centroid, patch->centroid);
                 double d2 = rad_v3_dot(dc, dc);
                 if (!(d2 > 0)) continue;
-                ws += 1.0 / d2, wy += luminance(&radiosity[3 * (size_t)q]) / d2;
+                ws += 1.0 / d2, wy += rad_luminance(&radiosity[3 * (size_t)q]) / d2;
             }
         }
         if (ws > 0) d = fabs(y - wy / ws);
@@ -167,20 +162,27 @@ typedef struct splitter {
     rad_edge_map midpoints;
 } splitter;
 
-static uint32_t push_vertex(splitter *S, const double *p)
+static rad_vec3 out_position(const splitter *S, uint32_t v)
+{
+    const double *q = S->out->positions + 3 * (size_t)v;
+    return rad_v3(q[0], q[1], q[2]);
+}
+
+static uint32_t push_vertex(splitter *S, rad_vec3 p)
 {
     double *q = S->out->positions + 3 * S->out->vertex_count;
-    q[0] = p[0], q[1] = p[1], q[2] = p[2];
+    q[0] = p.x, q[1] = p.y, q[2] = p.z;
     return (uint32_t)S->out->vertex_count++;
 }
 
-static uint32_t edge_midpoint(splitter *S, uint32_t a, uint32_t b)
+/* rad_polygon_vertex_fn: an edge's midpoint (one per edge) or a quad's centre. */
+static uint32_t split_vertex(void *context, uint32_t a, uint32_t b, rad_vec3 at)
 {
+    splitter *S = context;
+    if (a == RAD_NO_VERTEX) return push_vertex(S, at);
     uint32_t *slot;
     if (rad_edge_map_find(&S->midpoints, a, b, &slot)) return *slot;
-    const double *pa = S->out->positions + 3 * (size_t)a, *pb = S->out->positions + 3 * (size_t)b;
-    double m[3] = {0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), 0.5 * (pa[2] + pb[2])};
-    return *slot = push_vertex(S, m);
+    return *slot = push_vertex(S, at);
 }
 
 static void emit_child(splitter *S, const rad_patch *parent, uint32_t group, const uint32_t *v, int n)
@@ -190,11 +192,8 @@ static void emit_child(splitter *S, const rad_patch *parent, uint32_t group, con
     rad_patch *p = &out->patches[i];
     *p = *parent;
     rad_vec3 corner[4];
-    for (int k = 0; k < 4; k++) p->v[k] = k < n ? v[k] : RAD_NO_VERTEX;
-    for (int k = 0; k < n; k++) {
-        const double *q = out->positions + 3 * (size_t)v[k];
-        corner[k] = rad_v3(q[0], q[1], q[2]);
-    }
+    rad_polygon_corners_store(v, (uint32_t)n, p->v);
+    for (int k = 0; k < n; k++) corner[k] = out_position(S, v[k]);
     rad_polygon_geometry(corner, n, &p->area, &p->normal, &p->centroid);
     if (out->patch_group) out->patch_group[i] = group;
 }
@@ -239,20 +238,13 @@ rad_status rad_refine_split(const rad_mesh *mesh, const uint8_t *split, rad_mesh
             out.patches[out.patch_count] = *patch;
             if (groups) out.patch_group[out.patch_count] = group;
             out.patch_count++;
-        } else if (patch->vertex_count == 3) {
-            uint32_t ab = edge_midpoint(&S, v[0], v[1]), bc = edge_midpoint(&S, v[1], v[2]);
-            uint32_t ca = edge_midpoint(&S, v[2], v[0]);
-            const uint32_t child[4][3] = {{v[0], ab, ca}, {ab, v[1], bc}, {ca, bc, v[2]}, {ab, bc, ca}};
-            for (int c = 0; c < 4; c++) emit_child(&S, patch, group, child[c], 3);
         } else {
-            uint32_t ab = edge_midpoint(&S, v[0], v[1]), bc = edge_midpoint(&S, v[1], v[2]);
-            uint32_t cd = edge_midpoint(&S, v[2], v[3]), da = edge_midpoint(&S, v[3], v[0]);
-            double c[3] = {0, 0, 0};
-            for (int k = 0; k < 4; k++)
-                for (int a = 0; a < 3; a++) c[a] += 0.25 * out.positions[3 * (size_t)v[k] + a];
-            uint32_t m = push_vertex(&S, c);
-            const uint32_t child[4][4] = {{v[0], ab, m, da}, {ab, v[1], bc, m}, {m, bc, v[2], cd}, {da, m, cd, v[3]}};
-            for (int k = 0; k < 4; k++) emit_child(&S, patch, group, child[k], 4);
+            int corners = (int)patch->vertex_count;
+            rad_vec3 corner[4];
+            uint32_t child[4][4];
+            for (int k = 0; k < corners; k++) corner[k] = out_position(&S, v[k]);
+            rad_polygon_split(v, corner, corners, split_vertex, &S, child);
+            for (int c = 0; c < 4; c++) emit_child(&S, patch, group, child[c], corners);
         }
         if (parent)
             for (size_t i = first; i < out.patch_count; i++) parent[i] = (uint32_t)p;

@@ -34,9 +34,9 @@
  *
  * Splitting is one level: a quad into 4 through its edge midpoints and the
  * mean of its corners, a triangle into 4 through its edge midpoints, as
- * rad_mesh_build subdivides. Midpoints are shared between split patches;
- * an unsplit neighbour keeps its edge, which leaves a T-vertex that render
- * anchors (render/shade.h). Children keep the parent's source face,
+ * rad_mesh_build subdivides (rad_polygon_split). Midpoints are shared
+ * between split patches; an unsplit neighbour keeps its edge, which leaves
+ * a T-vertex that render anchors (render/shade.h). Children keep the parent's source face,
  * material and group, and come where the parent was (patch order is
  * kept); new vertices follow the old ones.
  */

@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rad_box.h"
 #include "rad_hash.h"
 #include "rad_log.h"
 #include "rad_math.h"
@@ -320,13 +321,8 @@ static rad_vec3 newell(const rad_scene *s, const uint32_t *v, size_t n)
 
 static double diameter(const rad_scene *s, const uint32_t *v, size_t n)
 {
-    rad_vec3 lo = position(s, v[0]), hi = lo;
-    for (size_t i = 1; i < n; i++) {
-        rad_vec3 p = position(s, v[i]);
-        lo = rad_v3(fmin(lo.x, p.x), fmin(lo.y, p.y), fmin(lo.z, p.z));
-        hi = rad_v3(fmax(hi.x, p.x), fmax(hi.y, p.y), fmax(hi.z, p.z));
-    }
-    return rad_v3_length(rad_v3_sub(hi, lo));
+    rad_box box = rad_box_of_corners(s->positions, v, n);
+    return rad_box_diagonal(&box);
 }
 
 static double triangle_area(const rad_scene *s, uint32_t a, uint32_t b, uint32_t c)

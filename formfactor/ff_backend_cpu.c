@@ -12,17 +12,16 @@
  * query per shadow ray. The time in the tracer is the paper's
  * "occlusion" phase, the rest its "form factor" phase.
  */
-#define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
 
 #include "ff_backend.h"
 #include "ff_bvh.h"
+#include "rad_clock.h"
 #include "rad_log.h"
 
 typedef struct cpu_state {
@@ -66,16 +65,9 @@ static int cpu_occluded(const cpu_tracer *t, rad_vec3 x, rad_vec3 nx, uint32_t a
     return ff_bvh_occluded(t->bvh->nodes, t->bvh->tris, t->bvh->root, t->bvh->root_count, &seg);
 }
 
-static long long cpu_ticks(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (long long)t.tv_sec * 1000000000ll + t.tv_nsec;
-}
-
 #define RAD_FF_TRACER cpu_tracer
 #define RAD_FF_OCCLUDED(t, x, nx, a, y, ny, b) cpu_occluded(t, x, nx, a, y, ny, b)
-#define RAD_FF_TICKS() cpu_ticks()
+#define RAD_FF_TICKS() rad_clock_ns()
 #include "rad_ff_pair.h"
 
 /* Can something block pair (i, j)? Not where culling proves that nothing
@@ -107,7 +99,7 @@ static void compute_row(const cpu_state *s, uint32_t i, double *row, double *err
     const rad_ff_patch *pi = &su->patches[i];
     rad_ff_pair_params pp = ff_pair_params(su);
     cpu_tracer tracer = {&s->bvh, su->ray_delta};
-    long long t0 = cpu_ticks(), ray_ticks = 0;
+    long long t0 = rad_clock_ns(), ray_ticks = 0;
     for (uint32_t j = 0; j < su->patch_count; j++) {
         const rad_ff_patch *pj = &su->patches[j];
         row[j] = 0;
@@ -137,7 +129,7 @@ static void compute_row(const cpu_state *s, uint32_t i, double *row, double *err
         c->pairs_capped += (uint64_t)r.capped;
         ray_ticks += r.ray_ticks;
     }
-    double total = 1e-9 * (double)(cpu_ticks() - t0), rays_time = 1e-9 * (double)ray_ticks;
+    double total = 1e-9 * (double)(rad_clock_ns() - t0), rays_time = 1e-9 * (double)ray_ticks;
     c->kernel_seconds += total - rays_time;
     c->visibility_seconds += rays_time;
 }

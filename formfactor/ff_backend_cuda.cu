@@ -19,19 +19,20 @@
  * borderline ray hits (Moller-Trumbore here, Embree there) differ.
  */
 #include <cuda_runtime.h>
-#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 extern "C" {
 #include "ff_backend.h"
 #include "ff_bvh.h"
 #include "ff_cuda.h"
+#include "rad_clock.h"
+#include "rad_cuda.h"
 #include "rad_log.h"
 }
 #include "ff_cuda_records.h"
+#include "rad_cuda_check.h"
 
 /* The tracer the shared per-pair procedure calls: the flat BVH. */
 struct cuda_tracer {
@@ -178,25 +179,6 @@ struct cuda_state {
     double *d_area;             /* the patches' areas, contiguous (compute_records) */
     ff_cuda_records *records;   /* compute_records' buffers; NULL until its first call */
 };
-
-static double now_seconds(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-/* Logs a failed CUDA call with its place and returns RAD_ERR_BACKEND. */
-static rad_status cuda_check(cudaError_t err, const char *what, int line)
-{
-    if (err == cudaSuccess) return RAD_OK;
-    rad_error("cuda: %s (ff_backend_cuda.cu:%d): %s", what, line, cudaGetErrorString(err));
-    return RAD_ERR_BACKEND;
-}
-#define CUDA_TRY(call)                                                         \
-    do {                                                                       \
-        if ((status = cuda_check((call), #call, __LINE__)) != RAD_OK) goto done; \
-    } while (0)
 
 /* Does the pair take a warp (the near list)? Near pairs, and pairs whose
  * smaller patch reaches behind the other's plane: the contour integral
@@ -404,52 +386,10 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_RAY_MIN_BLOCKS) 
     if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
 }
 
-/* The prestart thread (ff_cuda.h) and what it found. */
-static pthread_t prestart_thread;
-static int prestart_running, prestart_rank;
-static int prestart_devices = -1; /* -1: not asked */
-
-static int count_devices(void)
-{
-    int count = 0;
-    if (cudaGetDeviceCount(&count) != cudaSuccess) {
-        cudaGetLastError(); /* clear the "no device" error */
-        return 0;
-    }
-    return count;
-}
-
-static void *prestart_main(void *unused)
-{
-    (void)unused;
-    int count = count_devices();
-    /* cudaFree(0) creates the device's primary context, which the main
-     * thread's cudaSetDevice then finds made. */
-    if (count > 0 && cudaSetDevice(prestart_rank % count) == cudaSuccess) cudaFree(0);
-    cudaGetLastError();
-    prestart_devices = count;
-    return NULL;
-}
-
-extern "C" void ff_cuda_prestart(int rank)
-{
-    if (prestart_running) return;
-    prestart_rank = rank > 0 ? rank : 0;
-    prestart_running = pthread_create(&prestart_thread, NULL, prestart_main, NULL) == 0;
-}
-
-extern "C" void ff_cuda_prestart_join(void)
-{
-    if (!prestart_running) return;
-    pthread_join(prestart_thread, NULL);
-    prestart_running = 0;
-}
-
-extern "C" int ff_cuda_device_count(void)
-{
-    ff_cuda_prestart_join();
-    return prestart_devices >= 0 ? prestart_devices : count_devices();
-}
+/* ff_cuda.h: CUDA's early start is core's (rad_cuda.h). */
+extern "C" void ff_cuda_prestart(int rank) { rad_cuda_prestart(rank); }
+extern "C" void ff_cuda_prestart_join(void) { rad_cuda_prestart_join(); }
+extern "C" int ff_cuda_device_count(void) { return rad_cuda_device_count(); }
 
 static void cuda_destroy(void *state)
 {
@@ -485,17 +425,17 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
         status = RAD_ERR_UNSUPPORTED;
         goto done;
     }
-    CUDA_TRY(cudaSetDevice(setup->device % count));
+    RAD_CUDA_TRY(cudaSetDevice(setup->device % count));
     if ((status = ff_bvh_build(setup->triangles, setup->triangle_face, setup->triangle_count, &bvh)) != RAD_OK)
         goto done;
     s->root = bvh.root;
     s->root_count = bvh.root_count;
-    CUDA_TRY(cudaMalloc(&s->d_patches, sizeof(rad_ff_patch) * setup->patch_count));
-    CUDA_TRY(cudaMalloc(&s->d_nodes, sizeof(ff_bvh_node) * (bvh.node_count ? bvh.node_count : 1)));
-    CUDA_TRY(cudaMalloc(&s->d_tris, sizeof(ff_bvh_tri) * (bvh.tri_count ? bvh.tri_count : 1)));
-    CUDA_TRY(cudaMalloc(&s->d_counters, sizeof(unsigned long long) * C_COUNT));
-    CUDA_TRY(cudaMalloc(&s->d_pair_counts, 4 * sizeof(uint32_t)));
-    CUDA_TRY(cudaMemcpy(s->d_patches, setup->patches, sizeof(rad_ff_patch) * setup->patch_count,
+    RAD_CUDA_TRY(cudaMalloc(&s->d_patches, sizeof(rad_ff_patch) * setup->patch_count));
+    RAD_CUDA_TRY(cudaMalloc(&s->d_nodes, sizeof(ff_bvh_node) * (bvh.node_count ? bvh.node_count : 1)));
+    RAD_CUDA_TRY(cudaMalloc(&s->d_tris, sizeof(ff_bvh_tri) * (bvh.tri_count ? bvh.tri_count : 1)));
+    RAD_CUDA_TRY(cudaMalloc(&s->d_counters, sizeof(unsigned long long) * C_COUNT));
+    RAD_CUDA_TRY(cudaMalloc(&s->d_pair_counts, 4 * sizeof(uint32_t)));
+    RAD_CUDA_TRY(cudaMemcpy(s->d_patches, setup->patches, sizeof(rad_ff_patch) * setup->patch_count,
                         cudaMemcpyHostToDevice));
     {
         double *area = (double *)malloc(sizeof(double) * (setup->patch_count ? setup->patch_count : 1));
@@ -509,22 +449,22 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
         if (err == cudaSuccess)
             err = cudaMemcpy(s->d_area, area, sizeof(double) * setup->patch_count, cudaMemcpyHostToDevice);
         free(area);
-        CUDA_TRY(err);
+        RAD_CUDA_TRY(err);
     }
     if (bvh.node_count)
-        CUDA_TRY(cudaMemcpy(s->d_nodes, bvh.nodes, sizeof(ff_bvh_node) * bvh.node_count, cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpy(s->d_nodes, bvh.nodes, sizeof(ff_bvh_node) * bvh.node_count, cudaMemcpyHostToDevice));
     if (bvh.tri_count)
-        CUDA_TRY(cudaMemcpy(s->d_tris, bvh.tris, sizeof(ff_bvh_tri) * bvh.tri_count, cudaMemcpyHostToDevice));
-    CUDA_TRY(cudaEventCreate(&s->start));
-    CUDA_TRY(cudaEventCreate(&s->middle));
-    CUDA_TRY(cudaEventCreate(&s->stop));
+        RAD_CUDA_TRY(cudaMemcpy(s->d_tris, bvh.tris, sizeof(ff_bvh_tri) * bvh.tri_count, cudaMemcpyHostToDevice));
+    RAD_CUDA_TRY(cudaEventCreate(&s->start));
+    RAD_CUDA_TRY(cudaEventCreate(&s->middle));
+    RAD_CUDA_TRY(cudaEventCreate(&s->stop));
     { /* Load the kernels now (CUDA loads modules lazily, at a kernel's
        * first launch), so that setup, not the kernels' time, pays for it. */
         cudaFuncAttributes attributes;
-        CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_facing_kernel));
-        CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_pairs_kernel));
-        CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_quad_kernel));
-        CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_quad_rays_kernel));
+        RAD_CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_facing_kernel));
+        RAD_CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_pairs_kernel));
+        RAD_CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_quad_kernel));
+        RAD_CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_quad_rays_kernel));
     }
 done:
     ff_bvh_free(&bvh);
@@ -553,7 +493,7 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
     int quadrature = su->estimator == RAD_ESTIMATOR_QUADRATURE;
     uint64_t computed = 0; /* pairs this call computes */
     cuda_params p;
-    double t_mem = now_seconds();
+    double t_mem = rad_clock_seconds();
     if (need == 0) return RAD_OK;
     if (need > UINT32_MAX) {
         rad_error("cuda: %u rows of %u patches exceed one launch's pair index range", row_count, su->patch_count);
@@ -567,9 +507,9 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
         s->d_pairs = NULL;
         s->d_open = NULL;
         s->out_capacity = 0;
-        CUDA_TRY(cudaMalloc(&s->d_out, sizeof(double) * need));
-        CUDA_TRY(cudaMalloc(&s->d_pairs, sizeof(uint32_t) * need));
-        CUDA_TRY(cudaMalloc(&s->d_open, need));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_out, sizeof(double) * need));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_pairs, sizeof(uint32_t) * need));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_open, need));
         s->out_capacity = need;
     }
     /* Room for the tracing pairs, sized with the rows (a sixteenth of the
@@ -580,18 +520,18 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
         cudaFree(s->d_ray_pairs);
         s->d_ray_pairs = NULL;
         s->ray_capacity = 0;
-        CUDA_TRY(cudaMalloc(&s->d_ray_pairs, sizeof(cuda_ray_pair) * ray_room));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_ray_pairs, sizeof(cuda_ray_pair) * ray_room));
         s->ray_capacity = ray_room;
     }
     if (errors && need > s->errors_capacity) {
         cudaFree(s->d_errors);
         s->d_errors = NULL;
         s->errors_capacity = 0;
-        CUDA_TRY(cudaMalloc(&s->d_errors, sizeof(double) * need));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_errors, sizeof(double) * need));
         s->errors_capacity = need;
     }
-    CUDA_TRY(cudaMemset(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT));
-    CUDA_TRY(cudaMemset(s->d_pair_counts, 0, 4 * sizeof(uint32_t)));
+    RAD_CUDA_TRY(cudaMemset(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT));
+    RAD_CUDA_TRY(cudaMemset(s->d_pair_counts, 0, 4 * sizeof(uint32_t)));
     p.patches = s->d_patches;
     p.n = su->patch_count;
     p.tracer.nodes = s->d_nodes;
@@ -614,18 +554,18 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
     p.open = s->d_open;
     p.step = 1;
     p.pair_count = 0;
-    counters->memory_seconds += now_seconds() - t_mem;
+    counters->memory_seconds += rad_clock_seconds() - t_mem;
 
-    CUDA_TRY(cudaEventRecord(s->start));
+    RAD_CUDA_TRY(cudaEventRecord(s->start));
     ff_facing_kernel<<<(unsigned)((need + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK>>>(
         p, s->d_pairs, s->d_open, s->d_pair_counts, need);
-    CUDA_TRY(cudaGetLastError()); /* launch configuration errors */
-    CUDA_TRY(cudaMemcpy(pair_counts, s->d_pair_counts, sizeof pair_counts, cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY(cudaGetLastError()); /* launch configuration errors */
+    RAD_CUDA_TRY(cudaMemcpy(pair_counts, s->d_pair_counts, sizeof pair_counts, cudaMemcpyDeviceToHost));
     if (quadrature && pair_counts[2] > s->ray_capacity) { /* grows only */
         cudaFree(s->d_ray_pairs);
         s->d_ray_pairs = NULL;
         s->ray_capacity = 0;
-        CUDA_TRY(cudaMalloc(&s->d_ray_pairs, sizeof(cuda_ray_pair) * pair_counts[2]));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_ray_pairs, sizeof(cuda_ray_pair) * pair_counts[2]));
         s->ray_capacity = pair_counts[2];
     }
     p.ray_pairs = s->d_ray_pairs;
@@ -640,26 +580,26 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
         uint64_t per_block = FF_CUDA_BLOCK / p.lanes;
         uint64_t blocks = ((uint64_t)p.pair_count + per_block - 1) / per_block;
 #ifdef FF_CUDA_PROFILE
-        CUDA_TRY(cudaDeviceSynchronize());
-        double t_list = now_seconds();
+        RAD_CUDA_TRY(cudaDeviceSynchronize());
+        double t_list = rad_clock_seconds();
 #endif
         if (quadrature)
             ff_quad_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
         else
             ff_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
-        CUDA_TRY(cudaGetLastError());
+        RAD_CUDA_TRY(cudaGetLastError());
 #ifdef FF_CUDA_PROFILE
-        CUDA_TRY(cudaDeviceSynchronize());
+        RAD_CUDA_TRY(cudaDeviceSynchronize());
         fprintf(stderr, "ff_cuda_profile: %s list: %u pairs, %u lanes, %.3f ms\n", list ? "near" : "far",
-                pair_counts[list], p.lanes, 1e3 * (now_seconds() - t_list));
+                pair_counts[list], p.lanes, 1e3 * (rad_clock_seconds() - t_list));
 #endif
     }
-    CUDA_TRY(cudaEventRecord(s->middle));
+    RAD_CUDA_TRY(cudaEventRecord(s->middle));
 #ifdef FF_CUDA_PROFILE
     {
         unsigned long long prof[2][24][3];
-        CUDA_TRY(cudaDeviceSynchronize());
-        CUDA_TRY(cudaMemcpyFromSymbol(prof, ff_cuda_profile, sizeof prof));
+        RAD_CUDA_TRY(cudaDeviceSynchronize());
+        RAD_CUDA_TRY(cudaMemcpyFromSymbol(prof, ff_cuda_profile, sizeof prof));
         for (int list = 0; list < 2; list++)
             for (int b = 0; b < 24; b++)
                 if (prof[list][b][0])
@@ -667,7 +607,7 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
                             list ? "near" : "far", b, prof[list][b][0], prof[list][b][1] * 1e-9,
                             (double)prof[list][b][2] / prof[list][b][0], (double)prof[list][b][1] / prof[list][b][0]);
         float ms = 0.0f;
-        CUDA_TRY(cudaEventElapsedTime(&ms, s->start, s->middle));
+        RAD_CUDA_TRY(cudaEventElapsedTime(&ms, s->start, s->middle));
         fprintf(stderr, "ff_cuda_profile: far %u + near %u pairs: %.3f ms\n", pair_counts[0], pair_counts[1], ms);
     }
 #endif
@@ -676,14 +616,14 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
         uint64_t per_block = FF_CUDA_BLOCK / p.lanes;
         uint64_t blocks = ((uint64_t)pair_counts[2] + per_block - 1) / per_block;
         ff_quad_rays_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
-        CUDA_TRY(cudaGetLastError());
+        RAD_CUDA_TRY(cudaGetLastError());
     }
-    CUDA_TRY(cudaEventRecord(s->stop));
-    CUDA_TRY(cudaEventSynchronize(s->stop)); /* execution errors surface here */
-    CUDA_TRY(cudaEventElapsedTime(&rays_ms, s->middle, s->stop));
-    CUDA_TRY(cudaEventElapsedTime(&kernel_ms, s->start, s->stop));
+    RAD_CUDA_TRY(cudaEventRecord(s->stop));
+    RAD_CUDA_TRY(cudaEventSynchronize(s->stop)); /* execution errors surface here */
+    RAD_CUDA_TRY(cudaEventElapsedTime(&rays_ms, s->middle, s->stop));
+    RAD_CUDA_TRY(cudaEventElapsedTime(&kernel_ms, s->start, s->stop));
 
-    CUDA_TRY(cudaMemcpy(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY(cudaMemcpy(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost));
     computed = need;
     if (su->pairs_once) {
         computed = 0;
@@ -720,10 +660,10 @@ static rad_status cuda_compute_rows(void *state, uint32_t row_begin, uint32_t ro
     size_t need = (size_t)row_count * s->setup.patch_count;
     rad_status status = run_kernels(s, row_begin, row_count, errors != NULL, counters);
     if (status != RAD_OK || need == 0) return status;
-    double t_mem = now_seconds();
-    CUDA_TRY(cudaMemcpy(out, s->d_out, sizeof(double) * need, cudaMemcpyDeviceToHost));
-    if (errors) CUDA_TRY(cudaMemcpy(errors, s->d_errors, sizeof(double) * need, cudaMemcpyDeviceToHost));
-    counters->memory_seconds += now_seconds() - t_mem;
+    double t_mem = rad_clock_seconds();
+    RAD_CUDA_TRY(cudaMemcpy(out, s->d_out, sizeof(double) * need, cudaMemcpyDeviceToHost));
+    if (errors) RAD_CUDA_TRY(cudaMemcpy(errors, s->d_errors, sizeof(double) * need, cudaMemcpyDeviceToHost));
+    counters->memory_seconds += rad_clock_seconds() - t_mem;
     if (s->setup.progress) s->setup.progress(s->setup.progress_user, row_count);
 done:
     return status;
@@ -749,11 +689,11 @@ static rad_status cuda_compute_records(void *state, uint32_t row_begin, uint32_t
     }
     rad_status status = run_kernels(s, row_begin, row_count, want_errors, counters);
     if (status != RAD_OK || row_count == 0) return status;
-    double t_mem = now_seconds();
+    double t_mem = rad_clock_seconds();
     status = ff_cuda_records_make(s->records, s->d_out, want_errors ? s->d_errors : NULL, s->d_area,
                                   s->setup.patch_count, row_begin, row_count, element, values,
                                   want_errors ? errors : NULL, summary);
-    counters->memory_seconds += now_seconds() - t_mem;
+    counters->memory_seconds += rad_clock_seconds() - t_mem;
     if (status == RAD_OK && s->setup.progress) s->setup.progress(s->setup.progress_user, row_count);
     return status;
 }

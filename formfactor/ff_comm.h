@@ -26,7 +26,6 @@ void ff_comm_finalize(ff_comm *comm);
 int ff_comm_rank(const ff_comm *comm);
 int ff_comm_size(const ff_comm *comm);
 int ff_comm_node_size(const ff_comm *comm); /* ranks sharing this node */
-double ff_comm_time(void);                  /* wall-clock seconds */
 
 /* Collective: the worst (largest) status over all ranks. */
 rad_status ff_comm_agree(ff_comm *comm, rad_status local);

@@ -7,7 +7,7 @@
  * Open MPI singleton init costs 0.3 s (a forked runtime daemon), as much as
  * the whole paper-size run on a GPU, and `formfactor --version` paid it
  * too. The bytes written are the same either way (formfactor_ranks). */
-#define _GNU_SOURCE /* pwrite, clock_gettime, O_NOFOLLOW */
+#define _GNU_SOURCE /* pwrite, O_NOFOLLOW */
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -15,10 +15,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #include <unistd.h>
 
 #include "ff_comm.h"
+#include "rad_clock.h"
 #include "rad_log.h"
 #include "rad_mpi.h"
 
@@ -135,12 +135,6 @@ void ff_comm_progress_close(ff_comm *comm)
 int ff_comm_rank(const ff_comm *comm) { return comm->mpi.rank; }
 int ff_comm_size(const ff_comm *comm) { return comm->mpi.size; }
 int ff_comm_node_size(const ff_comm *comm) { return comm->node_size; }
-double ff_comm_time(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
 
 rad_status ff_comm_agree(ff_comm *comm, rad_status local)
 {

@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "ff_cuda_records.h"
+#include "rad_cuda_check.h"
 
 extern "C" {
 #include "rad_log.h"
@@ -50,18 +51,6 @@ struct ff_cuda_records {
     uint64_t *h_at[2];
 };
 
-static rad_status check(cudaError_t err, const char *what)
-{
-    if (err == cudaSuccess) return RAD_OK;
-    rad_error("cuda: %s: %s", what, cudaGetErrorString(err));
-    return err == cudaErrorMemoryAllocation ? RAD_ERR_NOMEM : RAD_ERR_BACKEND;
-}
-
-#define TRY(call)                                      \
-    do {                                               \
-        if ((status = check((call), #call)) != RAD_OK) \
-            return status;                             \
-    } while (0)
 
 /* Block (x, y): rows [32 x, 32 x + 32), columns [y cols, (y + 1) cols) -
  * one segment of the row; its partial sums into stats[row * segments + y]. */
@@ -222,12 +211,12 @@ static rad_status reserve_rows(ff_cuda_records *r, uint32_t rows, uint32_t tiles
         r->d_stats = r->d_segment = NULL, r->d_size = r->d_at = NULL, r->h_stats = NULL, r->h_size = NULL;
         r->h_at[0] = r->h_at[1] = NULL;
         r->rows_capacity = 0;
-        TRY(cudaMalloc(&r->d_stats, sizeof(row_stats) * rows));
-        TRY(cudaMalloc(&r->d_segment, sizeof(row_stats) * rows * SEGMENTS_MAX));
-        TRY(cudaMalloc(&r->d_size, sizeof(uint64_t) * rows));
-        TRY(cudaMalloc(&r->d_at, sizeof(uint64_t) * (rows + 1)));
-        TRY(cudaMallocHost(&r->h_stats, sizeof(row_stats) * rows));
-        TRY(cudaMallocHost(&r->h_size, sizeof(uint64_t) * (rows + 1)));
+        RAD_CUDA_TRY_RETURN(cudaMalloc(&r->d_stats, sizeof(row_stats) * rows));
+        RAD_CUDA_TRY_RETURN(cudaMalloc(&r->d_segment, sizeof(row_stats) * rows * SEGMENTS_MAX));
+        RAD_CUDA_TRY_RETURN(cudaMalloc(&r->d_size, sizeof(uint64_t) * rows));
+        RAD_CUDA_TRY_RETURN(cudaMalloc(&r->d_at, sizeof(uint64_t) * (rows + 1)));
+        RAD_CUDA_TRY_RETURN(cudaMallocHost(&r->h_stats, sizeof(row_stats) * rows));
+        RAD_CUDA_TRY_RETURN(cudaMallocHost(&r->h_size, sizeof(uint64_t) * (rows + 1)));
         r->h_at[0] = (uint64_t *)malloc(sizeof(uint64_t) * (rows + 1));
         r->h_at[1] = (uint64_t *)malloc(sizeof(uint64_t) * (rows + 1));
         if (!r->h_at[0] || !r->h_at[1]) {
@@ -240,7 +229,7 @@ static rad_status reserve_rows(ff_cuda_records *r, uint32_t rows, uint32_t tiles
         cudaFree(r->d_place);
         r->d_place = NULL;
         r->tiles_capacity = 0;
-        TRY(cudaMalloc(&r->d_place, sizeof(uint32_t) * rows * tiles));
+        RAD_CUDA_TRY_RETURN(cudaMalloc(&r->d_place, sizeof(uint32_t) * rows * tiles));
         r->tiles_capacity = (size_t)rows * tiles;
     }
     return status;
@@ -255,8 +244,8 @@ static rad_status encode(ff_cuda_records *r, int f, const double *d_rows, uint32
     const uint32_t warps_per_block = 8;
     const unsigned blocks = (rows + warps_per_block - 1) / warps_per_block;
     tiles_kernel<<<blocks, 32 * warps_per_block>>>(d_rows, n, rows, element, r->d_place, r->d_size);
-    TRY(cudaGetLastError());
-    TRY(cudaMemcpy(r->h_size, r->d_size, sizeof(uint64_t) * rows, cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY_RETURN(cudaGetLastError());
+    RAD_CUDA_TRY_RETURN(cudaMemcpy(r->h_size, r->d_size, sizeof(uint64_t) * rows, cudaMemcpyDeviceToHost));
     uint64_t *at = r->h_at[f];
     at[0] = 0;
     for (uint32_t k = 0; k < rows; k++) at[k + 1] = at[k] + r->h_size[k];
@@ -265,21 +254,21 @@ static rad_status encode(ff_cuda_records *r, int f, const double *d_rows, uint32
         cudaFree(r->d_bytes[f]);
         r->d_bytes[f] = NULL;
         r->bytes_capacity[f] = 0;
-        TRY(cudaMalloc(&r->d_bytes[f], bytes));
+        RAD_CUDA_TRY_RETURN(cudaMalloc(&r->d_bytes[f], bytes));
         r->bytes_capacity[f] = bytes;
     }
     if (bytes > r->host_capacity[f]) {
         cudaFreeHost(r->h_bytes[f]);
         r->h_bytes[f] = NULL;
         r->host_capacity[f] = 0;
-        TRY(cudaMallocHost(&r->h_bytes[f], bytes));
+        RAD_CUDA_TRY_RETURN(cudaMallocHost(&r->h_bytes[f], bytes));
         r->host_capacity[f] = bytes;
     }
-    TRY(cudaMemcpy(r->d_at, at, sizeof(uint64_t) * (rows + 1), cudaMemcpyHostToDevice));
-    TRY(cudaMemset(r->d_bytes[f], 0, bytes));
+    RAD_CUDA_TRY_RETURN(cudaMemcpy(r->d_at, at, sizeof(uint64_t) * (rows + 1), cudaMemcpyHostToDevice));
+    RAD_CUDA_TRY_RETURN(cudaMemset(r->d_bytes[f], 0, bytes));
     records_kernel<<<blocks, 32 * warps_per_block>>>(d_rows, n, rows, element, r->d_place, r->d_at, r->d_bytes[f]);
-    TRY(cudaGetLastError());
-    TRY(cudaMemcpy(r->h_bytes[f], r->d_bytes[f], bytes, cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY_RETURN(cudaGetLastError());
+    RAD_CUDA_TRY_RETURN(cudaMemcpy(r->h_bytes[f], r->d_bytes[f], bytes, cudaMemcpyDeviceToHost));
     view->bytes = r->h_bytes[f];
     view->at = at;
     view->rows = rows;
@@ -302,10 +291,10 @@ extern "C" rad_status ff_cuda_records_make(ff_cuda_records *r, double *d_values,
     segments = (n + cols - 1u) / cols;
     finish_kernel<<<dim3((rows + 31u) / 32u, segments), 32>>>(d_values, d_errors, d_area, n, rows, cols,
                                                                 r->d_segment);
-    TRY(cudaGetLastError());
+    RAD_CUDA_TRY_RETURN(cudaGetLastError());
     combine_kernel<<<(rows + 127u) / 128u, 128>>>(r->d_segment, rows, segments, r->d_stats);
-    TRY(cudaGetLastError());
-    TRY(cudaMemcpy(r->h_stats, r->d_stats, sizeof(row_stats) * rows, cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY_RETURN(cudaGetLastError());
+    RAD_CUDA_TRY_RETURN(cudaMemcpy(r->h_stats, r->d_stats, sizeof(row_stats) * rows, cudaMemcpyDeviceToHost));
     for (uint32_t k = 0; k < rows; k++) {
         const row_stats *s = &r->h_stats[k];
         ff_rows_summary one = {};

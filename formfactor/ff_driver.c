@@ -3,6 +3,7 @@
  * backend, the estimate (ff_progress.h), the rounds of rows and their
  * collective writes, the order in which the files are committed, and the
  * stats. */
+#include "rad_clock.h"
 #include "ff_driver.h"
 
 #include <math.h>
@@ -62,9 +63,9 @@ static rad_status load(ff_run *run)
 {
     int rank = ff_comm_rank(run->comm);
     int ranks = ff_comm_size(run->comm), node_ranks = ff_comm_node_size(run->comm);
-    double t0 = ff_comm_time();
+    double t0 = rad_clock_seconds();
     rad_status st = ff_load_scene(&run->opt, &run->scene);
-    double t1 = ff_comm_time();
+    double t1 = rad_clock_seconds();
     rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only,
                            .contacts = run->opt.contacts};
     if (run->opt.refine_path) {
@@ -82,7 +83,7 @@ static rad_status load(ff_run *run)
         st = RAD_ERR_INVALID;
     }
     run->stats.load = t1 - t0;
-    run->stats.subdivide = ff_comm_time() - t1;
+    run->stats.subdivide = rad_clock_seconds() - t1;
     return st;
 }
 
@@ -125,7 +126,7 @@ static int records_from_backend(const ff_run *run)
 
 static rad_status setup(ff_run *run)
 {
-    double t0 = ff_comm_time();
+    double t0 = rad_clock_seconds();
     int ranks = ff_comm_size(run->comm);
     uint32_t n = (uint32_t)run->mesh.patch_count;
     double centre[3];
@@ -160,7 +161,7 @@ static rad_status setup(ff_run *run)
         st = run->backend->create(&su, &run->backend_state);
     }
     run->records = records_from_backend(run);
-    run->stats.setup = ff_comm_time() - t0;
+    run->stats.setup = rad_clock_seconds() - t0;
     return st;
 }
 
@@ -168,13 +169,13 @@ static rad_status setup(ff_run *run)
 static rad_status write_round(ff_run *run, const ff_files *files, uint32_t r0, uint32_t count, const double *rows,
                               const double *errors)
 {
-    double t0 = ff_comm_time();
+    double t0 = rad_clock_seconds();
     rad_status st = ff_output_write_rows(files->matrix, r0, count, rows);
     if (files->errors) {
         rad_status e = ff_output_write_rows(files->errors, r0, count, errors);
         if (st == RAD_OK) st = e;
     }
-    run->stats.io += ff_comm_time() - t0;
+    run->stats.io += rad_clock_seconds() - t0;
     return st;
 }
 
@@ -182,13 +183,13 @@ static rad_status write_round(ff_run *run, const ff_files *files, uint32_t r0, u
 static rad_status write_records_round(ff_run *run, const ff_files *files, uint32_t r0, uint32_t count,
                                       const ff_records *values, const ff_records *errors)
 {
-    double t0 = ff_comm_time();
+    double t0 = rad_clock_seconds();
     rad_status st = ff_output_write_records(files->matrix, r0, count, values);
     if (files->errors) {
         rad_status e = ff_output_write_records(files->errors, r0, count, errors);
         if (st == RAD_OK) st = e;
     }
-    run->stats.io += ff_comm_time() - t0;
+    run->stats.io += rad_clock_seconds() - t0;
     return st;
 }
 
@@ -241,14 +242,14 @@ static rad_status complete_block(ff_run *run, double *block, double *errors, ff_
     uint32_t begin = run->row_begin[rank], end = run->row_begin[rank + 1];
     st = ff_comm_agree(run->comm, st);
     if (st != RAD_OK) return st;
-    double t0 = ff_comm_time();
+    double t0 = rad_clock_seconds();
     counters->pairs_mirrored += ff_rows_mirror_local(n, begin, end, block, run->stats.threads);
     st = ff_rows_exchange(run->comm, run->row_begin, n, block, &counters->pairs_mirrored);
     if (errors) {
         ff_rows_mirror_local(n, begin, end, errors, run->stats.threads);
         if (st == RAD_OK) st = ff_rows_exchange(run->comm, run->row_begin, n, errors, NULL);
     }
-    run->stats.mirror = ff_comm_time() - t0;
+    run->stats.mirror = rad_clock_seconds() - t0;
     return st;
 }
 
@@ -421,7 +422,7 @@ static rad_status commit_outputs(const ff_files *files, rad_status st)
 static rad_status run_formfactor(ff_run *run)
 {
     int rank = ff_comm_rank(run->comm);
-    run->start = ff_comm_time();
+    run->start = rad_clock_seconds();
     /* Loading is deterministic, so rank 0 alone reports its errors. */
     rad_log_level level = rad_log_get_level();
     if (rank != 0) rad_log_set_level(RAD_LOG_NONE);
@@ -433,9 +434,9 @@ static rad_status run_formfactor(ff_run *run)
         return RAD_ERR_NOMEM;
     }
     /* Asking CUDA starts its driver (~0.5 s); a CPU run does not need it. */
-    double t_cuda = ff_comm_time();
+    double t_cuda = rad_clock_seconds();
     run->gpus = run->opt.backend != FF_BACKEND_CPU ? ff_cuda_device_count() : 0;
-    run->stats.cuda_start = ff_comm_time() - t_cuda;
+    run->stats.cuda_start = rad_clock_seconds() - t_cuda;
     ff_progress_init(&run->progress, run->comm, (uint32_t)run->mesh.patch_count, run->opt.progress_seconds);
     if ((st = ff_comm_agree(run->comm, setup(run))) != RAD_OK) return st;
     if (rank == 0)
@@ -444,7 +445,7 @@ static rad_status run_formfactor(ff_run *run)
                  run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name, run->mesh.patch_count,
                  run->scene.face_count, run->opt.samples, run->opt.shadow_rays, ff_comm_size(run->comm),
                  run->stats.threads, run->backend->name);
-    double t_estimate = ff_comm_time();
+    double t_estimate = rad_clock_seconds();
     /* Under -q only for --max-seconds, which needs the time (the line is not shown). */
     if (rank == 0 && (rad_log_get_level() >= RAD_LOG_INFO || run->opt.max_seconds > 0)) {
         ff_estimate_inputs inputs = {.backend = run->backend, .backend_state = run->backend_state,
@@ -452,21 +453,21 @@ static rad_status run_formfactor(ff_run *run)
                                      .options = &run->opt};
         st = ff_progress_estimate(&run->progress, &inputs);
     }
-    run->stats.estimate = ff_comm_time() - t_estimate;
+    run->stats.estimate = rad_clock_seconds() - t_estimate;
     if (run->opt.max_seconds > 0) st = ff_comm_agree(run->comm, st); /* every rank knows the option */
     if (st != RAD_OK) return st;
 
     ff_files files = {0};
-    double t0 = ff_comm_time();
+    double t0 = rad_clock_seconds();
     st = open_outputs(run, &files);
-    run->stats.io += ff_comm_time() - t0;
+    run->stats.io += rad_clock_seconds() - t0;
     ff_progress_start(&run->progress);
     if (st == RAD_OK) st = compute_and_write(run, &files);
     ff_progress_finish(&run->progress);
-    t0 = ff_comm_time();
+    t0 = rad_clock_seconds();
     st = commit_outputs(&files, st);
-    run->stats.io += ff_comm_time() - t0;
-    run->stats.total = ff_comm_time() - run->start;
+    run->stats.io += rad_clock_seconds() - t0;
+    run->stats.total = rad_clock_seconds() - run->start;
     if (st != RAD_OK) return st;
     if (rank == 0) rad_info("wrote %s%s%s", run->opt.output, run->opt.errors_path ? " and " : "",
                             run->opt.errors_path ? run->opt.errors_path : "");

@@ -1,4 +1,5 @@
 /* ff_progress.c - the estimate line and the progress lines (ff_progress.h). */
+#include "rad_clock.h"
 #include "ff_progress.h"
 
 #include <math.h>
@@ -40,7 +41,7 @@ void ff_progress_report(void *user, uint64_t rows_done)
 {
     ff_progress *p = user;
     if (p->calibrating) return;
-    double t = ff_comm_time();
+    double t = rad_clock_seconds();
     uint64_t done = p->base + rows_done;
     /* at most once a second, and at the end of each call (the other
      * ranks' counts then reach rank 0 round by round) */
@@ -77,7 +78,7 @@ void ff_progress_start(ff_progress *p)
 {
     ff_comm_progress_open(p->comm);
     p->base = 0;
-    p->compute_start = ff_comm_time();
+    p->compute_start = rad_clock_seconds();
     p->said_at = p->compute_start;
 }
 
@@ -153,14 +154,14 @@ static void calibrate(ff_progress *p, const ff_estimate_inputs *in, uint32_t chu
          * 2.9 s). */
         ff_rows_summary ignored = {0};
         p->calibrating = 1;
-        double t0 = ff_comm_time();
+        double t0 = rad_clock_seconds();
         for (uint32_t k = 0; k < FF_CALIBRATION_CHUNKS && st == RAD_OK; k++) {
             ff_records values, errors;
             st = backend->compute_records(in->backend_state, calibration_row(n, chunk, k), chunk,
                                           in->options->element, &values, in->options->errors_path ? &errors : NULL,
                                           &ignored, &scratch);
         }
-        *out_seconds = ff_comm_time() - t0;
+        *out_seconds = rad_clock_seconds() - t0;
         p->calibrating = 0;
         if (st != RAD_OK) *out_failed = "its rows failed";
         return;
@@ -169,12 +170,12 @@ static void calibrate(ff_progress *p, const ff_estimate_inputs *in, uint32_t chu
     double *errors = in->want_errors ? ff_row_buffer_alloc(backend, in->backend_state, (size_t)chunk * n) : NULL;
     if (rows && (errors || !in->want_errors)) {
         p->calibrating = 1;
-        double t0 = ff_comm_time();
+        double t0 = rad_clock_seconds();
         for (uint32_t k = 0; k < FF_CALIBRATION_CHUNKS && st == RAD_OK; k++) {
             st = backend->compute_rows(in->backend_state, calibration_row(n, chunk, k), chunk, rows, errors,
                                        &scratch);
         }
-        *out_seconds = ff_comm_time() - t0;
+        *out_seconds = rad_clock_seconds() - t0;
         p->calibrating = 0;
         if (st != RAD_OK) *out_failed = "its rows failed";
     } else {

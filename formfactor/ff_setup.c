@@ -5,17 +5,13 @@
 #include <stdlib.h>
 
 #include "ff_bvh.h"
+#include "rad_box.h"
 #include "rad_log.h"
 
 void ff_frame_centre(const rad_mesh *mesh, double centre[3])
 {
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t v = 0; v < mesh->vertex_count; v++)
-        for (int a = 0; a < 3; a++) {
-            lo[a] = fmin(lo[a], mesh->positions[3 * v + a]);
-            hi[a] = fmax(hi[a], mesh->positions[3 * v + a]);
-        }
-    for (int a = 0; a < 3; a++) centre[a] = mesh->vertex_count ? 0.5 * (lo[a] + hi[a]) : 0.0;
+    rad_box box = rad_box_of_points(mesh->positions, mesh->vertex_count);
+    rad_box_centre(&box, centre);
 }
 
 /* A mesh vertex in patch p's corner k, in the backends' frame; a vertex
@@ -139,15 +135,8 @@ int ff_scene_is_convex_enclosure(const rad_scene *scene, double eps)
 /* The bounding-box diagonal of the mesh. */
 static double mesh_diagonal(const rad_mesh *mesh)
 {
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t v = 0; v < mesh->vertex_count; v++)
-        for (int a = 0; a < 3; a++) {
-            lo[a] = fmin(lo[a], mesh->positions[3 * v + a]);
-            hi[a] = fmax(hi[a], mesh->positions[3 * v + a]);
-        }
-    double d2 = 0;
-    for (int a = 0; a < 3; a++) d2 += mesh->vertex_count ? (hi[a] - lo[a]) * (hi[a] - lo[a]) : 0;
-    return sqrt(d2);
+    rad_box box = rad_box_of_points(mesh->positions, mesh->vertex_count);
+    return rad_box_diagonal(&box);
 }
 
 double ff_plane_eps(const rad_mesh *mesh)

@@ -1,6 +1,5 @@
 #include "camera.h"
 
-#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -9,6 +8,7 @@
 #include <stdint.h>
 #include <sys/stat.h>
 
+#include "rad_box.h"
 #include "rad_fs.h"
 #include "rad_log.h"
 
@@ -244,19 +244,16 @@ static rad_vec3 unit_axis(int axis, double sign)
     return rad_v3(axis == 0 ? sign : 0.0, axis == 1 ? sign : 0.0, axis == 2 ? sign : 0.0);
 }
 
-/* Bounding box of the vertices that patches use. */
+/* Bounding box of the vertices that patches use (a file's mesh has at
+ * least one patch). */
 static bbox mesh_bbox(const rad_mesh *mesh)
 {
-    bbox b = {rad_v3(DBL_MAX, DBL_MAX, DBL_MAX), rad_v3(-DBL_MAX, -DBL_MAX, -DBL_MAX)};
+    rad_box box = rad_box_empty();
     for (size_t p = 0; p < mesh->patch_count; p++) {
         const rad_patch *patch = &mesh->patches[p];
-        for (uint32_t k = 0; k < patch->vertex_count; k++) {
-            const double *x = &mesh->positions[3 * (size_t)patch->v[k]];
-            b.lo = rad_v3(fmin(b.lo.x, x[0]), fmin(b.lo.y, x[1]), fmin(b.lo.z, x[2]));
-            b.hi = rad_v3(fmax(b.hi.x, x[0]), fmax(b.hi.y, x[1]), fmax(b.hi.z, x[2]));
-        }
+        for (uint32_t k = 0; k < patch->vertex_count; k++) rad_box_add(&box, &mesh->positions[3 * (size_t)patch->v[k]]);
     }
-    return b;
+    return (bbox){rad_v3(box.lo[0], box.lo[1], box.lo[2]), rad_v3(box.hi[0], box.hi[1], box.hi[2])};
 }
 
 void render_camera_auto(const rad_mesh *mesh, double aspect, render_camera *out_camera)

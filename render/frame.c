@@ -3,9 +3,9 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "rad_color.h"
 #include "rad_log.h"
 #include "raster.h"
-#include "tonemap.h"
 
 /* The near clipping plane sits at this fraction of the depth of the
  * farthest vertex: close enough never to cut visible geometry in a scene
@@ -65,7 +65,7 @@ rad_status render_frame_draw(const rad_mesh *mesh, const double *radiosity, cons
     status = render_shade_corners(mesh, radiosity, 3, opt.shading, corners);
     if (status != RAD_OK) goto done;
     if (nc == 1)
-        for (size_t k = 0; k < 4 * n; k++) corners[k] = opt.luminance ? render_luminance(&corners[3 * k]) : corners[3 * k];
+        for (size_t k = 0; k < 4 * n; k++) corners[k] = opt.luminance ? rad_luminance(&corners[3 * k]) : corners[3 * k];
 
     size_t tri_count = 0;
     double far_w = 0.0;

@@ -5,8 +5,8 @@
 #include <string.h>
 
 #include "rad_adjacency.h"
+#include "rad_color.h"
 #include "rad_log.h"
-#include "tonemap.h"
 
 /* A vertex lies inside an edge when it is this close to the edge's line
  * (relative to the edge's length) and its parameter is this far from both
@@ -15,6 +15,12 @@
 #define T_VERTEX_REL_TOL 1e-8
 /* Anchoring passes at most (chains along one line converge in a few). */
 #define T_VERTEX_MAX_PASSES 200
+/* Anchoring has settled when no corner value moved by more than this
+ * fraction of the largest one: about 50 ulps of a double. Rounding of the
+ * interpolation (1 - t) a + t b can flip the last bits of a chain on every
+ * pass, so "nothing changed at all" may never come; and a change this
+ * small is far below what a float image shows (6e-8 relative). */
+#define T_VERTEX_SETTLED 1e-14
 
 typedef struct loose_edge {
     double length;
@@ -236,7 +242,7 @@ static rad_status anchor_t_vertices(const rad_mesh *mesh, const rad_vertex_patch
         double change = 0.0;
         for (size_t i = 0; i < found.count; i++)
             change = fmax(change, anchor(mesh, adj, &found.items[i], nc, crease_cos, corners));
-        if (change <= 1e-14 * scale) break;
+        if (change <= T_VERTEX_SETTLED * scale) break;
     }
 done:
     free(found.items);
@@ -260,7 +266,7 @@ static int edge_shared(const rad_mesh *mesh, const rad_vertex_patches *adj, uint
 }
 
 /* Luminance of channel values (one channel: the value itself). */
-static double channel_luminance(const double *b, size_t nc) { return nc == 3 ? render_luminance(b) : b[0]; }
+static double channel_luminance(const double *b, size_t nc) { return nc == 3 ? rad_luminance(b) : b[0]; }
 
 /* The linear reconstruction (RENDER_SHADING_LINEAR): each patch's
  * in-plane gradient, fitted by weighted least squares to the patches of

@@ -10,10 +10,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "camera.h"
 #include "image.h"
+#include "rad_clock.h"
 #include "rad_fs.h"
 #include "rad_log.h"
 #include "rad_rfile.h"
@@ -26,7 +26,7 @@ typedef struct stage_state {
     const render_options *options;
     const char *input, *output;         /* resolved: never NULL */
     char default_output[RENDER_OUTPUT_NAME_MAX];
-    double t0;                          /* seconds_now() when the load began */
+    double t0;                          /* rad_clock_seconds() when the load began */
     /* the load step's */
     render_image_format format;
     render_frame_options frame;         /* resolved; the draw step sets its channels and luminance */
@@ -63,13 +63,6 @@ static rad_status default_output(const char *input, char *out, size_t out_size)
     memcpy(out, name, stem);
     memcpy(out + stem, RENDER_DEFAULT_EXTENSION, sizeof RENDER_DEFAULT_EXTENSION);
     return RAD_OK;
-}
-
-static double seconds_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 /* A black image is never silent: it says whether nothing emits (every
@@ -167,7 +160,7 @@ static rad_status stage_check_names(stage_state *s)
  * read, the camera chosen. */
 static rad_status stage_load(stage_state *s)
 {
-    s->t0 = seconds_now();
+    s->t0 = rad_clock_seconds();
     s->format = render_image_format_of(s->output);
     if (s->format == RENDER_IMAGE_UNKNOWN) {
         rad_error("%s: unknown image type (the name must end in .png or .exr)", s->output);
@@ -222,10 +215,10 @@ static rad_status stage_draw(stage_state *s)
         rad_error("out of memory for a %dx%d image", frame->width, frame->height);
         return RAD_ERR_NOMEM;
     }
-    double t_draw = seconds_now();
+    double t_draw = rad_clock_seconds();
     rad_status status = render_frame_draw(&rf->mesh, rf->radiosity, &s->camera, frame, s->rgb);
     if (status != RAD_OK) return status;
-    s->draw_seconds = seconds_now() - t_draw;
+    s->draw_seconds = rad_clock_seconds() - t_draw;
     warn_if_black(s->input, &rf->mesh, rf->radiosity, rf->channel_count, s->rgb,
                   (size_t)frame->channels * s->pixels, s->camera_text);
     return RAD_OK;
@@ -296,7 +289,7 @@ static rad_status stage_write(stage_state *s)
     if (status != RAD_OK) return status;
     rad_info("wrote %s: %dx%d, %s, %d spp, %s shading, scale %.4g; draw %.3f s, total %.3f s", s->output,
              frame->width, frame->height, s->channels_name, frame->spp, render_shading_name(frame->shading), scale,
-             s->draw_seconds, seconds_now() - s->t0);
+             s->draw_seconds, rad_clock_seconds() - s->t0);
     return RAD_OK;
 }
 

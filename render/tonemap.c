@@ -3,6 +3,8 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "rad_color.h"
+
 typedef struct lum_area {
     double lum, area; /* lum: the brightest channel */
 } lum_area;
@@ -13,12 +15,10 @@ static int compare_lum(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-double render_luminance(const double rgb[3]) { return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]; }
-
 void render_luminance_radiosity(const double *radiosity, size_t patch_count, double *out)
 {
     for (size_t p = 0; p < patch_count; p++) {
-        double y = render_luminance(&radiosity[3 * p]);
+        double y = rad_luminance(&radiosity[3 * p]);
         out[3 * p] = out[3 * p + 1] = out[3 * p + 2] = y;
     }
 }

@@ -39,10 +39,7 @@
  * non-emitting surface. radiosity: patch_count * 3. */
 double render_tonemap_auto_scale(const rad_mesh *mesh, const double *radiosity);
 
-/* Rec. 709 luminance of linear RGB: 0.2126 R + 0.7152 G + 0.0722 B. */
-double render_luminance(const double rgb[3]);
-
-/* out[3 * p + c] = render_luminance(&radiosity[3 * p]) for every patch p and
+/* out[3 * p + c] = rad_luminance(&radiosity[3 * p]) for every patch p and
  * c = 0, 1, 2: a colour solution turned into a grey one, laid out as a grey
  * scene's file stores it. out may not alias radiosity. */
 void render_luminance_radiosity(const double *radiosity, size_t patch_count, double *out);

@@ -19,7 +19,6 @@
  * the order of the sums differs from the CPU.
  */
 #include <cuda_runtime.h>
-#include <pthread.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -28,9 +27,11 @@
 
 extern "C" {
 #include "gpu.h"
+#include "rad_cuda.h"
 #include "rad_log.h"
 #include "residual.h"
 }
+#include "rad_cuda_check.h"
 
 /* Threads per block of every kernel; the product kernel's rows per block
  * are its warps. */
@@ -111,18 +112,6 @@ struct solve_gpu {
     gpu_lane lane[SOLVE_GPU_LANES];
     size_t lane_count;
 };
-
-/* Logs a failed CUDA call with its place and returns RAD_ERR_BACKEND. */
-static rad_status gpu_check(cudaError_t err, const char *what, int line)
-{
-    if (err == cudaSuccess) return RAD_OK;
-    rad_error("cuda: %s (gpu_cuda.cu:%d): %s", what, line, cudaGetErrorString(err));
-    return RAD_ERR_BACKEND;
-}
-#define GPU_TRY(call)                                                          \
-    do {                                                                       \
-        if ((status = gpu_check((call), #call, __LINE__)) != RAD_OK) goto done; \
-    } while (0)
 
 /* ---- kernels ---- */
 
@@ -334,47 +323,10 @@ __global__ void gpu_finish_kernel(gpu_lanes L, int finish)
 
 extern "C" int solve_gpu_built(void) { return 1; }
 
-static int count_devices(void)
-{
-    int count = 0;
-    if (cudaGetDeviceCount(&count) != cudaSuccess) {
-        cudaGetLastError(); /* clear the "no device" error */
-        return 0;
-    }
-    return count;
-}
-
-/* The prestart thread and what it found (-1: not asked). */
-static pthread_t prestart_thread;
-static int prestart_running, prestart_devices = -1;
-
-static void *prestart_main(void *unused)
-{
-    (void)unused;
-    int count = count_devices();
-    if (count > 0 && cudaSetDevice(0) == cudaSuccess) cudaFree(0); /* the primary context */
-    cudaGetLastError();
-    prestart_devices = count;
-    return NULL;
-}
-
-extern "C" void solve_gpu_prestart(void)
-{
-    if (!prestart_running) prestart_running = pthread_create(&prestart_thread, NULL, prestart_main, NULL) == 0;
-}
-
-extern "C" void solve_gpu_prestart_join(void)
-{
-    if (!prestart_running) return;
-    pthread_join(prestart_thread, NULL);
-    prestart_running = 0;
-}
-
-extern "C" int solve_gpu_device_count(void)
-{
-    solve_gpu_prestart_join();
-    return prestart_devices >= 0 ? prestart_devices : count_devices();
-}
+/* gpu.h: CUDA's early start is core's (rad_cuda.h); solve runs on device 0. */
+extern "C" void solve_gpu_prestart(void) { rad_cuda_prestart(0); }
+extern "C" void solve_gpu_prestart_join(void) { rad_cuda_prestart_join(); }
+extern "C" int solve_gpu_device_count(void) { return rad_cuda_device_count(); }
 
 extern "C" int solve_gpu_exact(const solve_gpu *gpu) { return gpu->exact; }
 extern "C" const char *solve_gpu_device_name(const solve_gpu *gpu) { return gpu->name; }
@@ -416,11 +368,11 @@ extern "C" rad_status solve_gpu_create(const solve_gpu_tiles *tiles, const doubl
     g->matrix_bytes = count * (GPU_TILE * sizeof(float) + sizeof(uint32_t)) + (n + 1) * sizeof(uint64_t);
     {
         cudaDeviceProp prop;
-        GPU_TRY(cudaSetDevice(0));
-        GPU_TRY(cudaGetDeviceProperties(&prop, 0));
+        RAD_CUDA_TRY(cudaSetDevice(0));
+        RAD_CUDA_TRY(cudaGetDeviceProperties(&prop, 0));
         snprintf(g->name, sizeof g->name, "%s", prop.name);
         size_t free_bytes = 0, total_bytes = 0;
-        GPU_TRY(cudaMemGetInfo(&free_bytes, &total_bytes));
+        RAD_CUDA_TRY(cudaMemGetInfo(&free_bytes, &total_bytes));
         size_t need = g->matrix_bytes + SOLVE_GPU_LANES * GPU_LANE_VECTORS * g->n_pad * sizeof(double) +
                       2 * n * sizeof(double);
         if (need > free_bytes) {
@@ -431,24 +383,24 @@ extern "C" rad_status solve_gpu_create(const solve_gpu_tiles *tiles, const doubl
             goto done;
         }
     }
-    GPU_TRY(cudaMalloc(&g->row_tiles, (n + 1) * sizeof(uint64_t)));
-    GPU_TRY(cudaMalloc(&g->tile_column, (count ? count : 1) * sizeof(uint32_t)));
-    GPU_TRY(cudaMalloc(&g->values, (count ? count : 1) * GPU_TILE * sizeof(float)));
-    GPU_TRY(cudaMalloc(&g->area, n * sizeof(double)));
-    GPU_TRY(cudaMalloc(&g->diag, n * sizeof(double)));
-    GPU_TRY(cudaMalloc(&g->vectors, SOLVE_GPU_LANES * GPU_LANE_VECTORS * g->n_pad * sizeof(double)));
-    GPU_TRY(cudaMalloc(&g->partial, SOLVE_GPU_LANES * 2 * GPU_PARTIALS * sizeof(double)));
-    GPU_TRY(cudaMalloc(&g->scalars, SOLVE_GPU_LANES * sizeof(gpu_scalars)));
+    RAD_CUDA_TRY(cudaMalloc(&g->row_tiles, (n + 1) * sizeof(uint64_t)));
+    RAD_CUDA_TRY(cudaMalloc(&g->tile_column, (count ? count : 1) * sizeof(uint32_t)));
+    RAD_CUDA_TRY(cudaMalloc(&g->values, (count ? count : 1) * GPU_TILE * sizeof(float)));
+    RAD_CUDA_TRY(cudaMalloc(&g->area, n * sizeof(double)));
+    RAD_CUDA_TRY(cudaMalloc(&g->diag, n * sizeof(double)));
+    RAD_CUDA_TRY(cudaMalloc(&g->vectors, SOLVE_GPU_LANES * GPU_LANE_VECTORS * g->n_pad * sizeof(double)));
+    RAD_CUDA_TRY(cudaMalloc(&g->partial, SOLVE_GPU_LANES * 2 * GPU_PARTIALS * sizeof(double)));
+    RAD_CUDA_TRY(cudaMalloc(&g->scalars, SOLVE_GPU_LANES * sizeof(gpu_scalars)));
     /* zero vectors: the padding beyond n stays zero (kernels write rows < n only) */
-    GPU_TRY(cudaMemset(g->vectors, 0, SOLVE_GPU_LANES * GPU_LANE_VECTORS * g->n_pad * sizeof(double)));
-    GPU_TRY(cudaMemset(g->scalars, 0, SOLVE_GPU_LANES * sizeof(gpu_scalars)));
-    GPU_TRY(cudaMemcpy(g->row_tiles, tiles->row_tiles, (n + 1) * sizeof(uint64_t), cudaMemcpyHostToDevice));
+    RAD_CUDA_TRY(cudaMemset(g->vectors, 0, SOLVE_GPU_LANES * GPU_LANE_VECTORS * g->n_pad * sizeof(double)));
+    RAD_CUDA_TRY(cudaMemset(g->scalars, 0, SOLVE_GPU_LANES * sizeof(gpu_scalars)));
+    RAD_CUDA_TRY(cudaMemcpy(g->row_tiles, tiles->row_tiles, (n + 1) * sizeof(uint64_t), cudaMemcpyHostToDevice));
     if (count) {
-        GPU_TRY(cudaMemcpy(g->tile_column, tiles->tile_column, count * sizeof(uint32_t), cudaMemcpyHostToDevice));
-        GPU_TRY(cudaMemcpy(g->values, tiles->values, count * GPU_TILE * sizeof(float), cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpy(g->tile_column, tiles->tile_column, count * sizeof(uint32_t), cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpy(g->values, tiles->values, count * GPU_TILE * sizeof(float), cudaMemcpyHostToDevice));
     }
-    GPU_TRY(cudaMemcpy(g->diag, tiles->diag, n * sizeof(double), cudaMemcpyHostToDevice));
-    GPU_TRY(cudaMemcpy(g->area, area, n * sizeof(double), cudaMemcpyHostToDevice));
+    RAD_CUDA_TRY(cudaMemcpy(g->diag, tiles->diag, n * sizeof(double), cudaMemcpyHostToDevice));
+    RAD_CUDA_TRY(cudaMemcpy(g->area, area, n * sizeof(double), cudaMemcpyHostToDevice));
     for (size_t c = 0; c < SOLVE_GPU_LANES; c++) {
         double *v = g->vectors + c * GPU_LANE_VECTORS * g->n_pad;
         g->lane[c] = gpu_lane{v, v + g->n_pad, v + 2 * g->n_pad, v + 3 * g->n_pad, v + 4 * g->n_pad,
@@ -489,7 +441,7 @@ static rad_status launch_product(const solve_gpu *g, const gpu_operands *v, int 
     if (count == 1) gpu_product_kernel<1><<<blocks, GPU_BLOCK>>>(m, *v);
     if (count == 2) gpu_product_kernel<2><<<blocks, GPU_BLOCK>>>(m, *v);
     if (count == 3) gpu_product_kernel<3><<<blocks, GPU_BLOCK>>>(m, *v);
-    GPU_TRY(cudaGetLastError());
+    RAD_CUDA_TRY(cudaGetLastError());
 done:
     return status;
 }
@@ -504,9 +456,9 @@ extern "C" rad_status solve_gpu_lanes_load(solve_gpu *g, size_t count, const dou
         return RAD_ERR_INVALID;
     }
     for (size_t c = 0; c < count; c++) {
-        GPU_TRY(cudaMemcpy(g->lane[c].rho, rho[c], bytes, cudaMemcpyHostToDevice));
-        GPU_TRY(cudaMemcpy(g->lane[c].E, E[c], bytes, cudaMemcpyHostToDevice));
-        GPU_TRY(cudaMemcpy(g->lane[c].B, B[c], bytes, cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpy(g->lane[c].rho, rho[c], bytes, cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpy(g->lane[c].E, E[c], bytes, cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpy(g->lane[c].B, B[c], bytes, cudaMemcpyHostToDevice));
         g->lane[c].e_norm = e_norm[c];
     }
     g->lane_count = count;
@@ -517,7 +469,7 @@ done:
 extern "C" rad_status solve_gpu_lanes_store(solve_gpu *g, size_t lane, double *out_B)
 {
     rad_status status = RAD_OK;
-    GPU_TRY(cudaMemcpy(out_B, g->lane[lane].B, g->n * sizeof(double), cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY(cudaMemcpy(out_B, g->lane[lane].B, g->n * sizeof(double), cudaMemcpyDeviceToHost));
 done:
     return status;
 }
@@ -540,13 +492,13 @@ extern "C" rad_status solve_gpu_multiply(solve_gpu *g, size_t count, const doubl
         return RAD_ERR_INVALID;
     }
     for (size_t c = 0; c < count; c++) {
-        GPU_TRY(cudaMemcpy(g->lane[c].B, x[c], bytes, cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpy(g->lane[c].B, x[c], bytes, cudaMemcpyHostToDevice));
         v.x[c] = g->lane[c].B;
         v.y[c] = g->lane[c].y;
     }
     if (count == 0) return RAD_OK;
     if ((status = launch_product(g, &v, (int)count)) != RAD_OK) goto done;
-    for (size_t c = 0; c < count; c++) GPU_TRY(cudaMemcpy(y[c], g->lane[c].y, bytes, cudaMemcpyDeviceToHost));
+    for (size_t c = 0; c < count; c++) RAD_CUDA_TRY(cudaMemcpy(y[c], g->lane[c].y, bytes, cudaMemcpyDeviceToHost));
 done:
     return status;
 }
@@ -581,9 +533,9 @@ extern "C" rad_status solve_gpu_lanes_iterate(solve_gpu *g, const solve_gpu_op *
         gpu_finish_kernel<<<lanes, GPU_BLOCK>>>(L, FINISH_UPDATE);
         gpu_direction_kernel<<<grid, GPU_BLOCK>>>(L);
     }
-    GPU_TRY(cudaGetLastError());
+    RAD_CUDA_TRY(cudaGetLastError());
     /* waits for the kernels; a fault in one of them is reported here */
-    GPU_TRY(cudaMemcpy(g->host_scalars, g->scalars, g->lane_count * sizeof(gpu_scalars), cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY(cudaMemcpy(g->host_scalars, g->scalars, g->lane_count * sizeof(gpu_scalars), cudaMemcpyDeviceToHost));
     for (size_t c = 0; c < g->lane_count; c++) {
         if (ops[c] == SOLVE_GPU_IDLE) continue;
         const gpu_scalars *s = &g->host_scalars[c];
@@ -606,7 +558,7 @@ extern "C" rad_status solve_gpu_cg_restart(solve_gpu *g, const int *restart)
     dim3 grid(L.blocks, (unsigned)g->lane_count);
     gpu_restart_kernel<<<grid, GPU_BLOCK>>>(L);
     gpu_finish_kernel<<<(unsigned)g->lane_count, GPU_BLOCK>>>(L, FINISH_RESTART);
-    GPU_TRY(cudaGetLastError());
+    RAD_CUDA_TRY(cudaGetLastError());
 done:
     return status;
 }

@@ -6,17 +6,9 @@
 
 #include <math.h>
 #include <stdlib.h>
-#include <time.h>
 
 #include "rad_log.h"
-#include "solver.h" /* solve_now, declared there for the stage and the tests */
-
-double solve_now(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
+#include "rad_clock.h"
 
 solve_verdict solve_run_record(solve_run *run, double residual)
 {
@@ -42,7 +34,7 @@ solve_verdict solve_run_record(solve_run *run, double residual)
         return SOLVE_FAILED;
     }
     if (run->progress_seconds >= 0) {
-        double now = solve_now();
+        double now = rad_clock_seconds();
         if (now - run->last_progress_time >= run->progress_seconds) {
             rad_info("%s: iteration %zu, residual %.3g (target %.3g), %.0f s", run->label, k, residual,
                      run->tolerance, now - run->start_time);

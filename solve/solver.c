@@ -5,6 +5,7 @@
  * cg_check.c, each run's bookkeeping in run.c (iterate.h lists them); none
  * of them calls back into this file. */
 #include "solver.h"
+#include "rad_clock.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -148,7 +149,7 @@ static rad_status channel_begin(const solve_system *system, const double *rho, c
                   run->label, worst_row, ch->c);
         return RAD_ERR_INVALID;
     }
-    run->start_time = run->last_progress_time = solve_now();
+    run->start_time = run->last_progress_time = rad_clock_seconds();
     for (size_t i = 0; i < n; i++)
         if (emission[i] > run->e_norm) run->e_norm = emission[i];
     ch->buffers = malloc(2 * n * sizeof(double));
@@ -188,7 +189,7 @@ static rad_status channel_end(const solve_system *system, channel_solve *ch, con
     rep->balance = solve_balance_of(system, run->rho, run->E, run->B, product);
     rep->iterations = run->iterations;
     rep->converged = rep->residual <= run->tolerance;
-    rep->seconds = solve_now() - run->start_time;
+    rep->seconds = rad_clock_seconds() - run->start_time;
     rep->history = run->history;
     rep->history_count = run->history_count;
     run->history = NULL;
@@ -268,7 +269,7 @@ rad_status solve_channels(const solve_system *system, size_t count, const double
         cg_channel[cg_count++] = c;
     }
     if (cg_count) {
-        double t = solve_now();
+        double t = rad_clock_seconds();
         if (system->gpu) {
             status = solve_gpu_channels(system->gpu, lanes, cg_count);
             for (size_t k = 0; k < cg_count; k++) {
@@ -280,7 +281,7 @@ rad_status solve_channels(const solve_system *system, size_t count, const double
             status = solve_cg_many(cg_runs, cg_count, NULL, cg_stopped, cg_why, sizeof ch[0].rep.fallback_reason);
         }
         out_result->lockstep_channels = cg_count;
-        out_result->lockstep_seconds = solve_now() - t;
+        out_result->lockstep_seconds = rad_clock_seconds() - t;
         if (status != RAD_OK) goto done;
     }
     /* The rest one by one on the CPU: other methods, and CG channels that

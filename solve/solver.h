@@ -194,7 +194,4 @@ rad_status solve_channels(const solve_system *system, size_t count, const double
                           const double *const *emission, const solve_params *params, double *const *out_radiosity,
                           solve_report *out_reports, solve_channels_result *out_result);
 
-/* Seconds on a monotonic clock (for timings). */
-double solve_now(void);
-
 #endif

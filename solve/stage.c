@@ -11,6 +11,7 @@
  * ranks log only errors of their own rows. Each phase ends with
  * solve_comm_agree, so every rank returns the same status. */
 #include "stage.h"
+#include "rad_clock.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -70,7 +71,7 @@ typedef struct stage_state {
     solve_comm *comm;
     int rank, ranks;
     rad_log_level asked;                /* the log level the stage was called with */
-    double t0;                          /* solve_now() at the start */
+    double t0;                          /* rad_clock_seconds() at the start */
     /* the load step's */
     solve_backend backend;              /* auto until the matrix is loaded, then cpu or cuda */
     double load_seconds, upload_seconds;
@@ -161,7 +162,7 @@ static solve_backend auto_backend(const solve_matrix *m)
 static rad_status upload_matrix(stage_state *s, const char *input, solve_backend asked, solve_backend *backend,
                                 double *out_seconds)
 {
-    double t = solve_now();
+    double t = rad_clock_seconds();
     *out_seconds = 0;
     if (*backend != SOLVE_BACKEND_CUDA) return RAD_OK;
     solve_gpu_tiles tiles;
@@ -176,7 +177,7 @@ static rad_status upload_matrix(stage_state *s, const char *input, solve_backend
         *backend = SOLVE_BACKEND_CPU;
         return RAD_OK;
     }
-    *out_seconds = solve_now() - t;
+    *out_seconds = rad_clock_seconds() - t;
     rad_info("%s: backend cuda: %s, the matrix resident as float tiles (%.2f GiB, %s) in %.2f s", input,
              solve_gpu_device_name(s->gpu), solve_gpu_matrix_bytes(s->gpu) / 1073741824.0,
              solve_gpu_exact(s->gpu) ? "exact: the file stores f32"
@@ -279,7 +280,7 @@ static rad_status stage_load(stage_state *s)
     if (status != RAD_OK) return status;
     status = load_rows(s, s->comm, s->options, s->input, s->asked);
     if (status != RAD_OK) return status;
-    s->load_seconds = solve_now() - s->t0;
+    s->load_seconds = rad_clock_seconds() - s->t0;
     const rad_mesh *mesh = s->mesh = rad_ff_file_mesh(s->file);
     const size_t n = mesh->patch_count;
     status = solve_matrix_check_reflectance(&s->matrix, mesh, s->input);
@@ -423,7 +424,7 @@ static rad_status write_stats(const stage_state *s)
         .device = s->gpu ? solve_gpu_device_name(s->gpu) : NULL,
         .device_exact = s->gpu ? solve_gpu_exact(s->gpu) : -1,
         .upload_seconds = s->upload_seconds,
-        .total_seconds = solve_now() - s->t0,
+        .total_seconds = rad_clock_seconds() - s->t0,
         .converged = s->solved == RAD_OK,
         .channel_count = s->channels,
         .rank_count = (uint32_t)s->ranks,
@@ -473,7 +474,7 @@ rad_status solve_stage_run(const solve_options *options)
     s.rank = solve_comm_rank(s.comm);
     s.ranks = solve_comm_size(s.comm);
     s.asked = rad_log_get_level();
-    s.t0 = solve_now();
+    s.t0 = rad_clock_seconds();
     s.backend = SOLVE_BACKEND_CPU;
     stage_speak(s.comm, s.asked, STAGE_ALIKE);
     rad_status status = stage_load(&s);

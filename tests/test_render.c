@@ -30,6 +30,7 @@
 #include "camera.h"
 #include "frame.h"
 #include "image.h"
+#include "rad_color.h"
 #include "rad_fs.h"
 #include "rad_test.h"
 #include "raster.h"
@@ -401,7 +402,7 @@ static void test_shade_creases(void)
     RAD_CHECK_NEAR(render_tonemap_auto_scale(&t.mesh, b), RENDER_AUTO_TARGET / 10.0, 1e-12);
     b[6] = 0.5; /* the wall now darkest: {0.5: 1, 1: 1, 4: 2} -> 4 */
     RAD_CHECK_NEAR(render_tonemap_auto_scale(&t.mesh, b), RENDER_AUTO_TARGET / 4.0, 1e-12);
-    RAD_CHECK_NEAR(render_luminance(b), 1.0, 1e-12);
+    RAD_CHECK_NEAR(rad_luminance(b), 1.0, 1e-12);
     rad_mesh_free(&t.mesh);
 }
 
@@ -775,7 +776,7 @@ static void test_frame_grey(void)
     RAD_CHECK(render_frame_draw(&t.mesh, lum, &cam, &opt, grey) == RAD_OK);
     double worst = 0.0;
     for (int p = 0; p < W * H; p++) {
-        double want = render_luminance((double[3]){rgb[3 * p], rgb[3 * p + 1], rgb[3 * p + 2]});
+        double want = rad_luminance((double[3]){rgb[3 * p], rgb[3 * p + 1], rgb[3 * p + 2]});
         worst = fmax(worst, fabs(grey[p] - want) / (1e-3 + want));
     }
     if (worst > 1e-5) fprintf(stderr, "luminance frame: relative difference %g\n", worst);
@@ -790,7 +791,7 @@ static void test_frame_grey(void)
     RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, grey) == RAD_OK);
     worst = 0.0;
     for (int p = 0; p < W * H; p++) {
-        double want = render_luminance((double[3]){rgb[3 * p], rgb[3 * p + 1], rgb[3 * p + 2]});
+        double want = rad_luminance((double[3]){rgb[3 * p], rgb[3 * p + 1], rgb[3 * p + 2]});
         worst = fmax(worst, fabs(grey[p] - want) / (1e-3 + want));
     }
     if (worst > 1e-5) fprintf(stderr, "luminance frame, linear shading: relative difference %g\n", worst);
@@ -886,7 +887,7 @@ static int check_luminance_files(const char *y_path, const char *rgb_path)
         size_t n = (size_t)w * h, bad = 0, lit = 0;
         double worst = 0.0;
         for (size_t p = 0; p < n; p++) {
-            double want = render_luminance((double[3]){rgb[3 * p], rgb[3 * p + 1], rgb[3 * p + 2]});
+            double want = rad_luminance((double[3]){rgb[3 * p], rgb[3 * p + 1], rgb[3 * p + 2]});
             double rel = fabs(y[p] - want) / (want + 1e-6);
             worst = fmax(worst, rel);
             bad += rel > 2e-3;
