@@ -392,7 +392,8 @@ static void explain_other_scene(const ff_run *run, const rad_mesh *prev, char *o
                 return;
             }
             if (m->emission[c] != pa->emission[c]) {
-                snprintf(out, size, "material '%s' has Ke %g %g %g here and %g %g %g there (an edited MTL)", m->name,
+                snprintf(out, size, "material '%s' has E %g %g %g here and %g %g %g there (an edited MTL, or "
+                         "another --ke: radiance reads E = pi Ke)", m->name,
                          m->emission[0], m->emission[1], m->emission[2], pa->emission[0], pa->emission[1],
                          pa->emission[2]);
                 return;
@@ -474,11 +475,14 @@ static rad_status load(ff_run *run)
 {
     double t0 = ff_comm_time();
     rad_scene_options loader = {.read_file = read_scene_file, .read_file_user = &run->opt,
-                                .clamp_rho = run->opt.clamp_rho, .flip_normals = run->opt.flip_normals};
+                                .clamp_rho = run->opt.clamp_rho, .flip_normals = run->opt.flip_normals,
+                                .ke_radiance = run->opt.ke_radiance};
     rad_status st = run->opt.scene_path ? rad_scene_load_file(run->opt.scene_path, &loader, &run->scene)
                                         : rad_scene_load_default(&run->scene);
     double t1 = ff_comm_time();
     if (st == RAD_OK && ff_comm_rank(run->comm) == 0) warn_if_dark(&run->scene);
+    if (st == RAD_OK && ff_comm_rank(run->comm) == 0 && run->opt.ke_radiance)
+        rad_info("%s: Ke read as emitted radiance L (--ke radiance): E = pi Ke", run->scene.path);
     rad_mesh_options mo = {.subdiv = run->opt.subdiv, .only_group = run->opt.subdiv_only,
                            .contacts = run->opt.contacts};
     if (run->opt.refine_path) {
@@ -960,7 +964,8 @@ static rad_status open_outputs(ff_run *run, ff_files *files)
                         .element_type = run->opt.element, .estimator = run->opt.estimator,
                         .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
                         .scene_fingerprint = run->scene.fingerprint, .subdiv = run->opt.subdiv,
-                        .flags = (run->opt.subdiv_only ? RAD_FF_FLAG_PARTIAL_SUBDIV : 0) | RAD_FF_FLAG_RECIPROCAL,
+                        .flags = (run->opt.subdiv_only ? RAD_FF_FLAG_PARTIAL_SUBDIV : 0) | RAD_FF_FLAG_RECIPROCAL |
+                                 (run->opt.ke_radiance ? RAD_FF_FLAG_KE_RADIANCE : 0),
                         .group_count = (uint32_t)run->mesh.group_count};
     snprintf(info.scene_name, sizeof info.scene_name, "%s",
              run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name);

@@ -50,11 +50,14 @@ static const char usage_text[] =
     "                       a colour scene is then drawn from its Rec. 709 luminance\n"
     "                       Y = 0.2126 R + 0.7152 G + 0.0722 B (linear B, of the\n"
     "                       colour picture's shaded corners)\n"
-    "  --width N            image width in pixels (default: 512)\n"
-    "  --height N           image height in pixels (default: 512)\n"
+    "  --width N            image width in pixels (default: the camera file's width,\n"
+    "                       else 512; with only --height, the file's aspect ratio)\n"
+    "  --height N           image height in pixels (default: the camera file's height,\n"
+    "                       else 512; with only --width, the file's aspect ratio)\n"
     "  --spp N              samples per pixel, a square: 1, 4, 9, 16, ... 256 (default: 16)\n"
     "  --camera FILE|auto   camera file (lines: eye X Y Z, look_at X Y Z, up X Y Z,\n"
-    "                       fov_y DEGREES; # comments; at most 16 KiB). Default: the\n"
+    "                       fov_y DEGREES, width W, height H; # comments; at most\n"
+    "                       16 KiB). Default: the\n"
     "                       scene's sidecar <scene>.camera beside its OBJ when there\n"
     "                       is one, else the measured camera for the Cornell box,\n"
     "                       automatic framing for other scenes; auto: the default\n"
@@ -81,10 +84,12 @@ static const char usage_text[] =
     "                       at a surface's edges); flat: each patch in its own B.\n"
     "                       Where refined patches meet coarse ones (formfactor\n"
     "                       --refine) corners are anchored to the coarse edge: no seams\n"
-    "  --quantity Q         radiosity (default): the EXR holds B, the exitance, in the\n"
+    "  --quantity Q         radiosity: the EXR holds B, the exitance, in the\n"
     "                       scene's emission units; radiance: it holds L = B / pi,\n"
     "                       what path tracers and image viewers expect of a diffuse\n"
-    "                       surface. The PNG is the same either way with the\n"
+    "                       surface. Default: radiance when formfactor read Ke as\n"
+    "                       radiance (--ke radiance: then L is in Ke's units, as\n"
+    "                       Cycles draws it), else radiosity. The PNG is the same either way with the\n"
     "                       automatic exposure; with --no-auto-exposure it shows\n"
     "                       2^EV times the quantity chosen\n"
     "  -q, --quiet          only errors on stderr\n"
@@ -114,7 +119,7 @@ typedef struct render_cli {
     int auto_exposure;
     int quiet, help, version;
     render_channels_mode channels;
-    int radiance; /* --quantity radiance: L = B / pi instead of B */
+    int radiance; /* --quantity radiance: L = B / pi instead of B; -1: not given (the file's Ke decides) */
 } render_cli;
 
 static rad_status parse_int(const char *opt, const char *text, int lo, int hi, int *out)
@@ -225,6 +230,7 @@ static rad_status parse_args(int argc, char **argv, render_cli *out)
     c.frame.shading = RENDER_SHADING_LINEAR;
     c.auto_exposure = 1;
     c.channels = RENDER_CHANNELS_AUTO;
+    c.radiance = -1;
     rad_status status = RAD_OK;
     int opt, at = 0, have_input = 0;
     opterr = 0; /* our own messages */
@@ -321,8 +327,26 @@ static void warn_if_black(const char *input, const rad_mesh *mesh, const double 
                  input, camera_text);
 }
 
-/* The camera: file or default, then the flags on top. */
-static rad_status choose_camera(const render_cli *cli, const rad_radiosity *rf, double aspect, render_camera *out)
+/* The picture's size from a camera file's `width`/`height` (render_camera)
+ * where the command line gives neither; with one of them, the other keeps
+ * the file's aspect ratio. */
+static void size_from_camera(const render_cli *cli, const render_camera *camera, render_frame_options *frame)
+{
+    if (camera->width <= 0 || camera->height <= 0) return;
+    if (!cli->frame.width && !cli->frame.height) {
+        frame->width = camera->width;
+        frame->height = camera->height;
+    } else if (!cli->frame.height) {
+        frame->height = (int)fmax(1.0, floor((double)frame->width * camera->height / camera->width + 0.5));
+    } else if (!cli->frame.width) {
+        frame->width = (int)fmax(1.0, floor((double)frame->height * camera->width / camera->height + 0.5));
+    }
+}
+
+/* The camera: file or default, then the flags on top; a file's size into
+ * *frame (size_from_camera). */
+static rad_status choose_camera(const render_cli *cli, const rad_radiosity *rf, render_frame_options *frame,
+                                render_camera *out)
 {
     rad_status status = RAD_OK;
     int cornell = 0;
@@ -344,9 +368,10 @@ static rad_status choose_camera(const render_cli *cli, const rad_radiosity *rf, 
         }
         snprintf(source, sizeof source, "from %s, the scene's sidecar (--camera auto ignores it)", sidecar);
     } else {
-        render_camera_default(&rf->mesh, aspect, out, &cornell);
+        render_camera_default(&rf->mesh, (double)frame->width / frame->height, out, &cornell);
         snprintf(source, sizeof source, "%s", cornell ? "the Cornell box's measured camera" : "automatic framing");
     }
+    size_from_camera(cli, out, frame);
     if (cli->have_eye) out->eye = cli->eye;
     if (cli->have_look_at) out->look_at = cli->look_at;
     if (cli->have_up) out->up = cli->up;
@@ -400,8 +425,12 @@ static rad_status run(const render_cli *cli)
     }
 
     render_camera camera;
-    status = choose_camera(cli, &rf, (double)frame.width / frame.height, &camera);
+    status = choose_camera(cli, &rf, &frame, &camera);
     if (status != RAD_OK) goto done;
+    status = render_raster_check(&(render_raster_options){frame.width, frame.height, frame.spp, 1, 1.0, 0}, NULL);
+    if (status != RAD_OK) goto done; /* a camera file's width and height, times --spp */
+    /* What the EXR holds: the file's Ke decides unless --quantity is given. */
+    const int radiance = cli->radiance >= 0 ? cli->radiance : (rf.flags & RAD_RF_FLAG_KE_RADIANCE) != 0;
     char camera_text[512];
     render_camera_format(&camera, camera_text, sizeof camera_text);
     rad_info("%s: %zu patches; %s", cli->input, rf.mesh.patch_count, camera_text);
@@ -441,7 +470,7 @@ static rad_status run(const render_cli *cli)
     /* Radiance of a diffuse surface: L = B / pi. The automatic exposure is
      * measured on B and divided by the same factor, so the PNG does not
      * change with the quantity (to float rounding). */
-    const double unit = cli->radiance ? 1 / RAD_PI : 1;
+    const double unit = radiance ? 1 / RAD_PI : 1;
     if (unit != 1)
         for (size_t k = 0; k < (size_t)frame.channels * pixels; k++) rgb[k] = (float)(rgb[k] * unit);
     double scale = pow(2.0, cli->exposure);
@@ -455,7 +484,7 @@ static rad_status run(const render_cli *cli)
     if (format == RENDER_IMAGE_PNG) render_tonemap_apply(rgb, pixels, frame.channels, scale);
 
     char fingerprint[32], scale_text[32], spp_text[16], values_text[160];
-    const char *q = cli->radiance ? "L" : "B", *q_name = cli->radiance ? "radiance L = B / pi" : "radiosity B";
+    const char *q = radiance ? "L" : "B", *q_name = radiance ? "radiance L = B / pi" : "radiosity B";
     if (format == RENDER_IMAGE_PNG && luminance)
         snprintf(values_text, sizeof values_text,
                  "sRGB(clamp(Y * rad:display_scale)), Y = 0.2126 %s_r + 0.7152 %s_g + 0.0722 %s_b", q, q, q);
@@ -477,11 +506,13 @@ static rad_status run(const render_cli *cli)
         {"rad:spp", spp_text},
         {"rad:display_scale", scale_text},
         {"rad:channels", channels_name},
-        {"rad:quantity", cli->radiance ? "radiance L = B / pi (per steradian)" : "radiosity B (exitance)"},
+        {"rad:quantity", radiance ? "radiance L = B / pi (per steradian)" : "radiosity B (exitance)"},
         {"rad:values", values_text},
+        /* last, and only with --ke radiance: older files' images keep their bytes */
+        {"rad:emission", "Ke read as emitted radiance L (formfactor --ke radiance): E = pi Ke, so L is in Ke's units"},
     };
-    status = render_image_write(cli->output, rgb, frame.width, frame.height, frame.channels, attrs,
-                                sizeof attrs / sizeof attrs[0]);
+    const size_t attr_count = sizeof attrs / sizeof attrs[0] - ((rf.flags & RAD_RF_FLAG_KE_RADIANCE) ? 0 : 1);
+    status = render_image_write(cli->output, rgb, frame.width, frame.height, frame.channels, attrs, attr_count);
     if (status != RAD_OK) goto done;
     rad_info("wrote %s: %dx%d, %s, %d spp, %s shading, scale %.4g; draw %.3f s, total %.3f s", cli->output,
              frame.width, frame.height, channels_name, frame.spp,

@@ -356,6 +356,7 @@ rad_status solve_stage_run(const solve_options *options)
     out.converged = solved == RAD_OK;
     out.tolerance = options->params.tolerance > 0 ? options->params.tolerance : SOLVE_DEFAULT_TOLERANCE;
     out.scene_fingerprint = rad_ff_file_info(s.file)->scene_fingerprint;
+    if (rad_ff_file_info(s.file)->flags & RAD_FF_FLAG_KE_RADIANCE) out.flags |= RAD_RF_FLAG_KE_RADIANCE;
     /* The scene's path, for render's camera sidecar: only a real path that
      * fits whole (not the built-in box's name). */
     const char *scene = rad_ff_file_info(s.file)->scene_name;
