@@ -24,7 +24,7 @@
  *                  88  u64      scene fingerprint of the form-factor file
  *                  96  u32[3]   method that produced each channel's B
  *                 108  u32      flags (RAD_RF_FLAG_*; reserved and 0 before
- *                               2026-12: those files read as flags 0)
+ *                               2026-11-26: those files read as flags 0)
  *                 112  u64      vertex table offset
  *                 120  u64      patch table offset
  *                 128  u64      radiosity offset

@@ -37,9 +37,10 @@ lamp objects (only emissive surfaces light a radiosity scene), materials
 without a Principled BSDF, base colours of 1 (formfactor --clamp-rho 0.99)
 and a scene with nothing emissive.
 
-tests/blender_export.sh checks the conversion on a stored export
-(tests/data/blender/diffuse_room.*); tools/make_blender_reference.py made
-that export with this module and rendered its Cycles reference.
+tools/make_blender_reference.py exported tests/data/blender/diffuse_room.*
+(and two more cameras) with this module and rendered the room's Cycles
+reference; tests/blender_export_camera.py checks those cameras against the
+closed form of the conversion, tests/blender_cycles.py the picture.
 """
 import math
 import os
