@@ -90,6 +90,11 @@ typedef struct rad_ff_info {
  * element type. formfactor sets it; solve then bounds the CG check's skew
  * term by that rounding instead of measuring it (docs/solve.md). */
 #define RAD_FF_FLAG_RECIPROCAL 4u
+/* The scene's `Ke` was read as emitted radiance L_e, so the patch table's
+ * E is pi Ke (formfactor --ke radiance, rad_scene_options.ke_radiance);
+ * clear: E is Ke. solve carries it into the radiosity file
+ * (RAD_RF_FLAG_KE_RADIANCE), render into the image's metadata. */
+#define RAD_FF_FLAG_KE_RADIANCE 8u
 
 /* Byte offsets of each section, derived from N, V, G and the element type. */
 typedef struct rad_ff_layout {

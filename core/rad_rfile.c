@@ -33,6 +33,7 @@ enum {
     RF_OFF_RESIDUAL = 64,
     RF_OFF_FINGERPRINT = 88,
     RF_OFF_CHANNEL_METHOD = 96,
+    RF_OFF_FLAGS = 108,
     RF_OFF_VERTEX_OFFSET = 112,
     RF_OFF_PATCH_OFFSET = 120,
     RF_OFF_RADIOSITY_OFFSET = 128,
@@ -103,6 +104,7 @@ static rad_status rf_encode(const char *path, const rad_radiosity *r, unsigned c
         rad_put_u32(b + RF_OFF_CHANNEL_METHOD + 4 * c, r->channel_method[c] ? r->channel_method[c] : r->method);
     }
     rad_put_f64(b + RF_OFF_TOLERANCE, r->tolerance);
+    rad_put_u32(b + RF_OFF_FLAGS, r->flags);
     memcpy(b + RF_OFF_SCENE_PATH, r->scene_path, strnlen(r->scene_path, sizeof r->scene_path - 1));
     rad_put_u64(b + RF_OFF_FINGERPRINT, r->scene_fingerprint);
     rad_put_u64(b + RF_OFF_VERTEX_OFFSET, l.vertex_offset);
@@ -279,6 +281,7 @@ static rad_status decode_scalars(const char *path, const unsigned char *b, rad_r
     r->converged = rad_get_u32(b + RF_OFF_CONVERGED);
     r->tolerance = rad_get_f64(b + RF_OFF_TOLERANCE);
     r->scene_fingerprint = rad_get_u64(b + RF_OFF_FINGERPRINT);
+    r->flags = rad_get_u32(b + RF_OFF_FLAGS); /* unknown bits: kept, ignored */
     int ok = (r->channel_count == 1 || r->channel_count == 3) && valid_method(r->method) && r->converged <= 1 &&
              isfinite(r->tolerance) && r->tolerance > 0;
     for (int c = 0; c < 3; c++) {

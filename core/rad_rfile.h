@@ -23,7 +23,8 @@
  *                  64  f64[3]   final relative residual per channel
  *                  88  u64      scene fingerprint of the form-factor file
  *                  96  u32[3]   method that produced each channel's B
- *                 108  u32      reserved (0)
+ *                 108  u32      flags (RAD_RF_FLAG_*; reserved and 0 before
+ *                               2026-11-26: those files read as flags 0)
  *                 112  u64      vertex table offset
  *                 120  u64      patch table offset
  *                 128  u64      radiosity offset
@@ -85,7 +86,13 @@ typedef struct rad_radiosity {
     uint32_t channel_method[3]; /* rad_solve_method that produced each channel's
                                    B; differs from `method` after a fallback */
     char scene_path[88];      /* the OBJ formfactor read, or "" (NUL-terminated) */
+    uint32_t flags;           /* RAD_RF_FLAG_*; readers ignore bits they do not know */
 } rad_radiosity;
+
+/* The scene's Ke was read as emitted radiance (formfactor --ke radiance;
+ * the form-factor file's RAD_FF_FLAG_KE_RADIANCE): E = pi Ke, so B / pi is
+ * in Ke's units, the radiance a path tracer such as Cycles draws. */
+#define RAD_RF_FLAG_KE_RADIANCE 1u
 
 /* Writes to `path` through a temporary name in the same directory and a
  * rename, so a failure never leaves a partial file under `path`. Zero

@@ -68,6 +68,7 @@ typedef struct loader {
     size_t poly_normal_cap;
     double clamp_rho;                    /* rad_scene_options */
     int flip_normals;
+    int ke_radiance;
     size_t vn_faces, vn_against;         /* faces whose corners all have vn; of those, wound against them */
     char vn_first[600];                  /* file:line of the first one against */
     uint32_t material, group;            /* current `usemtl`, `g`/`o` */
@@ -1006,6 +1007,7 @@ rad_status rad_scene_load_file(const char *path, const rad_scene_options *option
     L.read_file_user = options ? options->read_file_user : NULL;
     L.clamp_rho = options ? options->clamp_rho : 0;
     L.flip_normals = options ? options->flip_normals : 0;
+    L.ke_radiance = options ? options->ke_radiance : 0;
     snprintf(scene.path, sizeof scene.path, "%s", path);
     scene.materials = reserve(NULL, &L.material_cap, 8, sizeof *scene.materials);
     scene.groups = reserve(NULL, &L.group_cap, 8, sizeof *scene.groups);
@@ -1036,6 +1038,9 @@ rad_status rad_scene_load_file(const char *path, const rad_scene_options *option
                 face->v[b] = t;
             }
         }
+    if (L.ke_radiance) /* Ke was radiance: a diffuse emitter leaves E = pi L_e */
+        for (size_t m = 1; m < scene.material_count; m++)
+            for (int c = 0; c < 3; c++) scene.materials[m].emission[c] *= RAD_PI;
     scene.fingerprint = fingerprint(&scene);
     *out_scene = scene;
     memset(&scene, 0, sizeof scene);

@@ -12,7 +12,9 @@
  * RAD_ERR_IO (missing file). Supported: `v`; `f` with n >= 3 vertices in all
  * index forms (v, v/vt, v//vn, v/vt/vn; negative = relative); `g`, `o`, `s`,
  * `usemtl`, `mtllib` (several files, several names per line); in MTL:
- * `newmtl`, `Kd` (reflectance rho, RGB in [0,1)), `Ke` (emission E, RGB >= 0).
+ * `newmtl`, `Kd` (reflectance rho, RGB in [0,1)), `Ke` (emission E, RGB >= 0:
+ * the emitted radiosity, or with rad_scene_options.ke_radiance the emitted
+ * radiance L_e, stored as E = pi L_e).
  * The names of `g`, `o`, `usemtl` and `newmtl` are the rest of the line,
  * blanks inside kept (`o Wall left`; `g a b` is one group "a b", not two),
  * at most RAD_NAME_MAX - 1 bytes (longer: RAD_ERR_INVALID, never cut).
@@ -63,7 +65,8 @@
 typedef struct rad_material {
     char name[RAD_NAME_MAX];
     double rho[3];      /* diffuse reflectance (Kd), each in [0, 1) */
-    double emission[3]; /* emitted radiosity (Ke), W/m^2 in scene units, >= 0 */
+    double emission[3]; /* emitted radiosity E, W/m^2 in scene units, >= 0: Ke,
+                           or pi Ke with rad_scene_options.ke_radiance */
 } rad_material;
 
 typedef struct rad_face {
@@ -100,6 +103,12 @@ typedef struct rad_scene_options {
                           --clamp-rho); 0: values outside [0, 1) are errors */
     int flip_normals;  /* every face wound the other way round (formfactor
                           --flip-normals): for scenes whose faces all point away */
+    int ke_radiance;   /* 1: `Ke` is the emitted radiance L_e (W/m^2/sr; what
+                          Blender's emission strength is), so each material's
+                          emission is E = RAD_PI * Ke, the radiosity a diffuse
+                          emitter of radiance L_e leaves (formfactor --ke
+                          radiance); 0: `Ke` is E itself. The fingerprint is
+                          of the E stored. */
 } rad_scene_options;
 
 /* materials[0] is "default": rho 0.5 grey, no emission. Faces before any

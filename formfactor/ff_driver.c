@@ -389,7 +389,8 @@ static rad_status open_outputs(ff_run *run, ff_files *files)
                         .element_type = run->opt.element, .estimator = run->opt.estimator,
                         .samples = run->opt.samples, .shadow_rays = run->opt.shadow_rays, .seed = run->opt.seed,
                         .scene_fingerprint = run->scene.fingerprint, .subdiv = run->opt.subdiv,
-                        .flags = (run->opt.subdiv_only ? RAD_FF_FLAG_PARTIAL_SUBDIV : 0) | RAD_FF_FLAG_RECIPROCAL,
+                        .flags = (run->opt.subdiv_only ? RAD_FF_FLAG_PARTIAL_SUBDIV : 0) | RAD_FF_FLAG_RECIPROCAL |
+                                 (run->opt.ke_radiance ? RAD_FF_FLAG_KE_RADIANCE : 0),
                         .group_count = (uint32_t)run->mesh.group_count};
     snprintf(info.scene_name, sizeof info.scene_name, "%s",
              run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name);

@@ -45,10 +45,13 @@ static void warn_if_dark(const rad_scene *scene)
 rad_status ff_load_scene(const ff_options *options, rad_scene *out_scene)
 {
     rad_scene_options loader = {.read_file = read_scene_file, .read_file_user = (void *)options,
-                                .clamp_rho = options->clamp_rho, .flip_normals = options->flip_normals};
+                                .clamp_rho = options->clamp_rho, .flip_normals = options->flip_normals,
+                                .ke_radiance = options->ke_radiance};
     rad_status st = options->scene_path ? rad_scene_load_file(options->scene_path, &loader, out_scene)
                                         : rad_scene_load_default(out_scene);
     if (st == RAD_OK) warn_if_dark(out_scene);
+    if (st == RAD_OK && options->ke_radiance)
+        rad_info("%s: Ke read as emitted radiance L (--ke radiance): E = pi Ke", out_scene->path);
     return st;
 }
 
@@ -211,7 +214,8 @@ static void explain_other_scene(const ff_options *opt, const rad_scene *sc, cons
                 return;
             }
             if (m->emission[c] != pa->emission[c]) {
-                snprintf(out, size, "material '%s' has Ke %g %g %g here and %g %g %g there (an edited MTL)", m->name,
+                snprintf(out, size, "material '%s' has E %g %g %g here and %g %g %g there (an edited MTL, or "
+                         "another --ke: radiance reads E = pi Ke)", m->name,
                          m->emission[0], m->emission[1], m->emission[2], pa->emission[0], pa->emission[1],
                          pa->emission[2]);
                 return;

@@ -55,6 +55,11 @@ const char ff_options_help[] =
     "      --clamp-rho R        set every Kd value above R (0 < R < 1) to R, saying which,\n"
     "                           instead of refusing Kd >= 1 (Blender's white is Kd 1);\n"
     "                           OBJ scenes only\n"
+    "      --ke K               radiosity | radiance (default: radiosity): what the MTL's\n"
+    "                           Ke is: the emitted radiosity E, or the emitted radiance\n"
+    "                           L (Blender's emission colour x strength, what Cycles\n"
+    "                           draws), read as E = pi L; the files record it, and\n"
+    "                           render then writes radiance. OBJ scenes only\n"
     "      --samples K          point pairs per patch pair (default: 512)\n"
     "      --shadow-rays R      of those, pairs that carry a shadow ray (default: 32;\n"
     "                           0 = no occlusion)\n"
@@ -127,6 +132,8 @@ static const ff_name contacts_names[] = {{RAD_MESH_CONTACTS_CUT, "cut"}, {RAD_ME
 static const ff_name reciprocity_names[] = {
     {FF_RECIPROCITY_AUTO, "auto"}, {FF_RECIPROCITY_ON, "on"}, {FF_RECIPROCITY_OFF, "off"}};
 static const ff_name element_names[] = {{RAD_ELEMENT_F64, "f64"}, {RAD_ELEMENT_F32, "f32"}};
+/* --ke: the value is ff_options.ke_radiance */
+static const ff_name ke_names[] = {{0, "radiosity"}, {1, "radiance"}};
 static const ff_name format_names[] = {
     {FF_FORMAT_SPARSE, "sparse"}, {FF_FORMAT_DENSE, "dense"}, {FF_FORMAT_PAPER, "paper"}};
 /* The estimators in --help's order; their names are rad_estimator_name's. */
@@ -212,7 +219,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
-           O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT };
+           O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT, O_KE };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -231,7 +238,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"refine-tol", required_argument, 0, O_REFINE_TOL}, {"refine-min-size", required_argument, 0, O_REFINE_MIN_SIZE},
         {"refine-max-patches", required_argument, 0, O_REFINE_MAX_PATCHES}, {"reuse", required_argument, 0, O_REUSE},
         {"contacts", required_argument, 0, O_CONTACTS}, {"max-seconds", required_argument, 0, O_MAX_SECONDS},
-        {"allow-disk-overcommit", no_argument, 0, O_OVERCOMMIT},
+        {"allow-disk-overcommit", no_argument, 0, O_OVERCOMMIT}, {"ke", required_argument, 0, O_KE},
         {0, 0, 0, 0}};
     uint64_t v = 0;
     int named = 0; /* an option's value read through a name table */
@@ -267,6 +274,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_QUAD_RTOL: st = parse_tolerance("--quad-rtol", optarg, &o->quad_rtol); break;
         case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
         case O_FLIP_NORMALS: o->flip_normals = 1; break;
+        case O_KE: st = parse_name("--ke", optarg, ke_names, FF_NAMES_COUNT(ke_names), &o->ke_radiance); break;
         case O_MAX_BYTES: st = rad_parse_bytes("--max-bytes", optarg, &o->max_bytes); break;
         case O_MAX_SECONDS: st = rad_parse_real("--max-seconds", optarg, 0, 0, 1e12, 1, &o->max_seconds); break;
         case O_OVERCOMMIT: o->allow_disk_overcommit = 1; break;
@@ -376,9 +384,10 @@ static rad_status check_options(ff_options *o)
                   o->subdiv, o->refine_path);
         return RAD_ERR_USAGE;
     }
-    if (!o->scene_path && (o->flip_normals || o->clamp_rho > 0)) {
-        rad_error("%s: applies to OBJ scenes; the built-in Cornell box's faces point inward and its Kd are below 1",
-                  o->flip_normals ? "--flip-normals" : "--clamp-rho");
+    if (!o->scene_path && (o->flip_normals || o->clamp_rho > 0 || o->ke_radiance)) {
+        rad_error("%s: applies to OBJ scenes; the built-in Cornell box's faces point inward, its Kd are below 1 "
+                  "and its Ke is radiosity",
+                  o->flip_normals ? "--flip-normals" : o->clamp_rho > 0 ? "--clamp-rho" : "--ke radiance");
         return RAD_ERR_USAGE;
     }
     if (o->reuse_path && o->estimator == RAD_ESTIMATOR_QUADRATURE &&

@@ -67,6 +67,8 @@ typedef struct ff_options {
     double max_seconds;      /* --max-seconds: refuse a run estimated to take longer; 0 = no limit */
     int allow_disk_overcommit; /* --allow-disk-overcommit: run a sparse file whose bound is over 10x the free space */
     int flip_normals;        /* --flip-normals: every face wound the other way */
+    int ke_radiance;         /* --ke radiance: Ke is emitted radiance, E = pi Ke
+                                (rad_scene_options.ke_radiance); 0 = --ke radiosity */
     const char *refine_path; /* --refine RADIOSITY: split that solution's mesh; NULL = none */
     const char *reuse_path;  /* --reuse FORMFACTORS: that mesh's matrix, for the unsplit pairs */
     rad_refine_options refine; /* --refine-tol, --refine-min-size, --refine-max-patches

@@ -33,6 +33,7 @@ render_camera render_camera_cornell(void)
     c.look_at = rad_v3(278.0, 273.0, 0.0);
     c.up = rad_v3(0.0, 1.0, 0.0);
     c.fov_y = RENDER_DEFAULT_FOV_Y;
+    c.width = c.height = 0;
     return c;
 }
 
@@ -66,9 +67,9 @@ static int parse_number(const char *token, double *out)
     return 1;
 }
 
-enum { KEY_EYE, KEY_LOOK_AT, KEY_UP, KEY_FOV_Y, KEY_COUNT };
-static const char *const key_names[KEY_COUNT] = {"eye", "look_at", "up", "fov_y"};
-static const int key_arity[KEY_COUNT] = {3, 3, 3, 1};
+enum { KEY_EYE, KEY_LOOK_AT, KEY_UP, KEY_FOV_Y, KEY_WIDTH, KEY_HEIGHT, KEY_COUNT };
+static const char *const key_names[KEY_COUNT] = {"eye", "look_at", "up", "fov_y", "width", "height"};
+static const int key_arity[KEY_COUNT] = {3, 3, 3, 1, 1, 1};
 
 /* One non-blank, comment-free line: "key numbers...". */
 static rad_status parse_statement(const char *name, int line_no, char *line, render_camera *cam,
@@ -82,7 +83,8 @@ static rad_status parse_statement(const char *name, int line_no, char *line, ren
     for (int k = 0; k < KEY_COUNT; k++)
         if (strcmp(tok[0], key_names[k]) == 0) key = k;
     if (key < 0) {
-        rad_error("%s:%d: unknown key '%s' (expected eye, look_at, up or fov_y)", name, line_no, tok[0]);
+        rad_error("%s:%d: unknown key '%s' (expected eye, look_at, up, fov_y, width or height)", name, line_no,
+                  tok[0]);
         return RAD_ERR_PARSE;
     }
     if (seen[key]) {
@@ -105,10 +107,17 @@ static rad_status parse_statement(const char *name, int line_no, char *line, ren
         rad_error("%s:%d: fov_y %g is outside (0, 180) degrees", name, line_no, v[0]);
         return RAD_ERR_INVALID;
     }
+    if ((key == KEY_WIDTH || key == KEY_HEIGHT) && !(v[0] >= 1 && v[0] <= RENDER_CAMERA_SIZE_MAX && v[0] == floor(v[0]))) {
+        rad_error("%s:%d: %s %s is not a whole number of pixels in [1, %d]", name, line_no, tok[0], tok[1],
+                  RENDER_CAMERA_SIZE_MAX);
+        return RAD_ERR_INVALID;
+    }
     switch (key) {
     case KEY_EYE: cam->eye = rad_v3(v[0], v[1], v[2]); break;
     case KEY_LOOK_AT: cam->look_at = rad_v3(v[0], v[1], v[2]); break;
     case KEY_UP: cam->up = rad_v3(v[0], v[1], v[2]); break;
+    case KEY_WIDTH: cam->width = (int)v[0]; break;
+    case KEY_HEIGHT: cam->height = (int)v[0]; break;
     default: cam->fov_y = v[0]; break;
     }
     seen[key] = line_no;
@@ -118,7 +127,7 @@ static rad_status parse_statement(const char *name, int line_no, char *line, ren
 rad_status render_camera_parse(const char *name, const char *text, render_camera *out_camera)
 {
     rad_status status = RAD_OK;
-    render_camera cam = {rad_v3(0, 0, 0), rad_v3(0, 0, 0), rad_v3(0, 1, 0), RENDER_DEFAULT_FOV_Y};
+    render_camera cam = {rad_v3(0, 0, 0), rad_v3(0, 0, 0), rad_v3(0, 1, 0), RENDER_DEFAULT_FOV_Y, 0, 0};
     int seen[KEY_COUNT] = {0};
     char line[CAMERA_LINE_MAX];
     int line_no = 0;
@@ -154,6 +163,13 @@ rad_status render_camera_parse(const char *name, const char *text, render_camera
             status = RAD_ERR_INVALID;
             goto done;
         }
+    }
+    if (!seen[KEY_WIDTH] != !seen[KEY_HEIGHT]) {
+        rad_error("%s:%d: '%s' without '%s' (give both, or neither)", name,
+                  seen[KEY_WIDTH] ? seen[KEY_WIDTH] : seen[KEY_HEIGHT], seen[KEY_WIDTH] ? "width" : "height",
+                  seen[KEY_WIDTH] ? "height" : "width");
+        status = RAD_ERR_INVALID;
+        goto done;
     }
     status = render_camera_validate(&cam, name);
     if (status != RAD_OK) goto done;
@@ -289,8 +305,13 @@ void render_camera_auto(const rad_mesh *mesh, double aspect, render_camera *out_
             }
         }
     }
-    /* The camera looks along +z when up is x or y, along +y when up is z. */
+    /* The camera looks along -z when up is y, from the scene's front: OBJ's
+     * (and OpenGL's) convention, +x to the right, and a Blender scene's front
+     * view once exported Y-up (Blender's -y, the front, becomes +z). Along
+     * +y when up is z (Blender's own front view, +x to the right), along +z
+     * when up is x. */
     int fwd_axis = up_axis == 2 ? 1 : 2;
+    double fwd_sign = up_axis == 1 ? -1.0 : 1.0;
     int right_axis = 3 - up_axis - fwd_axis;
 
     double tan_y = tan(0.5 * RENDER_DEFAULT_FOV_Y * RAD_PI / 180.0);
@@ -299,11 +320,12 @@ void render_camera_auto(const rad_mesh *mesh, double aspect, render_camera *out_
     double distance = axis_of(half, fwd_axis) + RENDER_AUTO_MARGIN * fit;
     if (!(distance > 0.0)) distance = 1.0; /* a single point: any distance frames it */
 
-    rad_vec3 forward = unit_axis(fwd_axis, 1.0);
+    rad_vec3 forward = unit_axis(fwd_axis, fwd_sign);
     out_camera->look_at = centre;
     out_camera->eye = rad_v3_sub(centre, rad_v3_scale(forward, distance));
     out_camera->up = unit_axis(up_axis, up_sign);
     out_camera->fov_y = RENDER_DEFAULT_FOV_Y;
+    out_camera->width = out_camera->height = 0;
 }
 
 void render_camera_default(const rad_mesh *mesh, double aspect, render_camera *out_camera, int *out_is_cornell)

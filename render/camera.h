@@ -14,10 +14,15 @@
  *     up 0 1 0                  # optional, default 0 1 0
  *     fov_y 39.3077             # optional, vertical field of view in degrees,
  *                               # default RENDER_DEFAULT_FOV_Y
+ *     width 1920                # optional, the picture's size in pixels (both or
+ *     height 1080               # neither): render's size when --width and
+ *                               # --height are not given (tools/blender_export.py
+ *                               # writes Blender's render resolution here)
  * Errors are logged as "file:line: what is wrong" and return RAD_ERR_PARSE
  * (syntax, unknown or repeated key) or RAD_ERR_INVALID (values: a missing
  * required key, fov outside (0, 180), eye == look_at, up parallel to the
- * view direction).
+ * view direction, width or height not an integer in [1,
+ * RENDER_CAMERA_SIZE_MAX] or given without the other).
  *
  * Sidecar: the camera file `<scene>.camera` beside the scene's OBJ
  * (`scenes/room.obj` -> `scenes/room.camera`), which render loads when no
@@ -53,7 +58,12 @@ typedef struct render_camera {
     rad_vec3 look_at; /* a point the camera looks at (centre of the image) */
     rad_vec3 up;      /* any vector not parallel to look_at - eye */
     double fov_y;     /* vertical field of view, degrees, in (0, 180) */
+    int width, height; /* the file's picture size in pixels; 0 0 = not given */
 } render_camera;
+
+/* Largest width or height a camera file may ask for (render refuses sizes
+ * its rasterizer cannot take with its own message). */
+#define RENDER_CAMERA_SIZE_MAX 32768
 
 /* An orthonormal view basis and the lens, precomputed from a camera. */
 typedef struct render_view {
@@ -82,7 +92,9 @@ rad_status render_camera_load(const char *path, render_camera *out_camera);
 rad_status render_camera_validate(const render_camera *camera, const char *what);
 
 /* Frames a mesh: looks at the centre of its bounding box from outside,
- * along a horizontal axis, with "up" pointing towards the emitters, from
+ * along a horizontal axis (-z when up is y: from the front of a Y-up
+ * scene, +x to the right; +y when up is z; +z when up is x), with "up"
+ * pointing towards the emitters, from
  * the distance at which the bounding box's cross-section fills the view
  * (plus RENDER_AUTO_MARGIN). Needs at least one patch. */
 void render_camera_auto(const rad_mesh *mesh, double aspect, render_camera *out_camera);

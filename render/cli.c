@@ -33,11 +33,14 @@ const char render_cli_usage[] =
     "                       a colour scene is then drawn from its Rec. 709 luminance\n"
     "                       Y = 0.2126 R + 0.7152 G + 0.0722 B (linear B, of the\n"
     "                       colour picture's shaded corners)\n"
-    "  --width N            image width in pixels (default: 512)\n"
-    "  --height N           image height in pixels (default: 512)\n"
+    "  --width N            image width in pixels (default: the camera file's width,\n"
+    "                       else 512; with only --height, the file's aspect ratio)\n"
+    "  --height N           image height in pixels (default: the camera file's height,\n"
+    "                       else 512; with only --width, the file's aspect ratio)\n"
     "  --spp N              samples per pixel, a square: 1, 4, 9, 16, ... 256 (default: 16)\n"
     "  --camera FILE|auto   camera file (lines: eye X Y Z, look_at X Y Z, up X Y Z,\n"
-    "                       fov_y DEGREES; # comments; at most 16 KiB). Default: the\n"
+    "                       fov_y DEGREES, width W, height H; # comments; at most\n"
+    "                       16 KiB). Default: the\n"
     "                       scene's sidecar <scene>.camera beside its OBJ when there\n"
     "                       is one, else the measured camera for the Cornell box,\n"
     "                       automatic framing for other scenes; auto: the default\n"
@@ -64,12 +67,15 @@ const char render_cli_usage[] =
     "                       at a surface's edges); flat: each patch in its own B.\n"
     "                       Where refined patches meet coarse ones (formfactor\n"
     "                       --refine) corners are anchored to the coarse edge: no seams\n"
-    "  --quantity Q         radiosity (default): the EXR holds B, the exitance, in the\n"
+    "  --quantity Q         radiosity: the EXR holds B, the exitance, in the\n"
     "                       scene's emission units; radiance: it holds L = B / pi,\n"
     "                       what path tracers and image viewers expect of a diffuse\n"
-    "                       surface. The PNG is the same either way with the\n"
-    "                       automatic exposure; with --no-auto-exposure it shows\n"
-    "                       2^EV times the quantity chosen\n"
+    "                       surface. Default: radiance when formfactor read Ke as\n"
+    "                       radiance (--ke radiance: L is then in Ke's units, as\n"
+    "                       Cycles draws it), else radiosity. The PNG is the same\n"
+    "                       either way with the automatic exposure; with\n"
+    "                       --no-auto-exposure it shows 2^EV times the quantity\n"
+    "                       chosen\n"
     "  -q, --quiet          only errors on stderr\n"
     "  -h, --help           this text\n"
     "      --version        print the version\n"
@@ -184,6 +190,7 @@ rad_status render_cli_parse(int argc, char **argv, render_cli *out)
     o->frame.shading = RENDER_SHADING_LINEAR;
     o->auto_exposure = 1;
     o->channels = RENDER_CHANNELS_AUTO;
+    o->radiance = -1;
     rad_status status = RAD_OK;
     int opt, at = 0;
     opterr = 0; /* our own messages */

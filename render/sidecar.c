@@ -38,19 +38,21 @@ static int sidecar_name(const char *path, char *out, size_t size)
     return n > 0 && (size_t)n < size;
 }
 
-/* 1 when the OBJ at `path` loads (default options, then --flip-normals) to
- * the fingerprint `want`, 0 when it loads to another, -1 when it does not
- * load (a --clamp-rho scene, a broken file). Quiet: the loader's messages
- * are about a file render only identifies. */
+/* 1 when the OBJ at `path` loads (default options, --flip-normals, then
+ * both again with --ke radiance) to the fingerprint `want`,
+ * 0 when it loads to another, -1 when it does not load (a --clamp-rho
+ * scene, a broken file). Quiet: the loader's messages are about a file
+ * render only identifies. */
 static int scene_matches(const char *path, uint64_t want)
 {
     rad_log_level level = rad_log_get_level();
     rad_log_set_level(RAD_LOG_NONE);
     int result = -1;
-    for (int flip = 0; flip < 2 && result != 1; flip++) {
+    for (int k = 0; k < 4 && result != 1; k++) {
         rad_scene scene;
         rad_scene_options options = {0};
-        options.flip_normals = flip;
+        options.flip_normals = k & 1;
+        options.ke_radiance = k >> 1;
         if (rad_scene_load_file(path, &options, &scene) == RAD_OK) {
             result = scene.fingerprint == want;
             rad_scene_free(&scene);

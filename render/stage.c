@@ -35,6 +35,7 @@ typedef struct stage_state {
     char camera_text[512];
     /* the draw step's */
     int luminance;                      /* one channel drawn from a colour scene's luminance */
+    int radiance;                       /* the EXR holds L = B / pi (--quantity, else the file's Ke) */
     const char *channels_name;          /* "rgb", "grey" or "luminance" */
     float *rgb;                         /* owned: frame.channels values per pixel */
     size_t pixels;
@@ -84,9 +85,26 @@ static void warn_if_black(const char *input, const rad_mesh *mesh, const double 
                  input, camera_text);
 }
 
-/* The camera: file or default, then the flags on top. */
+/* The picture's size from a camera file's `width`/`height` (render_camera)
+ * where the command line gives neither; with one of them, the other keeps
+ * the file's aspect ratio. */
+static void size_from_camera(const render_options *options, const render_camera *camera, render_frame_options *frame)
+{
+    if (camera->width <= 0 || camera->height <= 0) return;
+    if (!options->frame.width && !options->frame.height) {
+        frame->width = camera->width;
+        frame->height = camera->height;
+    } else if (!options->frame.height) {
+        frame->height = (int)fmax(1.0, floor((double)frame->width * camera->height / camera->width + 0.5));
+    } else if (!options->frame.width) {
+        frame->width = (int)fmax(1.0, floor((double)frame->height * camera->width / camera->height + 0.5));
+    }
+}
+
+/* The camera: file or default, then the flags on top; a file's size into
+ * *frame (size_from_camera). */
 static rad_status choose_camera(const render_options *options, const char *input, const rad_radiosity *rf,
-                                double aspect, render_camera *out)
+                                render_frame_options *frame, render_camera *out)
 {
     rad_status status = RAD_OK;
     int cornell = 0;
@@ -108,9 +126,10 @@ static rad_status choose_camera(const render_options *options, const char *input
         }
         snprintf(source, sizeof source, "from %s, the scene's sidecar (--camera auto ignores it)", sidecar);
     } else {
-        render_camera_default(&rf->mesh, aspect, out, &cornell);
+        render_camera_default(&rf->mesh, (double)frame->width / frame->height, out, &cornell);
         snprintf(source, sizeof source, "%s", cornell ? "the Cornell box's measured camera" : "automatic framing");
     }
+    size_from_camera(options, out, frame);
     if (options->have_eye) out->eye = options->eye;
     if (options->have_look_at) out->look_at = options->look_at;
     if (options->have_up) out->up = options->up;
@@ -177,8 +196,13 @@ static rad_status stage_load(stage_state *s)
         rad_error("%s: no patches to draw", s->input);
         return RAD_ERR_INVALID;
     }
-    status = choose_camera(s->options, s->input, &s->rf, (double)frame->width / frame->height, &s->camera);
+    status = choose_camera(s->options, s->input, &s->rf, &s->frame, &s->camera);
     if (status != RAD_OK) return status;
+    /* a camera file's width and height, times --spp */
+    status = render_raster_check(&(render_raster_options){frame->width, frame->height, frame->spp, 1, 1.0, 0}, NULL);
+    if (status != RAD_OK) return status;
+    /* What the EXR holds: the file's Ke decides unless --quantity is given. */
+    s->radiance = s->options->radiance >= 0 ? s->options->radiance : (s->rf.flags & RAD_RF_FLAG_KE_RADIANCE) != 0;
     render_camera_format(&s->camera, s->camera_text, sizeof s->camera_text);
     rad_info("%s: %zu patches; %s", s->input, s->rf.mesh.patch_count, s->camera_text);
     return RAD_OK;
@@ -234,7 +258,7 @@ static double expose(stage_state *s)
     const render_options *options = s->options;
     const rad_radiosity *rf = &s->rf;
     const size_t values = (size_t)s->frame.channels * s->pixels;
-    const double unit = options->radiance ? 1 / RAD_PI : 1;
+    const double unit = s->radiance ? 1 / RAD_PI : 1;
     if (unit != 1)
         for (size_t k = 0; k < values; k++) s->rgb[k] = (float)(s->rgb[k] * unit);
     double scale = pow(2.0, options->exposure);
@@ -254,12 +278,11 @@ static double expose(stage_state *s)
  * its values are. */
 static rad_status stage_write(stage_state *s)
 {
-    const render_options *options = s->options;
     const render_frame_options *frame = &s->frame;
     const double scale = expose(s);
     char fingerprint[32], scale_text[32], spp_text[16], values_text[160];
-    const char *q = options->radiance ? "L" : "B";
-    const char *q_name = options->radiance ? "radiance L = B / pi" : "radiosity B";
+    const char *q = s->radiance ? "L" : "B";
+    const char *q_name = s->radiance ? "radiance L = B / pi" : "radiosity B";
     if (s->format == RENDER_IMAGE_PNG && s->luminance)
         snprintf(values_text, sizeof values_text,
                  "sRGB(clamp(Y * rad:display_scale)), Y = 0.2126 %s_r + 0.7152 %s_g + 0.0722 %s_b", q, q, q);
@@ -281,11 +304,14 @@ static rad_status stage_write(stage_state *s)
         {"rad:spp", spp_text},
         {"rad:display_scale", scale_text},
         {"rad:channels", s->channels_name},
-        {"rad:quantity", options->radiance ? "radiance L = B / pi (per steradian)" : "radiosity B (exitance)"},
+        {"rad:quantity", s->radiance ? "radiance L = B / pi (per steradian)" : "radiosity B (exitance)"},
         {"rad:values", values_text},
+        /* last, and only with --ke radiance: older files' images keep their bytes */
+        {"rad:emission", "Ke read as emitted radiance L (formfactor --ke radiance): E = pi Ke, so L is in Ke's units"},
     };
-    rad_status status = render_image_write(s->output, s->rgb, frame->width, frame->height, frame->channels, attrs,
-                                           sizeof attrs / sizeof attrs[0]);
+    const size_t attr_count = sizeof attrs / sizeof attrs[0] - ((s->rf.flags & RAD_RF_FLAG_KE_RADIANCE) ? 0 : 1);
+    rad_status status =
+        render_image_write(s->output, s->rgb, frame->width, frame->height, frame->channels, attrs, attr_count);
     if (status != RAD_OK) return status;
     rad_info("wrote %s: %dx%d, %s, %d spp, %s shading, scale %.4g; draw %.3f s, total %.3f s", s->output,
              frame->width, frame->height, s->channels_name, frame->spp, render_shading_name(frame->shading), scale,

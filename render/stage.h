@@ -43,7 +43,7 @@ typedef struct render_options {
     double exposure;         /* EV: the PNG's values times 2^EV */
     int auto_exposure;       /* 1: times the automatic scale too */
     render_channels_mode channels;
-    int radiance;            /* 1: L = B / pi instead of B */
+    int radiance;            /* 1: L = B / pi instead of B; 0: B; -1: not given (the file's Ke decides) */
 } render_options;
 
 rad_status render_stage_run(const render_options *options);

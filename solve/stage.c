@@ -381,6 +381,7 @@ static rad_status write_radiosity(const stage_state *s)
     out.converged = s->solved == RAD_OK;
     out.tolerance = stage_tolerance(s);
     out.scene_fingerprint = rad_ff_file_info(s->file)->scene_fingerprint;
+    if (rad_ff_file_info(s->file)->flags & RAD_FF_FLAG_KE_RADIANCE) out.flags |= RAD_RF_FLAG_KE_RADIANCE;
     /* The scene's path, for render's camera sidecar: only a real path that
      * fits whole (not the built-in box's name). */
     const char *scene = rad_ff_file_info(s->file)->scene_name;

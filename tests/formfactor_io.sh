@@ -99,6 +99,8 @@ grep -q "they cannot be checked" err.txt || fail "--reuse with --quad-rtol: no w
 echo "ok: --reuse with --quad-rtol: warned, not refused"
 refused "--flip-normals on the built-in box" "--flip-normals: applies to OBJ scenes" "$ff" --flip-normals -q -o old.ff
 refused "--clamp-rho on the built-in box" "--clamp-rho: applies to OBJ scenes" "$ff" --clamp-rho 0.9 -q -o old.ff
+refused "--ke radiance on the built-in box" "--ke radiance: applies to OBJ scenes" "$ff" --ke radiance -q -o old.ff
+refused "--ke with a bad value" "--ke: expected radiosity or radiance, got 'watts'" "$ff" room.obj --ke watts -q -o old.ff
 "$solve" room.ff -q -o room.rad 2> /dev/null || fail "solve room"
 refused "--refine with another --flip-normals" "solved for another scene .*this run has --flip-normals" \
   "$ff" room.obj --flip-normals --refine room.rad -q -o old.ff

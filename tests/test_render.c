@@ -444,7 +444,7 @@ static void test_camera_parse(void)
     RAD_CHECK_NEAR(cam.fov_y, 50, 0);
     /* The camera render writes into the image's metadata reads back as a
      * camera file, to the bit. */
-    render_camera written = {rad_v3(278, 273, -800), rad_v3(278.5, 273, 0), rad_v3(0.1, 1, 0), 39.3077}, again;
+    render_camera written = {rad_v3(278, 273, -800), rad_v3(278.5, 273, 0), rad_v3(0.1, 1, 0), 39.3077, 0, 0}, again;
     char meta[512];
     render_camera_format(&written, meta, sizeof meta);
     RAD_CHECK(render_camera_parse("meta", meta, &again) == RAD_OK && memcmp(&again, &written, sizeof again) == 0);
@@ -462,6 +462,14 @@ static void test_camera_parse(void)
         {"eye 0 0 0\nlook_at 0 0 1\nfov_y 180\n", "bad.camera:3: fov_y 180 is outside (0, 180)", RAD_ERR_INVALID},
         {"eye 0 0 0\nlook_at 0 0 0\n", "bad.camera: eye and look_at are the same point", RAD_ERR_INVALID},
         {"eye 0 0 0\nlook_at 0 5 0\n", "bad.camera: up (0 1 0) is zero or parallel", RAD_ERR_INVALID},
+        {"eye 0 0 0\nlook_at 0 0 1\nwidth 640\n", "bad.camera:3: 'width' without 'height'", RAD_ERR_INVALID},
+        {"eye 0 0 0\nlook_at 0 0 1\nheight 480\n", "bad.camera:3: 'height' without 'width'", RAD_ERR_INVALID},
+        {"eye 0 0 0\nlook_at 0 0 1\nwidth 0\nheight 4\n", "bad.camera:3: width 0 is not a whole number of pixels",
+         RAD_ERR_INVALID},
+        {"eye 0 0 0\nlook_at 0 0 1\nwidth 6\nheight 4.5\n", "bad.camera:4: height 4.5 is not a whole number",
+         RAD_ERR_INVALID},
+        {"eye 0 0 0\nlook_at 0 0 1\nwidth 40000\nheight 4\n", "bad.camera:3: width 40000 is not a whole", RAD_ERR_INVALID},
+        {"eye 0 0 0\nlook_at 0 0 1\nwidth 6 4\n", "bad.camera:3: 'width' takes 1 number", RAD_ERR_PARSE},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         rad_test_capture_log();
@@ -473,6 +481,12 @@ static void test_camera_parse(void)
         RAD_CHECK(rad_test_log_contains(bad[i].message));
         RAD_CHECK(cam.eye.x == 42); /* untouched on failure */
     }
+    /* The picture's size (tools/blender_export.py writes Blender's); none
+     * given reads as 0 0. */
+    RAD_CHECK(render_camera_parse("size", "eye 0 0 0\nlook_at 0 0 1\nwidth 1920\nheight 1080\n", &cam) == RAD_OK);
+    RAD_CHECK(cam.width == 1920 && cam.height == 1080);
+    RAD_CHECK(render_camera_parse("nosize", "eye 0 0 0\nlook_at 0 0 1\n", &cam) == RAD_OK);
+    RAD_CHECK(cam.width == 0 && cam.height == 0);
     rad_test_capture_log();
     RAD_CHECK(render_camera_load("/nonexistent/x.camera", &cam) == RAD_ERR_IO);
     rad_log_set_sink(NULL, NULL);
@@ -522,6 +536,46 @@ static void test_camera_default(void)
         double x = -1, y = -1;
         RAD_CHECK(render_view_project(&view, 300, 200, corner, &x, &y));
         RAD_CHECK(x >= 0 && x <= 300 && y >= 0 && y <= 200);
+    }
+    /* +x to the right with z up too (Blender's own front view). */
+    double left = -1, right = -1, y = -1;
+    RAD_CHECK(render_view_project(&view, 300, 200, rad_v3(0, -2.8, 2.7), &left, &y));
+    RAD_CHECK(render_view_project(&view, 300, 200, rad_v3(5.56, -2.8, 2.7), &right, &y));
+    RAD_CHECK(left < 150 && right > 150);
+    free(b);
+    rad_mesh_free(&t.mesh);
+}
+
+/* Auto framing of a Y-up scene (issue 30): from the front, +z, as Blender
+ * exports its front view (Blender's -y is the OBJ's +z), so +x is on the
+ * right and the scene is not seen from behind, mirrored. */
+static void test_camera_front(void)
+{
+    test_mesh t = {{0}, 0, 0};
+    double *b = NULL;
+    make_room(&t, &b);
+    for (size_t v = 0; v < t.mesh.vertex_count; v++) /* not the Cornell box's bounding box */
+        for (int a = 0; a < 3; a++) t.mesh.positions[3 * v + a] *= 0.01;
+    for (size_t p = 0; p < t.mesh.patch_count; p++)
+        t.mesh.patches[p].centroid = rad_v3_scale(t.mesh.patches[p].centroid, 0.01);
+    render_camera cam;
+    int cornell = 1;
+    render_camera_default(&t.mesh, 1.0, &cam, &cornell);
+    RAD_CHECK(!cornell);
+    RAD_CHECK(cam.up.y == 1.0);
+    RAD_CHECK(cam.eye.z > 5.592 && cam.look_at.z < cam.eye.z); /* in front, looking along -z */
+    render_view view;
+    RAD_CHECK(render_view_init(&cam, 1.0, &view) == RAD_OK);
+    double left = -1, right = -1, low = -1, high = -1, x = -1;
+    RAD_CHECK(render_view_project(&view, 200, 200, rad_v3(0, 2.7, 2.8), &left, &high));
+    RAD_CHECK(render_view_project(&view, 200, 200, rad_v3(5.56, 2.7, 2.8), &right, &high));
+    RAD_CHECK(render_view_project(&view, 200, 200, rad_v3(2.78, 0, 2.8), &x, &low));
+    RAD_CHECK(left < 100 && right > 100); /* +x on the right: not mirrored */
+    RAD_CHECK(low > 100);                 /* y = 0 below the middle (pixel y runs down) */
+    for (int k = 0; k < 8; k++) {
+        rad_vec3 corner = rad_v3(k & 1 ? 5.56 : 0, k & 2 ? 5.488 : 0, k & 4 ? 5.592 : 0);
+        RAD_CHECK(render_view_project(&view, 200, 200, corner, &x, &high));
+        RAD_CHECK(x >= 0 && x <= 200 && high >= 0 && high <= 200);
     }
     free(b);
     rad_mesh_free(&t.mesh);
@@ -1130,6 +1184,7 @@ int main(int argc, char **argv)
     test_shade_creases();
     test_camera_parse();
     test_camera_default();
+    test_camera_front();
     test_image_files();
     test_frame_room();
     test_frame_grey();

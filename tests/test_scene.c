@@ -35,13 +35,13 @@ static rad_status vfs_read(const char *path, char **out_data, size_t *out_size, 
     return RAD_ERR_IO;
 }
 
-/* Loads `obj` (named x.obj) with `mtl` as x.mtl and the options' clamp
- * and flip (NULL: none); captures the log. */
+/* Loads `obj` (named x.obj) with `mtl` as x.mtl and the options' clamp,
+ * flip and Ke reading (NULL: none); captures the log. */
 static rad_status load_text_with(const char *obj, const char *mtl, const rad_scene_options *with, rad_scene *scene)
 {
     vfile files[] = {{"x.obj", obj, 0}, {"x.mtl", mtl ? mtl : "", 0}, {NULL, NULL, 0}};
     rad_scene_options opt = {.read_file = vfs_read, .read_file_user = files};
-    if (with) opt.clamp_rho = with->clamp_rho, opt.flip_normals = with->flip_normals;
+    if (with) opt.clamp_rho = with->clamp_rho, opt.flip_normals = with->flip_normals, opt.ke_radiance = with->ke_radiance;
     rad_test_capture_log();
     memset(scene, 0, sizeof *scene);
     return rad_scene_load_file("x.obj", &opt, scene);
@@ -739,6 +739,24 @@ static void test_blender_options(void)
     RAD_CHECK(scene.faces[1].v[0] == 2 && scene.faces[1].v[1] == 1 && scene.faces[1].v[2] == 0);
     RAD_CHECK(!rad_test_log_contains("wound against"));
     rad_scene_free(&scene);
+
+    /* --ke radiance (issue 30): Ke is radiance L, the emission E = pi L,
+     * for every material; another fingerprint (render's sidecar search
+     * tries both readings). */
+    const char *lit = "newmtl l\nKd 0 0 0\nKe 10 8.5 0\nnewmtl w\nKd 0.5 0.5 0.5\n";
+    const char *obj = "mtllib x.mtl\n" QUAD "usemtl l\nf 1 2 3\nusemtl w\nf 1 3 4\n";
+    rad_scene_options radiance = {.ke_radiance = 1};
+    rad_scene as_radiosity;
+    RAD_CHECK(load_text(obj, lit, &as_radiosity) == RAD_OK);
+    RAD_CHECK(load_text_with(obj, lit, &radiance, &scene) == RAD_OK);
+    RAD_CHECK(as_radiosity.materials[1].emission[0] == 10 && as_radiosity.materials[1].emission[1] == 8.5);
+    RAD_CHECK_NEAR(scene.materials[1].emission[0], 10 * RAD_PI, 1e-12);
+    RAD_CHECK_NEAR(scene.materials[1].emission[1], 8.5 * RAD_PI, 1e-12);
+    RAD_CHECK(scene.materials[1].emission[2] == 0 && scene.materials[2].emission[0] == 0);
+    RAD_CHECK(scene.materials[1].rho[0] == 0 && scene.materials[2].rho[0] == 0.5); /* Kd as it is */
+    RAD_CHECK(scene.fingerprint != as_radiosity.fingerprint);
+    rad_scene_free(&scene);
+    rad_scene_free(&as_radiosity);
 }
 
 int main(void)
