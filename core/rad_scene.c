@@ -66,6 +66,7 @@ typedef struct loader {
     size_t normal_cap;
     uint32_t *poly_normal;               /* scratch for one face: its corners' vn (UINT32_MAX: none) */
     size_t poly_normal_cap;
+    uint32_t smooth;                     /* the last `s`: the faces' smoothing group (0 = off) */
     double clamp_rho;                    /* rad_scene_options */
     int flip_normals;
     int ke_radiance;
@@ -277,6 +278,24 @@ static rad_status parse_name(const source *src, char **tok, size_t n, char *out)
     return RAD_OK;
 }
 
+/* `s off`, `s 0`: the faces that follow are flat; `s N`: they belong to
+ * smoothing group N (Blender writes `s 1` for Shade Smooth). */
+static rad_status parse_smoothing(loader *L, const source *src, char **tok, size_t n)
+{
+    if (n != 2) return fail(src, RAD_ERR_PARSE, "'s' needs one smoothing group: a number, or off");
+    if (strcmp(tok[1], "off") == 0) {
+        L->smooth = 0;
+        return RAD_OK;
+    }
+    char *end = NULL;
+    unsigned long group = strtoul(tok[1], &end, 10);
+    if (end == tok[1] || *end != '\0' || tok[1][0] == '-' || group > UINT32_MAX)
+        return fail(src, RAD_ERR_PARSE, "'s %.20s': a smoothing group is a number from 0 to %u, or off", tok[1],
+                    UINT32_MAX);
+    L->smooth = (uint32_t)group;
+    return RAD_OK;
+}
+
 /* A key is named in a message only if it looks like an OBJ/MTL keyword (a
  * letter or '_', then up to 15 letters, digits or '_'): a file that is not
  * a scene (mtllib ../../etc/shadow) gets its lines counted, not echoed. */
@@ -347,6 +366,7 @@ static rad_status push_face(loader *L, const source *src, const uint32_t *v, uin
     memcpy(f->v, v, count * sizeof *v);
     f->material = L->material;
     f->group = L->group;
+    f->smooth = L->smooth;
     f->line = src->line;
     return RAD_OK;
 }
@@ -839,7 +859,7 @@ static rad_status obj_statement(loader *L, const source *src, char **tok, size_t
         memcpy(normals + 3 * L->normal_count++, nv, sizeof nv);
         return RAD_OK;
     }
-    if (strcmp(key, "s") == 0) return RAD_OK;
+    if (strcmp(key, "s") == 0) return parse_smoothing(L, src, tok, n);
     if (strcmp(key, "mtllib") == 0) return load_mtllibs(L, src, tok, n);
     if (strcmp(key, "usemtl") == 0) {
         char name[RAD_NAME_MAX];

@@ -75,6 +75,8 @@ typedef struct rad_face {
     uint32_t material;     /* index into rad_scene.materials */
     uint32_t group;        /* index into rad_scene.groups (last `g` or `o` name) */
     uint32_t line;         /* line of the OBJ `f` statement it came from (1-based) */
+    uint32_t smooth;       /* smoothing group (the last `s`: 0 = off): render interpolates
+                              across edges of faces in one group; not in the fingerprint */
 } rad_face;
 
 typedef struct rad_scene {

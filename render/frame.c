@@ -62,7 +62,7 @@ rad_status render_frame_draw(const rad_mesh *mesh, const double *radiosity, cons
         status = RAD_ERR_NOMEM;
         goto done;
     }
-    status = render_shade_corners(mesh, radiosity, 3, opt.shading, corners);
+    status = render_shade_corners_smoothed(mesh, radiosity, 3, opt.shading, opt.smoothing, corners);
     if (status != RAD_OK) goto done;
     if (nc == 1)
         for (size_t k = 0; k < 4 * n; k++) corners[k] = opt.luminance ? rad_luminance(&corners[3 * k]) : corners[3 * k];

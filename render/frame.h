@@ -35,6 +35,7 @@ typedef struct render_frame_options {
     int luminance;          /* with channels 1: the Rec. 709 luminance of the RGB
                                corners instead of channel 0 (render --channels grey
                                of a colour scene: exactly the colour picture's luminance) */
+    const render_smoothing *smoothing; /* the OBJ's smoothing groups (shade.h); NULL: none */
 } render_frame_options;
 
 /* Resolves zero fields to their defaults. */

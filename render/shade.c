@@ -22,6 +22,33 @@
  * small is far below what a float image shows (6e-8 relative). */
 #define T_VERTEX_SETTLED 1e-14
 
+/* Which neighbours a patch blends with: one smooth surface
+ * (rad_same_surface: normals within RAD_CREASE_DEGREES, the same
+ * material), or the same material in one of the OBJ's smoothing groups. */
+typedef struct surface_rule {
+    double crease_cos;
+    const render_smoothing *smoothing; /* NULL: none */
+} surface_rule;
+
+static int same_material(const rad_patch *a, const rad_patch *b)
+{
+    for (int c = 0; c < 3; c++)
+        if (fabs(a->rho[c] - b->rho[c]) > 1e-9 * fmax(fabs(a->rho[c]), fabs(b->rho[c])) ||
+            fabs(a->emission[c] - b->emission[c]) > 1e-9 * fmax(fabs(a->emission[c]), fabs(b->emission[c])))
+            return 0;
+    return 1;
+}
+
+static int same_surface(const surface_rule *rule, const rad_patch *a, const rad_patch *b)
+{
+    if (rad_same_surface(a, b, rule->crease_cos)) return 1;
+    const render_smoothing *sm = rule->smoothing;
+    if (!sm || a->source_face >= sm->face_count || b->source_face >= sm->face_count) return 0;
+    uint32_t ga = sm->face_group[a->source_face], gb = sm->face_group[b->source_face];
+    /* Facing apart (a thin plate's two sides) never blends. */
+    return ga != 0 && ga == gb && rad_v3_dot(a->normal, b->normal) > 0.0 && same_material(a, b);
+}
+
 typedef struct loose_edge {
     double length;
     uint32_t patch, corner; /* the edge from corner to corner + 1 of patch */
@@ -101,14 +128,14 @@ static void t_vertex_push(t_vertex_list *list, t_vertex item)
  * surface take the value p's corners interpolate to there. Returns the
  * largest change. */
 static double anchor(const rad_mesh *mesh, const rad_vertex_patches *adj, const t_vertex *tv, size_t nc,
-                     double crease_cos, double *corners)
+                     const surface_rule *rule, double *corners)
 {
     const double *va = &corners[(4 * (size_t)tv->patch + tv->ka) * nc];
     const double *vb = &corners[(4 * (size_t)tv->patch + tv->kb) * nc];
     double change = 0.0;
     for (size_t e = adj->start[tv->v]; e < adj->start[tv->v + 1]; e++) {
         uint32_t q = adj->list[e];
-        if (!rad_same_surface(&mesh->patches[tv->patch], &mesh->patches[q], crease_cos)) continue;
+        if (!same_surface(rule, &mesh->patches[tv->patch], &mesh->patches[q])) continue;
         double *dst = &corners[(4 * (size_t)q + corner_of(&mesh->patches[q], tv->v)) * nc];
         for (size_t c = 0; c < nc; c++) {
             double value = (1.0 - tv->t) * va[c] + tv->t * vb[c];
@@ -171,7 +198,7 @@ static void find_t_vertices(const rad_mesh *mesh, const vertex_grid *g, const lo
  * first, so that an edge's own ends are anchored before its inside is.
  * Only edges that no second patch shares (a shared edge has no vertex
  * inside it) are searched. */
-static rad_status anchor_t_vertices(const rad_mesh *mesh, const rad_vertex_patches *adj, size_t nc, double crease_cos,
+static rad_status anchor_t_vertices(const rad_mesh *mesh, const rad_vertex_patches *adj, size_t nc, const surface_rule *rule,
                                     double *corners)
 {
     size_t n = mesh->patch_count, edges = 0;
@@ -241,7 +268,7 @@ static rad_status anchor_t_vertices(const rad_mesh *mesh, const rad_vertex_patch
     for (int pass = 0; pass < T_VERTEX_MAX_PASSES; pass++) {
         double change = 0.0;
         for (size_t i = 0; i < found.count; i++)
-            change = fmax(change, anchor(mesh, adj, &found.items[i], nc, crease_cos, corners));
+            change = fmax(change, anchor(mesh, adj, &found.items[i], nc, rule, corners));
         if (change <= T_VERTEX_SETTLED * scale) break;
     }
 done:
@@ -254,11 +281,11 @@ done:
 
 /* Is edge (a, b) of patch p shared with another patch of its surface? */
 static int edge_shared(const rad_mesh *mesh, const rad_vertex_patches *adj, uint32_t p, uint32_t a, uint32_t b,
-                       double crease_cos)
+                       const surface_rule *rule)
 {
     for (size_t i = adj->start[a]; i < adj->start[a + 1]; i++) {
         uint32_t q = adj->list[i];
-        if (q == p || !rad_same_surface(&mesh->patches[p], &mesh->patches[q], crease_cos)) continue;
+        if (q == p || !same_surface(rule, &mesh->patches[p], &mesh->patches[q])) continue;
         for (size_t j = adj->start[b]; j < adj->start[b + 1]; j++)
             if (adj->list[j] == q) return 1;
     }
@@ -279,7 +306,7 @@ static double channel_luminance(const double *b, size_t nc) { return nc == 3 ? r
  * range) inside that range widened by its own width on both sides, and
  * never below 0, in any channel. out: patch_count * 4 * nc, as the corners. */
 static void linear_extrapolation(const rad_mesh *mesh, const rad_vertex_patches *adj, const double *radiosity, size_t nc,
-                                 double crease_cos, double *out)
+                                 const surface_rule *rule, double *out)
 {
     for (size_t p = 0; p < mesh->patch_count; p++) {
         const rad_patch *patch = &mesh->patches[p];
@@ -293,7 +320,7 @@ static void linear_extrapolation(const rad_mesh *mesh, const rad_vertex_patches 
             uint32_t v = patch->v[k];
             for (size_t e = adj->start[v]; e < adj->start[v + 1]; e++) {
                 uint32_t q = adj->list[e];
-                if (q == p || !rad_same_surface(patch, &mesh->patches[q], crease_cos)) continue;
+                if (q == p || !same_surface(rule, patch, &mesh->patches[q])) continue;
                 /* A neighbour sharing two corners is met twice: its weight doubles, as an edge neighbour's should. */
                 rad_vec3 d = rad_v3_sub(mesh->patches[q].centroid, patch->centroid);
                 double x = rad_v3_dot(d, t1), y = rad_v3_dot(d, t2), d2 = x * x + y * y;
@@ -324,8 +351,8 @@ static void linear_extrapolation(const rad_mesh *mesh, const rad_vertex_patches 
              * the corner of the luminance (render --channels grey). */
             double phi = 1.0, dy = channel_luminance(step, nc);
             if (fitted && dy != 0.0) {
-                int edge = !edge_shared(mesh, adj, (uint32_t)p, patch->v[k], patch->v[(k + 1) % nv], crease_cos) ||
-                           !edge_shared(mesh, adj, (uint32_t)p, patch->v[k], patch->v[(k + nv - 1) % nv], crease_cos);
+                int edge = !edge_shared(mesh, adj, (uint32_t)p, patch->v[k], patch->v[(k + 1) % nv], rule) ||
+                           !edge_shared(mesh, adj, (uint32_t)p, patch->v[k], patch->v[(k + nv - 1) % nv], rule);
                 double widen = edge ? hi - lo : 0.0;
                 double top = hi + widen, bottom = fmax(0.0, lo - widen);
                 if (yp + dy > top) phi = (top - yp) / dy;
@@ -352,6 +379,13 @@ const char *render_shading_name(render_shading shading)
 rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, int channels, render_shading shading,
                                 double *out_corners)
 {
+    return render_shade_corners_smoothed(mesh, radiosity, channels, shading, NULL, out_corners);
+}
+
+rad_status render_shade_corners_smoothed(const rad_mesh *mesh, const double *radiosity, int channels,
+                                         render_shading shading, const render_smoothing *smoothing,
+                                         double *out_corners)
+{
     rad_status status = RAD_OK;
     rad_vertex_patches adj = {NULL, NULL};
     double *extrapolated = NULL; /* RENDER_SHADING_LINEAR: each patch's value at its corners */
@@ -376,7 +410,8 @@ rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, i
     }
     status = rad_vertex_patches_build(mesh, &adj);
     if (status != RAD_OK) goto done;
-    double crease_cos = cos(RAD_CREASE_DEGREES * RAD_PI / 180.0);
+    const surface_rule rule_value = {cos(RAD_CREASE_DEGREES * RAD_PI / 180.0), smoothing};
+    const surface_rule *rule = &rule_value;
     if (shading == RENDER_SHADING_LINEAR) {
         extrapolated = malloc((mesh->patch_count ? mesh->patch_count : 1) * 4 * nc * sizeof *extrapolated);
         if (!extrapolated) {
@@ -384,7 +419,7 @@ rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, i
             status = RAD_ERR_NOMEM;
             goto done;
         }
-        linear_extrapolation(mesh, &adj, radiosity, nc, crease_cos, extrapolated);
+        linear_extrapolation(mesh, &adj, radiosity, nc, rule, extrapolated);
     }
     for (size_t p = 0; p < mesh->patch_count; p++) {
         const rad_patch *patch = &mesh->patches[p];
@@ -393,7 +428,7 @@ rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, i
             double sum[3] = {0, 0, 0}, area = 0.0;
             for (size_t e = adj.start[v]; e < adj.start[v + 1]; e++) {
                 uint32_t q = adj.list[e];
-                if (q != p && !rad_same_surface(patch, &mesh->patches[q], crease_cos)) continue;
+                if (q != p && !same_surface(rule, patch, &mesh->patches[q])) continue;
                 double a = mesh->patches[q].area;
                 area += a;
                 const double *value = extrapolated ? &extrapolated[(4 * (size_t)q + corner_of(&mesh->patches[q], v)) * nc]
@@ -404,7 +439,7 @@ rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, i
             for (size_t c = 0; c < nc; c++) dst[c] = area > 0.0 ? sum[c] / area : radiosity[3 * p + c];
         }
     }
-    status = anchor_t_vertices(mesh, &adj, nc, crease_cos, out_corners);
+    status = anchor_t_vertices(mesh, &adj, nc, rule, out_corners);
 done:
     rad_vertex_patches_free(&adj);
     free(extrapolated);

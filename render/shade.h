@@ -50,4 +50,19 @@ const char *render_shading_name(render_shading shading);
 rad_status render_shade_corners(const rad_mesh *mesh, const double *radiosity, int channels, render_shading shading,
                                 double *out_corners);
 
+/* The OBJ's smoothing groups (`s N`; Blender's Shade Smooth writes `s 1`)
+ * by the scene's face (rad_patch.source_face): patches of faces in one
+ * group (not 0) with the same material blend across their shared corners
+ * whatever the angle between them, as a path tracer shades the surface
+ * with interpolated normals; other patches as above. */
+typedef struct render_smoothing {
+    const uint32_t *face_group; /* face_count entries: 0 = flat */
+    size_t face_count;
+} render_smoothing;
+
+/* render_shade_corners with smoothing groups (NULL: none). */
+rad_status render_shade_corners_smoothed(const rad_mesh *mesh, const double *radiosity, int channels,
+                                         render_shading shading, const render_smoothing *smoothing,
+                                         double *out_corners);
+
 #endif

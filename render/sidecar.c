@@ -43,7 +43,7 @@ static int sidecar_name(const char *path, char *out, size_t size)
  * 0 when it loads to another, -1 when it does not load (a --clamp-rho
  * scene, a broken file). Quiet: the loader's messages are about a file
  * render only identifies. */
-static int scene_matches(const char *path, uint64_t want)
+static int scene_load_matching(const char *path, uint64_t want, rad_scene *out_scene)
 {
     rad_log_level level = rad_log_get_level();
     rad_log_set_level(RAD_LOG_NONE);
@@ -55,12 +55,17 @@ static int scene_matches(const char *path, uint64_t want)
         options.ke_radiance = k >> 1;
         if (rad_scene_load_file(path, &options, &scene) == RAD_OK) {
             result = scene.fingerprint == want;
-            rad_scene_free(&scene);
+            if (result == 1 && out_scene)
+                *out_scene = scene; /* the caller's to free */
+            else
+                rad_scene_free(&scene);
         }
     }
     rad_log_set_level(level);
     return result;
 }
+
+static int scene_matches(const char *path, uint64_t want) { return scene_load_matching(path, want, NULL); }
 
 /* The built-in Cornell box's fingerprint (its radiosity files record no
  * scene path), or 0 if it cannot be loaded. */
@@ -101,6 +106,59 @@ static void warn_if_outside(const char *sidecar, const char *obj)
     free(real_sidecar);
 }
 
+/* The candidates for the scene's OBJ: the path itself; a relative one
+ * also from the radiosity file's folder. Returns their count (1 or 2),
+ * *found how many exist (a file reached twice counts once). */
+static int scene_candidates(const char *scene, const char *rad, candidate cand[2], int *found)
+{
+    int count = 0;
+    memset(cand, 0, 2 * sizeof *cand);
+    const char *rad_slash = strrchr(rad, '/');
+    snprintf(cand[count].obj, sizeof cand[count].obj, "%s", scene);
+    cand[count++].from = scene[0] == '/' ? "as recorded" : "from the current folder";
+    if (scene[0] != '/' && rad_slash) {
+        int n = snprintf(cand[count].obj, sizeof cand[count].obj, "%.*s/%s", (int)(rad_slash - rad), rad, scene);
+        if (n > 0 && (size_t)n < sizeof cand[count].obj) cand[count++].from = "from the radiosity file's folder";
+    }
+    *found = 0;
+    for (int k = 0; k < count; k++) {
+        cand[k].exists = is_regular(cand[k].obj, &cand[k].st);
+        if (k > 0 && cand[k].exists && cand[0].exists && cand[k].st.st_dev == cand[0].st.st_dev &&
+            cand[k].st.st_ino == cand[0].st.st_ino)
+            cand[k].exists = 0; /* the same file, reached twice */
+        *found += cand[k].exists;
+    }
+    return count;
+}
+
+int render_scene_smoothing(const render_sidecar_query *query, uint32_t **out_groups, size_t *out_count)
+{
+    *out_groups = NULL;
+    *out_count = 0;
+    const char *scene_path = query->scene_path ? query->scene_path : "";
+    if (!scene_path[0]) return 0;
+    candidate cand[2];
+    int found = 0, count = scene_candidates(scene_path, query->radiosity_path, cand, &found);
+    for (int k = 0; k < count; k++) {
+        rad_scene scene;
+        if (!cand[k].exists || scene_load_matching(cand[k].obj, query->scene_fingerprint, &scene) != 1) continue;
+        size_t smooth = 0;
+        for (size_t f = 0; f < scene.face_count; f++) smooth += scene.faces[f].smooth != 0;
+        uint32_t *groups = smooth ? malloc(scene.face_count * sizeof *groups) : NULL;
+        if (groups) {
+            for (size_t f = 0; f < scene.face_count; f++) groups[f] = scene.faces[f].smooth;
+            *out_groups = groups;
+            *out_count = scene.face_count;
+        } else if (smooth) {
+            rad_warn("%s: out of memory for the smoothing groups of %zu faces; drawn without them", cand[k].obj,
+                     scene.face_count);
+        }
+        rad_scene_free(&scene);
+        return groups != NULL;
+    }
+    return 0;
+}
+
 int render_sidecar_find(const render_sidecar_query *query, char *out_path, size_t size)
 {
     const char *scene = query->scene_path ? query->scene_path : "";
@@ -117,26 +175,8 @@ int render_sidecar_find(const render_sidecar_query *query, char *out_path, size_
         return 0;
     }
 
-    /* The candidates: the path itself; a relative one also from the
-     * radiosity file's folder. */
     candidate cand[2];
-    int count = 0;
-    memset(cand, 0, sizeof cand);
-    const char *rad_slash = strrchr(rad, '/');
-    snprintf(cand[count].obj, sizeof cand[count].obj, "%s", scene);
-    cand[count++].from = scene[0] == '/' ? "as recorded" : "from the current folder";
-    if (scene[0] != '/' && rad_slash) {
-        int n = snprintf(cand[count].obj, sizeof cand[count].obj, "%.*s/%s", (int)(rad_slash - rad), rad, scene);
-        if (n > 0 && (size_t)n < sizeof cand[count].obj) cand[count++].from = "from the radiosity file's folder";
-    }
-    int found = 0;
-    for (int k = 0; k < count; k++) {
-        cand[k].exists = is_regular(cand[k].obj, &cand[k].st);
-        if (k > 0 && cand[k].exists && cand[0].exists && cand[k].st.st_dev == cand[0].st.st_dev &&
-            cand[k].st.st_ino == cand[0].st.st_ino)
-            cand[k].exists = 0; /* the same file, reached twice */
-        found += cand[k].exists;
-    }
+    int found = 0, count = scene_candidates(scene, rad, cand, &found);
 
     if (!found) {
         /* No OBJ, so nothing says whose a sidecar there would be. */

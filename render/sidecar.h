@@ -45,4 +45,11 @@ typedef struct render_sidecar_query {
  * there is none to use (out_path ""). Logs as described above. */
 int render_sidecar_find(const render_sidecar_query *query, char *out_path, size_t size);
 
+/* The smoothing groups (OBJ `s`) of the scene solved, by face: found as
+ * above, but only an OBJ that loads to the radiosity file's fingerprint
+ * counts. Returns 1 with *out_groups (*out_count entries, 0 = flat; free
+ * it) when the scene is found and some face is in a group, else 0 with
+ * *out_groups NULL. Quiet but for lack of memory. */
+int render_scene_smoothing(const render_sidecar_query *query, uint32_t **out_groups, size_t *out_count);
+
 #endif

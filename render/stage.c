@@ -31,6 +31,8 @@ typedef struct stage_state {
     render_image_format format;
     render_frame_options frame;         /* resolved; the draw step sets its channels and luminance */
     rad_radiosity rf;                   /* owned */
+    uint32_t *smooth_groups;            /* owned: the OBJ's smoothing groups by face, or NULL */
+    render_smoothing smoothing;         /* over smooth_groups */
     render_camera camera;
     char camera_text[512];
     /* the draw step's */
@@ -83,6 +85,24 @@ static void warn_if_black(const char *input, const rad_mesh *mesh, const double 
         rad_warn("%s: the image is black: the camera sees nothing lit (%s); try the automatic framing "
                  "(--camera auto) or other --eye/--look-at",
                  input, camera_text);
+}
+
+/* The OBJ's smoothing groups (Shade Smooth), when the scene solved is
+ * found and has some: corners blend across its groups' edges (shade.h). */
+static void load_smoothing(stage_state *s)
+{
+    if (s->frame.shading == RENDER_SHADING_FLAT) return;
+    const render_sidecar_query query = {s->rf.scene_path, s->input, s->rf.scene_fingerprint};
+    size_t count = 0;
+    if (!render_scene_smoothing(&query, &s->smooth_groups, &count)) return;
+    size_t smooth = 0;
+    for (size_t f = 0; f < count; f++) smooth += s->smooth_groups[f] != 0;
+    s->smoothing.face_group = s->smooth_groups;
+    s->smoothing.face_count = count;
+    s->frame.smoothing = &s->smoothing;
+    rad_info("shading: %zu of %zu faces of %s are in smoothing groups (OBJ `s`, Blender's Shade Smooth): "
+             "blended across their edges",
+             smooth, count, s->rf.scene_path);
 }
 
 /* The picture's size from a camera file's `width`/`height` (render_camera)
@@ -196,6 +216,7 @@ static rad_status stage_load(stage_state *s)
         rad_error("%s: no patches to draw", s->input);
         return RAD_ERR_INVALID;
     }
+    load_smoothing(s);
     status = choose_camera(s->options, s->input, &s->rf, &s->frame, &s->camera);
     if (status != RAD_OK) return status;
     /* a camera file's width and height, times --spp */
@@ -330,6 +351,7 @@ rad_status render_stage_run(const render_options *options)
     if (status == RAD_OK) status = stage_draw(&s);
     if (status == RAD_OK) status = stage_write(&s);
     free(s.rgb);
+    free(s.smooth_groups);
     rad_radiosity_free(&s.rf);
     return status;
 }

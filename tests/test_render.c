@@ -408,6 +408,58 @@ static void test_shade_creases(void)
 
 /* A Cornell-sized room (floor, ceiling with a light, back, red left wall
  * at x = 556, green right wall at x = 0), patches with made-up radiosity. */
+/* Smoothing groups (OBJ `s`, Blender's Shade Smooth): two faces of a
+ * curved surface 30 degrees apart blend at their shared edge only when
+ * both are in one group and of one material; a face turned away (a thin
+ * plate's back) never does. */
+static void test_shade_smoothing_groups(void)
+{
+    const double white[3] = {0.7, 0.7, 0.7}, grey[3] = {0.5, 0.5, 0.5}, none[3] = {0, 0, 0};
+    test_mesh t = {{0}, 0, 0};
+    /* Patch 0 in y = 0 (normal +y), x in [-1, 0]; patch 1 bent up 30 degrees
+     * about the shared edge x = 0. Equal areas. */
+    double c = cos(RAD_PI / 6), sn = sin(RAD_PI / 6);
+    uint32_t a0 = add_vertex(&t, rad_v3(-1, 0, 0)), a1 = add_vertex(&t, rad_v3(0, 0, 0));
+    uint32_t a2 = add_vertex(&t, rad_v3(0, 0, -1)), a3 = add_vertex(&t, rad_v3(-1, 0, -1));
+    uint32_t b1 = add_vertex(&t, rad_v3(c, sn, 0)), b2 = add_vertex(&t, rad_v3(c, sn, -1));
+    add_quad(&t, (uint32_t[4]){a0, a1, a2, a3}, white, none)->source_face = 0;
+    add_quad(&t, (uint32_t[4]){a1, b1, b2, a2}, white, none)->source_face = 1;
+    RAD_CHECK(rad_v3_dot(t.mesh.patches[0].normal, t.mesh.patches[1].normal) < 0.9);
+    double b[2 * 3] = {1, 1, 1, 3, 3, 3}, corners[2 * 4 * 3];
+    /* Patch 0's corner 1 (vertex a1) lies on the shared edge. */
+    const size_t at = (4 * 0 + 1) * 3;
+    uint32_t one_group[2] = {1, 1}, two_groups[2] = {1, 2}, flat[2] = {0, 0};
+    render_smoothing same = {one_group, 2}, apart = {two_groups, 2}, none_set = {flat, 2};
+    for (int shading = 0; shading < 3; shading++) {
+        if (shading == RENDER_SHADING_FLAT) continue;
+        RAD_CHECK(render_shade_corners_smoothed(&t.mesh, b, 3, (render_shading)shading, NULL, corners) == RAD_OK);
+        RAD_CHECK_NEAR(corners[at], 1.0, 1e-12); /* a crease without groups */
+        RAD_CHECK(render_shade_corners_smoothed(&t.mesh, b, 3, (render_shading)shading, &apart, corners) == RAD_OK);
+        RAD_CHECK_NEAR(corners[at], 1.0, 1e-12);
+        RAD_CHECK(render_shade_corners_smoothed(&t.mesh, b, 3, (render_shading)shading, &none_set, corners) == RAD_OK);
+        RAD_CHECK_NEAR(corners[at], 1.0, 1e-12);
+    }
+    RAD_CHECK(render_shade_corners_smoothed(&t.mesh, b, 3, RENDER_SHADING_SMOOTH, &same, corners) == RAD_OK);
+    RAD_CHECK_NEAR(corners[at], 2.0, 1e-12); /* (1 + 3) / 2: equal areas */
+    RAD_CHECK_NEAR(corners[(4 * 1 + 0) * 3], 2.0, 1e-12);
+    RAD_CHECK_NEAR(corners[(4 * 0 + 0) * 3], 1.0, 1e-12); /* away from the edge */
+    /* Another material in the same group: no blending. */
+    memcpy(t.mesh.patches[1].rho, grey, sizeof grey);
+    RAD_CHECK(render_shade_corners_smoothed(&t.mesh, b, 3, RENDER_SHADING_SMOOTH, &same, corners) == RAD_OK);
+    RAD_CHECK_NEAR(corners[at], 1.0, 1e-12);
+    memcpy(t.mesh.patches[1].rho, white, sizeof white);
+    /* A face out of the group table's range: as without groups. */
+    render_smoothing short_table = {one_group, 1};
+    RAD_CHECK(render_shade_corners_smoothed(&t.mesh, b, 3, RENDER_SHADING_SMOOTH, &short_table, corners) == RAD_OK);
+    RAD_CHECK_NEAR(corners[at], 1.0, 1e-12);
+    /* Folded back on itself (normals apart): never blended. */
+    t.mesh.patches[1].normal = rad_v3_scale(t.mesh.patches[0].normal, -1.0);
+    RAD_CHECK(render_shade_corners_smoothed(&t.mesh, b, 3, RENDER_SHADING_SMOOTH, &same, corners) == RAD_OK);
+    RAD_CHECK_NEAR(corners[at], 1.0, 1e-12);
+    free(t.mesh.positions);
+    free(t.mesh.patches);
+}
+
 static void make_room(test_mesh *t, double **out_b)
 {
     const double white[3] = {0.7, 0.7, 0.7}, red[3] = {0.6, 0.06, 0.05}, green[3] = {0.14, 0.45, 0.09};
@@ -776,7 +828,7 @@ static void test_frame_room(void)
     render_camera_default(&t.mesh, 1.0, &cam, NULL);
     enum { W = 96, H = 96 };
     float *rgb = malloc(W * H * 3 * sizeof *rgb), *rgb2 = malloc(W * H * 3 * sizeof *rgb2);
-    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH, 3, 0};
+    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH, 3, 0, NULL};
     RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
     render_tonemap_apply(rgb, W * H, 3, render_tonemap_auto_scale(&t.mesh, b));
     RAD_CHECK(check_cornell(rgb, W, H) == 0);
@@ -809,7 +861,7 @@ static void test_frame_grey(void)
     if (!rgb || !grey || !lum) goto done;
     double scale = render_tonemap_auto_scale(&t.mesh, b);
     for (int shading = 0; shading < 2; shading++) {
-        render_frame_options opt = {W, H, 4, shading ? RENDER_SHADING_FLAT : RENDER_SHADING_SMOOTH, 3, 0};
+        render_frame_options opt = {W, H, 4, shading ? RENDER_SHADING_FLAT : RENDER_SHADING_SMOOTH, 3, 0, NULL};
         RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
         opt.channels = 1;
         RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, grey) == RAD_OK);
@@ -824,7 +876,7 @@ static void test_frame_grey(void)
     render_luminance_radiosity(b, t.mesh.patch_count, lum);
     RAD_CHECK_NEAR(lum[0], 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2], 1e-15);
     RAD_CHECK(lum[0] == lum[1] && lum[1] == lum[2]);
-    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH, 3, 0};
+    render_frame_options opt = {W, H, 4, RENDER_SHADING_SMOOTH, 3, 0, NULL};
     RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
     opt.channels = 1;
     RAD_CHECK(render_frame_draw(&t.mesh, lum, &cam, &opt, grey) == RAD_OK);
@@ -838,7 +890,7 @@ static void test_frame_grey(void)
     /* Linear shading limits its gradients, which is not linear in B: the
      * luminance picture is then drawn from the RGB corners (opt.luminance),
      * and is still the colour picture's luminance. */
-    opt = (render_frame_options){W, H, 4, RENDER_SHADING_LINEAR, 3, 0};
+    opt = (render_frame_options){W, H, 4, RENDER_SHADING_LINEAR, 3, 0, NULL};
     RAD_CHECK(render_frame_draw(&t.mesh, b, &cam, &opt, rgb) == RAD_OK);
     opt.channels = 1;
     opt.luminance = 1;
@@ -1182,6 +1234,7 @@ int main(int argc, char **argv)
     test_raster_grey();
     test_srgb();
     test_shade_creases();
+    test_shade_smoothing_groups();
     test_camera_parse();
     test_camera_default();
     test_camera_front();

@@ -759,9 +759,38 @@ static void test_blender_options(void)
     rad_scene_free(&as_radiosity);
 }
 
+/* `s N` / `s off` (Blender's Shade Smooth writes `s 1`): each face keeps
+ * the last group; not part of the fingerprint. */
+static void test_smoothing_groups(void)
+{
+    rad_scene s, flat;
+    RAD_CHECK(load_text(QUAD "f 1 2 3\ns 1\nf 1 3 4\ns off\nf 2 3 4\ns 7\nf 1 2 4\ns 0\nf 1 2 3\n", NULL, &s) ==
+              RAD_OK);
+    RAD_CHECK(s.face_count == 5);
+    if (s.face_count == 5) {
+        RAD_CHECK(s.faces[0].smooth == 0 && s.faces[1].smooth == 1 && s.faces[2].smooth == 0);
+        RAD_CHECK(s.faces[3].smooth == 7 && s.faces[4].smooth == 0);
+    }
+    RAD_CHECK(load_text(QUAD "f 1 2 3\nf 1 3 4\nf 2 3 4\nf 1 2 4\nf 1 2 3\n", NULL, &flat) == RAD_OK);
+    RAD_CHECK(flat.fingerprint == s.fingerprint);
+    rad_scene_free(&s);
+    rad_scene_free(&flat);
+    /* A polygon split into triangles keeps its group in every piece. */
+    RAD_CHECK(load_text("v 0 0 0\nv 0 2 0\nv 1 2 0\nv 1 1 0\nv 2 1 0\nv 2 0 0\ns 3\nf 1 2 3 4 5 6\n", NULL, &s) ==
+              RAD_OK);
+    for (size_t f = 0; f < s.face_count; f++) RAD_CHECK(s.faces[f].smooth == 3);
+    rad_scene_free(&s);
+    expect_error(QUAD "s\nf 1 2 3\n", NULL, RAD_ERR_PARSE, "x.obj:5: 's' needs one smoothing group: a number, or off");
+    expect_error(QUAD "s on\nf 1 2 3\n", NULL, RAD_ERR_PARSE,
+                 "x.obj:5: 's on': a smoothing group is a number from 0 to 4294967295, or off");
+    expect_error(QUAD "s -1\nf 1 2 3\n", NULL, RAD_ERR_PARSE, "x.obj:5: 's -1': a smoothing group is a number");
+    expect_error(QUAD "s 99999999999\nf 1 2 3\n", NULL, RAD_ERR_PARSE, "x.obj:5: 's 99999999999'");
+}
+
 int main(void)
 {
     test_errors();
+    test_smoothing_groups();
     test_blender_options();
     test_index_forms();
     test_encodings();
