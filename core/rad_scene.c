@@ -718,8 +718,9 @@ static void check_vn(loader *L, const source *src, size_t n)
         sum = rad_v3_add(sum, rad_v3(nv[0], nv[1], nv[2]));
     }
     rad_vec3 winding = newell(L->scene, L->poly, n);
-    int flipped = L->flip_normals != name_listed(L->flip_groups, L->scene->groups[L->group]);
-    double along = rad_v3_dot(sum, winding) * (flipped ? -1.0 : 1.0);
+    /* A group flipped by name contradicts its vn by design: not judged. */
+    if (name_listed(L->flip_groups, L->scene->groups[L->group])) return;
+    double along = rad_v3_dot(sum, winding) * (L->flip_normals ? -1.0 : 1.0);
     if (!(rad_v3_length(sum) > 0) || !(rad_v3_length(winding) > 0)) return;
     L->vn_faces++;
     if (along < 0 && L->vn_against++ == 0) snprintf(L->vn_first, sizeof L->vn_first, "%s:%u", src->path, src->line);

@@ -121,7 +121,9 @@ typedef struct rad_scene_options {
                           --flip-group): a room modelled from an outward cube
                           among objects that are right; a name the scene lacks
                           is RAD_ERR_INVALID. With flip_normals both apply
-                          (those groups end as written). */
+                          (those groups end as written). Their faces are not
+                          checked against their vn (flipping them by name
+                          contradicts their exported normals by design). */
     int ke_radiance;   /* 1: `Ke` is the emitted radiance L_e (W/m^2/sr; what
                           Blender's emission strength is), so each material's
                           emission is E = RAD_PI * Ke, the radiosity a diffuse

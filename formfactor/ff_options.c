@@ -121,7 +121,7 @@ const char ff_options_help[] =
     "                           their bound; a full disk stops the run, old output kept)\n"
     "      --max-seconds S      refuse, before writing anything, a run whose calibrated\n"
     "                           estimate (the estimate line) is longer than S seconds;\n"
-    "                           runs under 1024 patches are not calibrated and pass\n"
+    "                           runs under 256 patches are not calibrated and pass\n"
     "  -q, --quiet              only errors on stderr\n"
     "  -h, --help               this help\n"
     "      --version            print the version\n"

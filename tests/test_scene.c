@@ -753,10 +753,10 @@ static void test_blender_options(void)
     RAD_CHECK(!rad_test_log_contains("wound against"));
     rad_scene_free(&scene);
 
-    /* --flip-group (issue 30): only the named groups reversed, the vn check
-     * following them; a name the scene lacks is an error naming its groups. */
+    /* --flip-group (issue 30): only the named groups reversed, their faces
+     * not judged against their vn; a name the scene lacks is an error naming its groups. */
     rad_scene_options only_b = {.flip_groups = "b"};
-    RAD_CHECK(load_text_with(QUAD "o a\nf 1 2 3\no b\nvn 0 0 -1\nf 1//1 2//1 3//1 4//1\n", NULL, &only_b, &scene) ==
+    RAD_CHECK(load_text_with(QUAD "o a\nf 1 2 3\no b\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\n", NULL, &only_b, &scene) ==
               RAD_OK);
     RAD_CHECK(scene.face_count == 2 && scene.faces[0].v[0] == 0 && scene.faces[0].v[1] == 1);
     RAD_CHECK(scene.faces[1].v[0] == 3 && scene.faces[1].v[1] == 2 && scene.faces[1].v[3] == 0);
