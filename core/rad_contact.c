@@ -56,6 +56,10 @@ typedef struct cutter {
     const rad_scene *scene;
     double tol, min_length, offset; /* absolute, scene units */
     double gap;                     /* RAD_CONTACT_GAP, scene units */
+    double near;                    /* RAD_CONTACT_NEAR, scene units */
+    size_t near_count;              /* rad_contact_cut's near misses */
+    uint32_t near_face, near_cover;
+    double near_distance;
     rad_vec3 *normal;               /* per face, unit */
     rad_box *box;                   /* per face */
     double *pos;
@@ -546,12 +550,32 @@ static void grid(cutter *C, const uint32_t *v, uint32_t n, int level)
     for (int i = 0; i < 4; i++) grid(C, child[i], n, level - 1);
 }
 
+/* Counts g as a near miss of f (rad_contact_cut.near_count). */
+static void near_miss(cutter *C, uint32_t f, uint32_t g)
+{
+    const rad_face *G = &C->scene->faces[g];
+    rad_vec3 n = C->normal[f], p0 = face_corner(C, f, 0), centre = rad_v3(0, 0, 0);
+    if (!(rad_v3_dot(n, C->normal[g]) > 1.0 - 1e-9)) return;
+    double far = 0;
+    for (uint32_t k = 0; k < G->vertex_count; k++) {
+        rad_vec3 q = face_corner(C, g, k);
+        double d = rad_v3_dot(n, rad_v3_sub(q, p0));
+        if (!(d > C->gap) || d > C->near) return;
+        far = fmax(far, d);
+        centre = rad_v3_add(centre, rad_v3_scale(q, 1.0 / G->vertex_count));
+    }
+    if (!inside_any(C, &f, 1, centre)) return;
+    if (C->near_count++ == 0) C->near_face = f, C->near_cover = g, C->near_distance = far;
+}
+
 static void cut_face(cutter *C, uint32_t f)
 {
     const rad_face *F = &C->scene->faces[f];
     C->seg_count = C->opposite_count = C->covering_count = C->pool_count = C->piece_count = 0;
     for (uint32_t g = 0; g < C->scene->face_count && !C->failed; g++)
         if (g != f && boxes_meet(&C->box[f], &C->box[g], C->gap)) meet(C, f, g);
+    for (uint32_t g = 0; g < C->scene->face_count; g++)
+        if (g != f && boxes_meet(&C->box[f], &C->box[g], C->near)) near_miss(C, f, g);
     if (C->failed) return;
     double diameter = rad_box_diagonal(&C->box[f]);
     if (C->seg_count == 0 && C->opposite_count == 0 && C->covering_count == 0) {
@@ -603,6 +627,7 @@ rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, 
     double scene_diameter = rad_box_diagonal(&scene_box);
     C.tol = RAD_CONTACT_TOL * scene_diameter;
     C.gap = RAD_CONTACT_GAP * scene_diameter;
+    C.near = RAD_CONTACT_NEAR * scene_diameter;
     C.min_length = RAD_CONTACT_MIN_LENGTH * scene_diameter;
     C.offset = RAD_CONTACT_OFFSET * scene_diameter;
     for (uint32_t f = 0; f < nf && !C.failed; f++) cut_face(&C, f);
@@ -610,7 +635,9 @@ rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, 
     double *shrunk = realloc(C.pos, (C.vertex_count ? C.vertex_count : 1) * 3 * sizeof *shrunk);
     if (shrunk) C.pos = shrunk;
     *out_cut = (rad_contact_cut){.positions = C.pos, .vertex_count = C.vertex_count, .pieces = C.out,
-                                 .piece_count = C.out_count, .faces_cut = C.faces_cut, .pieces_hidden = C.hidden};
+                                 .piece_count = C.out_count, .faces_cut = C.faces_cut, .pieces_hidden = C.hidden,
+                                 .near_count = C.near_count, .near_face = C.near_face, .near_cover = C.near_cover,
+                                 .near_distance = C.near_distance, .gap = C.gap};
     C.pos = NULL;
     C.out = NULL;
     status = RAD_OK;

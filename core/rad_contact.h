@@ -39,7 +39,8 @@
  * resting on the floor and the ceiling behind a panel hung just under it
  * (the panel's back seen from the ceiling) disappear.
  *
- * Distances below RAD_CONTACT_TOL x the scene diameter (the bounding-box
+ * Such a face a little farther than the gap is counted as a near miss
+ * (not cut; the caller names it). Distances below RAD_CONTACT_TOL x the scene diameter (the bounding-box
  * diagonal of all faces' vertices) count as zero. Faces without contacts
  * come out as one piece, their own corners (same scene vertex indices).
  */
@@ -56,6 +57,8 @@
 #define RAD_CONTACT_MIN_LENGTH 1e-5 /* x scene diameter: shorter cut segments are ignored */
 #define RAD_CONTACT_GAP 1e-3        /* x scene diameter: a parallel face facing the same way this
                                        close in front of a face shuts in what is behind it */
+#define RAD_CONTACT_NEAR 1e-2       /* x scene diameter: such a face farther than the gap but at
+                                       most this far is a near miss (rad_contact_cut.near_count) */
 #define RAD_CONTACT_OFFSET 1e-5     /* x scene diameter: how far off a piece the inside test starts */
 #define RAD_CONTACT_RAYS 7          /* rays of the inside test: the normal and 6 at 50 degrees */
 #define RAD_CONTACT_GRID_MAX 4      /* deepest grid a cut face starts from (256 cells) */
@@ -73,6 +76,15 @@ typedef struct rad_contact_cut {
     size_t piece_count;
     size_t faces_cut;         /* faces with at least one cut line */
     size_t pieces_hidden;     /* pieces (grid cells or parts of them, whole faces) dropped as hidden */
+    /* Near misses: faces g parallel to a face f, facing the same way, in
+     * front of it over f (g's centre inside f) by more than the gap but at
+     * most RAD_CONTACT_NEAR x the scene diameter: not cut, so f's region
+     * behind g stays, unlit (a light panel hung 1 cm under a 5 m room's
+     * ceiling, whose gap is 8.7 mm). The count of such pairs, the first. */
+    size_t near_count;
+    uint32_t near_face, near_cover; /* f, g */
+    double near_distance;           /* g's farthest corner from f's plane, scene units */
+    double gap;                     /* RAD_CONTACT_GAP x the scene diameter, scene units */
 } rad_contact_cut;
 
 /* face_level: per face, the subdivision level it is meshed at (its grid

@@ -77,6 +77,16 @@ static rad_status make_pieces(const rad_scene *scene, const rad_mesh_options *op
         if (log)
             rad_info("contacts: %zu of %zu faces cut, %zu pieces dropped as hidden (%zu pieces meshed)", cut.faces_cut,
                      scene->face_count, cut.pieces_hidden, cut.piece_count);
+        if (log && cut.near_count) {
+            const rad_face *f = &scene->faces[cut.near_face], *g = &scene->faces[cut.near_cover];
+            rad_warn("%s:%u: a face of '%s' lies %.3g in front of the face of '%s' at line %u, parallel to it and "
+                     "facing the same way (%zu such pairs): farther than contact cutting reaches (%.3g here, 1e-3 of "
+                     "the scene's size), so the part behind it stays in the mesh, unlit, and the patches along its "
+                     "outline average light and shadow (a dark rim). Snap it onto that face (coplanar: then it is "
+                     "cut out, as a panel on a ceiling) or within %.3g of it",
+                     scene->path, g->line, scene->groups[g->group], cut.near_distance, scene->groups[f->group],
+                     f->line, cut.near_count, cut.gap, cut.gap);
+        }
     } else {
         cut.positions = malloc((scene->vertex_count ? scene->vertex_count : 1) * 3 * sizeof *cut.positions);
         cut.pieces = malloc((scene->face_count ? scene->face_count : 1) * sizeof *cut.pieces);

@@ -23,6 +23,15 @@
  * AREA_TOL * diameter^2. The diameter is the bounding-box diagonal. */
 #define PLANAR_TOL 1e-6
 #define AREA_TOL 1e-12
+/* ...or, where the file's coordinates are written with few decimals
+ * (Blender's exporter: 6), within what their rounding can move a vertex
+ * off a plane: PLANAR_QUANTUM_FACTOR x the rounding step (half a unit of
+ * the last decimal: each coordinate moves by at most that, a vertex by
+ * sqrt(3) of it, and the fitted plane with them), at most PLANAR_TOL_MAX
+ * of the face's diameter. A quad that far off its plane makes the same
+ * form factors as a flat one to far below the Monte Carlo noise. */
+#define PLANAR_QUANTUM_FACTOR 4.0
+#define PLANAR_TOL_MAX 1e-4
 /* A planar polygon whose triangles' areas differ from its own area by more
  * than this relative amount crosses itself. */
 #define SELF_INTERSECT_TOL 1e-9
@@ -69,8 +78,14 @@ typedef struct loader {
     uint32_t smooth;                     /* the last `s`: the faces' smoothing group (0 = off) */
     double clamp_rho;                    /* rad_scene_options */
     int flip_normals;
+    const char *flip_groups;             /* rad_scene_options: names, comma-separated, or NULL */
     int ke_radiance;
     size_t vn_faces, vn_against;         /* faces whose corners all have vn; of those, wound against them */
+    double coord_quantum;                /* largest rounding step of a `v` coordinate so far (0: none) */
+    size_t nonplanar, nonplanar_faces;   /* non-planar polygons triangulated; the faces they became */
+    unsigned nonplanar_first;            /* OBJ line of the first */
+    double nonplanar_worst;              /* largest distance off its plane / diameter */
+    char nonplanar_path[512];            /* the file of the first */
     char vn_first[600];                  /* file:line of the first one against */
     uint32_t material, group;            /* current `usemtl`, `g`/`o` */
     int have_usemtl, warned_default;
@@ -251,6 +266,19 @@ static rad_status parse_number(const source *src, const char *text, double *out)
     if (end == text || *end) return fail(src, RAD_ERR_PARSE, "bad number '%s'", text);
     *out = x;
     return RAD_OK;
+}
+
+/* The rounding step of a coordinate written with d decimals and no
+ * exponent ("0.123457": 5e-7), kept in L->coord_quantum (the largest).
+ * Integers and exponent forms are taken as exact. */
+static void note_precision(loader *L, const char *text)
+{
+    const char *dot = strchr(text, '.');
+    if (!dot || strpbrk(text, "eE")) return;
+    int decimals = 0;
+    while (dot[1 + decimals] >= '0' && dot[1 + decimals] <= '9') decimals++;
+    double quantum = 0.5 * pow(10.0, -decimals);
+    if (quantum > L->coord_quantum) L->coord_quantum = quantum;
 }
 
 /* Parses `count` numbers from tok[1..]; n = tokens on the line. */
@@ -574,7 +602,8 @@ static rad_status add_polygon(loader *L, const source *src, size_t n)
         rad_vec3 e1 = rad_v3_sub(position(s, v[(i + 1) % n]), p);
         if (!(rad_v3_dot(rad_v3_cross(e0, e1), unit) > 2 * min_area)) convex = 0;
     }
-    int planar = off_plane <= PLANAR_TOL * diam;
+    double tolerance = fmax(PLANAR_TOL * diam, fmin(PLANAR_QUANTUM_FACTOR * L->coord_quantum, PLANAR_TOL_MAX * diam));
+    int planar = off_plane <= tolerance;
     if (n <= 4 && planar && convex) return push_face(L, src, v, (uint32_t)n);
 
     /* Triangulate: ear clipping on the projection (it needs 2n indices). */
@@ -612,6 +641,15 @@ static rad_status add_polygon(loader *L, const source *src, size_t n)
                               "wind the other way round from the outer one and lie inside it)"
                             : "");
     size_t emitted = s->face_count - first;
+    if (!planar && !bridges) { /* counted, and said once for the scene (nonplanar_report) */
+        if (L->nonplanar++ == 0) {
+            L->nonplanar_first = src->line;
+            snprintf(L->nonplanar_path, sizeof L->nonplanar_path, "%s", src->path);
+        }
+        L->nonplanar_faces += emitted;
+        L->nonplanar_worst = fmax(L->nonplanar_worst, off_plane / diam);
+        return RAD_OK;
+    }
     char why[80];
     if (bridges)
         snprintf(why, sizeof why, "%s%zu hole%s joined by bridge edges", planar ? "" : "non-planar, ", bridges,
@@ -640,6 +678,52 @@ static rad_status parse_index(const source *src, const char *text, size_t count,
     return RAD_OK;
 }
 
+/* 1 when `name` is one of the comma-separated `list`'s names (NULL: none). */
+static int name_listed(const char *list, const char *name)
+{
+    size_t len = strlen(name);
+    for (const char *p = list; p && *p;) {
+        const char *comma = strchr(p, ',');
+        size_t n = comma ? (size_t)(comma - p) : strlen(p);
+        if (n == len && strncmp(p, name, n) == 0) return 1;
+        p = comma ? comma + 1 : NULL;
+    }
+    return 0;
+}
+
+/* rad_scene_options.flip_groups: every name must be a group of the scene
+ * (else RAD_ERR_INVALID naming the scene's groups); each group's faces
+ * are wound the other way round. */
+static rad_status flip_groups(rad_scene *s, const char *list)
+{
+    for (const char *p = list; p && *p;) {
+        const char *comma = strchr(p, ',');
+        size_t n = comma ? (size_t)(comma - p) : strlen(p);
+        size_t g = 1;
+        while (g < s->group_count && !(strlen(s->groups[g]) == n && strncmp(s->groups[g], p, n) == 0)) g++;
+        if (g == s->group_count) {
+            char names[512] = "";
+            for (size_t k = 1; k < s->group_count && strlen(names) + RAD_NAME_MAX + 8 < sizeof names; k++)
+                snprintf(names + strlen(names), sizeof names - strlen(names), "%s'%s'", k > 1 ? ", " : "",
+                         s->groups[k]);
+            rad_error("%s: --flip-group '%.*s': no object or group (`o` or `g`) of that name; the scene's: %s",
+                      s->path, (int)n, p, s->group_count > 1 ? names : "none (every face is in 'default')");
+            return RAD_ERR_INVALID;
+        }
+        p = comma ? comma + 1 : NULL;
+    }
+    for (size_t f = 0; f < s->face_count; f++) {
+        rad_face *face = &s->faces[f];
+        if (!name_listed(list, s->groups[face->group])) continue;
+        for (uint32_t a = 0, b = face->vertex_count - 1; a < b; a++, b--) {
+            uint32_t t = face->v[a];
+            face->v[a] = face->v[b];
+            face->v[b] = t;
+        }
+    }
+    return RAD_OK;
+}
+
 /* Does the face's winding (its Newell normal; reversed under
  * flip_normals) agree with its corners' vn normals? Counted, and the
  * first disagreement's place kept, for one warning per scene (vn_report):
@@ -654,6 +738,8 @@ static void check_vn(loader *L, const source *src, size_t n)
         sum = rad_v3_add(sum, rad_v3(nv[0], nv[1], nv[2]));
     }
     rad_vec3 winding = newell(L->scene, L->poly, n);
+    /* A group flipped by name contradicts its vn by design: not judged. */
+    if (name_listed(L->flip_groups, L->scene->groups[L->group])) return;
     double along = rad_v3_dot(sum, winding) * (L->flip_normals ? -1.0 : 1.0);
     if (!(rad_v3_length(sum) > 0) || !(rad_v3_length(winding) > 0)) return;
     L->vn_faces++;
@@ -666,13 +752,29 @@ static void vn_report(const loader *L)
     if (L->vn_against == L->vn_faces)
         rad_warn("%s: every face is wound against its vn normals (%zu faces): patches face the way the winding "
                  "says (counter-clockwise seen from the front, as OBJ defines it), so they face away from where "
-                 "the normals point; if the normals are right, run formfactor with %s",
-                 L->vn_first, L->vn_faces, L->flip_normals ? "without --flip-normals" : "--flip-normals");
+                 "the normals point; if the normals are right, run formfactor %s",
+                 L->vn_first, L->vn_faces, L->flip_normals ? "without --flip-normals" : "with --flip-normals");
     else
         rad_warn("%s: %zu of %zu faces with vn normals are wound against them (this is the first): patches "
                  "face the way the winding says; fix the winding in the modeller (Blender: Mesh > Normals > "
                  "Recalculate Outside, or Flip) and export again",
                  L->vn_first, L->vn_against, L->vn_faces);
+}
+
+/* Non-planar polygons split into triangles, said once: how many, and how
+ * much larger that makes the scene (a subdivided mesh's quads are mostly
+ * not planar: every one becomes two faces, and N about doubles). */
+static void nonplanar_report(const loader *L)
+{
+    if (L->nonplanar == 0) return;
+    const rad_scene *s = L->scene;
+    size_t without = s->face_count - L->nonplanar_faces + L->nonplanar;
+    rad_warn("%s:%u: %zu non-planar polygons (this is the first; the farthest off its plane by %.2g of its size, "
+             "beyond rounding) were split into %zu triangles: %zu faces where the file has %zu polygons, %.0f%% "
+             "more patches to compute; a subdivided or sculpted mesh's quads are rarely planar (export it "
+             "triangulated, or with fewer subdivisions, to choose the split yourself)",
+             L->nonplanar_path, L->nonplanar_first, L->nonplanar, L->nonplanar_worst, L->nonplanar_faces,
+             s->face_count, without, 100.0 * (double)(s->face_count - without) / (double)(without ? without : 1));
 }
 
 static rad_status parse_face(loader *L, const source *src, char **tok, size_t n)
@@ -832,6 +934,7 @@ static rad_status obj_statement(loader *L, const source *src, char **tok, size_t
         rad_status status = parse_numbers(src, tok, n, count, extra);
         if (status) return status;
         memcpy(p, extra, sizeof p);
+        for (int a = 0; a < 3; a++) note_precision(L, tok[1 + a]);
         if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2]))
             return fail(src, RAD_ERR_INVALID, "coordinate is NaN or infinite");
         for (int a = 0; a < 3; a++)
@@ -1027,6 +1130,7 @@ rad_status rad_scene_load_file(const char *path, const rad_scene_options *option
     L.read_file_user = options ? options->read_file_user : NULL;
     L.clamp_rho = options ? options->clamp_rho : 0;
     L.flip_normals = options ? options->flip_normals : 0;
+    L.flip_groups = options ? options->flip_groups : NULL;
     L.ke_radiance = options ? options->ke_radiance : 0;
     snprintf(scene.path, sizeof scene.path, "%s", path);
     scene.materials = reserve(NULL, &L.material_cap, 8, sizeof *scene.materials);
@@ -1041,6 +1145,7 @@ rad_status rad_scene_load_file(const char *path, const rad_scene_options *option
     scene.group_count = 1;
     status = load(&L, path, NULL, path, 0);
     if (!status) vn_report(&L);
+    if (!status) nonplanar_report(&L);
     if (L.warnings_hidden)
         rad_warn("%s: %zu more warnings not shown (the first %d are)", path, L.warnings_hidden, SCENE_WARNINGS_SHOWN);
     if (status) goto done;
@@ -1058,10 +1163,13 @@ rad_status rad_scene_load_file(const char *path, const rad_scene_options *option
                 face->v[b] = t;
             }
         }
+    if (L.flip_groups && (status = flip_groups(&scene, L.flip_groups)) != RAD_OK) goto done;
     if (L.ke_radiance) /* Ke was radiance: a diffuse emitter leaves E = pi L_e */
         for (size_t m = 1; m < scene.material_count; m++)
             for (int c = 0; c < 3; c++) scene.materials[m].emission[c] *= RAD_PI;
     scene.fingerprint = fingerprint(&scene);
+    scene.vn_face_count = L.vn_faces;
+    scene.vn_against_count = L.vn_against;
     *out_scene = scene;
     memset(&scene, 0, sizeof scene);
 done:

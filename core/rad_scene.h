@@ -38,7 +38,10 @@
  *  - anything else (n > 4, non-planar, non-convex) is triangulated with a
  *    note (warning) naming file:line; each triangle becomes its own face.
  * Planarity tolerance: every vertex within 1e-6 * (face diameter) of the
- * best-fit plane through the face's Newell normal and centroid. The
+ * best-fit plane through the face's Newell normal and centroid, or within
+ * 4x the rounding of the file's coordinates (half a unit of their last
+ * decimal; Blender writes 6), at most 1e-4 * diameter. Non-planar
+ * polygons split into triangles are counted and said once per scene. The
  * diameter is the bounding-box diagonal; "zero" area (and a zero turn, for
  * convexity) means below 1e-12 * diameter^2. A corner repeated right after
  * itself is removed (warning). Triangulation is ear clipping on the plane
@@ -85,11 +88,21 @@ typedef struct rad_scene {
     size_t vertex_count;
     rad_face *faces;
     size_t face_count;
-    rad_material *materials;  /* materials[0] is "default" (see below) */
+    rad_material *materials;  /* What every stage says of a scene where nothing emits, after its own
+ * words: the usual cause, lamps, and the remedy (issue 30). */
+#define RAD_SCENE_NO_LIGHT_HINT                                                                                   \
+    "Blender's lights (Light objects: point, sun, spot and area lamps, the default scene's 'Light') are not "    \
+    "written to OBJ files, so only emissive surfaces light a radiosity scene: give a mesh (a plane for a "     \
+    "panel) a material with Emission Strength > 0, which the exporter writes as Ke (read it with formfactor "  \
+    "--ke radiance); exports before Blender 2.9 write no Ke at all"
+
+/* materials[0] is "default" (see below) */
     size_t material_count;
     char (*groups)[RAD_NAME_MAX]; /* groups[0] is "default" */
     size_t group_count;
     uint64_t fingerprint;     /* hash of positions, faces and materials (rad_hash64) */
+    size_t vn_face_count;     /* faces with vn on every corner; of those, wound against them */
+    size_t vn_against_count;  /* (after flip_normals / flip_groups) */
 } rad_scene;
 
 /* Reads a whole file into memory. Returns RAD_ERR_IO if it cannot, with
@@ -105,6 +118,14 @@ typedef struct rad_scene_options {
                           --clamp-rho); 0: values outside [0, 1) are errors */
     int flip_normals;  /* every face wound the other way round (formfactor
                           --flip-normals): for scenes whose faces all point away */
+    const char *flip_groups; /* NULL, or comma-separated names of `o`/`g` groups whose
+                          faces are wound the other way round (formfactor
+                          --flip-group): a room modelled from an outward cube
+                          among objects that are right; a name the scene lacks
+                          is RAD_ERR_INVALID. With flip_normals both apply
+                          (those groups end as written). Their faces are not
+                          checked against their vn (flipping them by name
+                          contradicts their exported normals by design). */
     int ke_radiance;   /* 1: `Ke` is the emitted radiance L_e (W/m^2/sr; what
                           Blender's emission strength is), so each material's
                           emission is E = RAD_PI * Ke, the radiosity a diffuse
@@ -112,6 +133,14 @@ typedef struct rad_scene_options {
                           radiance); 0: `Ke` is E itself. The fingerprint is
                           of the E stored. */
 } rad_scene_options;
+
+/* What every stage says of a scene where nothing emits, after its own
+ * words: the usual cause, lamps, and the remedy (issue 30). */
+#define RAD_SCENE_NO_LIGHT_HINT                                                                                   \
+    "Blender's lights (Light objects: point, sun, spot and area lamps, the default scene's 'Light') are not "    \
+    "written to OBJ files, so only emissive surfaces light a radiosity scene: give a mesh (a plane for a "     \
+    "panel) a material with Emission Strength > 0, which the exporter writes as Ke (read it with formfactor "  \
+    "--ke radiance); exports before Blender 2.9 write no Ke at all"
 
 /* materials[0] is "default": rho 0.5 grey, no emission. Faces before any
  * `usemtl` use it (one warning per file); `usemtl` naming a material that no

@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "ff_backend.h"
+#include "rad_enclosure.h"
 #include "rad_ffile.h"
 #include "rad_fs.h"
 #include "rad_log.h"
@@ -39,16 +40,48 @@ static void warn_if_dark(const rad_scene *scene)
         if (e[0] > 0 || e[1] > 0 || e[2] > 0) return;
     }
     rad_warn("%s: no face emits light (no material it uses has Ke > 0), so solve's radiosity and render's image "
-             "will be black; the form factors are computed and written all the same", scene->path);
+             "will be black; the form factors are computed and written all the same. " RAD_SCENE_NO_LIGHT_HINT,
+             scene->path);
+}
+
+/* A room modelled from a closed mesh whose faces point outward, with
+ * objects or lights inside (rad_enclosure.h): light escapes through its
+ * back faces and its walls render black (issue 30: 98 % of the light
+ * escaped, no message anywhere). Refused, naming the flag that fixes it,
+ * unless the run flips normals or says --keep-normals, or every face is
+ * wound against its vn (the loader then names --flip-normals). */
+static rad_status check_enclosure(const ff_options *options, const rad_scene *scene)
+{
+    rad_enclosure shell;
+    if (options->keep_normals || options->flip_normals || options->flip_groups ||
+        (scene->vn_face_count > 0 && scene->vn_against_count == scene->vn_face_count) || /* the loader said
+                                                              --flip-normals: every face is against its vn */
+        !rad_enclosure_find_outward(scene, &shell))
+        return RAD_OK;
+    const char *name = scene->groups[shell.group];
+    char flag[RAD_NAME_MAX + 2]; /* the name as a shell takes it */
+    snprintf(flag, sizeof flag, strpbrk(name, " \t'\"") ? "'%s'" : "%s", name);
+    rad_error("%s:%u: object '%s' (%zu faces) encloses every other face, and %.0f%% of its area faces outward, "
+              "away from them: seen from inside, where the light is, it is invisible, so light escapes through "
+              "it and its walls render black. A room modelled from Blender's cube needs its normals flipped: "
+              "run formfactor with --flip-group %s (only that object; --flip-normals would turn the objects "
+              "inside it inside out), or in Blender select it, Edit Mode, Mesh > Normals > Flip, and export "
+              "again; --keep-normals runs the scene as it is",
+              scene->path, shell.line, name, shell.face_count, 100 * shell.outward_fraction, flag);
+    return RAD_ERR_INVALID;
 }
 
 rad_status ff_load_scene(const ff_options *options, rad_scene *out_scene)
 {
     rad_scene_options loader = {.read_file = read_scene_file, .read_file_user = (void *)options,
                                 .clamp_rho = options->clamp_rho, .flip_normals = options->flip_normals,
-                                .ke_radiance = options->ke_radiance};
+                                .flip_groups = options->flip_groups, .ke_radiance = options->ke_radiance};
     rad_status st = options->scene_path ? rad_scene_load_file(options->scene_path, &loader, out_scene)
                                         : rad_scene_load_default(out_scene);
+    if (st == RAD_OK && (st = check_enclosure(options, out_scene)) != RAD_OK) rad_scene_free(out_scene);
+    if (st == RAD_OK && options->flip_groups)
+        rad_info("%s: --flip-group %s: those objects' faces wound the other way round", out_scene->path,
+                 options->flip_groups);
     if (st == RAD_OK) warn_if_dark(out_scene);
     if (st == RAD_OK && options->ke_radiance)
         rad_info("%s: Ke read as emitted radiance L (--ke radiance): E = pi Ke", out_scene->path);

@@ -52,6 +52,13 @@ const char ff_options_help[] =
     "                           faces all point away from where the light is (a closed\n"
     "                           object used as a room, faces wound against their vn);\n"
     "                           OBJ scenes only\n"
+    "      --flip-group NAMES   wind only the faces of these OBJ objects or groups (`o`,\n"
+    "                           `g`; comma-separated) the other way round: a room made\n"
+    "                           from Blender's cube, unflipped, around objects that are\n"
+    "                           right (--flip-group Room); OBJ scenes only\n"
+    "      --keep-normals       run a scene whose enclosing object faces outward (away\n"
+    "                           from everything inside it) as it is; without it such a\n"
+    "                           scene is refused, naming the --flip-group to give\n"
     "      --clamp-rho R        set every Kd value above R (0 < R < 1) to R, saying which,\n"
     "                           instead of refusing Kd >= 1 (Blender's white is Kd 1);\n"
     "                           OBJ scenes only\n"
@@ -60,6 +67,10 @@ const char ff_options_help[] =
     "                           L (Blender's emission colour x strength, what Cycles\n"
     "                           draws), read as E = pi L; the files record it, and\n"
     "                           render then writes radiance. OBJ scenes only\n"
+    "      --preset P           final | preview (default: final): preview sets\n"
+    "                           --quad-rtol 1e-5 --shadow-rays 16 where not given, several\n"
+    "                           times faster on curved meshes for a picture that differs\n"
+    "                           by well under 1/255 (docs/performance.md, \"Presets\")\n"
     "      --samples K          point pairs per patch pair (default: 512)\n"
     "      --shadow-rays R      of those, pairs that carry a shadow ray (default: 32;\n"
     "                           0 = no occlusion)\n"
@@ -110,7 +121,7 @@ const char ff_options_help[] =
     "                           their bound; a full disk stops the run, old output kept)\n"
     "      --max-seconds S      refuse, before writing anything, a run whose calibrated\n"
     "                           estimate (the estimate line) is longer than S seconds;\n"
-    "                           runs under 1024 patches are not calibrated and pass\n"
+    "                           runs under 256 patches are not calibrated and pass\n"
     "  -q, --quiet              only errors on stderr\n"
     "  -h, --help               this help\n"
     "      --version            print the version\n"
@@ -127,6 +138,7 @@ typedef struct ff_name {
 
 static const ff_name backend_names[] = {
     {FF_BACKEND_AUTO, "auto"}, {FF_BACKEND_CPU, "cpu"}, {FF_BACKEND_CUDA, "cuda"}};
+static const ff_name preset_names[] = {{FF_PRESET_FINAL, "final"}, {FF_PRESET_PREVIEW, "preview"}};
 static const ff_name cull_names[] = {{FF_CULL_ALL, "all"}, {FF_CULL_NONE, "none"}};
 static const ff_name contacts_names[] = {{RAD_MESH_CONTACTS_CUT, "cut"}, {RAD_MESH_CONTACTS_KEEP, "keep"}};
 static const ff_name reciprocity_names[] = {
@@ -219,7 +231,8 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
     enum { O_SUBDIV = 256, O_ONLY, O_SAMPLES, O_RAYS, O_SEED, O_BACKEND, O_ELEMENT, O_FORMAT, O_THREADS, O_STATS,
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
-           O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT, O_KE };
+           O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT, O_KE,
+           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -239,7 +252,9 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"refine-max-patches", required_argument, 0, O_REFINE_MAX_PATCHES}, {"reuse", required_argument, 0, O_REUSE},
         {"contacts", required_argument, 0, O_CONTACTS}, {"max-seconds", required_argument, 0, O_MAX_SECONDS},
         {"allow-disk-overcommit", no_argument, 0, O_OVERCOMMIT}, {"ke", required_argument, 0, O_KE},
-        {0, 0, 0, 0}};
+        {"flip-group", required_argument, 0, O_FLIP_GROUP}, {"keep-normals", no_argument, 0, O_KEEP_NORMALS},
+        {"preset", required_argument, 0, O_PRESET}, {0, 0, 0, 0}};
+    int rays_given = 0, rtol_given = 0;
     uint64_t v = 0;
     int named = 0; /* an option's value read through a name table */
     rad_status st = RAD_OK;
@@ -258,7 +273,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
             break;
         case O_ONLY: o->subdiv_only = optarg; break;
         case O_SAMPLES: st = rad_parse_uint("--samples", optarg, 1, 1u << 24, &v); o->samples = (uint32_t)v; break;
-        case O_RAYS: st = rad_parse_uint("--shadow-rays", optarg, 0, 1u << 24, &v); o->shadow_rays = (uint32_t)v; break;
+        case O_RAYS: st = rad_parse_uint("--shadow-rays", optarg, 0, 1u << 24, &v); o->shadow_rays = (uint32_t)v, rays_given = 1; break;
         case O_SEED: st = rad_parse_uint("--seed", optarg, 0, UINT64_MAX, &v); o->seed = v; break;
         case O_THREADS: st = rad_parse_uint("--threads", optarg, 1, 1024, &v); o->threads = (int)v; break;
         case O_STATS: o->stats_path = optarg; break;
@@ -271,7 +286,16 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
             if (st == RAD_OK) o->element = (rad_element_type)named;
             break;
         case O_ESTIMATOR: st = parse_estimator(optarg, &o->estimator); break;
-        case O_QUAD_RTOL: st = parse_tolerance("--quad-rtol", optarg, &o->quad_rtol); break;
+        case O_QUAD_RTOL: st = parse_tolerance("--quad-rtol", optarg, &o->quad_rtol), rtol_given = 1; break;
+        case O_FLIP_GROUP:
+            o->flip_groups = optarg;
+            if (!*optarg || strstr(optarg, ",,") || optarg[0] == ',' || optarg[strlen(optarg) - 1] == ',') {
+                rad_error("--flip-group '%s': expected NAME[,NAME...] (the OBJ's `o` or `g` names)", optarg);
+                st = RAD_ERR_USAGE;
+            }
+            break;
+        case O_KEEP_NORMALS: o->keep_normals = 1; break;
+        case O_PRESET: st = parse_name("--preset", optarg, preset_names, FF_NAMES_COUNT(preset_names), &o->preset); break;
         case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
         case O_FLIP_NORMALS: o->flip_normals = 1; break;
         case O_KE: st = parse_name("--ke", optarg, ke_names, FF_NAMES_COUNT(ke_names), &o->ke_radiance); break;
@@ -324,6 +348,10 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         }
     }
     if (st != RAD_OK) return st;
+    if (o->preset == FF_PRESET_PREVIEW) { /* what the flags did not set */
+        if (!rays_given) o->shadow_rays = FF_PREVIEW_SHADOW_RAYS;
+        if (!rtol_given) o->quad_rtol = FF_PREVIEW_QUAD_RTOL;
+    }
     if (optind < argc) o->scene_path = argv[optind++];
     if (optind < argc) {
         rad_error("unexpected argument '%s' (one scene at a time)", argv[optind]);
@@ -384,10 +412,11 @@ static rad_status check_options(ff_options *o)
                   o->subdiv, o->refine_path);
         return RAD_ERR_USAGE;
     }
-    if (!o->scene_path && (o->flip_normals || o->clamp_rho > 0 || o->ke_radiance)) {
+    if (!o->scene_path && (o->flip_normals || o->flip_groups || o->clamp_rho > 0 || o->ke_radiance)) {
         rad_error("%s: applies to OBJ scenes; the built-in Cornell box's faces point inward, its Kd are below 1 "
                   "and its Ke is radiosity",
-                  o->flip_normals ? "--flip-normals" : o->clamp_rho > 0 ? "--clamp-rho" : "--ke radiance");
+                  o->flip_normals ? "--flip-normals" : o->flip_groups ? "--flip-group"
+                                  : o->clamp_rho > 0 ? "--clamp-rho" : "--ke radiance");
         return RAD_ERR_USAGE;
     }
     if (o->reuse_path && o->estimator == RAD_ESTIMATOR_QUADRATURE &&

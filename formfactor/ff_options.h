@@ -67,6 +67,11 @@ typedef struct ff_options {
     double max_seconds;      /* --max-seconds: refuse a run estimated to take longer; 0 = no limit */
     int allow_disk_overcommit; /* --allow-disk-overcommit: run a sparse file whose bound is over 10x the free space */
     int flip_normals;        /* --flip-normals: every face wound the other way */
+    const char *flip_groups; /* --flip-group NAME[,NAME...]: those OBJ objects/groups' faces wound
+                                the other way (rad_scene_options.flip_groups); NULL = none */
+    int keep_normals;        /* --keep-normals: run a scene enclosed by an outward-facing shell
+                                (rad_enclosure.h) as it is instead of refusing it */
+    int preset;              /* --preset: FF_PRESET_FINAL (default) or FF_PRESET_PREVIEW */
     int ke_radiance;         /* --ke radiance: Ke is emitted radiance, E = pi Ke
                                 (rad_scene_options.ke_radiance); 0 = --ke radiosity */
     const char *refine_path; /* --refine RADIOSITY: split that solution's mesh; NULL = none */
@@ -83,6 +88,15 @@ typedef struct ff_options {
     double progress_seconds; /* RAD_PROGRESS_SECONDS: progress lines every so many seconds; 0 = by the estimate */
     int finish_on_host;      /* RAD_FF_FINISH=host: the CPU finishes rows a GPU would encode (the same bytes) */
 } ff_options;
+
+/* --preset preview: where not given, --quad-rtol FF_PREVIEW_QUAD_RTOL and
+ * --shadow-rays FF_PREVIEW_SHADOW_RAYS. On curved Blender meshes (the
+ * corpus room with a smooth UV sphere, subdivided Suzanne) that was 7.7x
+ * faster than the defaults for a picture 0.4/255 from theirs on average
+ * (issue 30; docs/performance.md, "Presets"). final: the defaults. */
+enum { FF_PRESET_FINAL = 0, FF_PRESET_PREVIEW = 1 };
+#define FF_PREVIEW_QUAD_RTOL 1e-5
+#define FF_PREVIEW_SHADOW_RAYS 16
 
 /* Parses argv (getopt_long: "--name VALUE", "--name=VALUE", unambiguous
  * abbreviations, "-oFILE") into *out, defaults filled in, reads the

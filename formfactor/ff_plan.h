@@ -104,11 +104,15 @@ typedef struct ff_plan {
      * system). */
     double file_bytes;
     /* Per rank, from an even split (so the same before and after it): the
+     * program itself (code and libraries, FF_PLAN_PROCESS_BYTES), the
      * mesh and its vertex bound, kernel patches, the prologue (rank 0),
      * checksums, and a round of rows as double plus its stored copy, for
-     * the values and (standard_errors) their errors; with --reciprocity
-     * on, the rank's whole block of rows instead of a round (auto only
-     * picks it when it fits in a quarter of the memory). */
+     * the values and (standard_errors) their errors; with each pair
+     * computed once (pairs_once: --reciprocity on, or auto where it fits
+     * in a quarter of the memory), the rank's whole block of rows as
+     * doubles, values and errors, instead of a round (the refusal is
+     * judged before, on the streamed plan: auto picks the block only
+     * where it fits). */
     double memory_bytes;
     int gpu;              /* the CUDA backend: --backend cuda, or auto with a GPU visible */
     /* Each unordered pair computed once, the other entry copied

@@ -106,14 +106,32 @@ void ff_progress_call_end(ff_progress *p)
  * bounded memory and time (N = 326 698: 4 rows, not 1/64 of the run). A
  * GPU's chunks of a small scene are mostly launch latency, so small runs
  * are overestimated; runs of fewer than FF_CALIBRATION_MIN patches take
- * seconds and are not calibrated. */
-#define FF_CALIBRATION_CHUNKS 4
-#define FF_CALIBRATION_MIN 1024
+ * seconds and are not calibrated. 16 chunks, not four, and from 256
+ * patches, not 1024: a room's costly rows (a floor under objects: shadow
+ * rays for most pairs) lie in a few percent of the matrix, which four
+ * chunks missed (20 s said, 74 s taken at N = 9286; issue 30), and
+ * curved meshes took 83 s below 1024 patches, where nothing was said.
+ * Where FF_CALIBRATION_PAIRS allows fewer than one row a chunk, fewer
+ * chunks (calibration_chunks). */
+#define FF_CALIBRATION_CHUNKS 16
+#define FF_CALIBRATION_MIN 256
+/* At least this many rows a chunk (FF_CALIBRATION_PAIRS allowing): the
+ * threads share a chunk's rows, and a chunk of one row each left one
+ * thread waiting on the other's costlier row at every chunk. */
+#define FF_CALIBRATION_CHUNK_ROWS 4
 #define FF_CALIBRATION_PAIRS ((uint64_t)1 << 21)
-/* The first row of calibration chunk k: chunks centred in equal parts of the matrix. */
-static uint32_t calibration_row(uint32_t n, uint32_t chunk, uint32_t k)
+/* How many chunks: FF_CALIBRATION_CHUNKS, fewer where FF_CALIBRATION_PAIRS
+ * holds fewer rows (at least one). */
+static uint32_t calibration_chunks(uint32_t n)
 {
-    uint64_t centre = (uint64_t)n * (2 * k + 1) / (2 * FF_CALIBRATION_CHUNKS);
+    uint64_t rows = FF_CALIBRATION_PAIRS / (n ? n : 1);
+    return rows >= FF_CALIBRATION_CHUNKS ? FF_CALIBRATION_CHUNKS : rows > 0 ? (uint32_t)rows : 1;
+}
+
+/* The first row of calibration chunk k of `chunks`: chunks centred in equal parts of the matrix. */
+static uint32_t calibration_row(uint32_t n, uint32_t chunks, uint32_t chunk, uint32_t k)
+{
+    uint64_t centre = (uint64_t)n * (2 * k + 1) / (2 * chunks);
     uint32_t r0 = centre > chunk / 2 ? (uint32_t)(centre - chunk / 2) : 0;
     return r0 + chunk > n ? n - chunk : r0;
 }
@@ -129,11 +147,12 @@ static double busiest_rows(const ff_progress *p, const ff_plan *plan)
 }
 
 /* Rows in each calibration chunk: 1/64 of the matrix over the chunks (at
- * least 2 rows a chunk), within FF_CALIBRATION_PAIRS (at least 1). */
+ * least FF_CALIBRATION_CHUNK_ROWS), within FF_CALIBRATION_PAIRS (at least 1). */
 static uint32_t calibration_chunk(uint32_t n)
 {
-    uint32_t chunk = n / 64 / FF_CALIBRATION_CHUNKS > 2 ? n / 64 / FF_CALIBRATION_CHUNKS : 2;
-    uint64_t most = FF_CALIBRATION_PAIRS / FF_CALIBRATION_CHUNKS / (n ? n : 1);
+    uint32_t chunks = calibration_chunks(n);
+    uint32_t chunk = n / 64 / chunks > FF_CALIBRATION_CHUNK_ROWS ? n / 64 / chunks : FF_CALIBRATION_CHUNK_ROWS;
+    uint64_t most = FF_CALIBRATION_PAIRS / chunks / (n ? n : 1);
     if (most < 1) most = 1;
     return chunk > most ? (uint32_t)most : chunk;
 }
@@ -143,7 +162,7 @@ static uint32_t calibration_chunk(uint32_t n)
 static void calibrate(ff_progress *p, const ff_estimate_inputs *in, uint32_t chunk, double *out_seconds,
                       const char **out_failed)
 {
-    uint32_t n = p->patch_count;
+    uint32_t n = p->patch_count, chunks = calibration_chunks(n);
     const ff_backend *backend = in->backend;
     ff_counters scratch = {0};
     rad_status st = RAD_OK;
@@ -155,9 +174,9 @@ static void calibrate(ff_progress *p, const ff_estimate_inputs *in, uint32_t chu
         ff_rows_summary ignored = {0};
         p->calibrating = 1;
         double t0 = rad_clock_seconds();
-        for (uint32_t k = 0; k < FF_CALIBRATION_CHUNKS && st == RAD_OK; k++) {
+        for (uint32_t k = 0; k < chunks && st == RAD_OK; k++) {
             ff_records values, errors;
-            st = backend->compute_records(in->backend_state, calibration_row(n, chunk, k), chunk,
+            st = backend->compute_records(in->backend_state, calibration_row(n, chunks, chunk, k), chunk,
                                           in->options->element, &values, in->options->errors_path ? &errors : NULL,
                                           &ignored, &scratch);
         }
@@ -171,8 +190,8 @@ static void calibrate(ff_progress *p, const ff_estimate_inputs *in, uint32_t chu
     if (rows && (errors || !in->want_errors)) {
         p->calibrating = 1;
         double t0 = rad_clock_seconds();
-        for (uint32_t k = 0; k < FF_CALIBRATION_CHUNKS && st == RAD_OK; k++) {
-            st = backend->compute_rows(in->backend_state, calibration_row(n, chunk, k), chunk, rows, errors,
+        for (uint32_t k = 0; k < chunks && st == RAD_OK; k++) {
+            st = backend->compute_rows(in->backend_state, calibration_row(n, chunks, chunk, k), chunk, rows, errors,
                                        &scratch);
         }
         *out_seconds = rad_clock_seconds() - t0;
@@ -191,11 +210,11 @@ rad_status ff_progress_estimate(ff_progress *p, const ff_estimate_inputs *in)
     const ff_plan *plan = in->plan;
     int ranks = ff_comm_size(p->comm);
     double seconds = -1, calibration = 0;
-    uint32_t chunk = calibration_chunk(n);
+    uint32_t chunk = calibration_chunk(n), rows = calibration_chunks(n) * chunk;
     const char *failed = NULL; /* why a calibrated run has no time */
     if (n >= FF_CALIBRATION_MIN) {
         calibrate(p, in, chunk, &calibration, &failed);
-        if (!failed) seconds = calibration * (busiest_rows(p, plan) / (FF_CALIBRATION_CHUNKS * chunk));
+        if (!failed) seconds = calibration * (busiest_rows(p, plan) / rows);
     }
     char bytes[32], memory[32], time[32], took[32];
     /* The sparse format's size is known once written: the dense size bounds it. */
@@ -205,18 +224,19 @@ rad_status ff_progress_estimate(ff_progress *p, const ff_estimate_inputs *in)
                  "(calibrated on %u of %u rows in %s)",
                  bound, ff_progress_format_bytes(plan->file_bytes, bytes, sizeof bytes),
                  ff_progress_format_bytes(plan->memory_bytes, memory, sizeof memory),
-                 ff_progress_format_seconds(seconds, time, sizeof time), ranks, FF_CALIBRATION_CHUNKS * chunk, n,
+                 ff_progress_format_seconds(seconds, time, sizeof time), ranks, rows, n,
                  ff_progress_format_seconds(calibration, took, sizeof took));
     else if (failed)
         rad_info("estimate: %s%s to write, about %s of memory per rank, time of form factors unknown (the "
                  "calibration on %u of %u rows could not run: %s)", bound,
                  ff_progress_format_bytes(plan->file_bytes, bytes, sizeof bytes),
-                 ff_progress_format_bytes(plan->memory_bytes, memory, sizeof memory), FF_CALIBRATION_CHUNKS * chunk,
+                 ff_progress_format_bytes(plan->memory_bytes, memory, sizeof memory), rows,
                  n, failed);
     else
-        rad_info("estimate: %s%s to write, about %s of memory per rank, seconds of form factors", bound,
+        rad_info("estimate: %s%s to write, about %s of memory per rank, seconds of form factors (under %d "
+                 "patches: not calibrated)", bound,
                  ff_progress_format_bytes(plan->file_bytes, bytes, sizeof bytes),
-                 ff_progress_format_bytes(plan->memory_bytes, memory, sizeof memory));
+                 ff_progress_format_bytes(plan->memory_bytes, memory, sizeof memory), FF_CALIBRATION_MIN);
     p->estimated_seconds = seconds;
     p->every = seconds / 40 > 2.0 ? seconds / 40 : 2.0;
     if (p->tty) p->every = 0.5;

@@ -263,16 +263,19 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
     rad_info("row sums: min %.6f  max %.6f  mean %.6f", all.rows.row_sum_min, all.rows.row_sum_max,
              run->patch_count ? all.rows.row_sum_total / run->patch_count : 0.0);
     if (run->patch_count > 1 && !(all.rows.row_sum_max > 0))
-        rad_warn("every form factor is 0: no two patches face each other, so no light is exchanged. Do the faces "
-                 "point away from each other - a closed object seen from inside, such as Blender's default cube "
-                 "used as a room? Run again with --flip-normals, or reverse the faces' vertex order (in Blender: "
-                 "Mesh > Normals > Flip)");
+        rad_warn("every form factor is 0: no two patches face each other, so no light is exchanged. Right for one "
+                 "convex object seen from outside (Blender's default cube); a room seen from inside needs its "
+                 "faces pointing inward: run again with --flip-normals (every face) or --flip-group NAME (one "
+                 "OBJ object), or in Blender: Edit Mode, Mesh > Normals > Flip");
     const ff_rows_summary *e = &all.rows;
+    /* The entries with an error are those with F > 0, so their F sum to row_sum_total. */
+    double mean_error = e->error_count ? e->error_sum / e->error_count : 0.0;
+    double mean_f = e->error_count ? all.rows.row_sum_total / e->error_count : 0.0;
     if (run->errors)
-        rad_info("standard errors of F > 0: mean %.3g (%.2g%% of F), max %.3g at F[%u][%u] = %.3g",
-                 e->error_count ? e->error_sum / e->error_count : 0.0,
-                 e->error_count ? 100.0 * e->error_relative_sum / e->error_count : 0.0, e->error_max,
-                 e->error_max_row, e->error_max_column, e->error_max_value);
+        rad_info("standard errors of the %llu entries F > 0: mean %.3g against their mean F %.3g (%.3g%%), max %.3g "
+                 "at F[%u][%u] = %.3g", (unsigned long long)e->error_count, mean_error, mean_f,
+                 mean_f > 0 ? 100.0 * mean_error / mean_f : 0.0, e->error_max, e->error_max_row,
+                 e->error_max_column, e->error_max_value);
     if (run->target_error > 0 && c->pairs_capped == 0)
         rad_info("--target-error %.3g: met by every pair (%llu took more samples or rays)", run->target_error,
                  (unsigned long long)c->pairs_refined);

@@ -9,6 +9,7 @@
 
 #include <sys/stat.h>
 
+#include "rad_enclosure.h"
 #include "rad_log.h"
 #include "rad_scene.h"
 
@@ -39,7 +40,8 @@ static int sidecar_name(const char *path, char *out, size_t size)
 }
 
 /* 1 when the OBJ at `path` loads (default options, --flip-normals, then
- * both again with --ke radiance) to the fingerprint `want`,
+ * --flip-group of its outward-facing enclosing object (rad_enclosure.h),
+ * each with --ke radiosity and radiance) to the fingerprint `want`,
  * 0 when it loads to another, -1 when it does not load (a --clamp-rho
  * scene, a broken file). Quiet: the loader's messages are about a file
  * render only identifies. */
@@ -48,12 +50,17 @@ static int scene_load_matching(const char *path, uint64_t want, rad_scene *out_s
     rad_log_level level = rad_log_get_level();
     rad_log_set_level(RAD_LOG_NONE);
     int result = -1;
-    for (int k = 0; k < 4 && result != 1; k++) {
+    char shell[RAD_NAME_MAX] = "";
+    for (int k = 0; k < 6 && result != 1; k++) {
         rad_scene scene;
         rad_scene_options options = {0};
-        options.flip_normals = k & 1;
-        options.ke_radiance = k >> 1;
+        options.flip_normals = k % 3 == 1;
+        options.ke_radiance = k / 3;
+        if (k % 3 == 2 && !shell[0]) continue; /* no such object */
+        if (k % 3 == 2) options.flip_groups = shell;
         if (rad_scene_load_file(path, &options, &scene) == RAD_OK) {
+            rad_enclosure e;
+            if (k == 0 && rad_enclosure_find_outward(&scene, &e)) snprintf(shell, sizeof shell, "%s", scene.groups[e.group]);
             result = scene.fingerprint == want;
             if (result == 1 && out_scene)
                 *out_scene = scene; /* the caller's to free */

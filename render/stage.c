@@ -17,6 +17,7 @@
 #include "rad_fs.h"
 #include "rad_log.h"
 #include "rad_rfile.h"
+#include "rad_scene.h"
 #include "raster.h"
 #include "sidecar.h"
 #include "tonemap.h"
@@ -35,6 +36,7 @@ typedef struct stage_state {
     render_smoothing smoothing;         /* over smooth_groups */
     render_camera camera;
     char camera_text[512];
+    int framed_automatically; /* the camera is the automatic framing, no --eye/--look-at/--up/--fov on it */
     /* the draw step's */
     int luminance;                      /* one channel drawn from a colour scene's luminance */
     int radiance;                       /* the EXR holds L = B / pi (--quantity, else the file's Ke) */
@@ -71,16 +73,20 @@ static rad_status default_output(const char *input, char *out, size_t out_size)
 /* A black image is never silent: it says whether nothing emits (every
  * radiosity 0) or the camera sees nothing lit. */
 static void warn_if_black(const char *input, const rad_mesh *mesh, const double *radiosity, uint32_t channels,
-                          const float *pixels, size_t values, const char *camera_text)
+                          const float *pixels, size_t values, const char *camera_text, int framed_automatically)
 {
     for (size_t k = 0; k < values; k++)
         if (pixels[k] != 0.0f) return;
     int lit = 0;
     for (size_t k = 0; k < mesh->patch_count * channels && !lit; k++) lit = radiosity[k] != 0.0;
     if (!lit)
-        rad_warn("%s: the image is black: every radiosity is 0, so nothing emits light (no material with Ke > 0; "
-                 "Blender exports before 2.9 write no Ke)",
-                 input);
+        rad_warn("%s: the image is black: every radiosity is 0, so nothing emits light (no material with Ke > 0). "
+                 RAD_SCENE_NO_LIGHT_HINT, input);
+    else if (framed_automatically)
+        rad_warn("%s: the image is black: the camera, framed automatically around the whole scene, sees nothing "
+                 "lit (%s): the lit faces turn away from it or are hidden (formfactor's warnings name faces that "
+                 "point the wrong way); place the camera with --eye/--look-at or a camera sidecar",
+                 input, camera_text);
     else
         rad_warn("%s: the image is black: the camera sees nothing lit (%s); try the automatic framing "
                  "(--camera auto) or other --eye/--look-at",
@@ -124,7 +130,7 @@ static void size_from_camera(const render_options *options, const render_camera 
 /* The camera: file or default, then the flags on top; a file's size into
  * *frame (size_from_camera). */
 static rad_status choose_camera(const render_options *options, const char *input, const rad_radiosity *rf,
-                                render_frame_options *frame, render_camera *out)
+                                render_frame_options *frame, render_camera *out, int *out_automatic)
 {
     rad_status status = RAD_OK;
     int cornell = 0;
@@ -155,6 +161,7 @@ static rad_status choose_camera(const render_options *options, const char *input
     if (options->have_up) out->up = options->up;
     if (options->have_fov) out->fov_y = options->fov_y;
     int overridden = options->have_eye || options->have_look_at || options->have_up || options->have_fov;
+    *out_automatic = strcmp(source, "automatic framing") == 0 && !overridden;
     /* --eye/--look-at along the up that came with the camera (the default
      * frames with z or y up): without --up of their own, take the axis
      * most across the view instead of refusing. */
@@ -217,7 +224,7 @@ static rad_status stage_load(stage_state *s)
         return RAD_ERR_INVALID;
     }
     load_smoothing(s);
-    status = choose_camera(s->options, s->input, &s->rf, &s->frame, &s->camera);
+    status = choose_camera(s->options, s->input, &s->rf, &s->frame, &s->camera, &s->framed_automatically);
     if (status != RAD_OK) return status;
     /* a camera file's width and height, times --spp */
     status = render_raster_check(&(render_raster_options){frame->width, frame->height, frame->spp, 1, 1.0, 0}, NULL);
@@ -265,7 +272,7 @@ static rad_status stage_draw(stage_state *s)
     if (status != RAD_OK) return status;
     s->draw_seconds = rad_clock_seconds() - t_draw;
     warn_if_black(s->input, &rf->mesh, rf->radiosity, rf->channel_count, s->rgb,
-                  (size_t)frame->channels * s->pixels, s->camera_text);
+                  (size_t)frame->channels * s->pixels, s->camera_text, s->framed_automatically);
     return RAD_OK;
 }
 

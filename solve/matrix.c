@@ -453,11 +453,16 @@ solve_row_sum_summary solve_matrix_warn_row_sums(const solve_matrix *matrix, con
                  path, s.warned, SOLVE_ROW_SUM_SIGMAS, SOLVE_ROW_SUM_SLACK,
                  SOLVE_ROW_SUM_CHANCE * (double)matrix->patch_count, matrix->patch_count, worst,
                  matrix->row_sum[worst], sigma);
+    } else if (s.warned && s.max <= SOLVE_ROW_SUM_NOISE) {
+        rad_info("%s: %zu rows sum to more than %g (largest: row %zu, %.9g): the Monte Carlo noise of the form "
+                 "factors, below %g, which does not show in a picture",
+                 path, s.warned, SOLVE_ROW_SUM_WARN, s.max_row, s.max, SOLVE_ROW_SUM_NOISE);
     } else if (s.warned) {
-        rad_warn("%s: %zu rows sum to more than %g, which exact form factors do not (largest: row %zu, %.9g); "
-                 "this is Monte Carlo noise (samples, shadow rays) or bias: pass the file of formfactor --errors "
-                 "as --errors to tell which; solving anyway",
-                 path, s.warned, SOLVE_ROW_SUM_WARN, s.max_row, s.max);
+        rad_warn("%s: %zu rows sum to more than %g, which exact form factors do not (largest: row %zu, %.9g, over "
+                 "%g): those patches reflect light that was never sent. More formfactor --shadow-rays (or "
+                 "--samples with --estimator mc) lowers noise; formfactor --errors FILE, passed to solve as "
+                 "--errors, tells noise from bias; solving anyway",
+                 path, s.warned, SOLVE_ROW_SUM_WARN, s.max_row, s.max, SOLVE_ROW_SUM_NOISE);
     }
     return s;
 }

@@ -298,8 +298,8 @@ static rad_status stage_load(stage_state *s)
     for (size_t i = 0; i < n && !emits; i++)
         emits = mesh->patches[i].emission[0] > 0 || mesh->patches[i].emission[1] > 0 || mesh->patches[i].emission[2] > 0;
     if (!emits)
-        rad_warn("%s: no patch emits light (no material has Ke > 0; Blender exports before 2.9 write no Ke): every "
-                 "radiosity is 0 and an image of it is black",
+        rad_warn("%s: no patch emits light (no material has Ke > 0): every radiosity is 0 and an image of it is "
+                 "black. " RAD_SCENE_NO_LIGHT_HINT,
                  s->input);
     s->grey = scene_is_grey(mesh);
     s->channels = s->grey ? 1 : 3;

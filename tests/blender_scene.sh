@@ -16,7 +16,11 @@ has_render=0; [ -x "$bin/render" ] && has_render=1
 
 # 1. Blender 2.9+ (Ke written): clean from scene to image.
 "$bin/formfactor" room.obj --subdiv 1 -o room.ff 2> err.txt || fail "formfactor room.obj: $(cat err.txt)"
-grep -q "warning" err.txt && fail "formfactor warned on a clean Blender scene: $(cat err.txt)"
+# Its light hangs 1 cm under the ceiling, beyond contact cutting's 6.4 mm
+# here: named (issue 30 item 7), and nothing else.
+grep -q "room.obj:45: a face of 'Light' lies 0.01 in front of the face of 'Room' at line 26" err.txt ||
+  fail "formfactor: the panel under the ceiling not named: $(cat err.txt)"
+grep -v "in front of the face of" err.txt | grep -q "warning" && fail "formfactor warned on a clean Blender scene: $(cat err.txt)"
 "$bin/solve" room.ff -o room.rad 2> err.txt || fail "solve: $(cat err.txt)"
 grep -q "no patch emits" err.txt && fail "solve: a lit scene called dark: $(cat err.txt)"
 if [ $has_render = 1 ]; then
@@ -30,7 +34,7 @@ echo "ok: a Blender OBJ with Ke goes from scene to image without warnings"
 # 2. Blender before 2.9 (no Ke): said at solve and render, with the cause.
 "$bin/formfactor" -q room_old.obj -o old.ff || fail "formfactor room_old.obj"
 "$bin/solve" old.ff -o old.rad 2> err.txt || fail "solve old: $(cat err.txt)"
-grep -q "no patch emits light (no material has Ke > 0; Blender exports before 2.9 write no Ke)" err.txt ||
+grep -q "no patch emits light (no material has Ke > 0).*exports before Blender 2.9 write no Ke" err.txt ||
   fail "solve: no warning for a scene without Ke: $(cat err.txt)"
 if [ $has_render = 1 ]; then
   "$bin/render" old.rad -o old.png --width 32 --height 32 2> err.txt || fail "render old: $(cat err.txt)"
@@ -62,7 +66,7 @@ grep -q "every form factor is 0" err.txt || fail "no warning for all-zero F: $(c
 grep -q -- "--flip-normals" err.txt || fail "no remedy: $(cat err.txt)"
 "$bin/formfactor" room_flipped.obj --subdiv 1 --flip-normals -o flipped.ff --stats flipped.json 2> err.txt ||
   fail "--flip-normals: $(cat err.txt)"
-grep -q "warning" err.txt && fail "--flip-normals still warns: $(cat err.txt)"
+grep -v "in front of the face of" err.txt | grep -q "warning" && fail "--flip-normals still warns: $(cat err.txt)"
 "${RAD_PYTHON3:-python3}" - flipped.json <<'PY' || fail "--flip-normals: row sums"
 import json, sys
 rows = json.load(open(sys.argv[1]))["row_sum"]

@@ -13,7 +13,7 @@ fail() { echo "FAIL: $*"; exit 1; }
 # 1. The estimate line: exact size of a dense file (N = 2944, f64: 66.6 MiB),
 # its bound for the sparse default, memory, a calibrated time.
 "$ff" "$scenes/cornell_sphere.obj" --subdiv 3 --format dense -o a.ff 2> err.txt || fail "formfactor: $(cat err.txt)"
-grep -q "estimate: 66.6 MiB to write, about .* of memory per rank, about .* of form factors on 1 rank(s) (calibrated on 44 of 2944 rows in .*)" err.txt ||
+grep -q "estimate: 66.6 MiB to write, about .* of memory per rank, about .* of form factors on 1 rank(s) (calibrated on 64 of 2944 rows in .*)" err.txt ||
   fail "no estimate line: $(cat err.txt)"
 "$ff" "$scenes/cornell_sphere.obj" --subdiv 3 -o s.ff 2> err.txt || fail "formfactor, sparse: $(cat err.txt)"
 grep -q "estimate: at most 66.6 MiB to write, about" err.txt || fail "no bound for the sparse file: $(cat err.txt)"

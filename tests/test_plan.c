@@ -56,10 +56,10 @@ static void small_scene(void)
     choices.errors_file = 1;
     ff_plan e = make(&limits, &choices);
     RAD_CHECK(e.file_bytes == file_bytes(20, 8) + file_bytes(20, 4));
-    /* --no-errors: no errors buffer, 12 bytes less per entry of a round (its double and float). */
+    /* --no-errors: no errors block, 8 bytes less per entry of the block (its double). */
     choices.standard_errors = 0;
     ff_plan q = make(&limits, &choices);
-    RAD_CHECK_NEAR(p.memory_bytes - q.memory_bytes, 20 * 20 * 12, 1e-9);
+    RAD_CHECK_NEAR(p.memory_bytes - q.memory_bytes, 20 * 20 * 8, 1e-9);
     /* --element f32 halves the matrix; the paper format stores float64 anyway. */
     choices = (ff_plan_choices){.element = RAD_ELEMENT_F32, .standard_errors = 1};
     RAD_CHECK(make(&limits, &choices).file_bytes == file_bytes(20, 4));

@@ -41,7 +41,8 @@ static rad_status load_text_with(const char *obj, const char *mtl, const rad_sce
 {
     vfile files[] = {{"x.obj", obj, 0}, {"x.mtl", mtl ? mtl : "", 0}, {NULL, NULL, 0}};
     rad_scene_options opt = {.read_file = vfs_read, .read_file_user = files};
-    if (with) opt.clamp_rho = with->clamp_rho, opt.flip_normals = with->flip_normals, opt.ke_radiance = with->ke_radiance;
+    if (with) opt.clamp_rho = with->clamp_rho, opt.flip_normals = with->flip_normals, opt.ke_radiance = with->ke_radiance,
+                  opt.flip_groups = with->flip_groups;
     rad_test_capture_log();
     memset(scene, 0, sizeof *scene);
     return rad_scene_load_file("x.obj", &opt, scene);
@@ -240,7 +241,19 @@ static void test_cleanup(void)
     /* A non-planar quad (one corner lifted by 0.01) becomes two triangles. */
     RAD_CHECK(load_text("v 0 0 0\nv 1 0 0\nv 1 1 0.01\nv 0 1 0\nf 1 2 3 4\n", NULL, &s) == RAD_OK);
     RAD_CHECK(s.face_count == 2 && s.faces[0].vertex_count == 3 && s.faces[1].vertex_count == 3);
-    RAD_CHECK(rad_test_log_contains("x.obj:5: 4-vertex face triangulated into 2 triangles (non-planar"));
+    RAD_CHECK(rad_test_log_contains("x.obj:5: 1 non-planar polygons (this is the first; the farthest off its plane "
+                                    "by 0.0018 of its size, beyond rounding) were split into 2 triangles: 2 faces "
+                                    "where the file has 1 polygons, 100% more patches"));
+    rad_scene_free(&s);
+    /* Off its plane by less than the rounding of 6 decimals (Blender's
+     * exporter: 2.2e-6 of the face's size) it stays a quad, quietly; the
+     * same offset written in full is split. */
+    RAD_CHECK(load_text("v 0.000000 0.000000 0.000000\nv 0.100000 0.000000 0.000000\nv 0.100000 0.100000 0.000000\n"
+                        "v 0.000000 0.100000 0.000001\nf 1 2 3 4\n", NULL, &s) == RAD_OK);
+    RAD_CHECK(s.face_count == 1 && s.faces[0].vertex_count == 4 && !rad_test_log_contains("non-planar"));
+    rad_scene_free(&s);
+    RAD_CHECK(load_text("v 0 0 0\nv 1e-1 0 0\nv 1e-1 1e-1 0\nv 0 1e-1 1e-6\nf 1 2 3 4\n", NULL, &s) == RAD_OK);
+    RAD_CHECK(s.face_count == 2 && rad_test_log_contains("1 non-planar polygons"));
     rad_scene_free(&s);
     /* Within the planarity tolerance (1e-6 of the size) it stays a quad. */
     RAD_CHECK(load_text("v 0 0 0\nv 1 0 0\nv 1 1 1e-8\nv 0 1 0\nf 1 2 3 4\n", NULL, &s) == RAD_OK);
@@ -739,6 +752,20 @@ static void test_blender_options(void)
     RAD_CHECK(scene.faces[1].v[0] == 2 && scene.faces[1].v[1] == 1 && scene.faces[1].v[2] == 0);
     RAD_CHECK(!rad_test_log_contains("wound against"));
     rad_scene_free(&scene);
+
+    /* --flip-group (issue 30): only the named groups reversed, their faces
+     * not judged against their vn; a name the scene lacks is an error naming its groups. */
+    rad_scene_options only_b = {.flip_groups = "b"};
+    RAD_CHECK(load_text_with(QUAD "o a\nf 1 2 3\no b\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\n", NULL, &only_b, &scene) ==
+              RAD_OK);
+    RAD_CHECK(scene.face_count == 2 && scene.faces[0].v[0] == 0 && scene.faces[0].v[1] == 1);
+    RAD_CHECK(scene.faces[1].v[0] == 3 && scene.faces[1].v[1] == 2 && scene.faces[1].v[3] == 0);
+    RAD_CHECK(!rad_test_log_contains("wound against"));
+    rad_scene_free(&scene);
+    rad_scene_options missing = {.flip_groups = "a,Room"};
+    RAD_CHECK(load_text_with(QUAD "o a\nf 1 2 3\no b\nf 1 3 4\n", NULL, &missing, &scene) == RAD_ERR_INVALID);
+    RAD_CHECK(rad_test_log_contains("x.obj: --flip-group 'Room': no object or group (`o` or `g`) of that name; the "
+                                    "scene's: 'a', 'b'"));
 
     /* --ke radiance (issue 30): Ke is radiance L, the emission E = pi L,
      * for every material; another fingerprint (render's sidecar search

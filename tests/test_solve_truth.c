@@ -388,8 +388,21 @@ static void test_row_sum_warnings(void)
     /* row 2 at 1.0005 (inside 1.001), row 5 at 1.002: fixed rule warns row 5 only */
     for (size_t j = 0; j < n; j++) s.F[2 * n + j] *= 1.0005, s.F[5 * n + j] *= 1.002;
     RAD_CHECK(solve_fx_write(path_in_dir("rows.ff"), &s, RAD_ELEMENT_F64) == RAD_OK);
+    rad_log_set_level(RAD_LOG_INFO); /* below 1.05 it is a note */
     RAD_CHECK(run_captured("rows.ff", NULL, NULL) == RAD_OK);
-    RAD_CHECK(rad_test_log_contains("1 rows sum to more than 1.001, which exact form factors do not (largest: row 5, 1.002"));
+    rad_log_set_level(RAD_LOG_WARN);
+    RAD_CHECK(rad_test_log_contains("1 rows sum to more than 1.001 (largest: row 5, 1.002"));
+    RAD_CHECK(rad_test_log_contains("the Monte Carlo noise of the form factors, below 1.05"));
+    RAD_CHECK(!rad_test_log_contains("which exact form factors do not"));
+    rad_log_set_sink(NULL, NULL);
+
+    /* row 5 at 1.06: beyond noise that does not show, a warning with the remedy */
+    for (size_t j = 0; j < n; j++) s.F[5 * n + j] *= 1.06 / 1.002;
+    RAD_CHECK(solve_fx_write(path_in_dir("rows_high.ff"), &s, RAD_ELEMENT_F64) == RAD_OK);
+    RAD_CHECK(run_captured("rows_high.ff", NULL, NULL) == RAD_OK);
+    RAD_CHECK(rad_test_log_contains("1 rows sum to more than 1.001, which exact form factors do not (largest: row 5, 1.06"));
+    RAD_CHECK(rad_test_log_contains("More formfactor --shadow-rays"));
+    for (size_t j = 0; j < n; j++) s.F[5 * n + j] *= 1.002 / 1.06;
     rad_log_set_sink(NULL, NULL);
 
     /* with errors: row 5's noise (sigma 1e-3 on 4 entries: 3 sqrt(4e-6) =
