@@ -36,7 +36,7 @@ typedef struct ff_setup {
     uint32_t samples;            /* K point pairs per patch pair, >= 1 */
     uint32_t shadow_rays;        /* R <= K of them carry a shadow ray; 0 = no occlusion */
     uint64_t seed;
-    uint32_t estimator;          /* rad_estimator_id (rad_ff_pair.h) */
+    uint32_t estimator;          /* rad_estimator_id (rad_estimator.h) */
     double quad_rtol, quad_atol; /* quadrature tolerances (rad_ff_quad.h) */
     /* --target-error: a pair whose standard error (rad_ff_error_reached)
      * exceeds target_error takes another batch as large as all before it
