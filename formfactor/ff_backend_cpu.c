@@ -7,7 +7,7 @@
  *
  * Rows are handed to threads one at a time; a row's pairs run in column
  * order. Each facing pair first goes through culling (the convex-scene
- * rule and the shaft test of ff_bvh.h); pairs it clears are computed
+ * rule and the shaft test of ff_shaft.h); pairs it clears are computed
  * without a tracer (visible fraction exactly 1), the others with one BVH
  * query per shadow ray. The time in the tracer is the paper's
  * "occlusion" phase, the rest its "form factor" phase.
@@ -21,6 +21,7 @@
 
 #include "ff_backend.h"
 #include "ff_bvh.h"
+#include "ff_shaft.h"
 #include "rad_clock.h"
 #include "rad_log.h"
 

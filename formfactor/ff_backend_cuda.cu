@@ -26,6 +26,7 @@
 extern "C" {
 #include "ff_backend.h"
 #include "ff_bvh.h"
+#include "ff_shaft.h"
 #include "ff_cuda.h"
 #include "rad_clock.h"
 #include "rad_cuda.h"
@@ -142,7 +143,7 @@ struct cuda_params {
     cuda_tracer tracer;
     rad_ff_pair_params pair;       /* the run's settings (rad_ff_pair.h) */
     int cull, scene_convex, pairs_once;
-    float cull_margin;             /* the shaft's margin (ff_bvh.h) */
+    float cull_margin;             /* the shaft's margin (ff_shaft.h) */
     double eps;
     uint32_t row_begin, row_count;
     double *out;                   /* row_count * n */
@@ -198,7 +199,7 @@ __device__ static int cuda_pair_listed_near(const rad_ff_patch *pi, const rad_ff
  * terms) take far longer and would hold up the warps of far ones. Order
  * within a list is irrelevant: a pair's value depends only on (i, j).
  * Culling runs here, one thread per listed pair, as on the CPU: the
- * convex-enclosure rule, then the shaft test (ff_bvh.h), which clears most
+ * convex-enclosure rule, then the shaft test (ff_shaft.h), which clears most
  * pairs that only look blocked and spares them their rays, confirming
  * batches included. Its verdict goes beside the pair in `open`. The walk
  * leaves out the hull's planes (`hull` 0, as on the CPU): on
