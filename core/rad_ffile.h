@@ -35,7 +35,7 @@
 #include <stdint.h>
 #include <stdio.h>
 
-#include "rad_ff_kernel.h" /* rad_estimator_id */
+#include "rad_estimator.h"
 #include "rad_mesh.h"
 #include "rad_status.h"
 

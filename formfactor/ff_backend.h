@@ -2,9 +2,10 @@
  *
  * A backend computes whole matrix rows for a committed setup (patches +
  * occluder triangles). The CPU backend (OpenMP) is the reference; the
- * CUDA backend must agree with it. Both trace the flat BVH of ff_bvh.h,
- * which Embree's builder makes: ff_bvh_build.c is the one file that
- * includes Embree. The driver (ff_driver.c) picks one at run time:
+ * CUDA backend must agree with it. Both classify a pair the same way
+ * (ff_pair_class.h), run the same per-pair procedure (rad_ff_pair.h) and
+ * trace the flat BVH of ff_bvh.h, which Embree's builder makes:
+ * ff_bvh_build.c is the one file that includes Embree. The driver (ff_driver.c) picks one at run time:
  *
  *     const ff_backend *b = &ff_backend_cpu;
  *     void *state;
@@ -19,6 +20,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "ff_counters.h"
 #include "ff_rows.h"
 #include "rad_ff_kernel.h"
 #include "rad_status.h"
@@ -36,7 +38,7 @@ typedef struct ff_setup {
     uint32_t samples;            /* K point pairs per patch pair, >= 1 */
     uint32_t shadow_rays;        /* R <= K of them carry a shadow ray; 0 = no occlusion */
     uint64_t seed;
-    uint32_t estimator;          /* rad_estimator_id (rad_ff_pair.h) */
+    uint32_t estimator;          /* rad_estimator_id (rad_estimator.h) */
     double quad_rtol, quad_atol; /* quadrature tolerances (rad_ff_quad.h) */
     /* --target-error: a pair whose standard error (rad_ff_error_reached)
      * exceeds target_error takes another batch as large as all before it
@@ -95,31 +97,6 @@ static inline rad_ff_pair_params ff_pair_params(const ff_setup *su)
     pp.lanes = 1;
     return pp;
 }
-
-/* What a backend did; summed over calls, ranks and threads. */
-typedef struct ff_counters {
-    uint64_t pairs;          /* ordered pairs (i, j) computed (with pairs_once: about half) */
-    uint64_t pairs_mirrored; /* entries copied from the other row's (reciprocity; driver) */
-    uint64_t pairs_not_facing; /* of those, zero by the facing test (and i = j), not sampled;
-                                  the stats' "pairs_culled" (not --cull's occlusion culling) */
-    uint64_t pairs_reused;   /* of those, copied from the refined-from matrix (--reuse) */
-    uint64_t pairs_near;     /* of those, computed by the near-field estimator */
-    uint64_t pairs_open_scene; /* facing pairs without rays: the scene is a convex enclosure */
-    uint64_t pairs_open_box;   /* facing pairs without rays: nothing else meets their box */
-    uint64_t rays_saved;     /* shadow rays those pairs would have cast */
-    uint64_t samples;        /* point pairs evaluated */
-    uint64_t pairs_refined;  /* pairs that took more than one batch (--target-error) */
-    uint64_t pairs_capped;   /* --target-error: pairs whose error was still above the
-                                target when they stopped at max_samples (refined or
-                                not); without it: pairs whose quadrature stopped at its
-                                limit (rad_ff_pair_result.capped) */
-    uint64_t rays;           /* shadow rays traced */
-    uint64_t rays_occluded;  /* of those, blocked */
-    double kernel_seconds;   /* time sampling points and evaluating the kernel */
-    double visibility_seconds; /* time tracing shadow rays (CUDA: the kernels' time split by
-                                  the warps' clock cycles spent on each part) */
-    double memory_seconds;   /* CUDA: device allocation and transfers */
-} ff_counters;
 
 /* Rows as the sparse format stores them (rad_ff_row_encode's records),
  * back to back: row r's record is bytes[at[r], at[r + 1]). A view into

@@ -6,10 +6,11 @@
  * faces excluded, hits within delta of either end plane ignored).
  *
  * Rows are handed to threads one at a time; a row's pairs run in column
- * order. Each facing pair first goes through culling (the convex-scene
- * rule and the shaft test of ff_bvh.h); pairs it clears are computed
- * without a tracer (visible fraction exactly 1), the others with one BVH
- * query per shadow ray. The time in the tracer is the paper's
+ * order. Each pair is first classified as the CUDA backend classifies it
+ * (ff_pair_class.h: zero, reused, or computed - and then whether culling,
+ * the convex-scene rule and the shaft test of ff_shaft.h, cleared it);
+ * pairs culling clears are computed without a tracer (visible fraction
+ * exactly 1), the others with one BVH query per shadow ray. The time in the tracer is the paper's
  * "occlusion" phase, the rest its "form factor" phase.
  */
 #include <math.h>
@@ -23,32 +24,6 @@
 #include "ff_bvh.h"
 #include "rad_clock.h"
 #include "rad_log.h"
-
-typedef struct cpu_state {
-    ff_setup setup;
-    ff_bvh bvh; /* occluders: shadow segments and the shaft tests */
-} cpu_state;
-
-static rad_status cpu_create(const ff_setup *setup, void **out_state)
-{
-    cpu_state *s = calloc(1, sizeof *s);
-    if (!s) return RAD_ERR_NOMEM;
-    s->setup = *setup;
-    if (ff_bvh_build(setup->triangles, setup->triangle_face, setup->triangle_count, &s->bvh) != RAD_OK) {
-        free(s);
-        return RAD_ERR_BACKEND;
-    }
-    *out_state = s;
-    return RAD_OK;
-}
-
-static void cpu_destroy(void *state)
-{
-    cpu_state *s = state;
-    if (!s) return;
-    ff_bvh_free(&s->bvh);
-    free(s);
-}
 
 /* The tracer the shared per-pair procedure (rad_ff_pair.h) calls. */
 typedef struct cpu_tracer {
@@ -70,29 +45,50 @@ static int cpu_occluded(const cpu_tracer *t, rad_vec3 x, rad_vec3 nx, uint32_t a
 #define RAD_FF_TICKS() rad_clock_ns()
 #include "rad_ff_pair.h"
 
-/* Can something block pair (i, j)? Not where culling proves that nothing
- * can lie between the patches: the scene is one convex enclosure, or no
- * other triangle meets the pair's shaft. */
-static int pair_needs_rays(const cpu_state *s, uint32_t i, uint32_t j, ff_counters *c)
+#include "ff_pair_class.h"
+
+typedef struct cpu_state {
+    ff_setup setup;
+    ff_bvh bvh;          /* occluders: shadow segments and the shaft tests */
+    ff_pair_rules rules; /* ff_pair_class.h, over setup's patches and bvh */
+} cpu_state;
+
+static rad_status cpu_create(const ff_setup *setup, void **out_state)
 {
-    const ff_setup *su = &s->setup;
-    if (su->shadow_rays == 0) return 0;
-    if (!su->cull) return 1;
-    if (su->scene_convex) {
-        c->pairs_open_scene++;
-        return 0;
+    cpu_state *s = calloc(1, sizeof *s);
+    if (!s) return RAD_ERR_NOMEM;
+    s->setup = *setup;
+    if (ff_bvh_build(setup->triangles, setup->triangle_face, setup->triangle_count, &s->bvh) != RAD_OK) {
+        free(s);
+        return RAD_ERR_BACKEND;
     }
-    if (!ff_pair_may_be_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &su->patches[i],
-                                 &su->patches[j], su->cull_margin, su->ray_delta, 0,
-                                 su->estimator == RAD_ESTIMATOR_QUADRATURE)) {
-        c->pairs_open_box++;
-        return 0;
-    }
-    return 1;
+    s->rules = ff_pair_rules_make(setup, setup->patches, s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count);
+    *out_state = s;
+    return RAD_OK;
+}
+
+static void cpu_destroy(void *state)
+{
+    cpu_state *s = state;
+    if (!s) return;
+    ff_bvh_free(&s->bvh);
+    free(s);
+}
+
+/* A computed pair's result into the thread's counters. */
+static void count_pair(ff_counters *c, const rad_ff_pair_result *r)
+{
+    c->samples += r->samples;
+    c->rays += r->rays;
+    c->rays_occluded += r->rays_blocked;
+    c->rays_saved += r->rays_skipped;
+    c->pairs_near += (uint64_t)r->near;
+    c->pairs_refined += (uint64_t)r->refined;
+    c->pairs_capped += (uint64_t)r->capped;
 }
 
 /* Row i, every column: the shared per-pair procedure for each pair the
- * row computes; zeros elsewhere. */
+ * classification (ff_pair_class.h) leaves to be computed; zeros elsewhere. */
 static void compute_row(const cpu_state *s, uint32_t i, double *row, double *errors, ff_counters *c)
 {
     const ff_setup *su = &s->setup;
@@ -101,32 +97,27 @@ static void compute_row(const cpu_state *s, uint32_t i, double *row, double *err
     cpu_tracer tracer = {&s->bvh, su->ray_delta};
     long long t0 = rad_clock_ns(), ray_ticks = 0;
     for (uint32_t j = 0; j < su->patch_count; j++) {
-        const rad_ff_patch *pj = &su->patches[j];
         row[j] = 0;
         if (errors) errors[j] = 0;
-        if (su->pairs_once && !rad_ff_row_computes(i, j)) continue; /* row j computes this pair */
+        ff_pair_verdict v = ff_pair_classify(&s->rules, i, j, NULL);
+        if (v == FF_PAIR_OTHER_ROW) continue; /* row j computes this pair */
         c->pairs++;
-        if (j == i || !rad_ff_pair_facing(pi, pj, su->plane_eps)) {
+        if (v == FF_PAIR_NOT_FACING) {
             c->pairs_not_facing++;
             continue;
         }
-        if (su->reuse_old && su->reuse_old[i] != FF_REUSE_NONE && su->reuse_old[j] != FF_REUSE_NONE) {
+        if (v == FF_PAIR_REUSED) {
             row[j] = su->reuse_coupling[(size_t)su->reuse_old[i] * su->reuse_n + su->reuse_old[j]];
             c->pairs_reused++;
             continue;
         }
-        int rays = pair_needs_rays(s, i, j, c);
+        c->pairs_open_scene += (uint64_t)(v == FF_PAIR_OPEN_SCENE);
+        c->pairs_open_box += (uint64_t)(v == FF_PAIR_OPEN_BOX);
         rad_ff_pair_result r;
-        rad_ff_pair_compute(&pp, pi, pj, i, j, rays ? &tracer : NULL, &r);
+        rad_ff_pair_compute(&pp, pi, &su->patches[j], i, j, v == FF_PAIR_TRACED ? &tracer : NULL, &r);
         row[j] = r.coupling;
         if (errors) errors[j] = r.error;
-        c->samples += r.samples;
-        c->rays += r.rays;
-        c->rays_occluded += r.rays_blocked;
-        c->rays_saved += r.rays_skipped;
-        c->pairs_near += (uint64_t)r.near;
-        c->pairs_refined += (uint64_t)r.refined;
-        c->pairs_capped += (uint64_t)r.capped;
+        count_pair(c, &r);
         ray_ticks += r.ray_ticks;
     }
     double total = 1e-9 * (double)(rad_clock_ns() - t0), rays_time = 1e-9 * (double)ray_ticks;
@@ -157,23 +148,11 @@ static rad_status cpu_compute_rows(void *state, uint32_t row_begin, uint32_t row
             done = ++rows_done;
             if (master && su->progress) su->progress(su->progress_user, done);
         }
+        /* The threads' times overlap: their mean is the wall-clock time. */
+        c.kernel_seconds /= su->threads;
+        c.visibility_seconds /= su->threads;
 #pragma omp critical
-        {
-            counters->pairs += c.pairs;
-            counters->pairs_not_facing += c.pairs_not_facing;
-            counters->pairs_reused += c.pairs_reused;
-            counters->pairs_near += c.pairs_near;
-            counters->pairs_open_scene += c.pairs_open_scene;
-            counters->pairs_open_box += c.pairs_open_box;
-            counters->rays_saved += c.rays_saved;
-            counters->samples += c.samples;
-            counters->pairs_refined += c.pairs_refined;
-            counters->pairs_capped += c.pairs_capped;
-            counters->rays += c.rays;
-            counters->rays_occluded += c.rays_occluded;
-            counters->kernel_seconds += c.kernel_seconds / su->threads;
-            counters->visibility_seconds += c.visibility_seconds / su->threads;
-        }
+        ff_counters_add(counters, &c);
     }
     return RAD_OK;
 }

@@ -6,7 +6,8 @@
  * and shadow rays of the pair, and reduce them with shuffles (every lane
  * gets the same bits, so the adaptive control flow stays uniform); rays go
  * through the flat BVH of ff_bvh.h (any hit, first hit returns). A first
- * kernel lists the pairs that can exchange light, far pairs from the front
+ * kernel classifies every pair as the CPU backend does (ff_pair_class.h)
+ * and lists the pairs that can exchange light, far pairs from the front
  * of a list and near ones from the back, so that each gets a launch of its
  * own; culled pairs cost one thread one test and one store. The
  * quadrature estimator runs its two stages in two launches: the
@@ -92,6 +93,8 @@ template <typename T> static inline RAD_HD T cuda_lane_sum(T v, unsigned lanes)
 #define RAD_FF_TICKS() cuda_ticks()
 #include "rad_ff_pair.h"
 
+#include "ff_pair_class.h"
+
 enum { FF_CUDA_BLOCK = 256 };
 /* Lanes per pair: far pairs (a few quadrature points) in groups of
  * FF_CUDA_FAR_LANES, eight pairs to a warp; near pairs (adaptive cells of
@@ -125,8 +128,18 @@ enum { FF_CUDA_BLOCK = 256 };
 #ifndef FF_CUDA_RAY_LANES
 #define FF_CUDA_RAY_LANES 32
 #endif
+/* The kernels' counters (d_counters, and each block's in shared memory),
+ * one slot each; cuda_counters turns them into ff_counters. */
 enum { C_SAMPLES, C_RAYS, C_OCCLUDED, C_NEAR, C_OPEN_SCENE, C_OPEN_BOX, C_SAVED, C_CYCLES, C_RAY_CYCLES, C_REFINED,
        C_CAPPED, C_COUNT };
+/* The listing kernel's counts (d_pair_counts), one slot each. */
+enum {
+    L_FAR,       /* far pairs, listed from the front of d_pairs */
+    L_NEAR,      /* near (costly) pairs, listed from the back */
+    L_TRACED,    /* listed pairs culling left open to occlusion (FF_PAIR_TRACED) */
+    L_RAY_PAIRS, /* the quadrature pairs pass 2 appended to d_ray_pairs (they trace rays) */
+    L_COUNT
+};
 
 /* A quadrature pair that traces rays: stage 1's result for stage 2
  * (rad_ff_pair_quad_finish). */
@@ -141,15 +154,13 @@ struct cuda_params {
     uint32_t n;
     cuda_tracer tracer;
     rad_ff_pair_params pair;       /* the run's settings (rad_ff_pair.h) */
-    int cull, scene_convex, pairs_once;
-    float cull_margin;             /* the shaft's margin (ff_bvh.h) */
-    double eps;
+    ff_pair_rules rules;           /* which pairs are computed, and how (ff_pair_class.h) */
     uint32_t row_begin, row_count;
     double *out;                   /* row_count * n */
     double *errors;                /* row_count * n standard errors, or NULL */
     unsigned long long *counters;  /* C_COUNT */
     const uint32_t *pairs;         /* facing pairs: r * n + j, pair_count of them */
-    const uint8_t *open;           /* beside each listed pair: 1 = culling proved it unblocked */
+    const uint8_t *verdict;        /* beside each listed pair: its ff_pair_verdict */
     cuda_ray_pair *ray_pairs;      /* quadrature: the pairs that trace, appended by the first stage */
     uint32_t *ray_count;           /* their number (device) */
     int64_t step;                  /* +1: the far list, read forwards; -1: the near list, backwards */
@@ -168,9 +179,8 @@ struct cuda_state {
     double *d_errors;    /* standard errors, allocated on the first call that asks */
     size_t errors_capacity; /* doubles */
     uint32_t *d_pairs;   /* facing-pair list, out_capacity entries */
-    uint8_t *d_open;     /* beside d_pairs: the pair needs no rays (culling) */
-    uint32_t *d_pair_counts; /* [0] far pairs, [1] near pairs, [2] pairs culling left open to
-                                occlusion, [3] the quadrature pairs that trace rays */
+    uint8_t *d_verdict;  /* beside d_pairs: each listed pair's ff_pair_verdict */
+    uint32_t *d_pair_counts; /* L_COUNT: the listing's counts */
     cuda_ray_pair *d_ray_pairs; /* the quadrature estimator's tracing pairs, ray_capacity of them */
     size_t ray_capacity;
     size_t out_capacity; /* doubles */
@@ -180,54 +190,37 @@ struct cuda_state {
     ff_cuda_records *records;   /* compute_records' buffers; NULL until its first call */
 };
 
-/* Does the pair take a warp (the near list)? Near pairs, and pairs whose
- * smaller patch reaches behind the other's plane: the contour integral
- * over their clipped parts, or the area rule over its fan, takes hundreds
- * to thousands of points; in the far list such a pair held its warp's
- * other seven pairs (suzanne_subsurf, H100: form factors 0.72 -> 0.52 s). */
-__device__ static int cuda_pair_listed_near(const rad_ff_patch *pi, const rad_ff_patch *pj, uint32_t i, uint32_t j)
-{
-    if (rad_ff_pair_near(pi, pj)) return 1;
-    int i_is_q = rad_ff_quad_roles(pi, pj, i, j);
-    return rad_ff_contour_straddles(i_is_q ? pi : pj, i_is_q ? pj : pi);
-}
-
-/* Pass 1: thread per pair; zeros for pairs that cannot exchange light; far
- * pairs listed from the front of p.pairs, near pairs from the back, so each
- * list gets a launch of its own: near pairs (adaptive quadrature, contour
- * terms) take far longer and would hold up the warps of far ones. Order
+/* Pass 1: thread per pair, the classification (ff_pair_class.h) the CPU
+ * backend makes; zeros for pairs that are not computed; computed pairs
+ * listed, far ones from the front of p.pairs, near (costly) ones from the
+ * back, so each list gets a launch of its own: near pairs (adaptive
+ * quadrature, contour terms) take far longer and would hold up the warps
+ * of far ones; in the far list a costly pair held its warp's other seven
+ * pairs (suzanne_subsurf, H100: form factors 0.72 -> 0.52 s). Order
  * within a list is irrelevant: a pair's value depends only on (i, j).
- * Culling runs here, one thread per listed pair, as on the CPU: the
- * convex-enclosure rule, then the shaft test (ff_bvh.h), which clears most
- * pairs that only look blocked and spares them their rays, confirming
- * batches included. Its verdict goes beside the pair in `open`. The walk
- * leaves out the hull's planes (`hull` 0, as on the CPU): on
- * cornell_sphere --subdiv 3 they clear 412 k pairs instead of 397 k but
- * building them cost more than the rays they save (H100: 19 ms of kernels
- * with them, 18 without; 21 with the walk in pass 2, by every lane). */
-__global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint8_t *open, uint32_t *counts,
+ * Culling (the convex-enclosure rule, then the shaft test of ff_shaft.h,
+ * which clears most pairs that only look blocked and spares them their
+ * rays, confirming batches included) runs here, one thread per pair, as
+ * on the CPU; the verdict goes beside the pair. Walking the shaft in
+ * pass 2, by every lane, cost more (H100, cornell_sphere --subdiv 3: 21
+ * ms of kernels against 18). */
+__global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint8_t *verdicts, uint32_t *counts,
                                         uint64_t capacity)
 {
     uint64_t t = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
     if (t >= (uint64_t)p.row_count * p.n) return;
     uint32_t j = (uint32_t)(t % p.n), i = p.row_begin + (uint32_t)(t / p.n);
-    const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
     if (p.errors) p.errors[t] = 0.0; /* listed pairs overwrite it */
-    if (p.pairs_once && !rad_ff_row_computes(i, j))
-        p.out[t] = 0.0; /* row j computes this pair: no thread here */
-    else if (i == j || !rad_ff_pair_facing(pi, pj, p.eps))
-        p.out[t] = 0.0;
-    else {
-        uint8_t clear = p.pair.rays == 0 || (p.cull && p.scene_convex) ||
-                        (p.cull && !ff_pair_may_be_occluded(p.tracer.nodes, p.tracer.tris, p.tracer.root,
-                                                            p.tracer.root_count, pi, pj, p.cull_margin,
-                                                            p.tracer.delta, 0,
-                                                            p.pair.estimator == RAD_ESTIMATOR_QUADRATURE));
-        uint64_t at = cuda_pair_listed_near(pi, pj, i, j) ? capacity - 1 - atomicAdd(&counts[1], 1u) : atomicAdd(&counts[0], 1u);
-        pairs[at] = (uint32_t)t;
-        open[at] = clear;
-        if (!clear) atomicAdd(&counts[2], 1u);
+    int near = 0;
+    ff_pair_verdict v = ff_pair_classify(&p.rules, i, j, &near);
+    if (!ff_pair_computed(v)) {
+        p.out[t] = 0.0; /* not facing, or row j computes this pair: no thread here */
+        return;
     }
+    uint64_t at = near ? capacity - 1 - atomicAdd(&counts[L_NEAR], 1u) : atomicAdd(&counts[L_FAR], 1u);
+    pairs[at] = (uint32_t)t;
+    verdicts[at] = (uint8_t)v;
+    if (v == FF_PAIR_TRACED) atomicAdd(&counts[L_TRACED], 1u);
 }
 
 #ifdef FF_CUDA_PROFILE
@@ -236,17 +229,18 @@ __global__ static void ff_facing_kernel(cuda_params p, uint32_t *pairs, uint8_t 
 __device__ unsigned long long ff_cuda_profile[2][24][3];
 #endif
 
-/* A pair's counters into its block's. */
+/* A pair's counters into its block's; the verdict says whether culling
+ * spared it its rays, and why. */
 __device__ static void cuda_count_pair(unsigned long long *block_counts, const rad_ff_pair_result *r,
-                                       int open_scene, int open_box, long long cycles)
+                                       ff_pair_verdict v, long long cycles)
 {
     unsigned long long c[C_COUNT] = {0};
     c[C_SAMPLES] = r->samples;
     c[C_RAYS] = r->rays;
     c[C_OCCLUDED] = r->rays_blocked;
     c[C_NEAR] = (unsigned long long)r->near;
-    c[C_OPEN_SCENE] = (unsigned long long)open_scene;
-    c[C_OPEN_BOX] = (unsigned long long)open_box;
+    c[C_OPEN_SCENE] = (unsigned long long)(v == FF_PAIR_OPEN_SCENE);
+    c[C_OPEN_BOX] = (unsigned long long)(v == FF_PAIR_OPEN_BOX);
     c[C_SAVED] = r->rays_skipped;
     c[C_REFINED] = (unsigned long long)r->refined;
     c[C_CAPPED] = (unsigned long long)r->capped;
@@ -257,13 +251,50 @@ __device__ static void cuda_count_pair(unsigned long long *block_counts, const r
 }
 
 /* The listed pair `group` of this launch: its index t = r * n + j, its
- * patches and whether culling cleared it. */
-__device__ static uint32_t cuda_listed_pair(const cuda_params &p, uint64_t group, uint32_t *i, uint32_t *j, int *open)
+ * patches and its verdict (pass 1). */
+__device__ static uint32_t cuda_listed_pair(const cuda_params &p, uint64_t group, uint32_t *i, uint32_t *j,
+                                            ff_pair_verdict *v)
 {
     uint32_t t = p.pairs[p.step * (int64_t)group];
     *j = t % p.n, *i = p.row_begin + t / p.n;
-    *open = p.open[p.step * (int64_t)group];
+    *v = (ff_pair_verdict)p.verdict[p.step * (int64_t)group];
     return t;
+}
+
+/* The pair kernels' frame. Every thread of a pair kernel calls
+ * cuda_pair_kernel_begin first - it zeroes the block's counters (shared
+ * memory, C_COUNT) and says which group of p.lanes threads (one pair) and
+ * which lane of it the thread is - and cuda_pair_kernel_end last, which
+ * adds the block's counters to the launch's (p.counters). */
+struct cuda_group {
+    uint64_t group; /* the pair's index in this launch's list */
+    unsigned lane;  /* 0 .. p.lanes - 1 */
+};
+
+__device__ static cuda_group cuda_pair_kernel_begin(const cuda_params &p, unsigned long long *block_counts)
+{
+    if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
+    __syncthreads();
+    uint64_t thread = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
+    cuda_group g;
+    g.group = thread / p.lanes;
+    g.lane = (unsigned)(thread % p.lanes);
+    return g;
+}
+
+__device__ static void cuda_pair_kernel_end(const cuda_params &p, const unsigned long long *block_counts)
+{
+    __syncthreads();
+    if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
+}
+
+/* The run's settings for this lane of a group (rad_ff_pair.h, "Lanes"). */
+__device__ static rad_ff_pair_params cuda_lane_params(const cuda_params &p, unsigned lane)
+{
+    rad_ff_pair_params pp = p.pair;
+    pp.lane = lane;
+    pp.lanes = p.lanes;
+    return pp;
 }
 
 /* Pass 2 of the Monte Carlo estimators: a group of p.lanes threads per
@@ -272,31 +303,22 @@ __device__ static uint32_t cuda_listed_pair(const cuda_params &p, uint64_t group
 __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_pairs_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
-    if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
-    __syncthreads();
-    uint64_t thread = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
-    uint64_t group = thread / p.lanes;
-    unsigned lane = (unsigned)(thread % p.lanes);
-    if (group < p.pair_count) { /* uniform within the group */
+    cuda_group g = cuda_pair_kernel_begin(p, block_counts);
+    if (g.group < p.pair_count) { /* uniform within the group */
         long long start = clock64();
         uint32_t i, j;
-        int open;
-        uint32_t t = cuda_listed_pair(p, group, &i, &j, &open);
-        int open_scene = p.pair.rays > 0 && p.cull && p.scene_convex;
-        rad_ff_pair_params pp = p.pair;
-        pp.lane = lane;
-        pp.lanes = p.lanes;
+        ff_pair_verdict v;
+        uint32_t t = cuda_listed_pair(p, g.group, &i, &j, &v);
+        rad_ff_pair_params pp = cuda_lane_params(p, g.lane);
         rad_ff_pair_result r;
-        rad_ff_pair_compute(&pp, &p.patches[i], &p.patches[j], i, j, open ? NULL : &p.tracer, &r);
-        if (lane == 0) {
+        rad_ff_pair_compute(&pp, &p.patches[i], &p.patches[j], i, j, v == FF_PAIR_TRACED ? &p.tracer : NULL, &r);
+        if (g.lane == 0) {
             p.out[t] = r.coupling;
             if (p.errors) p.errors[t] = r.error;
-            cuda_count_pair(block_counts, &r, open_scene, p.pair.rays > 0 && open && !open_scene,
-                            clock64() - start);
+            cuda_count_pair(block_counts, &r, v, clock64() - start);
         }
     }
-    __syncthreads();
-    if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
+    cuda_pair_kernel_end(p, block_counts);
 }
 
 /* Pass 2 of the quadrature estimator, stage 1 (rad_ff_pair.h): G0 of
@@ -307,24 +329,17 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
 __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_QUAD_MIN_BLOCKS) ff_quad_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
-    if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
-    __syncthreads();
-    uint64_t thread = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
-    uint64_t group = thread / p.lanes;
-    unsigned lane = (unsigned)(thread % p.lanes);
-    if (group < p.pair_count) { /* uniform within the group */
+    cuda_group g = cuda_pair_kernel_begin(p, block_counts);
+    if (g.group < p.pair_count) { /* uniform within the group */
         long long start = clock64();
         uint32_t i, j;
-        int open;
-        uint32_t t = cuda_listed_pair(p, group, &i, &j, &open);
-        int open_scene = p.pair.rays > 0 && p.cull && p.scene_convex;
-        rad_ff_pair_params pp = p.pair;
-        pp.lane = lane;
-        pp.lanes = p.lanes;
+        ff_pair_verdict v;
+        uint32_t t = cuda_listed_pair(p, g.group, &i, &j, &v);
+        rad_ff_pair_params pp = cuda_lane_params(p, g.lane);
         const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
         rad_ff_quad_result g0 = rad_ff_pair_quad_unoccluded(&pp, pi, pj, i, j);
 #ifdef FF_CUDA_PROFILE
-        if (lane == 0) {
+        if (g.lane == 0) {
             int bucket = 0;
             while (bucket < 23 && (1u << bucket) < g0.points) bucket++;
             unsigned long long *slot = ff_cuda_profile[p.step < 0][bucket];
@@ -333,9 +348,9 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_QUAD_MIN_BLOCKS)
             atomicAdd(&slot[2], (unsigned long long)g0.points);
         }
 #endif
-        if (lane == 0) {
+        if (g.lane == 0) {
             rad_ff_pair_result r = {0};
-            if (!open && rad_ff_pair_quad_traces(&pp, &g0)) {
+            if (v == FF_PAIR_TRACED && rad_ff_pair_quad_traces(&pp, &g0)) {
                 cuda_ray_pair *rp = &p.ray_pairs[atomicAdd(p.ray_count, 1u)];
                 rp->g = g0.g, rp->error = g0.error, rp->t = t, rp->capped = (uint32_t)g0.capped;
                 r.samples = g0.points; /* the rest comes from pass 3 */
@@ -344,12 +359,10 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_QUAD_MIN_BLOCKS)
                 p.out[t] = r.coupling;
                 if (p.errors) p.errors[t] = r.error;
             }
-            cuda_count_pair(block_counts, &r, open_scene, p.pair.rays > 0 && open && !open_scene,
-                            clock64() - start);
+            cuda_count_pair(block_counts, &r, v, clock64() - start);
         }
     }
-    __syncthreads();
-    if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
+    cuda_pair_kernel_end(p, block_counts);
 }
 
 /* Pass 3 of the quadrature estimator, stage 2: the shadow rays of the
@@ -359,31 +372,24 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_QUAD_MIN_BLOCKS)
 __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_RAY_MIN_BLOCKS) ff_quad_rays_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
-    if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
-    __syncthreads();
-    uint64_t thread = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
-    uint64_t group = thread / p.lanes;
-    unsigned lane = (unsigned)(thread % p.lanes);
-    if (group < *p.ray_count) { /* uniform within the group */
+    cuda_group g = cuda_pair_kernel_begin(p, block_counts);
+    if (g.group < *p.ray_count) { /* uniform within the group */
         long long start = clock64();
-        cuda_ray_pair rp = p.ray_pairs[group];
+        cuda_ray_pair rp = p.ray_pairs[g.group];
         uint32_t j = rp.t % p.n, i = p.row_begin + rp.t / p.n;
-        rad_ff_pair_params pp = p.pair;
-        pp.lane = lane;
-        pp.lanes = p.lanes;
+        rad_ff_pair_params pp = cuda_lane_params(p, g.lane);
         rad_ff_quad_result g0;
         g0.g = rp.g, g0.error = rp.error, g0.points = 0, g0.cells = 0, g0.capped = (int)rp.capped;
         rad_ff_pair_result r = {0};
         rad_ff_pair_quad_finish(&pp, &p.patches[i], &p.patches[j], i, j, &g0, &p.tracer, &r);
-        if (lane == 0) {
+        if (g.lane == 0) {
             p.out[rp.t] = r.coupling;
             if (p.errors) p.errors[rp.t] = r.error;
             r.samples = 0; /* counted in pass 2 */
-            cuda_count_pair(block_counts, &r, 0, 0, clock64() - start);
+            cuda_count_pair(block_counts, &r, FF_PAIR_TRACED, clock64() - start); /* no culling counts twice */
         }
     }
-    __syncthreads();
-    if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
+    cuda_pair_kernel_end(p, block_counts);
 }
 
 /* ff_cuda.h: CUDA's early start is core's (rad_cuda.h). */
@@ -401,7 +407,7 @@ static void cuda_destroy(void *state)
     cudaFree(s->d_out);
     cudaFree(s->d_errors);
     cudaFree(s->d_pairs);
-    cudaFree(s->d_open);
+    cudaFree(s->d_verdict);
     cudaFree(s->d_pair_counts);
     cudaFree(s->d_ray_pairs);
     cudaFree(s->d_counters);
@@ -434,7 +440,7 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
     RAD_CUDA_TRY(cudaMalloc(&s->d_nodes, sizeof(ff_bvh_node) * (bvh.node_count ? bvh.node_count : 1)));
     RAD_CUDA_TRY(cudaMalloc(&s->d_tris, sizeof(ff_bvh_tri) * (bvh.tri_count ? bvh.tri_count : 1)));
     RAD_CUDA_TRY(cudaMalloc(&s->d_counters, sizeof(unsigned long long) * C_COUNT));
-    RAD_CUDA_TRY(cudaMalloc(&s->d_pair_counts, 4 * sizeof(uint32_t)));
+    RAD_CUDA_TRY(cudaMalloc(&s->d_pair_counts, L_COUNT * sizeof(uint32_t)));
     RAD_CUDA_TRY(cudaMemcpy(s->d_patches, setup->patches, sizeof(rad_ff_patch) * setup->patch_count,
                         cudaMemcpyHostToDevice));
     {
@@ -476,6 +482,26 @@ done:
     return RAD_OK;
 }
 
+/* One call's counters from the kernels' slots and the listing's counts;
+ * `computed`: the pairs the call's rows compute (listed or not facing). */
+static ff_counters cuda_counters(const unsigned long long counts[C_COUNT], const uint32_t pair_counts[L_COUNT],
+                                 uint64_t computed)
+{
+    ff_counters c = {};
+    c.pairs = computed;
+    c.pairs_not_facing = computed - pair_counts[L_FAR] - pair_counts[L_NEAR];
+    c.samples = counts[C_SAMPLES];
+    c.pairs_refined = counts[C_REFINED];
+    c.pairs_capped = counts[C_CAPPED];
+    c.rays = counts[C_RAYS];
+    c.rays_occluded = counts[C_OCCLUDED];
+    c.pairs_near = counts[C_NEAR];
+    c.pairs_open_scene = counts[C_OPEN_SCENE];
+    c.pairs_open_box = counts[C_OPEN_BOX];
+    c.rays_saved = counts[C_SAVED];
+    return c;
+}
+
 /* Rows [row_begin, row_begin + row_count) into s->d_out (and their
  * standard errors into s->d_errors when `errors`), on the device; the
  * counters added to *counters. */
@@ -486,9 +512,10 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
     rad_status status = RAD_OK;
     size_t need = (size_t)row_count * su->patch_count, ray_room;
     unsigned long long counts[C_COUNT] = {0};
+    ff_counters call = {}; /* this call's, added to *counters at the end */
     double ray_share = 0.0;
     float kernel_ms = 0;
-    uint32_t pair_counts[4] = {0, 0, 0, 0};
+    uint32_t pair_counts[L_COUNT] = {0};
     float rays_ms = 0;
     int quadrature = su->estimator == RAD_ESTIMATOR_QUADRATURE;
     uint64_t computed = 0; /* pairs this call computes */
@@ -502,14 +529,14 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
     if (need > s->out_capacity) {
         cudaFree(s->d_out);
         cudaFree(s->d_pairs);
-        cudaFree(s->d_open);
+        cudaFree(s->d_verdict);
         s->d_out = NULL;
         s->d_pairs = NULL;
-        s->d_open = NULL;
+        s->d_verdict = NULL;
         s->out_capacity = 0;
         RAD_CUDA_TRY(cudaMalloc(&s->d_out, sizeof(double) * need));
         RAD_CUDA_TRY(cudaMalloc(&s->d_pairs, sizeof(uint32_t) * need));
-        RAD_CUDA_TRY(cudaMalloc(&s->d_open, need));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_verdict, need));
         s->out_capacity = need;
     }
     /* Room for the tracing pairs, sized with the rows (a sixteenth of the
@@ -531,7 +558,7 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
         s->errors_capacity = need;
     }
     RAD_CUDA_TRY(cudaMemset(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT));
-    RAD_CUDA_TRY(cudaMemset(s->d_pair_counts, 0, 4 * sizeof(uint32_t)));
+    RAD_CUDA_TRY(cudaMemset(s->d_pair_counts, 0, L_COUNT * sizeof(uint32_t)));
     p.patches = s->d_patches;
     p.n = su->patch_count;
     p.tracer.nodes = s->d_nodes;
@@ -540,43 +567,40 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
     p.tracer.root_count = s->root_count;
     p.tracer.delta = su->ray_delta;
     p.pair = ff_pair_params(su);
-    p.cull = su->cull;
-    p.cull_margin = su->cull_margin;
-    p.scene_convex = su->scene_convex;
-    p.pairs_once = su->pairs_once;
-    p.eps = su->plane_eps;
+    p.rules = ff_pair_rules_make(su, s->d_patches, s->d_nodes, s->d_tris, s->root, s->root_count);
+    p.rules.reuse_old = NULL; /* this backend computes every pair (ff_setup.reuse_old) */
     p.row_begin = row_begin;
     p.row_count = row_count;
     p.out = s->d_out;
     p.errors = errors ? s->d_errors : NULL;
     p.counters = s->d_counters;
     p.pairs = s->d_pairs;
-    p.open = s->d_open;
+    p.verdict = s->d_verdict;
     p.step = 1;
     p.pair_count = 0;
     counters->memory_seconds += rad_clock_seconds() - t_mem;
 
     RAD_CUDA_TRY(cudaEventRecord(s->start));
     ff_facing_kernel<<<(unsigned)((need + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK>>>(
-        p, s->d_pairs, s->d_open, s->d_pair_counts, need);
+        p, s->d_pairs, s->d_verdict, s->d_pair_counts, need);
     RAD_CUDA_TRY(cudaGetLastError()); /* launch configuration errors */
     RAD_CUDA_TRY(cudaMemcpy(pair_counts, s->d_pair_counts, sizeof pair_counts, cudaMemcpyDeviceToHost));
-    if (quadrature && pair_counts[2] > s->ray_capacity) { /* grows only */
+    if (quadrature && pair_counts[L_TRACED] > s->ray_capacity) { /* grows only */
         cudaFree(s->d_ray_pairs);
         s->d_ray_pairs = NULL;
         s->ray_capacity = 0;
-        RAD_CUDA_TRY(cudaMalloc(&s->d_ray_pairs, sizeof(cuda_ray_pair) * pair_counts[2]));
-        s->ray_capacity = pair_counts[2];
+        RAD_CUDA_TRY(cudaMalloc(&s->d_ray_pairs, sizeof(cuda_ray_pair) * pair_counts[L_TRACED]));
+        s->ray_capacity = pair_counts[L_TRACED];
     }
     p.ray_pairs = s->d_ray_pairs;
-    p.ray_count = s->d_pair_counts + 3;
-    for (int list = 0; list < 2; list++) { /* far pairs, then near ones */
+    p.ray_count = &s->d_pair_counts[L_RAY_PAIRS];
+    for (int list = L_FAR; list <= L_NEAR; list++) { /* far pairs, then near ones */
         if (pair_counts[list] == 0) continue;
         p.pair_count = pair_counts[list];
-        p.pairs = list == 0 ? s->d_pairs : s->d_pairs + need - 1;
-        p.open = list == 0 ? s->d_open : s->d_open + need - 1;
-        p.step = list == 0 ? 1 : -1;
-        p.lanes = list == 0 ? FF_CUDA_FAR_LANES : FF_CUDA_NEAR_LANES;
+        p.pairs = list == L_FAR ? s->d_pairs : s->d_pairs + need - 1;
+        p.verdict = list == L_FAR ? s->d_verdict : s->d_verdict + need - 1;
+        p.step = list == L_FAR ? 1 : -1;
+        p.lanes = list == L_FAR ? FF_CUDA_FAR_LANES : FF_CUDA_NEAR_LANES;
         uint64_t per_block = FF_CUDA_BLOCK / p.lanes;
         uint64_t blocks = ((uint64_t)p.pair_count + per_block - 1) / per_block;
 #ifdef FF_CUDA_PROFILE
@@ -590,7 +614,7 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
         RAD_CUDA_TRY(cudaGetLastError());
 #ifdef FF_CUDA_PROFILE
         RAD_CUDA_TRY(cudaDeviceSynchronize());
-        fprintf(stderr, "ff_cuda_profile: %s list: %u pairs, %u lanes, %.3f ms\n", list ? "near" : "far",
+        fprintf(stderr, "ff_cuda_profile: %s list: %u pairs, %u lanes, %.3f ms\n", list == L_NEAR ? "near" : "far",
                 pair_counts[list], p.lanes, 1e3 * (rad_clock_seconds() - t_list));
 #endif
     }
@@ -608,13 +632,14 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
                             (double)prof[list][b][2] / prof[list][b][0], (double)prof[list][b][1] / prof[list][b][0]);
         float ms = 0.0f;
         RAD_CUDA_TRY(cudaEventElapsedTime(&ms, s->start, s->middle));
-        fprintf(stderr, "ff_cuda_profile: far %u + near %u pairs: %.3f ms\n", pair_counts[0], pair_counts[1], ms);
+        fprintf(stderr, "ff_cuda_profile: far %u + near %u pairs: %.3f ms\n", pair_counts[L_FAR], pair_counts[L_NEAR],
+                ms);
     }
 #endif
-    if (quadrature && pair_counts[2] > 0) { /* pass 3: the rays of the pairs pass 2 appended */
+    if (quadrature && pair_counts[L_TRACED] > 0) { /* pass 3: the rays of the pairs pass 2 appended */
         p.lanes = FF_CUDA_RAY_LANES;
         uint64_t per_block = FF_CUDA_BLOCK / p.lanes;
-        uint64_t blocks = ((uint64_t)pair_counts[2] + per_block - 1) / per_block;
+        uint64_t blocks = ((uint64_t)pair_counts[L_TRACED] + per_block - 1) / per_block;
         ff_quad_rays_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
         RAD_CUDA_TRY(cudaGetLastError());
     }
@@ -629,17 +654,7 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
         computed = 0;
         for (uint32_t r = 0; r < row_count; r++) computed += rad_ff_row_computes_count(row_begin + r, su->patch_count);
     }
-    counters->pairs += computed;
-    counters->pairs_not_facing += computed - pair_counts[0] - pair_counts[1];
-    counters->samples += counts[C_SAMPLES];
-    counters->pairs_refined += counts[C_REFINED];
-    counters->pairs_capped += counts[C_CAPPED];
-    counters->rays += counts[C_RAYS];
-    counters->rays_occluded += counts[C_OCCLUDED];
-    counters->pairs_near += counts[C_NEAR];
-    counters->pairs_open_scene += counts[C_OPEN_SCENE];
-    counters->pairs_open_box += counts[C_OPEN_BOX];
-    counters->rays_saved += counts[C_SAVED];
+    call = cuda_counters(counts, pair_counts, computed);
     /* Kernel time split: the quadrature estimator's ray launch (pass 3)
      * is visibility; the Monte Carlo estimators trace inside pass 2, whose
      * time is split by where the warps spent their cycles. */
@@ -647,8 +662,9 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
         ray_share = kernel_ms > 0 ? rays_ms / kernel_ms : 0.0;
     else
         ray_share = counts[C_CYCLES] ? (double)counts[C_RAY_CYCLES] / (double)counts[C_CYCLES] : 0.0;
-    counters->kernel_seconds += kernel_ms * 1e-3 * (1.0 - ray_share);
-    counters->visibility_seconds += kernel_ms * 1e-3 * ray_share;
+    call.kernel_seconds = kernel_ms * 1e-3 * (1.0 - ray_share);
+    call.visibility_seconds = kernel_ms * 1e-3 * ray_share;
+    ff_counters_add(counters, &call);
 done:
     return status;
 }

@@ -8,7 +8,7 @@
  * Each option with a fixed set of values is one enum with one name table:
  * the parser reads the names through it, the stats and messages print them
  * through it (ff_*_name). The estimator's table is core's
- * (rad_estimator_name, rad_ff_kernel.h), shared with the kernels.
+ * (rad_estimator_name, rad_estimator.h), shared with the file format.
  */
 #ifndef FF_OPTIONS_H
 #define FF_OPTIONS_H
@@ -16,7 +16,7 @@
 #include <stdint.h>
 
 #include "ff_output.h"
-#include "rad_ff_kernel.h"
+#include "rad_estimator.h"
 #include "rad_ffile.h"
 #include "rad_mesh.h"
 #include "rad_refine.h"

@@ -6,7 +6,8 @@
 #include "rad_json.h"
 #include "rad_log.h"
 
-/* Phase times of the whole run: the slowest rank's, as the paper reported. */
+/* Phase times of the whole run: the slowest rank's, as the paper reported;
+ * counters: the sum of the ranks'. */
 static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
 {
     ff_rank_stats all = ranks[0];
@@ -21,19 +22,7 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
         FF_MAX(visibility); FF_MAX(io); FF_MAX(total); FF_MAX(gpu_memory); FF_MAX(mirror);
         FF_MAX(cuda_start); FF_MAX(estimate);
 #undef FF_MAX
-        all.counters.pairs += s->counters.pairs;
-        all.counters.pairs_mirrored += s->counters.pairs_mirrored;
-        all.counters.pairs_not_facing += s->counters.pairs_not_facing;
-        all.counters.pairs_near += s->counters.pairs_near;
-        all.counters.pairs_open_scene += s->counters.pairs_open_scene;
-        all.counters.pairs_open_box += s->counters.pairs_open_box;
-        all.counters.rays_saved += s->counters.rays_saved;
-        all.counters.samples += s->counters.samples;
-        all.counters.rays += s->counters.rays;
-        all.counters.rays_occluded += s->counters.rays_occluded;
-        all.counters.pairs_refined += s->counters.pairs_refined;
-        all.counters.pairs_capped += s->counters.pairs_capped;
-        all.counters.pairs_reused += s->counters.pairs_reused;
+        ff_counters_add(&all.counters, &s->counters);
         ff_rows_summary_merge(&all.rows, &s->rows);
     }
     return all;

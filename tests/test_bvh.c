@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "ff_bvh.h"
+#include "ff_shaft.h"
 #include "ff_setup.h"
 #include "rad_test.h"
 
