@@ -123,6 +123,10 @@ static inline RAD_HD double rad_ff_gl_weight(int order, int k)
  * capped (ff_counters.pairs_capped). */
 #define RAD_FF_QUAD_MAX_DEPTH 48
 #define RAD_FF_QUAD_MAX_CELLS 4096u
+/* Cells a fallback may take where another estimate is already in hand
+ * (rad_ff_pair_quad_unoccluded: a straddling pair's fan after an
+ * unfinished contour integral). */
+#define RAD_FF_QUAD_FALLBACK_CELLS 256u
 #define RAD_FF_QUAD_STACK 64
 /* Highest Gauss order a cell apart from p is raised to before it is split. */
 #define RAD_FF_QUAD_P_MAX 8
@@ -321,10 +325,11 @@ typedef struct rad_ff_quad_result {
 } rad_ff_quad_result;
 
 /* G over q towards p (q the smaller patch, rad_ff_quad_roles), to the
- * tolerance max(rtol |G|, atol A_q); this thread is `lane` of `lanes`. */
-static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patch *q, const rad_ff_patch *p,
-                                                               double rtol, double atol, unsigned lane,
-                                                               unsigned lanes)
+ * tolerance max(rtol |G|, atol A_q), in at most about max_cells cells;
+ * this thread is `lane` of `lanes`. */
+static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded_within(const rad_ff_patch *q, const rad_ff_patch *p,
+                                                                      double rtol, double atol, uint32_t max_cells,
+                                                                      unsigned lane, unsigned lanes)
 {
     rad_ff_quad_result out;
     out.g = 0.0, out.error = 0.0, out.points = 0, out.cells = 0, out.capped = 0;
@@ -374,7 +379,7 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
             out.points += (uint32_t)((n + 1) * (n + 1));
         }
         int room = top + 4 <= RAD_FF_QUAD_STACK && c.depth < RAD_FF_QUAD_MAX_DEPTH &&
-                   out.cells + (uint32_t)top < RAD_FF_QUAD_MAX_CELLS;
+                   out.cells + (uint32_t)top < max_cells;
         if (est <= share || !room) {
             if (est > share) out.capped = 1;
             out.g += fine;
@@ -398,6 +403,14 @@ static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patc
                 stack[top++] = rad_ff_cell_make(c.u0 + a * du, c.v0 + b * dv, du, dv, c.depth + 1);
     }
     return out;
+}
+
+/* rad_ff_quad_unoccluded_within at the cell limit RAD_FF_QUAD_MAX_CELLS. */
+static inline RAD_HD rad_ff_quad_result rad_ff_quad_unoccluded(const rad_ff_patch *q, const rad_ff_patch *p,
+                                                               double rtol, double atol, unsigned lane,
+                                                               unsigned lanes)
+{
+    return rad_ff_quad_unoccluded_within(q, p, rtol, atol, RAD_FF_QUAD_MAX_CELLS, lane, lanes);
 }
 
 #endif
