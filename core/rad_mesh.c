@@ -26,7 +26,7 @@ _Static_assert(sizeof(rad_patch) == 128, "rad_patch is the 128-byte patch record
 
 /* Indices are uint32_t and RAD_NO_VERTEX (UINT32_MAX) is taken. */
 #define MESH_LIMIT ((uint64_t)UINT32_MAX - 1)
-/* A scene group that owns no face (collect_groups' scratch): a group index,
+/* A scene group that owns no patch (collect_groups' scratch): a group index,
  * not a vertex, so not RAD_NO_VERTEX, though of the same value. */
 #define NO_GROUP UINT32_MAX
 
@@ -206,13 +206,17 @@ static void split(builder *B, const uint32_t *v, int n, int level)
     for (int i = 0; i < 4; i++) split(B, child[i], n, level - 1);
 }
 
-/* The groups that own faces, in the scene's order, and each patch's index
- * into them (group_of: scene->group_count entries of scratch). */
+/* The groups that own patches, in the scene's order, and each patch's
+ * index into them (group_of: scene->group_count entries of scratch). A
+ * group whose every face contact cutting dropped (hidden inside or under
+ * other geometry, or under a coincident face) owns none and is left out:
+ * the files' group table holds no group without patches (the fuzzer's
+ * scene of two coincident triangles in two groups). */
 static rad_status collect_groups(const rad_scene *scene, rad_mesh *mesh, uint32_t *group_of)
 {
     size_t used = 0;
     for (size_t g = 0; g < scene->group_count; g++) group_of[g] = NO_GROUP;
-    for (size_t f = 0; f < scene->face_count; f++) group_of[scene->faces[f].group] = 0;
+    for (size_t i = 0; i < mesh->patch_count; i++) group_of[scene->faces[mesh->patches[i].source_face].group] = 0;
     for (size_t g = 0; g < scene->group_count; g++)
         if (group_of[g] != NO_GROUP) group_of[g] = (uint32_t)used++;
     mesh->group_names = calloc(used ? used : 1, sizeof *mesh->group_names);
@@ -265,7 +269,7 @@ rad_status rad_mesh_build(const rad_scene *scene, const rad_mesh_options *option
     rad_contact_cut cut;
     int *level = NULL;
     uint32_t *vertex_of = NULL; /* cut vertex (scene vertices first) -> mesh vertex */
-    uint32_t *group_of = NULL;  /* scene group -> mesh group (NO_GROUP: owns no face) */
+    uint32_t *group_of = NULL;  /* scene group -> mesh group (NO_GROUP: owns no patch) */
     memset(&mesh, 0, sizeof mesh);
     memset(&B, 0, sizeof B);
     memset(&cut, 0, sizeof cut);

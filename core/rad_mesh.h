@@ -39,7 +39,7 @@
  * midpoints. Unused scene vertices are left out.
  *
  * Groups: every patch belongs to its face's OBJ group (the last `g` or `o`
- * name before it). The mesh keeps the groups that own at least one face,
+ * name before it). The mesh keeps the groups that own at least one patch,
  * in the scene's order, and each patch's index into them: the surfaces that
  * results are reported by (solve --by-group, tools/ffdump.py). The
  * form-factor file stores them (docs/formats.md, "Group table").
