@@ -32,6 +32,19 @@ static char g_guard_name[RAD_FS_GUARD_SLOTS][4096];
 static volatile sig_atomic_t g_guard_valid[RAD_FS_GUARD_SLOTS];
 static int g_guard_count;
 static struct sigaction g_guard_previous[GUARDED_COUNT];
+static int g_guard_installed[GUARDED_COUNT];
+
+/* The timer signals a process may use as ticks (a profiler, libFuzzer's
+ * -timeout watchdog): where they already have a handler they do not end
+ * the process, so the guard leaves them to it. Taking one over killed a
+ * fuzz run whose watchdog ticked while a file was being written. */
+static int guard_takes(int sig)
+{
+    if (sig != SIGALRM && sig != SIGVTALRM && sig != SIGPROF) return 1;
+    struct sigaction current;
+    if (sigaction(sig, NULL, &current) != 0) return 1;
+    return !(current.sa_flags & SA_SIGINFO) && current.sa_handler == SIG_DFL;
+}
 static pthread_mutex_t g_guard_lock = PTHREAD_MUTEX_INITIALIZER;
 
 /* Async-signal-safe: unlink and re-raise only. */
@@ -73,7 +86,10 @@ rad_status rad_fs_guard(const char *temp_path)
                 memset(&sa, 0, sizeof sa);
                 sa.sa_handler = remove_guarded_and_die;
                 sigfillset(&sa.sa_mask);
-                for (size_t k = 0; k < GUARDED_COUNT; k++) sigaction(guarded_signals[k], &sa, &g_guard_previous[k]);
+                for (size_t k = 0; k < GUARDED_COUNT; k++) {
+                    g_guard_installed[k] = guard_takes(guarded_signals[k]);
+                    if (g_guard_installed[k]) sigaction(guarded_signals[k], &sa, &g_guard_previous[k]);
+                }
             }
         }
     }
@@ -89,7 +105,8 @@ void rad_fs_unguard(const char *temp_path)
         g_guard_valid[slot] = 0;
         __atomic_thread_fence(__ATOMIC_SEQ_CST);
         if (--g_guard_count == 0)
-            for (size_t k = 0; k < GUARDED_COUNT; k++) sigaction(guarded_signals[k], &g_guard_previous[k], NULL);
+            for (size_t k = 0; k < GUARDED_COUNT; k++)
+                if (g_guard_installed[k]) sigaction(guarded_signals[k], &g_guard_previous[k], NULL);
     }
     pthread_mutex_unlock(&g_guard_lock);
 }

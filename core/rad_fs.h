@@ -43,8 +43,11 @@ rad_status rad_fs_close_commit(FILE *f, const char *temp, const char *final_path
 
 /* The signal guard: names registered here are unlinked when the process
  * gets SIGTERM, SIGINT, SIGHUP, SIGQUIT, SIGUSR1, SIGUSR2, SIGALRM,
- * SIGPIPE, SIGXCPU, SIGXFSZ, SIGVTALRM or SIGPROF, which then kills it as
- * it would have. rad_fs_temp_create registers its temporaries; another
+ * SIGPIPE, SIGXCPU, SIGXFSZ, SIGVTALRM, SIGPROF, SIGSEGV, SIGBUS, SIGFPE,
+ * SIGILL or SIGABRT, which then kills it as it would have; the timer
+ * signals (SIGALRM, SIGVTALRM, SIGPROF) only where they have no handler
+ * already (a profiler's or a fuzzer's ticks do not end the process).
+ * rad_fs_temp_create registers its temporaries; another
  * process that knows one's name (the other MPI ranks) registers it too.
  * At most RAD_FS_GUARD_SLOTS at once (a full guard logs and returns
  * RAD_ERR_NOMEM). Unguarding a name not registered does nothing. */
