@@ -12,12 +12,16 @@
 
 static int close_rel(double a, double b) { return fabs(a - b) <= SAME_MATERIAL_REL_TOL * fmax(fabs(a), fabs(b)); }
 
-int rad_same_surface(const rad_patch *a, const rad_patch *b, double crease_cos)
+int rad_same_material(const rad_patch *a, const rad_patch *b)
 {
-    if (rad_v3_dot(a->normal, b->normal) < crease_cos) return 0;
     for (int c = 0; c < 3; c++)
         if (!close_rel(a->rho[c], b->rho[c]) || !close_rel(a->emission[c], b->emission[c])) return 0;
     return 1;
+}
+
+int rad_same_surface(const rad_patch *a, const rad_patch *b, double crease_cos)
+{
+    return !(rad_v3_dot(a->normal, b->normal) < crease_cos) && rad_same_material(a, b);
 }
 
 rad_status rad_vertex_patches_build(const rad_mesh *mesh, rad_vertex_patches *out)

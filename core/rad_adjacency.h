@@ -36,4 +36,8 @@ void rad_vertex_patches_free(rad_vertex_patches *adj); /* safe on zeroed */
  * absorbs materials printed and reparsed). */
 int rad_same_surface(const rad_patch *a, const rad_patch *b, double crease_cos);
 
+/* The same material: rho and emission equal to 1e-9 relative (the half of
+ * rad_same_surface that render's smoothing groups use alone). */
+int rad_same_material(const rad_patch *a, const rad_patch *b);
+
 #endif

@@ -30,15 +30,6 @@ typedef struct surface_rule {
     const render_smoothing *smoothing; /* NULL: none */
 } surface_rule;
 
-static int same_material(const rad_patch *a, const rad_patch *b)
-{
-    for (int c = 0; c < 3; c++)
-        if (fabs(a->rho[c] - b->rho[c]) > 1e-9 * fmax(fabs(a->rho[c]), fabs(b->rho[c])) ||
-            fabs(a->emission[c] - b->emission[c]) > 1e-9 * fmax(fabs(a->emission[c]), fabs(b->emission[c])))
-            return 0;
-    return 1;
-}
-
 static int same_surface(const surface_rule *rule, const rad_patch *a, const rad_patch *b)
 {
     if (rad_same_surface(a, b, rule->crease_cos)) return 1;
@@ -46,7 +37,7 @@ static int same_surface(const surface_rule *rule, const rad_patch *a, const rad_
     if (!sm || a->source_face >= sm->face_count || b->source_face >= sm->face_count) return 0;
     uint32_t ga = sm->face_group[a->source_face], gb = sm->face_group[b->source_face];
     /* Facing apart (a thin plate's two sides) never blends. */
-    return ga != 0 && ga == gb && rad_v3_dot(a->normal, b->normal) > 0.0 && same_material(a, b);
+    return ga != 0 && ga == gb && rad_v3_dot(a->normal, b->normal) > 0.0 && rad_same_material(a, b);
 }
 
 typedef struct loose_edge {
