@@ -1,0 +1,88 @@
+/* rad_links.h - hierarchical radiosity's links in memory: the element
+ * tree over the leaves mesh and the links between its nodes (issue 26;
+ * docs/hierarchy.md). formfactor --method hierarchical makes them
+ * (formfactor/ff_links.c), the form-factor file stores them (layout
+ * RAD_FF_LAYOUT_LINKS, rad_ffile.h), solve solves on them (rad_lsolve.h).
+ *
+ *     rad_links links;                     // from ff_links, or rad_ff_read_links
+ *     node r's links: links.links[links.first_link[r] .. links.first_link[r + 1])
+ *     rad_links_free(&links);
+ *
+ * Nodes. Node 0 .. root_count - 1 are the roots (the patches of the
+ * --subdiv 0 mesh, contacts cut), the others their descendants; a split
+ * node's 4 children are consecutive and come after it. Leaves are the
+ * patches of the leaves mesh (the form-factor file's patch table, what
+ * solve writes and render draws): node.leaf is the patch's index, and
+ * every patch is the leaf of exactly one node. A node's corners index the
+ * leaves mesh's vertex table, which holds every vertex of the hierarchy
+ * (also those only split nodes use). Materials are the root's: every leaf
+ * under a root has its rho and E.
+ *
+ * Links. A link stored at receiver r with source s carries
+ * F_rs, the form factor from r to s (visibility included), and `error`, a
+ * bound on how far the form factor from any leaf under r to s may lie from
+ * F_rs (F units). Radiosity gathered at r is pushed to all of r's leaves:
+ * B_leaf = E + rho * (sum over the links of the leaf and of its ancestors
+ * of F_rs B_s), B_s of a split node being the area-weighted mean of its
+ * leaves. Links come in pairs: (r <- s) and (s <- r), with
+ * A_r F_rs = A_s F_sr to rounding (one symmetric coupling c_rs: F_rs =
+ * c_rs A_s). A node's links are sorted by source, so the bytes do not
+ * depend on ranks, threads or backends.
+ */
+#ifndef RAD_LINKS_H
+#define RAD_LINKS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rad_status.h"
+
+#ifndef RAD_NO_ELEMENT
+#define RAD_NO_ELEMENT UINT32_MAX
+#endif
+
+/* One node as the file stores it (48 bytes). */
+typedef struct rad_link_node {
+    uint32_t parent;       /* RAD_NO_ELEMENT for a root */
+    uint32_t first_child;  /* children first_child .. + 3; RAD_NO_ELEMENT for a leaf */
+    uint32_t leaf;         /* a leaf's patch in the leaves mesh; RAD_NO_ELEMENT for a split node */
+    uint32_t root;         /* the root of its tree (itself for a root) */
+    uint32_t level;        /* 0 for a root */
+    uint32_t vertex_count; /* 3 or 4 */
+    uint32_t v[4];         /* corners in the leaves mesh's vertex table; v[3] = RAD_NO_VERTEX for triangles */
+    double area;
+} rad_link_node;
+
+/* One link as the file stores it (16 bytes). */
+typedef struct rad_link {
+    uint32_t source; /* node */
+    float error;     /* bound on |F(leaf under receiver -> source) - factor|, F units */
+    double factor;   /* F_rs, receiver -> source */
+} rad_link;
+
+typedef struct rad_links {
+    rad_link_node *nodes;
+    uint32_t node_count;
+    uint32_t root_count;  /* nodes 0 .. root_count - 1 */
+    uint32_t leaf_count;  /* = the leaves mesh's patch_count */
+    uint64_t *first_link; /* node_count + 1 */
+    rad_link *links;
+    uint64_t link_count;
+    double link_tol;      /* the --link-tol they were refined to (informational) */
+    double error_bound;   /* formfactor's bound on the solution's relative error from the
+                             links' errors (docs/hierarchy.md); 0 where unknown */
+} rad_links;
+
+void rad_links_free(rad_links *links); /* safe on zeroed */
+
+/* Structural checks a reader makes before trusting the links: roots
+ * first, parents and children consistent, children after their parent,
+ * levels, every leaf one patch and every patch one leaf (leaf_count
+ * patches), corners in range (vertex_count vertices), areas finite and
+ * > 0, first_link non-decreasing from 0 to link_count, sources in range
+ * and strictly ascending per receiver, factors finite and >= 0, errors
+ * finite and >= 0. RAD_ERR_FORMAT with a message naming `what` (a file
+ * name) and the first bad node or link. */
+rad_status rad_links_check(const rad_links *links, size_t vertex_count, const char *what);
+
+#endif
