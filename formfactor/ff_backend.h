@@ -107,6 +107,21 @@ typedef struct ff_records {
     uint32_t rows;
 } ff_records;
 
+/* One pair of a hierarchy's elements for compute_pairs (ff_links.h):
+ * indices into the patches compute_pairs is given. */
+typedef struct ff_pair_job {
+    uint32_t a, b;
+} ff_pair_job;
+
+/* What compute_pairs found for a job. */
+typedef struct ff_pair_outcome {
+    double coupling;   /* c_ab = F_ab / A_b (0 where the pair does not face) */
+    double error;      /* its standard error (rad_ff_pair_result.error) */
+    uint32_t rays, rays_blocked;
+    uint32_t verdict;  /* ff_pair_verdict (ff_pair_class.h): FF_PAIR_NOT_FACING, or how it was computed */
+    uint32_t pad;
+} ff_pair_outcome;
+
 typedef struct ff_backend {
     const char *name;
     rad_status (*create)(const ff_setup *setup, void **out_state);
@@ -132,6 +147,16 @@ typedef struct ff_backend {
     rad_status (*compute_records)(void *state, uint32_t row_begin, uint32_t row_count, uint32_t element,
                                   ff_records *values, ff_records *errors, ff_rows_summary *summary,
                                   ff_counters *counters);
+    /* Optional (NULL where a backend has none): hierarchical radiosity's
+     * links (ff_links.h). Classifies and computes the pairs jobs[0 ..
+     * count) of `patches` (a hierarchy's elements, not the setup's
+     * patches) as compute_rows does a matrix's pairs, keys[a] and keys[b]
+     * standing for the patch indices the per-pair procedure takes (its
+     * seeds and tie-breaks): an element's key is its patch index in the
+     * uniform mesh of the same leaves, so a link between two leaves gets
+     * the very coupling the full matrix holds. */
+    rad_status (*compute_pairs)(void *state, const rad_ff_patch *patches, const uint32_t *keys,
+                                const ff_pair_job *jobs, size_t count, ff_pair_outcome *out, ff_counters *counters);
 } ff_backend;
 
 extern const ff_backend ff_backend_cpu;

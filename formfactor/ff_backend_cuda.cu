@@ -733,4 +733,4 @@ static void cuda_free_rows(void *state, double *rows)
 }
 
 extern "C" const ff_backend ff_backend_cuda = {"cuda",          cuda_create,    cuda_compute_rows, cuda_destroy,
-                                               cuda_alloc_rows, cuda_free_rows, cuda_compute_records};
+                                               cuda_alloc_rows, cuda_free_rows, cuda_compute_records, NULL};

@@ -19,6 +19,7 @@
 #include "ff_progress.h"
 #include "ff_row_buffer.h"
 #include "ff_rows.h"
+#include "ff_hierarchical.h"
 #include "ff_setup.h"
 #include "ff_stats.h"
 #include "rad_ffile.h"
@@ -488,8 +489,36 @@ static void run_free(ff_run *run)
     rad_scene_free(&run->scene);
 }
 
+/* --method auto: hierarchical where the --subdiv mesh would have more
+ * than FF_AUTO_HIERARCHICAL_PATCHES patches (counted from the scene, which
+ * every rank loads the same), said on stderr with the reason. */
+static ff_method resolve_method(ff_comm *comm, const ff_options *options)
+{
+    if (options->method != FF_METHOD_AUTO) return options->method;
+    if (options->refine_path || options->reuse_path || options->errors_path || options->subdiv_only)
+        return FF_METHOD_FULL; /* options of full matrices */
+    int rank = ff_comm_rank(comm);
+    rad_log_level level = rad_log_get_level();
+    if (rank != 0) rad_log_set_level(RAD_LOG_NONE);
+    rad_scene scene;
+    uint64_t n = 0;
+    if (ff_load_scene(options, &scene) == RAD_OK) {
+        rad_mesh_options mo = {.subdiv = options->subdiv, .contacts = options->contacts};
+        n = rad_mesh_count_patches(&scene, &mo);
+        rad_scene_free(&scene);
+    }
+    if (rank != 0) rad_log_set_level(level);
+    ff_method method = n > FF_AUTO_HIERARCHICAL_PATCHES ? FF_METHOD_HIERARCHICAL : FF_METHOD_FULL;
+    if (rank == 0)
+        rad_info("--method auto: %s (the --subdiv %d mesh has %llu patches, %s %u)", ff_method_name(method),
+                 options->subdiv, (unsigned long long)n, method == FF_METHOD_FULL ? "at most" : "over",
+                 FF_AUTO_HIERARCHICAL_PATCHES);
+    return method;
+}
+
 rad_status ff_driver_run(ff_comm *comm, const ff_options *options)
 {
+    if (resolve_method(comm, options) == FF_METHOD_HIERARCHICAL) return ff_hierarchical_run(comm, options);
     ff_run run = {.comm = comm, .opt = *options};
     rad_status status = run_formfactor(&run);
     run_free(&run);

@@ -23,7 +23,24 @@ const char ff_options_help[] =
     "\n"
     "  -o, --output FILE        output file (default: formfactors)\n"
     "      --subdiv S           split every face into 4^S patches (default: 0; not with\n"
-    "                           --refine, whose mesh comes from RADIOSITY)\n"
+    "                           --refine, whose mesh comes from RADIOSITY); hierarchical:\n"
+    "                           the finest level elements reach (default: 8)\n"
+    "      --method M           full | hierarchical | auto (default: full): full computes\n"
+    "                           every pair of the --subdiv mesh; hierarchical links\n"
+    "                           elements of quadtrees over the faces at the coarsest\n"
+    "                           levels whose error meets --link-tol and writes the links\n"
+    "                           (docs/hierarchy.md; CPU backend); auto: hierarchical when\n"
+    "                           the --subdiv mesh has more than 20000 patches\n"
+    "      --link-tol T         hierarchical: refine a link while the power its error\n"
+    "                           carries exceeds T times the emitted power (default: 1e-4;\n"
+    "                           0: every pair down to the finest level)\n"
+    "      --oracle O           error | power | factor (default: error): what a link's\n"
+    "                           estimate is weighed by: rho A B x the error of F, rho A B F\n"
+    "                           (BF), or F alone (then T bounds F)\n"
+    "      --min-area A         hierarchical: no element smaller than A times the scene's\n"
+    "                           area (default: 1e-7)\n"
+    "      --passes P           hierarchical: refinement passes, each re-weighing the\n"
+    "                           links by the last solution's B (default: 3)\n"
     "      --subdiv-only GROUP  subdivide only faces of OBJ group GROUP (the paper's\n"
     "                           code subdivided only the box: --subdiv-only box)\n"
     "      --refine RADIOSITY   instead of --subdiv: take the mesh of RADIOSITY (solve's\n"
@@ -138,6 +155,17 @@ typedef struct ff_name {
 
 static const ff_name backend_names[] = {
     {FF_BACKEND_AUTO, "auto"}, {FF_BACKEND_CPU, "cpu"}, {FF_BACKEND_CUDA, "cuda"}};
+static const ff_name method_names[] = {
+    {FF_METHOD_FULL, "full"}, {FF_METHOD_HIERARCHICAL, "hierarchical"}, {FF_METHOD_AUTO, "auto"}};
+static const ff_name oracle_names[] = {{0, "error"}, {1, "power"}, {2, "factor"}};
+
+const char *ff_method_name(ff_method method)
+{
+    for (size_t k = 0; k < FF_NAMES_COUNT(method_names); k++)
+        if (method_names[k].value == (int)method) return method_names[k].name;
+    return "unknown";
+}
+
 static const ff_name preset_names[] = {{FF_PRESET_FINAL, "final"}, {FF_PRESET_PREVIEW, "preview"}};
 static const ff_name cull_names[] = {{FF_CULL_ALL, "all"}, {FF_CULL_NONE, "none"}};
 static const ff_name contacts_names[] = {{RAD_MESH_CONTACTS_CUT, "cut"}, {RAD_MESH_CONTACTS_KEEP, "keep"}};
@@ -232,7 +260,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
            O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT, O_KE,
-           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET };
+           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -253,7 +281,9 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"contacts", required_argument, 0, O_CONTACTS}, {"max-seconds", required_argument, 0, O_MAX_SECONDS},
         {"allow-disk-overcommit", no_argument, 0, O_OVERCOMMIT}, {"ke", required_argument, 0, O_KE},
         {"flip-group", required_argument, 0, O_FLIP_GROUP}, {"keep-normals", no_argument, 0, O_KEEP_NORMALS},
-        {"preset", required_argument, 0, O_PRESET}, {0, 0, 0, 0}};
+        {"preset", required_argument, 0, O_PRESET}, {"method", required_argument, 0, O_METHOD},
+        {"link-tol", required_argument, 0, O_LINK_TOL}, {"oracle", required_argument, 0, O_ORACLE},
+        {"min-area", required_argument, 0, O_MIN_AREA}, {"passes", required_argument, 0, O_PASSES}, {0, 0, 0, 0}};
     int rays_given = 0, rtol_given = 0;
     uint64_t v = 0;
     int named = 0; /* an option's value read through a name table */
@@ -295,6 +325,14 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
             }
             break;
         case O_KEEP_NORMALS: o->keep_normals = 1; break;
+        case O_METHOD:
+            st = parse_name("--method", optarg, method_names, FF_NAMES_COUNT(method_names), &named);
+            if (st == RAD_OK) o->method = (ff_method)named;
+            break;
+        case O_LINK_TOL: st = rad_parse_real("--link-tol", optarg, 0, 1, 1e6, 0, &o->link_tol); break;
+        case O_ORACLE: st = parse_name("--oracle", optarg, oracle_names, FF_NAMES_COUNT(oracle_names), &o->oracle); break;
+        case O_MIN_AREA: st = rad_parse_real("--min-area", optarg, 0, 1, 1, 0, &o->min_area); break;
+        case O_PASSES: st = rad_parse_uint("--passes", optarg, 1, 100, &v); o->passes = (uint32_t)v; break;
         case O_PRESET: st = parse_name("--preset", optarg, preset_names, FF_NAMES_COUNT(preset_names), &o->preset); break;
         case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
         case O_FLIP_NORMALS: o->flip_normals = 1; break;
@@ -432,6 +470,15 @@ static rad_status check_options(ff_options *o)
         rad_error("--refine splits the mesh of %s as it is; drop --subdiv-only", o->refine_path);
         return RAD_ERR_USAGE;
     }
+    if (o->method == FF_METHOD_HIERARCHICAL) {
+        const char *bad = o->refine_path ? "--refine" : o->reuse_path ? "--reuse" : o->errors_path ? "--errors"
+                        : o->subdiv_only ? "--subdiv-only" : o->backend == FF_BACKEND_CUDA ? "--backend cuda" : NULL;
+        if (bad) {
+            rad_error("--method hierarchical: %s is for full matrices (hierarchical runs refine their own "
+                      "elements, on the CPU backend)", bad);
+            return RAD_ERR_USAGE;
+        }
+    }
     rad_fs_role roles[] = {{"the scene", o->scene_path, 0}, {"-o", o->output, 1}, {"--stats", o->stats_path, 1},
                            {"--errors", o->errors_path, 1}, {"--refine", o->refine_path, 0},
                            {"--reuse", o->reuse_path, 0}};
@@ -449,6 +496,7 @@ rad_status ff_options_parse(int argc, char **argv, ff_options *out)
 {
     /* Zero is the default for the enums (auto, all, auto, sparse). */
     *out = (ff_options){.output = "formfactors", .samples = 512, .shadow_rays = 32, .seed = 1,
+                        .link_tol = FF_HIER_LINK_TOL, .min_area = FF_HIER_MIN_AREA, .passes = FF_HIER_PASSES,
                         .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE,
                         .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL};
     out->refine = rad_refine_defaults();

@@ -33,6 +33,19 @@ typedef enum ff_cull { FF_CULL_ALL, FF_CULL_NONE } ff_cull;
  * entry (which needs the rank's rows in memory), or compute both (rows
  * stream through a round buffer); auto decides by memory (ff_plan.h). The
  * bytes are the same. */
+/* --method: full = the N x N matrix of the --subdiv mesh; hierarchical =
+ * links between elements of quadtrees over the faces (ff_links.h);
+ * auto = hierarchical where the full matrix would hold more than
+ * FF_AUTO_HIERARCHICAL_PATCHES patches, said on stderr. */
+typedef enum ff_method { FF_METHOD_FULL = 0, FF_METHOD_HIERARCHICAL = 1, FF_METHOD_AUTO = 2 } ff_method;
+#define FF_AUTO_HIERARCHICAL_PATCHES 20000u
+/* Hierarchical runs: the finest level when --subdiv is not given, the
+ * default --link-tol, --min-area (of the scene's total area) and --passes. */
+#define FF_HIER_MAX_LEVEL 8
+#define FF_HIER_LINK_TOL 1e-4
+#define FF_HIER_MIN_AREA 1e-7
+#define FF_HIER_PASSES 3
+
 typedef enum ff_reciprocity { FF_RECIPROCITY_AUTO, FF_RECIPROCITY_ON, FF_RECIPROCITY_OFF } ff_reciprocity;
 
 /* The names as the command line and the stats spell them ("auto", "cpu",
@@ -43,6 +56,7 @@ const char *ff_contacts_name(rad_mesh_contacts contacts); /* "cut", "keep" */
 const char *ff_reciprocity_name(ff_reciprocity reciprocity);
 const char *ff_element_name(rad_element_type element); /* "f64", "f32" */
 const char *ff_format_name(ff_format format);          /* "sparse", "dense", "paper" */
+const char *ff_method_name(ff_method method);          /* "full", "hierarchical", "auto" */
 
 typedef struct ff_options {
     const char *scene_path;  /* NULL = built-in Cornell box */
@@ -71,6 +85,11 @@ typedef struct ff_options {
                                 the other way (rad_scene_options.flip_groups); NULL = none */
     int keep_normals;        /* --keep-normals: run a scene enclosed by an outward-facing shell
                                 (rad_enclosure.h) as it is instead of refusing it */
+    ff_method method;        /* --method */
+    double link_tol;         /* --link-tol (hierarchical) */
+    int oracle;              /* --oracle: ff_oracle (ff_links.h) */
+    double min_area;         /* --min-area: fraction of the scene's total area */
+    uint32_t passes;         /* --passes: refinement passes (hierarchical) */
     int preset;              /* --preset: FF_PRESET_FINAL (default) or FF_PRESET_PREVIEW */
     int ke_radiance;         /* --ke radiance: Ke is emitted radiance, E = pi Ke
                                 (rad_scene_options.ke_radiance); 0 = --ke radiosity */

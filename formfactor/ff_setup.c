@@ -20,16 +20,55 @@ void ff_frame_centre(const rad_mesh *mesh, double centre[3])
  * plane. Contact cutting can leave such vertices off it by the rounding of
  * the other face's geometry (1e-8 in a model with a double-sided sheet:
  * its two coincident faces then faced each other, F = 1, rows of 2). */
-static rad_vec3 patch_corner(const rad_scene *scene, const rad_mesh *mesh, const rad_patch *p, uint32_t k,
+static rad_vec3 patch_corner(const rad_scene *scene, const double *positions, const rad_patch *p, uint32_t k,
                              rad_vec3 face_normal, rad_vec3 face_point, const double centre[3])
 {
     uint32_t v = p->v[k < p->vertex_count ? k : 2];
-    rad_vec3 x = rad_v3(mesh->positions[3 * v], mesh->positions[3 * v + 1], mesh->positions[3 * v + 2]);
+    rad_vec3 x = rad_v3(positions[3 * (size_t)v], positions[3 * (size_t)v + 1], positions[3 * (size_t)v + 2]);
     const rad_face *face = &scene->faces[p->source_face];
+    /* By position: the mesh numbers its vertices its own way (unused scene
+     * vertices left out, midpoints in the order they were made), so an
+     * index says nothing about the scene's. */
     int own = 0;
-    for (uint32_t c = 0; c < face->vertex_count; c++) own |= face->v[c] == v;
+    for (uint32_t c = 0; c < face->vertex_count; c++) {
+        const double *s = scene->positions + 3 * (size_t)face->v[c];
+        own |= s[0] == x.x && s[1] == x.y && s[2] == x.z;
+    }
     if (!own) x = rad_v3_sub(x, rad_v3_scale(face_normal, rad_v3_dot(face_normal, rad_v3_sub(x, face_point))));
     return rad_v3(x.x - centre[0], x.y - centre[1], x.z - centre[2]);
+}
+
+void ff_patch_make(const rad_scene *scene, const double *positions, const rad_patch *p, const double centre[3],
+                   rad_ff_patch *q)
+{
+    const rad_face *face = &scene->faces[p->source_face];
+    rad_vec3 fv[4], face_normal, face_point;
+    double face_area;
+    for (uint32_t c = 0; c < face->vertex_count; c++)
+        fv[c] = rad_v3(scene->positions[3 * (size_t)face->v[c]], scene->positions[3 * (size_t)face->v[c] + 1],
+                       scene->positions[3 * (size_t)face->v[c] + 2]);
+    rad_polygon_geometry(fv, (int)face->vertex_count, &face_area, &face_normal, &face_point);
+    for (uint32_t k = 0; k < 4; k++) q->p[k] = patch_corner(scene, positions, p, k, face_normal, face_point, centre);
+    q->normal = p->normal;
+    q->centre = rad_v3(0, 0, 0);
+    for (uint32_t k = 0; k < p->vertex_count; k++) q->centre = rad_v3_add(q->centre, q->p[k]);
+    q->centre = rad_v3_scale(q->centre, 1.0 / p->vertex_count);
+    q->radius = 0;
+    for (uint32_t k = 0; k < p->vertex_count; k++) {
+        double r = rad_v3_length(rad_v3_sub(q->p[k], q->centre));
+        q->radius = r > q->radius ? r : q->radius;
+    }
+    q->area = p->area;
+    q->face = p->source_face;
+    q->vertex_count = p->vertex_count;
+    q->split = 1.0;
+    if (p->vertex_count == 4) {
+        double first = 0.5 * rad_v3_length(rad_v3_cross(rad_v3_sub(q->p[1], q->p[0]), rad_v3_sub(q->p[2], q->p[0])));
+        double second = 0.5 * rad_v3_length(rad_v3_cross(rad_v3_sub(q->p[2], q->p[0]), rad_v3_sub(q->p[3], q->p[0])));
+        q->split = first / (first + second);
+    }
+    q->inv_split = 1.0 / q->split;
+    q->inv_rest = q->split < 1.0 ? 1.0 / (1.0 - q->split) : 0.0;
 }
 
 rad_status ff_patches_build(const rad_scene *scene, const rad_mesh *mesh, const double centre[3],
@@ -40,43 +79,7 @@ rad_status ff_patches_build(const rad_scene *scene, const rad_mesh *mesh, const 
         rad_error("out of memory for %zu patches", mesh->patch_count);
         return RAD_ERR_NOMEM;
     }
-    rad_vec3 face_normal = rad_v3(0, 0, 0), face_point = rad_v3(0, 0, 0);
-    uint32_t plane_of = UINT32_MAX; /* the face whose plane those are: a face's patches are contiguous */
-    for (size_t i = 0; i < mesh->patch_count; i++) {
-        const rad_patch *p = &mesh->patches[i];
-        rad_ff_patch *q = &out[i];
-        if (p->source_face != plane_of) {
-            const rad_face *face = &scene->faces[p->source_face];
-            rad_vec3 fv[4];
-            double face_area;
-            for (uint32_t c = 0; c < face->vertex_count; c++)
-                fv[c] = rad_v3(scene->positions[3 * (size_t)face->v[c]], scene->positions[3 * (size_t)face->v[c] + 1],
-                               scene->positions[3 * (size_t)face->v[c] + 2]);
-            rad_polygon_geometry(fv, (int)face->vertex_count, &face_area, &face_normal, &face_point);
-            plane_of = p->source_face;
-        }
-        for (uint32_t k = 0; k < 4; k++) q->p[k] = patch_corner(scene, mesh, p, k, face_normal, face_point, centre);
-        q->normal = p->normal;
-        q->centre = rad_v3(0, 0, 0);
-        for (uint32_t k = 0; k < p->vertex_count; k++) q->centre = rad_v3_add(q->centre, q->p[k]);
-        q->centre = rad_v3_scale(q->centre, 1.0 / p->vertex_count);
-        q->radius = 0;
-        for (uint32_t k = 0; k < p->vertex_count; k++) {
-            double r = rad_v3_length(rad_v3_sub(q->p[k], q->centre));
-            q->radius = r > q->radius ? r : q->radius;
-        }
-        q->area = p->area;
-        q->face = p->source_face;
-        q->vertex_count = p->vertex_count;
-        q->split = 1.0;
-        if (p->vertex_count == 4) {
-            double first = 0.5 * rad_v3_length(rad_v3_cross(rad_v3_sub(q->p[1], q->p[0]), rad_v3_sub(q->p[2], q->p[0])));
-            double second = 0.5 * rad_v3_length(rad_v3_cross(rad_v3_sub(q->p[2], q->p[0]), rad_v3_sub(q->p[3], q->p[0])));
-            q->split = first / (first + second);
-        }
-        q->inv_split = 1.0 / q->split;
-        q->inv_rest = q->split < 1.0 ? 1.0 / (1.0 - q->split) : 0.0;
-    }
+    for (size_t i = 0; i < mesh->patch_count; i++) ff_patch_make(scene, mesh->positions, &mesh->patches[i], centre, &out[i]);
     *out_patches = out;
     return RAD_OK;
 }

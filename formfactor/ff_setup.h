@@ -25,6 +25,12 @@ void ff_frame_centre(const rad_mesh *mesh, double centre[3]);
 rad_status ff_patches_build(const rad_scene *scene, const rad_mesh *mesh, const double centre[3],
                             rad_ff_patch **out_patches);
 
+/* One patch of that array: `p` (its corners index `positions`, xyz per
+ * vertex, scene coordinates), moved and put into its face's plane as
+ * ff_patches_build does; for the elements of a hierarchy (ff_links.h). */
+void ff_patch_make(const rad_scene *scene, const double *positions, const rad_patch *p, const double centre[3],
+                   rad_ff_patch *out);
+
 /* Occluders: every scene face as triangles (a quad gives two),
  * moved by -centre, with the face each came from. Caller frees both arrays. */
 rad_status ff_occluders_build(const rad_scene *scene, const double centre[3], double **out_triangles,

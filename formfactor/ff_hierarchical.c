@@ -1,0 +1,277 @@
+/* ff_hierarchical.c - formfactor --method hierarchical (ff_hierarchical.h):
+ * the refinement loop of docs/hierarchy.md. Pass 1 links the roots and
+ * refines by B = E; each later pass solves on the links made so far
+ * (rad_lsolve) and refines the links the solution's B makes too coarse,
+ * until a pass refines nothing or --passes are done. The last solution
+ * gives the error bound the file records; solve solves again from the
+ * file. One rank computes (the others wait): the links are the same
+ * bytes whatever the ranks and threads. */
+#include "ff_hierarchical.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ff_backend.h"
+#include "ff_limits.h"
+#include "ff_links.h"
+#include "ff_load.h"
+#include "ff_setup.h"
+#include "rad_clock.h"
+#include "rad_ffile.h"
+#include "rad_fs.h"
+#include "rad_json.h"
+#include "rad_log.h"
+#include "rad_lsolve.h"
+#ifndef RAD_FF_LAYOUT_LINKS /* TEMP */
+#define RAD_FF_LAYOUT_LINKS 2
+rad_status rad_ff_write_links(const char *path, const rad_ff_info *info, const rad_mesh *leaves, const rad_links *links);
+#endif
+
+typedef struct hier_run {
+    const ff_options *opt;
+    rad_scene scene;
+    rad_mesh base;
+    double *triangles;
+    uint32_t *triangle_face, triangle_count;
+    void *backend_state;
+    ff_links links;
+    rad_links exported;
+    rad_mesh leaves;
+    double *B; /* 3 per leaf */
+    rad_lsolve_result solution;
+    ff_counters counters;
+    double error_bound;
+    int threads;
+    double seconds_load, seconds_links, seconds_solve, seconds_write, seconds_total;
+    uint64_t refined[64];
+} hier_run;
+
+/* Exports the links and solves on them (B warm-started where the leaves did not change). */
+static rad_status export_and_solve(hier_run *h)
+{
+    rad_links_free(&h->exported);
+    rad_mesh_free(&h->leaves);
+    rad_status st = ff_links_export(&h->links, &h->exported, &h->leaves);
+    if (st != RAD_OK) return st;
+    free(h->B);
+    h->B = malloc(3 * (h->leaves.patch_count ? h->leaves.patch_count : 1) * sizeof *h->B);
+    if (!h->B) return RAD_ERR_NOMEM;
+    rad_lsolve_options o = rad_lsolve_defaults();
+    o.threads = h->threads;
+    o.tolerance = 1e-6;
+    double t0 = rad_clock_seconds();
+    st = rad_lsolve(&h->exported, &h->leaves, &o, h->B, &h->solution);
+    h->seconds_solve += rad_clock_seconds() - t0;
+    return st;
+}
+
+static rad_status build_links(hier_run *h)
+{
+    const ff_options *opt = h->opt;
+    double centre[3];
+    ff_frame_centre(&h->base, centre);
+    rad_status st = ff_occluders_build(&h->scene, centre, &h->triangles, &h->triangle_face, &h->triangle_count);
+    if (st != RAD_OK) return st;
+    double eps = ff_plane_eps(&h->base);
+    ff_setup su = {.patches = NULL, .patch_count = 0, .triangles = h->triangles,
+                   .triangle_face = h->triangle_face, .triangle_count = h->triangle_count,
+                   .samples = opt->samples, .shadow_rays = opt->shadow_rays, .seed = opt->seed,
+                   .estimator = opt->estimator, .quad_rtol = opt->quad_rtol, .quad_atol = opt->quad_atol,
+                   .target_error = opt->target_error, .max_samples = opt->max_samples, .errors = 1,
+                   .cull = opt->cull == FF_CULL_ALL,
+                   .scene_convex = opt->cull == FF_CULL_ALL && ff_scene_is_convex_enclosure(&h->scene, eps),
+                   .cull_margin = ff_cull_margin(&h->base, centre, eps), .plane_eps = eps,
+                   .ray_delta = ff_ray_delta(&h->base), .threads = h->threads};
+    if ((st = ff_backend_cpu.create(&su, &h->backend_state)) != RAD_OK) return st;
+    double total_area = 0;
+    for (size_t k = 0; k < h->base.patch_count; k++) total_area += h->base.patches[k].area;
+    ff_links_config config = {.link_tol = opt->link_tol, .oracle = (ff_oracle)opt->oracle,
+                              .max_level = opt->subdiv_given ? (uint32_t)opt->subdiv : FF_HIER_MAX_LEVEL,
+                              .min_area = opt->min_area * total_area};
+    if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, &ff_backend_cpu, h->backend_state)) !=
+        RAD_OK)
+        return st;
+    for (uint32_t pass = 0; pass < opt->passes && st == RAD_OK; pass++) {
+        double t0 = rad_clock_seconds();
+        uint64_t refined = 0;
+        st = ff_links_refine(&h->links, pass ? h->B : NULL, &h->counters, &refined);
+        h->seconds_links += rad_clock_seconds() - t0;
+        if (pass < 64) h->refined[pass] = refined;
+        if (st == RAD_OK) st = export_and_solve(h);
+        if (st == RAD_OK)
+            rad_info("pass %u: %llu pairs refined; %u elements, %u leaves, %llu links (%.1f per leaf), solved in %u "
+                     "sweeps",
+                     pass + 1, (unsigned long long)refined, h->exported.node_count, h->exported.leaf_count,
+                     (unsigned long long)h->exported.link_count,
+                     (double)h->exported.link_count / (h->exported.leaf_count ? h->exported.leaf_count : 1),
+                     h->solution.iterations[0]);
+        if (pass > 0 && refined == 0) break;
+    }
+    if (st == RAD_OK) {
+        h->error_bound = ff_links_error_bound(&h->links, &h->exported, h->B);
+        h->exported.error_bound = h->error_bound;
+    }
+    return st;
+}
+
+static rad_status write_links(hier_run *h)
+{
+    const ff_options *opt = h->opt;
+    rad_ff_info info = {.patch_count = h->leaves.patch_count, .vertex_count = h->leaves.vertex_count,
+                        .element_type = RAD_ELEMENT_F64, .estimator = opt->estimator, .samples = opt->samples,
+                        .shadow_rays = opt->shadow_rays, .seed = opt->seed,
+                        .scene_fingerprint = h->scene.fingerprint, .subdiv = (int32_t)h->links.config.max_level,
+                        .flags = RAD_FF_FLAG_RECIPROCAL | (opt->ke_radiance ? RAD_FF_FLAG_KE_RADIANCE : 0),
+                        .group_count = (uint32_t)h->leaves.group_count, .layout = RAD_FF_LAYOUT_LINKS};
+    snprintf(info.scene_name, sizeof info.scene_name, "%s", opt->scene_path ? opt->scene_path : rad_default_scene_name);
+    double t0 = rad_clock_seconds();
+    rad_status st = rad_ff_write_links(opt->output, &info, &h->leaves, &h->exported);
+    h->seconds_write = rad_clock_seconds() - t0;
+    return st;
+}
+
+static void json_counters(rad_json_writer *w, const ff_counters *c)
+{
+    rad_json_key(w, "pairs");
+    rad_json_uint(w, c->pairs);
+    rad_json_key(w, "pairs_not_facing");
+    rad_json_uint(w, c->pairs_not_facing);
+    rad_json_key(w, "pairs_open_scene");
+    rad_json_uint(w, c->pairs_open_scene);
+    rad_json_key(w, "pairs_open_box");
+    rad_json_uint(w, c->pairs_open_box);
+    rad_json_key(w, "rays");
+    rad_json_uint(w, c->rays);
+    rad_json_key(w, "rays_occluded");
+    rad_json_uint(w, c->rays_occluded);
+}
+
+static rad_status write_stats(const hier_run *h)
+{
+    const ff_options *opt = h->opt;
+    const rad_links *x = &h->exported;
+    uint32_t levels = 0;
+    for (uint32_t e = 0; e < x->node_count; e++) levels = x->nodes[e].level + 1 > levels ? x->nodes[e].level + 1 : levels;
+    rad_info("hierarchical: %u roots, %u levels, %u elements, %u leaves, %llu links (%.1f per leaf, %.1f per element), "
+             "%llu candidate pairs in %llu rounds, %llu shadow rays; error bound %.3g; links %.2f s, solves %.2f s, "
+             "write %.2f s",
+             x->root_count, levels, x->node_count, x->leaf_count, (unsigned long long)x->link_count,
+             (double)x->link_count / x->leaf_count, (double)x->link_count / x->node_count,
+             (unsigned long long)h->links.candidates, (unsigned long long)h->links.rounds,
+             (unsigned long long)h->counters.rays, h->error_bound, h->seconds_links, h->seconds_solve,
+             h->seconds_write);
+    if (!opt->stats_path) return RAD_OK;
+    FILE *f = NULL;
+    char temp[4096];
+    rad_status st = rad_fs_create_temp(opt->stats_path, temp, sizeof temp, &f);
+    if (st != RAD_OK) return st;
+    rad_json_writer w;
+    rad_json_writer_init_file(&w, f);
+    rad_json_begin_object(&w, RAD_JSON_BLOCK);
+    rad_json_key(&w, "scene");
+    rad_json_string(&w, opt->scene_path ? opt->scene_path : rad_default_scene_name);
+    rad_json_key(&w, "method");
+    rad_json_string(&w, "hierarchical");
+    rad_json_key(&w, "oracle");
+    rad_json_string(&w, ff_oracle_name(h->links.config.oracle));
+    rad_json_key(&w, "link_tol");
+    rad_json_number(&w, opt->link_tol);
+    rad_json_key(&w, "max_level");
+    rad_json_uint(&w, h->links.config.max_level);
+    rad_json_key(&w, "min_area");
+    rad_json_number(&w, opt->min_area);
+    rad_json_key(&w, "passes");
+    rad_json_uint(&w, h->links.passes);
+    rad_json_key(&w, "refined_per_pass");
+    rad_json_begin_array(&w, RAD_JSON_INLINE);
+    for (uint32_t p = 0; p < h->links.passes && p < 64; p++) rad_json_uint(&w, h->refined[p]);
+    rad_json_end_array(&w);
+    rad_json_key(&w, "roots");
+    rad_json_uint(&w, x->root_count);
+    rad_json_key(&w, "levels");
+    rad_json_uint(&w, levels);
+    rad_json_key(&w, "elements");
+    rad_json_uint(&w, x->node_count);
+    rad_json_key(&w, "leaves");
+    rad_json_uint(&w, x->leaf_count);
+    rad_json_key(&w, "links");
+    rad_json_uint(&w, x->link_count);
+    rad_json_key(&w, "links_per_leaf");
+    rad_json_number(&w, (double)x->link_count / x->leaf_count);
+    rad_json_key(&w, "links_per_element");
+    rad_json_number(&w, (double)x->link_count / x->node_count);
+    rad_json_key(&w, "candidate_pairs");
+    rad_json_uint(&w, h->links.candidates);
+    rad_json_key(&w, "rounds");
+    rad_json_uint(&w, h->links.rounds);
+    json_counters(&w, &h->counters);
+    rad_json_key(&w, "error_bound");
+    rad_json_number(&w, h->error_bound);
+    rad_json_key(&w, "solve_sweeps");
+    rad_json_uint(&w, h->solution.iterations[0]);
+    rad_json_key(&w, "imbalance");
+    rad_json_number(&w, h->solution.imbalance);
+    rad_json_key(&w, "threads");
+    rad_json_int(&w, h->threads);
+    rad_json_key(&w, "times");
+    rad_json_begin_object(&w, RAD_JSON_INLINE);
+    rad_json_key(&w, "load");
+    rad_json_number(&w, h->seconds_load);
+    rad_json_key(&w, "links");
+    rad_json_number(&w, h->seconds_links);
+    rad_json_key(&w, "form_factors");
+    rad_json_number(&w, h->counters.kernel_seconds);
+    rad_json_key(&w, "visibility");
+    rad_json_number(&w, h->counters.visibility_seconds);
+    rad_json_key(&w, "solves");
+    rad_json_number(&w, h->seconds_solve);
+    rad_json_key(&w, "io");
+    rad_json_number(&w, h->seconds_write);
+    rad_json_key(&w, "total");
+    rad_json_number(&w, h->seconds_total);
+    rad_json_end_object(&w);
+    rad_json_end_object(&w);
+    rad_status written = rad_json_finish(&w);
+    st = rad_fs_close_commit(f, temp, opt->stats_path);
+    return st != RAD_OK ? st : written;
+}
+
+rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
+{
+    int rank = ff_comm_rank(comm);
+    hier_run h;
+    memset(&h, 0, sizeof h);
+    h.opt = opt;
+    h.threads = ff_limits_threads(opt->threads, ff_comm_node_size(comm));
+    double t0 = rad_clock_seconds();
+    rad_status st = RAD_OK;
+    if (rank == 0) {
+        if (ff_comm_size(comm) > 1) rad_info("--method hierarchical: rank 0 computes the links; the other ranks wait");
+        st = ff_load_scene(opt, &h.scene);
+        rad_mesh_options mo = {.subdiv = 0, .contacts = opt->contacts};
+        if (st == RAD_OK) st = rad_mesh_build(&h.scene, &mo, &h.base);
+        if (st == RAD_OK && h.base.patch_count == 0) {
+            rad_error("%s: the scene has no faces", h.scene.path);
+            st = RAD_ERR_INVALID;
+        }
+        h.seconds_load = rad_clock_seconds() - t0;
+        if (st == RAD_OK) st = build_links(&h);
+        if (st == RAD_OK) st = write_links(&h);
+        h.seconds_total = rad_clock_seconds() - t0;
+        if (st == RAD_OK) rad_info("wrote %s", opt->output);
+        if (st == RAD_OK) st = write_stats(&h);
+    }
+    st = ff_comm_agree(comm, st);
+    if (h.backend_state) ff_backend_cpu.destroy(h.backend_state);
+    ff_links_free(&h.links);
+    rad_links_free(&h.exported);
+    rad_mesh_free(&h.leaves);
+    rad_mesh_free(&h.base);
+    free(h.B);
+    free(h.triangles);
+    free(h.triangle_face);
+    rad_scene_free(&h.scene);
+    return st;
+}

@@ -1,0 +1,512 @@
+/* ff_links.c - hierarchical radiosity's links (ff_links.h). */
+#include "ff_links.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ff_pair_class.h" /* ff_pair_verdict */
+#include "ff_setup.h"
+#include "rad_log.h"
+
+const char *ff_oracle_name(ff_oracle oracle)
+{
+    switch (oracle) {
+    case FF_ORACLE_ERROR: return "error";
+    case FF_ORACLE_POWER: return "power";
+    case FF_ORACLE_FACTOR: return "factor";
+    }
+    return "unknown";
+}
+
+/* ---- elements ---- */
+
+/* Patch, key and oracle radiosity of elements [from, tree.element_count). */
+static rad_status elements_added(ff_links *L, size_t from)
+{
+    rad_hierarchy *h = &L->tree;
+    if (h->element_count > L->patch_cap) {
+        size_t cap = L->patch_cap ? L->patch_cap : 256;
+        while (cap < h->element_count) cap *= 2;
+        rad_ff_patch *p = realloc(L->patches, cap * sizeof *p);
+        if (p) L->patches = p;
+        uint32_t *k = realloc(L->keys, cap * sizeof *k);
+        if (k) L->keys = k;
+        double *b = realloc(L->radiosity, 3 * cap * sizeof *b);
+        if (b) L->radiosity = b;
+        if (!p || !k || !b) {
+            rad_error("hierarchy: out of memory for %zu elements", h->element_count);
+            return RAD_ERR_NOMEM;
+        }
+        L->patch_cap = cap;
+    }
+    const uint32_t depth = L->config.max_level;
+    for (size_t e = from; e < h->element_count; e++) {
+        const rad_element *el = &h->elements[e];
+        const rad_patch *root = &h->base->patches[el->root];
+        rad_patch p;
+        memset(&p, 0, sizeof p);
+        p.vertex_count = el->vertex_count;
+        memcpy(p.v, el->v, sizeof p.v);
+        p.source_face = root->source_face;
+        p.area = el->area;
+        p.normal = el->normal;
+        p.centroid = el->centroid;
+        ff_patch_make(L->scene, h->positions, &p, L->centre, &L->patches[e]);
+        if (el->parent == RAD_NO_ELEMENT) {
+            L->keys[e] = L->exact_keys ? el->root << (2 * depth) : (uint32_t)e;
+            memcpy(&L->radiosity[3 * e], root->emission, 3 * sizeof(double));
+        } else {
+            /* child k of parent p: p's key + k 4^(depth - level) */
+            uint32_t k = (uint32_t)e - h->elements[el->parent].first_child;
+            L->keys[e] = L->exact_keys ? L->keys[el->parent] + (k << (2 * (depth - el->level))) : (uint32_t)e;
+            memcpy(&L->radiosity[3 * e], &L->radiosity[3 * (size_t)el->parent], 3 * sizeof(double));
+        }
+    }
+    return RAD_OK;
+}
+
+static int splittable(const ff_links *L, uint32_t e)
+{
+    const rad_element *el = &L->tree.elements[e];
+    return el->level < L->config.max_level && 0.25 * el->area >= L->config.min_area;
+}
+
+rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *base, const double centre[3],
+                         const ff_links_config *config, const ff_backend *backend, void *backend_state)
+{
+    memset(L, 0, sizeof *L);
+    L->scene = scene;
+    memcpy(L->centre, centre, sizeof L->centre);
+    L->config = *config;
+    L->backend = backend;
+    L->backend_state = backend_state;
+    if (!backend->compute_pairs) {
+        rad_error("the %s backend cannot compute hierarchical links", backend->name);
+        return RAD_ERR_UNSUPPORTED;
+    }
+    if (config->max_level > 15) {
+        rad_error("--subdiv %u: hierarchical runs take at most 15 levels", config->max_level);
+        return RAD_ERR_USAGE;
+    }
+    rad_status st = rad_hierarchy_init(base, &L->tree);
+    if (st != RAD_OK) return st;
+    L->exact_keys = (uint64_t)base->patch_count << (2 * config->max_level) < UINT32_MAX;
+    for (size_t r = 0; r < base->patch_count; r++) {
+        const rad_patch *p = &base->patches[r];
+        double e = fmax(p->emission[0], fmax(p->emission[1], p->emission[2]));
+        L->emitted_power += p->area * e;
+    }
+    return elements_added(L, 0);
+}
+
+void ff_links_free(ff_links *L)
+{
+    rad_hierarchy_free(&L->tree);
+    free(L->patches);
+    free(L->keys);
+    free(L->radiosity);
+    free(L->links);
+    memset(L, 0, sizeof *L);
+}
+
+/* ---- the oracle ---- */
+
+/* Mean and spread (largest - smallest) of the unoccluded factor from the
+ * points of `from` (corners and centre) to `to`. A spread that is not a
+ * number is infinite (refine). */
+static void factor_spread(const rad_ff_patch *from, const rad_ff_patch *to, double *mean, double *spread)
+{
+    double lo = INFINITY, hi = -INFINITY, sum = 0;
+    for (uint32_t k = 0; k <= from->vertex_count; k++) {
+        rad_vec3 x = k < from->vertex_count ? from->p[k] : from->centre;
+        double f = rad_ff_point_polygon(x, from->normal, to);
+        lo = f < lo ? f : lo;
+        hi = f > hi ? f : hi;
+        sum += f;
+    }
+    *mean = sum / (from->vertex_count + 1);
+    *spread = isfinite(hi - lo) ? hi - lo : INFINITY;
+}
+
+/* Error of F_rs (F units) from a pair's outcome: the factor's spread over
+ * r, scaled by the visible fraction V; where rays saw the pair partly
+ * hidden, what V of a part may differ from V of the whole (each of the
+ * 4 children holds a quarter: |V_k - V| <= 4 min(V, 1 - V), at most 1),
+ * times the mean unoccluded factor; and the estimate's own error. */
+static double factor_error(const ff_pair_outcome *o, double spread, double mean, double area_s)
+{
+    double V = o->rays ? 1.0 - (double)o->rays_blocked / o->rays : 1.0;
+    double partial = 4.0 * fmin(V, 1.0 - V);
+    return spread * V + mean * (partial < 1.0 ? partial : 1.0) + o->error * area_s;
+}
+
+/* How much the oracle weighs r <- s. */
+static double weight(const ff_links *L, uint32_t r, uint32_t s, double F_rs, double e_rs)
+{
+    if (L->config.oracle == FF_ORACLE_FACTOR) return F_rs;
+    const double *rho = L->tree.base->patches[L->tree.elements[r].root].rho, *B = &L->radiosity[3 * (size_t)s];
+    double rb = fmax(rho[0] * B[0], fmax(rho[1] * B[1], rho[2] * B[2]));
+    return rb * L->tree.elements[r].area * (L->config.oracle == FF_ORACLE_POWER ? F_rs : e_rs);
+}
+
+/* Does the pair (a, b) need finer elements? link_tol 0: always. */
+static int over_tolerance(const ff_links *L, const ff_link_pair *p)
+{
+    if (L->config.link_tol <= 0) return 1;
+    double Fab = p->coupling * L->tree.elements[p->b].area, Fba = p->coupling * L->tree.elements[p->a].area;
+    double w = fmax(weight(L, p->a, p->b, Fab, p->error_ab), weight(L, p->b, p->a, Fba, p->error_ba));
+    double limit = L->config.oracle == FF_ORACLE_FACTOR ? L->config.link_tol : L->config.link_tol * L->emitted_power;
+    return w > limit;
+}
+
+/* ---- rounds ---- */
+
+typedef struct job_list {
+    ff_pair_job *jobs;
+    size_t count, cap;
+} job_list;
+
+static rad_status job_push(job_list *l, uint32_t a, uint32_t b)
+{
+    if (l->count == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 1024;
+        ff_pair_job *j = realloc(l->jobs, cap * sizeof *j);
+        if (!j) {
+            rad_error("hierarchy: out of memory for %zu candidate pairs", cap);
+            return RAD_ERR_NOMEM;
+        }
+        l->jobs = j;
+        l->cap = cap;
+    }
+    l->jobs[l->count++] = (ff_pair_job){a < b ? a : b, a < b ? b : a};
+    return RAD_OK;
+}
+
+static rad_status link_push(ff_links *L, const ff_link_pair *p)
+{
+    if (L->link_count == L->link_cap) {
+        size_t cap = L->link_cap ? 2 * L->link_cap : 1024;
+        ff_link_pair *q = realloc(L->links, cap * sizeof *q);
+        if (!q) {
+            rad_error("hierarchy: out of memory for %zu links", cap);
+            return RAD_ERR_NOMEM;
+        }
+        L->links = q;
+        L->link_cap = cap;
+    }
+    L->links[L->link_count++] = *p;
+    return RAD_OK;
+}
+
+/* Replaces pair (a, b) by its children's pairs in `next`: the larger
+ * element split, both where their areas are within 2x (and both can be). */
+static rad_status split_pair(ff_links *L, uint32_t a, uint32_t b, job_list *next)
+{
+    double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
+    int sa = splittable(L, a), sb = splittable(L, b);
+    int both = sa && sb && Aa <= 2 * Ab && Ab <= 2 * Aa;
+    if (!both) {
+        if (sa && sb) {
+            sa = Aa >= Ab;
+            sb = !sa;
+        }
+    }
+    size_t before = L->tree.element_count;
+    uint32_t ca = a, cb = b;
+    rad_status st = RAD_OK;
+    if (sa) st = rad_hierarchy_split(&L->tree, a, &ca);
+    if (st == RAD_OK && sb) st = rad_hierarchy_split(&L->tree, b, &cb);
+    if (st == RAD_OK && L->tree.element_count > before) st = elements_added(L, before);
+    for (uint32_t i = 0; st == RAD_OK && i < (sa ? 4u : 1u); i++)
+        for (uint32_t j = 0; st == RAD_OK && j < (sb ? 4u : 1u); j++) st = job_push(next, ca + i, cb + j);
+    return st;
+}
+
+/* Candidates through the backend, then decided in order. */
+static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters, uint64_t *refined)
+{
+    rad_status st = RAD_OK;
+    ff_pair_outcome *out = NULL;
+    double *geometry = NULL; /* per job: mean, spread of a -> b and of b -> a */
+    size_t out_cap = 0;
+    job_list next = {0};
+    while (st == RAD_OK && list->count > 0) {
+        size_t n = list->count;
+        if (n > out_cap) {
+            free(out);
+            free(geometry);
+            out = malloc(n * sizeof *out);
+            geometry = malloc(4 * n * sizeof *geometry);
+            out_cap = n;
+            if (!out || !geometry) {
+                rad_error("hierarchy: out of memory for %zu candidate pairs", n);
+                st = RAD_ERR_NOMEM;
+                break;
+            }
+        }
+        st = L->backend->compute_pairs(L->backend_state, L->patches, L->keys, list->jobs, n, out, counters);
+        if (st != RAD_OK) break;
+        const rad_ff_patch *patches = L->patches;
+        const ff_pair_job *jobs = list->jobs;
+#pragma omp parallel for schedule(dynamic, 64)
+        for (size_t k = 0; k < n; k++) {
+            if (out[k].verdict == FF_PAIR_NOT_FACING) continue;
+            const rad_ff_patch *pa = &patches[jobs[k].a], *pb = &patches[jobs[k].b];
+            factor_spread(pa, pb, &geometry[4 * k], &geometry[4 * k + 1]);
+            factor_spread(pb, pa, &geometry[4 * k + 2], &geometry[4 * k + 3]);
+        }
+        L->candidates += n;
+        L->rounds++;
+        next.count = 0;
+        for (size_t k = 0; k < n && st == RAD_OK; k++) {
+            if (out[k].verdict == FF_PAIR_NOT_FACING) continue;
+            uint32_t a = list->jobs[k].a, b = list->jobs[k].b;
+            double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
+            const double *g = &geometry[4 * k];
+            ff_link_pair p = {.a = a, .b = b, .coupling = out[k].coupling,
+                              .error_ab = (float)factor_error(&out[k], g[1], g[0], Ab),
+                              .error_ba = (float)factor_error(&out[k], g[3], g[2], Aa)};
+            if ((splittable(L, a) || splittable(L, b)) && over_tolerance(L, &p)) {
+                st = split_pair(L, a, b, &next);
+                (*refined)++;
+            } else {
+                st = link_push(L, &p);
+            }
+        }
+        job_list t = *list;
+        *list = next;
+        next = t;
+    }
+    free(out);
+    free(geometry);
+    free(next.jobs);
+    return st;
+}
+
+/* The oracle's B per element from a solution on the leaves: leaves take
+ * theirs, split elements the area-weighted mean of their children
+ * (children come after their parent: one pass from the end). */
+static void set_radiosity(ff_links *L, const double *leaf_radiosity)
+{
+    const rad_hierarchy *h = &L->tree;
+    size_t leaf = 0;
+    /* leaves in export order: root by root, depth first */
+    uint32_t *stack = malloc((4 * 16 + 4) * sizeof *stack);
+    if (!stack) return;
+    for (size_t r = 0; r < h->base->patch_count; r++) {
+        size_t top = 0;
+        stack[top++] = (uint32_t)r;
+        while (top) {
+            uint32_t e = stack[--top];
+            const rad_element *el = &h->elements[e];
+            if (el->first_child == RAD_NO_ELEMENT) {
+                memcpy(&L->radiosity[3 * (size_t)e], &leaf_radiosity[3 * leaf++], 3 * sizeof(double));
+            } else {
+                for (uint32_t i = 4; i-- > 0;) stack[top++] = el->first_child + i;
+            }
+        }
+    }
+    free(stack);
+    for (size_t e = h->element_count; e-- > 0;) {
+        const rad_element *el = &h->elements[e];
+        if (el->first_child == RAD_NO_ELEMENT) continue;
+        for (int c = 0; c < 3; c++) {
+            double sum = 0;
+            for (uint32_t i = 0; i < 4; i++)
+                sum += h->elements[el->first_child + i].area * L->radiosity[3 * (size_t)(el->first_child + i) + c];
+            L->radiosity[3 * e + c] = sum / el->area;
+        }
+    }
+}
+
+rad_status ff_links_refine(ff_links *L, const double *leaf_radiosity, ff_counters *counters, uint64_t *out_refined)
+{
+    job_list list = {0};
+    rad_status st = RAD_OK;
+    uint64_t refined = 0;
+    if (L->passes == 0) {
+        uint32_t roots = (uint32_t)L->tree.base->patch_count;
+        for (uint32_t a = 0; a < roots && st == RAD_OK; a++)
+            for (uint32_t b = a + 1; b < roots && st == RAD_OK; b++) st = job_push(&list, a, b);
+    } else {
+        if (leaf_radiosity) set_radiosity(L, leaf_radiosity);
+        /* Links now over the tolerance make way for their children's pairs. */
+        size_t kept = 0;
+        for (size_t k = 0; k < L->link_count && st == RAD_OK; k++) {
+            ff_link_pair p = L->links[k];
+            if ((splittable(L, p.a) || splittable(L, p.b)) && over_tolerance(L, &p)) {
+                st = split_pair(L, p.a, p.b, &list);
+                refined++;
+            } else {
+                L->links[kept++] = p;
+            }
+        }
+        L->link_count = kept;
+    }
+    if (st == RAD_OK) st = run_rounds(L, &list, counters, &refined);
+    free(list.jobs);
+    L->refined_pairs += refined;
+    L->passes++;
+    if (out_refined) *out_refined = refined;
+    return st;
+}
+
+/* ---- export ---- */
+
+static int by_source(const void *x, const void *y)
+{
+    const rad_link *a = x, *b = y;
+    return (a->source > b->source) - (a->source < b->source);
+}
+
+rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
+{
+    const rad_hierarchy *h = &L->tree;
+    memset(out, 0, sizeof *out);
+    rad_status st = rad_hierarchy_leaves(h, leaves);
+    if (st != RAD_OK) return st;
+    size_t n = h->element_count;
+    out->nodes = malloc(n * sizeof *out->nodes);
+    out->first_link = calloc(n + 1, sizeof *out->first_link);
+    out->links = malloc((L->link_count ? 2 * L->link_count : 1) * sizeof *out->links);
+    uint32_t *stack = malloc((4 * 16 + 4) * sizeof *stack);
+    if (!out->nodes || !out->first_link || !out->links || !stack) {
+        free(stack);
+        rad_links_free(out);
+        rad_mesh_free(leaves);
+        rad_error("hierarchy: out of memory for %zu nodes and %zu links", n, 2 * L->link_count);
+        return RAD_ERR_NOMEM;
+    }
+    out->node_count = (uint32_t)n;
+    out->root_count = (uint32_t)h->base->patch_count;
+    out->leaf_count = (uint32_t)leaves->patch_count;
+    out->link_tol = L->config.link_tol;
+    for (size_t e = 0; e < n; e++) {
+        const rad_element *el = &h->elements[e];
+        rad_link_node *d = &out->nodes[e];
+        d->parent = el->parent;
+        d->first_child = el->first_child;
+        d->leaf = RAD_NO_ELEMENT;
+        d->root = el->root;
+        d->level = el->level;
+        d->vertex_count = el->vertex_count;
+        memcpy(d->v, el->v, sizeof d->v);
+        d->area = el->area;
+    }
+    uint32_t leaf = 0;
+    for (uint32_t r = 0; r < out->root_count; r++) {
+        size_t top = 0;
+        stack[top++] = r;
+        while (top) {
+            uint32_t e = stack[--top];
+            if (h->elements[e].first_child == RAD_NO_ELEMENT)
+                out->nodes[e].leaf = leaf++;
+            else
+                for (uint32_t i = 4; i-- > 0;) stack[top++] = h->elements[e].first_child + i;
+        }
+    }
+    free(stack);
+    for (size_t k = 0; k < L->link_count; k++) {
+        out->first_link[L->links[k].a + 1]++;
+        out->first_link[L->links[k].b + 1]++;
+    }
+    for (size_t e = 0; e < n; e++) out->first_link[e + 1] += out->first_link[e];
+    out->link_count = out->first_link[n];
+    uint64_t *fill = malloc((n ? n : 1) * sizeof *fill);
+    if (!fill) {
+        rad_links_free(out);
+        rad_mesh_free(leaves);
+        return RAD_ERR_NOMEM;
+    }
+    memcpy(fill, out->first_link, n * sizeof *fill);
+    for (size_t k = 0; k < L->link_count; k++) {
+        const ff_link_pair *p = &L->links[k];
+        out->links[fill[p->a]++] =
+            (rad_link){.source = p->b, .error = p->error_ab, .factor = p->coupling * h->elements[p->b].area};
+        out->links[fill[p->b]++] =
+            (rad_link){.source = p->a, .error = p->error_ba, .factor = p->coupling * h->elements[p->a].area};
+    }
+    free(fill);
+    for (size_t e = 0; e < n; e++)
+        qsort(out->links + out->first_link[e], out->first_link[e + 1] - out->first_link[e], sizeof *out->links,
+              by_source);
+    return RAD_OK;
+}
+
+/* ---- the error bound ---- */
+
+static const rad_link *find_link(const rad_links *x, uint32_t receiver, uint32_t source)
+{
+    uint64_t lo = x->first_link[receiver], hi = x->first_link[receiver + 1];
+    while (lo < hi) {
+        uint64_t mid = lo + (hi - lo) / 2;
+        if (x->links[mid].source < source)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < x->first_link[receiver + 1] && x->links[lo].source == source ? &x->links[lo] : NULL;
+}
+
+double ff_links_error_bound(const ff_links *L, const rad_links *x, const double *leaf_radiosity)
+{
+    size_t n = x->node_count;
+    double *mean = calloc(3 * n, sizeof *mean), *lo = malloc(3 * n * sizeof *lo), *hi = malloc(3 * n * sizeof *hi);
+    double *beta = calloc(3 * n, sizeof *beta), *rowsum = calloc(n, sizeof *rowsum);
+    double bound = INFINITY;
+    if (!mean || !lo || !hi || !beta || !rowsum) goto done;
+    /* B's mean, least and largest over each node's leaves (children after parents). */
+    for (size_t e = n; e-- > 0;) {
+        const rad_link_node *d = &x->nodes[e];
+        for (int c = 0; c < 3; c++) {
+            if (d->leaf != RAD_NO_ELEMENT) {
+                mean[3 * e + c] = lo[3 * e + c] = hi[3 * e + c] = leaf_radiosity[3 * (size_t)d->leaf + c];
+                continue;
+            }
+            double s = 0, l = INFINITY, h = -INFINITY;
+            for (uint32_t i = 0; i < 4; i++) {
+                size_t k = d->first_child + i;
+                s += x->nodes[k].area * mean[3 * k + c];
+                l = fmin(l, lo[3 * k + c]);
+                h = fmax(h, hi[3 * k + c]);
+            }
+            mean[3 * e + c] = s / d->area, lo[3 * e + c] = l, hi[3 * e + c] = h;
+        }
+    }
+    /* Each node's own links, then what its ancestors' add (parents first). */
+    double q = 0, bmax = 0, worst = 0;
+    for (size_t r = 0; r < n; r++) {
+        const double *rho = L->tree.base->patches[x->nodes[r].root].rho;
+        for (uint64_t k = x->first_link[r]; k < x->first_link[r + 1]; k++) {
+            const rad_link *l = &x->links[k];
+            const rad_link *back = find_link(x, l->source, (uint32_t)r);
+            double rel = back && back->factor > 0 ? back->error / back->factor : 1.0;
+            rowsum[r] += l->factor;
+            for (int c = 0; c < 3; c++) {
+                size_t s = l->source;
+                double dB = fmax(hi[3 * s + c] - mean[3 * s + c], mean[3 * s + c] - lo[3 * s + c]);
+                beta[3 * r + c] += rho[c] * (l->error * hi[3 * s + c] + rel * (l->factor + l->error) * dB);
+            }
+        }
+        const rad_link_node *d = &x->nodes[r];
+        if (d->parent != RAD_NO_ELEMENT) {
+            rowsum[r] += rowsum[d->parent];
+            for (int c = 0; c < 3; c++) beta[3 * r + c] += beta[3 * (size_t)d->parent + c];
+        }
+        if (d->leaf != RAD_NO_ELEMENT)
+            for (int c = 0; c < 3; c++) {
+                q = fmax(q, rho[c] * rowsum[r]);
+                worst = fmax(worst, beta[3 * r + c]);
+                bmax = fmax(bmax, leaf_radiosity[3 * (size_t)d->leaf + c]);
+            }
+    }
+    if (q < 1 && bmax > 0) bound = worst / (1 - q) / bmax;
+done:
+    free(mean);
+    free(lo);
+    free(hi);
+    free(beta);
+    free(rowsum);
+    return bound;
+}

@@ -1,0 +1,110 @@
+/* ff_links.h - hierarchical radiosity's links (issue 26,
+ * docs/hierarchy.md): element quadtrees over the --subdiv 0 mesh, and
+ * links between elements at the coarsest pair of levels whose error
+ * estimate meets --link-tol.
+ *
+ *     ff_links links;
+ *     ff_links_init(&links, &scene, &base, centre, &config, backend, state);
+ *     ff_links_refine(&links, NULL, &counters);        // pass 1: B = E
+ *     ... solve on ff_links_export's links, then:
+ *     ff_links_refine(&links, leaf_radiosity, &counters);  // pass 2: B of the solution
+ *     ff_links_export(&links, &out_links, &leaves);
+ *     ff_links_free(&links);
+ *
+ * Refinement goes in rounds, breadth first (Meyer et al. 2009): a round's
+ * candidate pairs are computed together by the backend (compute_pairs,
+ * any thread count), then decided one after another in list order: a
+ * pair whose estimate meets the tolerance becomes a link, any other is
+ * replaced by its children's pairs in the next round (the larger element
+ * split, both where their areas are within 2x). Deciding in order makes
+ * the elements, their numbering and the links the same for any number of
+ * threads, ranks or backends. A candidate's estimate is its coupling c
+ * and, per direction, the error e of F (the spread of the point-to-element
+ * factor over the receiver's corners and centre, the partial-visibility
+ * term and the quadrature's error); the oracle weighs it (ff_oracle).
+ */
+#ifndef FF_LINKS_H
+#define FF_LINKS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ff_backend.h"
+#include "ff_counters.h"
+#include "rad_hierarchy.h"
+#include "rad_links.h"
+#include "rad_mesh.h"
+#include "rad_scene.h"
+#include "rad_status.h"
+
+/* --oracle: what a link's estimate is weighed by before it is held against
+ * link_tol. P is the scene's emitted power (sum of A E, brightest channel),
+ * B_s the source's radiosity (E before a solution exists), e_rs the error of
+ * F_rs (ff_links.h, above), both directions of a pair taken.
+ *   error: rho_r A_r B_s e_rs > link_tol P  (transported power error; the default)
+ *   power: rho_r A_r B_s F_rs > link_tol P  (transported power, BF: HSA 1991)
+ *   factor: F_rs > link_tol                 (form factor alone: the unweighted 1991 oracle) */
+typedef enum ff_oracle { FF_ORACLE_ERROR = 0, FF_ORACLE_POWER = 1, FF_ORACLE_FACTOR = 2 } ff_oracle;
+const char *ff_oracle_name(ff_oracle oracle);
+
+typedef struct ff_links_config {
+    double link_tol;    /* >= 0; 0: every pair to the finest elements */
+    ff_oracle oracle;
+    uint32_t max_level; /* elements split at most this often (--subdiv in hierarchical runs) */
+    double min_area;    /* scene units^2: no element is split into children smaller than this */
+} ff_links_config;
+
+/* A link as refinement holds it: both directions of one pair. */
+typedef struct ff_link_pair {
+    uint32_t a, b;           /* elements, a < b */
+    double coupling;         /* c_ab = F_ab / A_b = F_ba / A_a */
+    float error_ab, error_ba; /* e of F_ab, of F_ba (F units) */
+} ff_link_pair;
+
+typedef struct ff_links {
+    const rad_scene *scene;
+    double centre[3];
+    ff_links_config config;
+    const ff_backend *backend;
+    void *backend_state;
+    rad_hierarchy tree;
+    rad_ff_patch *patches; /* per element, the backend's frame */
+    uint32_t *keys;        /* per element: its patch index in the uniform mesh of the same leaves */
+    size_t patch_cap;
+    int exact_keys;        /* roots x 4^max_level fit 32 bits: keys are those indices, else element indices */
+    double *radiosity;     /* per element, RGB: the oracle's B (E until a solution is given) */
+    double emitted_power;  /* P */
+    ff_link_pair *links;
+    size_t link_count, link_cap;
+    /* what refinement did, all passes */
+    uint64_t candidates, refined_pairs, rounds;
+    uint32_t passes;
+} ff_links;
+
+/* Roots from `base` (the --subdiv 0 mesh, which must outlive the links),
+ * element patches through ff_patch_make, the backend (already created
+ * over the scene's occluders) through its compute_pairs. */
+rad_status ff_links_init(ff_links *links, const rad_scene *scene, const rad_mesh *base, const double centre[3],
+                         const ff_links_config *config, const ff_backend *backend, void *backend_state);
+
+/* One pass of refinement. The first pass starts from every pair of roots;
+ * later ones re-weigh the links made so far with `leaf_radiosity` (3 per
+ * leaf of the last ff_links_export, in its order; NULL keeps the previous
+ * B) and refine those now over the tolerance. *out_refined: the pairs
+ * this pass refined (0: nothing changed). */
+rad_status ff_links_refine(ff_links *links, const double *leaf_radiosity, ff_counters *counters, uint64_t *out_refined);
+
+/* The links as rad_links (nodes in element order, links sorted by
+ * receiver then source) and the leaves mesh (rad_hierarchy_leaves). */
+rad_status ff_links_export(const ff_links *links, rad_links *out_links, rad_mesh *out_leaves);
+
+/* A bound on the solution's error from the links' errors, relative to the
+ * largest leaf radiosity, for the solution B (3 per leaf, export order):
+ * max over leaves x of rho_x sum over x's and its ancestors' links
+ * (e_rs B_s + (e_sr / F_sr) (F_rs + e_rs) dB_s), dB_s being the spread of
+ * B over s's leaves, divided by (1 - q), q the largest rho x row sum. */
+double ff_links_error_bound(const ff_links *links, const rad_links *exported, const double *leaf_radiosity);
+
+void ff_links_free(ff_links *links);
+
+#endif

@@ -1,0 +1,107 @@
+#!/usr/bin/env python3
+"""Hierarchical radiosity against the full matrix at equal leaves (issue 26).
+
+For each --link-tol: formfactor --method hierarchical -> solve gives B_h on
+the hierarchy's leaves; formfactor --refine of that solution with nothing
+split (--refine-tol 1e9) computes the full matrix of the very same leaves,
+and solve gives B_f. The error is max |B_h - B_f| / max B_f over leaves and
+channels, held against the bound the links file records (--stats
+error_bound), with links, leaves and times.
+
+    tools/hier_study.py --build BUILD [--scene S] [--tols 1e-2,1e-3,...]
+                        [--subdiv D] [--oracle O] [--passes P] [--json OUT]
+                        [--check]   (exit 1 unless the error falls monotonically
+                                     and every bound covers its error)
+"""
+import argparse
+import json
+import os
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+
+def read_radiosity(path):
+    head = open(path, "rb").read(256)
+    if head[:8] != b"RADRAD\r\n":
+        raise SystemExit(f"{path}: not a radiosity file")
+    n = struct.unpack_from("<Q", head, 16)[0]
+    offset = struct.unpack_from("<Q", head, 128)[0]
+    return np.fromfile(path, "<f8", 3 * n, offset=offset).reshape(n, 3)
+
+
+def run(cmd, env=None):
+    t0 = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    if r.returncode != 0:
+        sys.stderr.write(r.stderr)
+        raise SystemExit(f"failed ({r.returncode}): {' '.join(cmd)}")
+    return time.perf_counter() - t0
+
+
+def main(argv):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--build", required=True)
+    p.add_argument("--scene", default=None, help="OBJ (default: the built-in Cornell box)")
+    p.add_argument("--tols", default="1e-2,3e-3,1e-3,3e-4,1e-4")
+    p.add_argument("--subdiv", type=int, default=None, help="finest level (formfactor --subdiv)")
+    p.add_argument("--oracle", default="error")
+    p.add_argument("--passes", type=int, default=None)
+    p.add_argument("--threads", type=int, default=None)
+    p.add_argument("--json", default=None)
+    p.add_argument("--check", action="store_true")
+    a = p.parse_args(argv)
+    ff = os.path.join(a.build, "formfactor")
+    solve = os.path.join(a.build, "solve")
+    env = dict(os.environ)
+    if a.threads:
+        env["OMP_NUM_THREADS"] = str(a.threads)
+    scene = [a.scene] if a.scene else []
+    rows = []
+    with tempfile.TemporaryDirectory() as work:
+        for tol in a.tols.split(","):
+            lk, st = os.path.join(work, "h.ff"), os.path.join(work, "h.json")
+            hr, fr = os.path.join(work, "h.rad"), os.path.join(work, "f.rad")
+            full = os.path.join(work, "f.ff")
+            cmd = [ff, *scene, "--method", "hierarchical", "--link-tol", tol, "--oracle", a.oracle, "-q",
+                   "-o", lk, "--stats", st]
+            if a.subdiv is not None:
+                cmd += ["--subdiv", str(a.subdiv)]
+            if a.passes:
+                cmd += ["--passes", str(a.passes)]
+            t_links = run(cmd, env)
+            t_solve = run([solve, lk, "-q", "--tol", "1e-10", "-o", hr], env)
+            stats = json.load(open(st))
+            t_full = run([ff, *scene, "--refine", hr, "--refine-tol", "1e9", "-q", "-o", full], env)
+            run([solve, full, "-q", "--tol", "1e-10", "-o", fr], env)
+            Bh, Bf = read_radiosity(hr), read_radiosity(fr)
+            err = float(np.max(np.abs(Bh - Bf)) / np.max(Bf))
+            rows.append({"link_tol": float(tol), "leaves": stats["leaves"], "elements": stats["elements"],
+                         "links": stats["links"], "links_per_leaf": stats["links_per_leaf"],
+                         "error": err, "bound": stats["error_bound"], "seconds": t_links + t_solve,
+                         "seconds_full": t_full})
+            r = rows[-1]
+            print(f"link-tol {tol:>6}: {r['leaves']:7d} leaves {r['links']:9d} links ({r['links_per_leaf']:.1f}/leaf) "
+                  f"error {err:.3e} bound {r['bound']:.3e}  {r['seconds']:.2f} s (full {t_full:.2f} s)", flush=True)
+    if a.json:
+        json.dump(rows, open(a.json, "w"), indent=1)
+    if a.check:
+        ok = True
+        for x, y in zip(rows, rows[1:]):
+            if not y["error"] < x["error"]:
+                print(f"FAIL: error does not fall from link-tol {x['link_tol']} to {y['link_tol']}")
+                ok = False
+        for r in rows:
+            if not r["bound"] >= r["error"]:
+                print(f"FAIL: link-tol {r['link_tol']}: bound {r['bound']:.3e} below the error {r['error']:.3e}")
+                ok = False
+        return 0 if ok else 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
