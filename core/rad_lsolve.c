@@ -1,0 +1,510 @@
+/* rad_lsolve.c - the radiosity solve on links (rad_lsolve.h): Jacobi and
+ * Gauss-Seidel sweeps of gather, push and pull over the element trees.
+ *
+ * The plan, made once per call, is what makes a sweep O(nodes + links):
+ * every tree's nodes in index order (a parent comes before its children,
+ * rad_links.h, so that order pushes down and its reverse pulls up), a leaf
+ * patch under every node (whose material is the node's), each split node's
+ * children's area sum, and the row sum of every node's links and its
+ * ancestors' (for the energy balance). Per channel the vectors run over the
+ * nodes: B (the leaves' values; split nodes hold the area-weighted mean of
+ * their children), `old` (the iterate the sweep started from) and the
+ * gathered G = rho sum F B, pushed down in place into D.
+ *
+ * The residual of the iterate a sweep starts from comes with the sweep, as
+ * in solve/stationary.c: Jacobi gathers from `old` alone, so its D gives
+ * r = E + D - old at the leaves; Gauss-Seidel gathers from the newest B
+ * and, in the same pass over the links, from `old`. A sweep whose measured
+ * iterate meets the tolerance returns that iterate, not the newer one.
+ *
+ * Threads do not change the bytes: each receiver's gather is summed by one
+ * thread in link order, each tree is pushed and pulled by one thread, and
+ * the residual is a maximum. Jacobi gathers every node in parallel, then
+ * pushes and pulls the trees in parallel; Gauss-Seidel goes tree by tree
+ * and gathers a tree's nodes in parallel where the tree receives enough
+ * links.
+ */
+#include "rad_lsolve.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "rad_clock.h"
+#include "rad_log.h"
+
+#define LSOLVE_DEFAULT_TOLERANCE 1e-6
+#define LSOLVE_DEFAULT_MAX_ITERATIONS 10000u
+/* Seconds between progress messages of a long solve (as solve's). */
+#define LSOLVE_PROGRESS_SECONDS 2.0
+/* Gathers run on OpenMP threads from this many links up (all links for a
+ * Jacobi sweep, a tree's for Gauss-Seidel), pushes and pulls from this many
+ * nodes up: below, waking the threads (~40 us, docs/solve.md "Threads")
+ * costs about what the work takes on one (a link is ~1 ns). */
+#define LSOLVE_PARALLEL_MIN_LINKS 16384u
+#define LSOLVE_PARALLEL_MIN_NODES 4096u
+
+rad_lsolve_options rad_lsolve_defaults(void)
+{
+    rad_lsolve_options o = {.method = RAD_LSOLVE_GAUSS_SEIDEL,
+                            .tolerance = LSOLVE_DEFAULT_TOLERANCE,
+                            .max_iterations = LSOLVE_DEFAULT_MAX_ITERATIONS,
+                            .threads = 0,
+                            .warm_start = 0,
+                            .channels = 3};
+    return o;
+}
+
+/* What every sweep reads (see the top of the file). */
+typedef struct lsolve_plan {
+    const rad_links *links;
+    uint32_t *tree_first; /* root_count + 1: tree t is tree_nodes[tree_first[t] .. tree_first[t + 1]) */
+    uint32_t *tree_nodes; /* node_count: every tree's nodes in index order, parents first */
+    uint64_t *tree_links; /* root_count: the links the tree's nodes receive */
+    uint32_t *patch_of;   /* node_count: a leaf patch under the node (the node's material) */
+    double *child_area;   /* node_count: a split node's 4 children's areas summed; 0 for a leaf */
+    double *row_sum;      /* node_count: sum of F over the links of the node and of its ancestors */
+    int threads;          /* >= 1 */
+} lsolve_plan;
+
+/* One channel's vectors over the nodes. */
+typedef struct lsolve_vectors {
+    double *rho, *E;  /* the node's material; E is read at leaves only */
+    double *B, *old;  /* the iterate, and the one the sweep started from */
+    double *G, *G_old; /* rho sum F B gathered from B and from old, then pushed down (D) */
+    double e_norm;    /* ||E||_inf over the leaves, > 0 while iterating */
+} lsolve_vectors;
+
+static int lsolve_threads(int asked)
+{
+#ifdef _OPENMP
+    return asked > 0 ? asked : omp_get_max_threads();
+#else
+    (void)asked;
+    return 1;
+#endif
+}
+
+/* sum over r's links of F_rs x_s, in link order. */
+static inline double gather_one(const rad_links *L, uint32_t r, const double *x)
+{
+    double s = 0;
+    for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) s += L->links[k].factor * x[L->links[k].source];
+    return s;
+}
+
+/* The same from two vectors in one pass over the links. */
+static inline void gather_two(const rad_links *L, uint32_t r, const double *x, const double *y, double *sx, double *sy)
+{
+    double a = 0, b = 0;
+    for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
+        const double f = L->links[k].factor;
+        const uint32_t s = L->links[k].source;
+        a += f * x[s];
+        b += f * y[s];
+    }
+    *sx = a;
+    *sy = b;
+}
+
+/* Split node i's B: the area-weighted mean of its children's. */
+static inline void pull_node(const lsolve_plan *p, uint32_t i, double *B)
+{
+    const rad_link_node *nodes = p->links->nodes;
+    const uint32_t c = nodes[i].first_child;
+    B[i] = (nodes[c].area * B[c] + nodes[c + 1].area * B[c + 1] + nodes[c + 2].area * B[c + 2] +
+            nodes[c + 3].area * B[c + 3]) /
+           p->child_area[i];
+}
+
+/* ---- checks and the plan ---- */
+
+static rad_status bad_node(uint32_t i, const char *what)
+{
+    rad_error("links: node %u: %s", i, what);
+    return RAD_ERR_INVALID;
+}
+
+/* What the sweeps index, and the match with the leaves mesh. The rest of
+ * rad_links_check (corners, sorted sources, errors) the sweeps do not
+ * depend on. */
+static rad_status check_links(const rad_links *L, const rad_mesh *leaves)
+{
+    if (!L->nodes || !L->first_link || (L->link_count && !L->links) || L->root_count == 0 ||
+        L->root_count > L->node_count) {
+        rad_error("links: %u nodes, %u roots: no trees to solve on", L->node_count, L->root_count);
+        return RAD_ERR_INVALID;
+    }
+    if (L->leaf_count != leaves->patch_count) {
+        rad_error("links: %u leaves, but the leaves mesh has %zu patches", L->leaf_count, leaves->patch_count);
+        return RAD_ERR_INVALID;
+    }
+    const uint32_t n = L->node_count;
+    unsigned char *seen = calloc(L->leaf_count ? L->leaf_count : 1, 1);
+    if (!seen) {
+        rad_error("links: out of memory checking %u leaves", L->leaf_count);
+        return RAD_ERR_NOMEM;
+    }
+    rad_status status = RAD_OK;
+    uint32_t leaf_nodes = 0;
+    for (uint32_t i = 0; i < n && status == RAD_OK; i++) {
+        const rad_link_node *e = &L->nodes[i];
+        if (i < L->root_count) {
+            if (e->parent != RAD_NO_ELEMENT || e->root != i) status = bad_node(i, "a root with a parent, or of another tree");
+        } else if (e->parent >= i || e->root != L->nodes[e->parent].root) {
+            status = bad_node(i, "its parent does not come before it in its tree");
+        } else {
+            uint32_t first = L->nodes[e->parent].first_child;
+            if (first == RAD_NO_ELEMENT || i < first || i - first > 3) status = bad_node(i, "not among its parent's children");
+        }
+        if (status != RAD_OK) break;
+        if (e->first_child == RAD_NO_ELEMENT) {
+            if (e->leaf >= L->leaf_count || seen[e->leaf]++) status = bad_node(i, "its leaf patch is out of range or another node's");
+            leaf_nodes++;
+        } else if (e->first_child <= i || (uint64_t)e->first_child + 4 > n || e->leaf != RAD_NO_ELEMENT) {
+            status = bad_node(i, "its children are out of range, or it is split and a leaf");
+        } else {
+            for (uint32_t k = 0; k < 4; k++)
+                if (L->nodes[e->first_child + k].parent != i) status = bad_node(i, "a child names another parent");
+        }
+        if (status == RAD_OK && !(e->area > 0 && isfinite(e->area))) status = bad_node(i, "area not finite and > 0");
+        if (status == RAD_OK && L->first_link[i + 1] < L->first_link[i]) status = bad_node(i, "its links end before they begin");
+    }
+    free(seen);
+    if (status != RAD_OK) return status;
+    if (leaf_nodes != L->leaf_count) {
+        rad_error("links: %u leaf nodes for %u leaf patches", leaf_nodes, L->leaf_count);
+        return RAD_ERR_INVALID;
+    }
+    if (L->first_link[0] != 0 || L->first_link[n] != L->link_count) {
+        rad_error("links: the link table does not span the %llu links", (unsigned long long)L->link_count);
+        return RAD_ERR_INVALID;
+    }
+    for (uint64_t k = 0; k < L->link_count; k++) {
+        if (L->links[k].source >= n || !isfinite(L->links[k].factor)) {
+            rad_error("links: link %llu: source out of range or form factor not finite", (unsigned long long)k);
+            return RAD_ERR_INVALID;
+        }
+    }
+    return RAD_OK;
+}
+
+static void plan_free(lsolve_plan *p)
+{
+    free(p->tree_first);
+    free(p->tree_nodes);
+    free(p->tree_links);
+    free(p->patch_of);
+    free(p->child_area);
+    free(p->row_sum);
+}
+
+static rad_status plan_make(const rad_links *L, int threads, lsolve_plan *p)
+{
+    const uint32_t n = L->node_count, roots = L->root_count;
+    memset(p, 0, sizeof *p);
+    p->links = L;
+    p->threads = lsolve_threads(threads);
+    p->tree_first = calloc((size_t)roots + 1, sizeof *p->tree_first);
+    p->tree_nodes = malloc((size_t)n * sizeof *p->tree_nodes);
+    p->tree_links = calloc(roots, sizeof *p->tree_links);
+    p->patch_of = malloc((size_t)n * sizeof *p->patch_of);
+    p->child_area = malloc((size_t)n * sizeof *p->child_area);
+    p->row_sum = malloc((size_t)n * sizeof *p->row_sum);
+    if (!p->tree_first || !p->tree_nodes || !p->tree_links || !p->patch_of || !p->child_area || !p->row_sum) {
+        rad_error("links: out of memory for the solve's plan of %u nodes", n);
+        plan_free(p);
+        return RAD_ERR_NOMEM;
+    }
+    /* the trees' node lists: counted, then filled in index order */
+    for (uint32_t i = 0; i < n; i++) p->tree_first[L->nodes[i].root + 1]++;
+    for (uint32_t t = 0; t < roots; t++) p->tree_first[t + 1] += p->tree_first[t];
+    uint32_t *fill = p->tree_nodes;
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t t = L->nodes[i].root;
+        /* tree_first[t] counts up as tree t fills; set back below */
+        fill[p->tree_first[t]++] = i;
+        p->tree_links[t] += L->first_link[i + 1] - L->first_link[i];
+    }
+    for (uint32_t t = roots; t > 0; t--) p->tree_first[t] = p->tree_first[t - 1];
+    p->tree_first[0] = 0;
+    /* children after parents: a reverse pass sees every child before its parent */
+    for (uint32_t i = n; i-- > 0;) {
+        const rad_link_node *e = &L->nodes[i];
+        if (e->first_child == RAD_NO_ELEMENT) {
+            p->patch_of[i] = e->leaf;
+            p->child_area[i] = 0;
+        } else {
+            const rad_link_node *c = &L->nodes[e->first_child];
+            p->patch_of[i] = p->patch_of[e->first_child];
+            p->child_area[i] = c[0].area + c[1].area + c[2].area + c[3].area;
+        }
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        double s = 0;
+        for (uint64_t k = L->first_link[i]; k < L->first_link[i + 1]; k++) s += L->links[k].factor;
+        uint32_t up = L->nodes[i].parent;
+        p->row_sum[i] = s + (up != RAD_NO_ELEMENT ? p->row_sum[up] : 0);
+    }
+    return RAD_OK;
+}
+
+/* ---- the sweeps ---- */
+
+/* Tree t once its nodes have gathered: G (from the newest B) and G_old
+ * (from old; the same array for Jacobi) pushed down, the leaves' B =
+ * E + D and their residual E + D_old - old, the split nodes pulled up.
+ * Returns the tree's largest |residual|, NaN if one is NaN. */
+static double tree_update(const lsolve_plan *p, const lsolve_vectors *v, double *G_old, uint32_t t)
+{
+    const rad_link_node *nodes = p->links->nodes;
+    const uint32_t *list = p->tree_nodes + p->tree_first[t];
+    const uint32_t count = p->tree_first[t + 1] - p->tree_first[t];
+    const int both = G_old != v->G;
+    double rmax = 0;
+    int not_a_number = 0;
+    for (uint32_t k = 0; k < count; k++) {
+        const uint32_t i = list[k], up = nodes[i].parent;
+        if (up != RAD_NO_ELEMENT) {
+            v->G[i] += v->G[up];
+            if (both) G_old[i] += G_old[up];
+        }
+        if (nodes[i].first_child != RAD_NO_ELEMENT) continue;
+        v->B[i] = v->E[i] + v->G[i];
+        const double r = fabs(v->E[i] + G_old[i] - v->old[i]);
+        if (r > rmax) rmax = r;
+        not_a_number |= isnan(r);
+    }
+    for (uint32_t k = count; k-- > 0;)
+        if (nodes[list[k]].first_child != RAD_NO_ELEMENT) pull_node(p, list[k], v->B);
+    return not_a_number ? NAN : rmax;
+}
+
+/* One Jacobi sweep: old <- B, then B <- the next iterate. Returns the
+ * largest |residual| of old. */
+static double jacobi_sweep(const lsolve_plan *p, lsolve_vectors *v)
+{
+    const rad_links *L = p->links;
+    const uint32_t n = L->node_count, roots = L->root_count;
+    double *t = v->old;
+    v->old = v->B;
+    v->B = t;
+    const double *old = v->old, *rho = v->rho;
+    double *G = v->G;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(p->threads) if (L->link_count >= LSOLVE_PARALLEL_MIN_LINKS)
+    for (uint32_t r = 0; r < n; r++) G[r] = rho[r] != 0 ? rho[r] * gather_one(L, r, old) : 0;
+    double rmax = 0;
+    int not_a_number = 0;
+#pragma omp parallel for schedule(dynamic, 16) num_threads(p->threads) reduction(max : rmax) \
+    reduction(| : not_a_number) if (n >= LSOLVE_PARALLEL_MIN_NODES)
+    for (uint32_t tree = 0; tree < roots; tree++) {
+        double r = tree_update(p, v, v->G, tree);
+        if (r > rmax) rmax = r;
+        not_a_number |= isnan(r);
+    }
+    return not_a_number ? NAN : rmax;
+}
+
+/* One Gauss-Seidel sweep, tree by tree in root order, each gathering from
+ * the newest B (the trees before it already swept) and publishing its new
+ * B at once. Returns the largest |residual| of the iterate it started from
+ * (left in old). */
+static double gauss_seidel_sweep(const lsolve_plan *p, lsolve_vectors *v)
+{
+    const rad_links *L = p->links;
+    memcpy(v->old, v->B, (size_t)L->node_count * sizeof(double));
+    const double *old = v->old, *B = v->B, *rho = v->rho;
+    double *G = v->G, *G_old = v->G_old;
+    double rmax = 0;
+    int not_a_number = 0;
+    for (uint32_t tree = 0; tree < L->root_count; tree++) {
+        const uint32_t *list = p->tree_nodes + p->tree_first[tree];
+        const uint32_t count = p->tree_first[tree + 1] - p->tree_first[tree];
+#pragma omp parallel for schedule(dynamic, 16) num_threads(p->threads) \
+    if (p->tree_links[tree] >= LSOLVE_PARALLEL_MIN_LINKS)
+        for (uint32_t k = 0; k < count; k++) {
+            const uint32_t r = list[k];
+            double now = 0, before = 0;
+            if (rho[r] != 0) gather_two(L, r, B, old, &now, &before);
+            G[r] = rho[r] * now;
+            G_old[r] = rho[r] * before;
+        }
+        double r = tree_update(p, v, G_old, tree);
+        if (r > rmax) rmax = r;
+        not_a_number |= isnan(r);
+    }
+    return not_a_number ? NAN : rmax;
+}
+
+/* ---- one channel ---- */
+
+/* The channel's material and start: B = E at the leaves (or the caller's
+ * B), pulled up. */
+static void channel_start(const lsolve_plan *p, const rad_mesh *leaves, int c, int warm_start, const double *B_in,
+                          lsolve_vectors *v)
+{
+    const rad_links *L = p->links;
+    v->e_norm = 0;
+    for (uint32_t i = 0; i < L->node_count; i++) {
+        const rad_patch *patch = &leaves->patches[p->patch_of[i]];
+        v->rho[i] = patch->rho[c];
+        v->E[i] = patch->emission[c];
+        if (L->nodes[i].first_child != RAD_NO_ELEMENT) continue;
+        if (v->E[i] > v->e_norm) v->e_norm = v->E[i];
+        v->B[i] = warm_start ? B_in[3 * (size_t)L->nodes[i].leaf + c] : v->E[i];
+    }
+    if (v->e_norm == 0) /* nothing emits: B = 0 */
+        for (uint32_t i = 0; i < L->node_count; i++) v->B[i] = 0;
+    for (uint32_t i = L->node_count; i-- > 0;)
+        if (L->nodes[i].first_child != RAD_NO_ELEMENT) pull_node(p, i, v->B);
+}
+
+typedef struct lsolve_channel_run {
+    uint32_t iterations;
+    double residual;
+    int converged;
+} lsolve_channel_run;
+
+/* Sweeps until the measured iterate meets the tolerance or the iteration
+ * limit; leaves that iterate in v->B. RAD_ERR_INVALID for a residual that
+ * is not finite (diverging: rho * row sum > 1 somewhere, or overflow). */
+static rad_status channel_iterate(const lsolve_plan *p, lsolve_vectors *v, const rad_lsolve_options *o,
+                                  const char *label, lsolve_channel_run *out)
+{
+    memset(out, 0, sizeof *out);
+    if (v->e_norm == 0) {
+        out->converged = 1;
+        return RAD_OK;
+    }
+    const double start = rad_clock_seconds();
+    double last_progress = start;
+    for (uint32_t k = 0;; k++) {
+        double residual = (o->method == RAD_LSOLVE_JACOBI ? jacobi_sweep(p, v) : gauss_seidel_sweep(p, v)) / v->e_norm;
+        if (!isfinite(residual)) {
+            rad_error("links: %s: residual is not finite at iteration %u (some rho * row sum above 1, or overflow)",
+                      label, k);
+            return RAD_ERR_INVALID;
+        }
+        const double now = rad_clock_seconds();
+        if (now - last_progress >= LSOLVE_PROGRESS_SECONDS) {
+            rad_info("links: %s: iteration %u, residual %.3g (target %.3g), %.0f s", label, k, residual, o->tolerance,
+                     now - start);
+            last_progress = now;
+        }
+        if (residual <= o->tolerance || k >= o->max_iterations) {
+            double *t = v->B; /* back to the measured iterate */
+            v->B = v->old;
+            v->old = t;
+            out->iterations = k;
+            out->residual = residual;
+            out->converged = residual <= o->tolerance;
+            return RAD_OK;
+        }
+    }
+}
+
+/* Adds the channel's emitted, absorbed and escaped power (rad_lsolve.h)
+ * to sums[0..2]; `scratch` holds node_count doubles. */
+static void channel_balance(const lsolve_plan *p, const lsolve_vectors *v, double *scratch, double sums[3])
+{
+    const rad_links *L = p->links;
+    const uint32_t n = L->node_count;
+    const double *B = v->B;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(p->threads) if (L->link_count >= LSOLVE_PARALLEL_MIN_LINKS)
+    for (uint32_t r = 0; r < n; r++) scratch[r] = gather_one(L, r, B);
+    for (uint32_t i = 0; i < n; i++) {
+        const rad_link_node *e = &L->nodes[i];
+        if (e->parent != RAD_NO_ELEMENT) scratch[i] += scratch[e->parent]; /* H: pushed down */
+        if (e->first_child != RAD_NO_ELEMENT) continue;
+        sums[0] += e->area * v->E[i];
+        sums[1] += e->area * (1 - v->rho[i]) * scratch[i];
+        sums[2] += e->area * B[i] * (1 - p->row_sum[i]);
+    }
+}
+
+/* ---- the call ---- */
+
+/* The options with zeros as defaults; RAD_ERR_INVALID for values out of range. */
+static rad_status resolve_options(const rad_lsolve_options *asked, rad_lsolve_options *o)
+{
+    *o = asked ? *asked : rad_lsolve_defaults();
+    const rad_lsolve_options d = rad_lsolve_defaults();
+    if (o->method == 0) o->method = d.method;
+    if (o->tolerance == 0) o->tolerance = d.tolerance;
+    if (o->max_iterations == 0) o->max_iterations = d.max_iterations;
+    if (o->channels == 0) o->channels = d.channels;
+    if ((o->method != RAD_LSOLVE_JACOBI && o->method != RAD_LSOLVE_GAUSS_SEIDEL) || !(o->tolerance > 0) ||
+        (o->channels != 1 && o->channels != 3)) {
+        rad_error("links: solve options out of range (method %d, tolerance %g, channels %d)", (int)o->method,
+                  o->tolerance, o->channels);
+        return RAD_ERR_INVALID;
+    }
+    return RAD_OK;
+}
+
+rad_status rad_lsolve(const rad_links *links, const rad_mesh *leaves, const rad_lsolve_options *options, double *B,
+                      rad_lsolve_result *out)
+{
+    static const char *const rgb_names[3] = {"red", "green", "blue"};
+    const double start = rad_clock_seconds();
+    rad_lsolve_options o;
+    rad_status status = resolve_options(options, &o);
+    if (status == RAD_OK) status = check_links(links, leaves);
+    if (status != RAD_OK) return status;
+    lsolve_plan plan;
+    status = plan_make(links, o.threads, &plan);
+    if (status != RAD_OK) return status;
+    const size_t n = links->node_count, leaf_count = links->leaf_count;
+    double *block = malloc(6 * n * sizeof(double));
+    double *solved = malloc((leaf_count ? 3 * leaf_count : 1) * sizeof(double)); /* B is written on success only */
+    if (!block || !solved) {
+        rad_error("links: out of memory for the solve's vectors over %zu nodes", n);
+        status = RAD_ERR_NOMEM;
+    }
+    rad_lsolve_result result;
+    memset(&result, 0, sizeof result);
+    result.converged = 1;
+    double sums[3] = {0, 0, 0};
+    for (int c = 0; c < o.channels && status == RAD_OK; c++) {
+        lsolve_vectors v = {.rho = block, .E = block + n, .B = block + 2 * n, .old = block + 3 * n,
+                            .G = block + 4 * n, .G_old = block + 5 * n};
+        const char *label = o.channels == 1 ? "grey" : rgb_names[c];
+        channel_start(&plan, leaves, c, o.warm_start, B, &v);
+        lsolve_channel_run run;
+        status = channel_iterate(&plan, &v, &o, label, &run);
+        if (status != RAD_OK) break;
+        if (!run.converged)
+            rad_info("links: %s: not converged after %u iterations (residual %.3g, target %.3g)", label,
+                     run.iterations, run.residual, o.tolerance);
+        result.iterations[c] = run.iterations;
+        result.residual[c] = run.residual;
+        result.converged &= run.converged;
+        channel_balance(&plan, &v, v.G, sums);
+        for (uint32_t i = 0; i < links->node_count; i++)
+            if (links->nodes[i].first_child == RAD_NO_ELEMENT) solved[3 * (size_t)links->nodes[i].leaf + c] = v.B[i];
+    }
+    if (status == RAD_OK) {
+        if (o.channels == 1)
+            for (size_t l = 0; l < leaf_count; l++) solved[3 * l + 1] = solved[3 * l + 2] = solved[3 * l];
+        for (int c = o.channels; c < 3; c++) {
+            result.iterations[c] = result.iterations[0];
+            result.residual[c] = result.residual[0];
+        }
+        memcpy(B, solved, 3 * leaf_count * sizeof(double));
+        /* a grey solve's balance is its one channel's, as solve reports it */
+        result.emitted = sums[0];
+        result.absorbed = sums[1];
+        result.escaped = sums[2];
+        result.imbalance = sums[0] > 0 ? (sums[1] + sums[2] - sums[0]) / sums[0] : 0;
+        result.seconds = rad_clock_seconds() - start;
+        *out = result;
+        if (!result.converged) status = RAD_ERR_NOT_CONVERGED;
+    }
+    free(block);
+    free(solved);
+    plan_free(&plan);
+    return status;
+}

@@ -1,0 +1,709 @@
+/* test_lsolve.c - the solve on links (core/rad_lsolve.h): against a dense
+ * direct solve of the same system, leaf links and links at mixed levels;
+ * push and pull against a hand-solved case; the furnace with the cube's
+ * exact form factors; the energy balance; Jacobi against Gauss-Seidel;
+ * the same bytes on 1 and 2 threads; the edges (grey, no light, limits,
+ * warm start, a mesh that does not match).
+ *
+ * The scenes are the closed unit cube, its 6 faces the roots of element
+ * trees made by rad_hierarchy (uniform to some depth per face, one face
+ * refined unevenly). Links carry F_rs = c_rs A_s with a symmetric coupling
+ * c (reciprocal by construction). A set of links is equivalent to the
+ * dense leaf matrix F_lm = sum over the links (r, s) with l under r and m
+ * under s of F_rs A_m / A_s, which the test solves directly.
+ */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rad_hierarchy.h"
+#include "rad_lsolve.h"
+#include "rad_polygon.h"
+#include "rad_test.h"
+
+/* rad_links_free lives in core/rad_links.c, built beside this test
+ * (issue 26); the test frees what it made itself. */
+static void test_links_free(rad_links *links)
+{
+    free(links->nodes);
+    free(links->first_link);
+    free(links->links);
+    memset(links, 0, sizeof *links);
+}
+
+/* ---- the cube and its trees ---- */
+
+#define FACES 6
+/* Faces: 0: x = 0, 1: x = 1, 2: y = 0, 3: y = 1, 4: z = 0, 5: z = 1. */
+static const double cube_corner[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                         {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+static const uint32_t cube_face[FACES][4] = {{0, 3, 7, 4}, {1, 2, 6, 5}, {0, 1, 5, 4},
+                                             {3, 2, 6, 7}, {0, 1, 2, 3}, {4, 5, 6, 7}};
+static const double cube_inward[FACES][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+/* The exact form factors between faces of the unit cube (Howell C-14, C-11). */
+#define CUBE_F_ADJACENT 0.20004377607540316
+#define CUBE_F_OPPOSITE 0.19982489569838732
+
+typedef struct cube_case {
+    rad_mesh base, leaves;
+    rad_hierarchy h;
+    rad_links links;
+} cube_case;
+
+typedef struct link_triple {
+    uint32_t receiver, source;
+    double factor;
+} link_triple;
+
+static void cube_free(cube_case *cc)
+{
+    rad_hierarchy_free(&cc->h);
+    rad_mesh_free(&cc->base);
+    rad_mesh_free(&cc->leaves);
+    test_links_free(&cc->links);
+}
+
+/* Numbers the leaves of `node`'s subtree depth first, as rad_hierarchy_leaves orders them. */
+static void number_leaves(rad_links *L, uint32_t node, uint32_t *next)
+{
+    rad_link_node *e = &L->nodes[node];
+    if (e->first_child == RAD_NO_ELEMENT) {
+        e->leaf = (*next)++;
+        return;
+    }
+    for (uint32_t k = 0; k < 4; k++) number_leaves(L, e->first_child + k, next);
+}
+
+/* The cube with face f split uniformly to depth[f]; with `uneven`, face 5's
+ * first leaf is split once more. Materials per face and channel. */
+static int cube_make(cube_case *cc, const int depth[FACES], int uneven, const double rho[FACES][3],
+                     const double emission[FACES][3])
+{
+    memset(cc, 0, sizeof *cc);
+    rad_mesh *m = &cc->base;
+    m->positions = malloc(sizeof cube_corner);
+    m->patches = calloc(FACES, sizeof *m->patches);
+    if (!m->positions || !m->patches) return 0;
+    memcpy(m->positions, cube_corner, sizeof cube_corner);
+    m->vertex_count = 8;
+    m->patch_count = FACES;
+    for (int f = 0; f < FACES; f++) {
+        rad_patch *p = &m->patches[f];
+        rad_vec3 corner[4];
+        for (int k = 0; k < 4; k++) {
+            const double *c = cube_corner[cube_face[f][k]];
+            corner[k] = rad_v3(c[0], c[1], c[2]);
+        }
+        p->vertex_count = 4;
+        memcpy(p->v, cube_face[f], sizeof p->v);
+        p->source_face = (uint32_t)f;
+        rad_polygon_geometry(corner, 4, &p->area, &p->normal, &p->centroid);
+        memcpy(p->rho, rho[f], sizeof p->rho);
+        memcpy(p->emission, emission[f], sizeof p->emission);
+    }
+    if (rad_hierarchy_init(m, &cc->h) != RAD_OK) return 0;
+    for (uint32_t f = 0; f < FACES; f++)
+        if (rad_hierarchy_split_to(&cc->h, f, (uint32_t)depth[f]) != RAD_OK) return 0;
+    if (uneven) { /* face 5's first leaf, down the first children, split once more */
+        uint32_t e = 5, first;
+        while (cc->h.elements[e].first_child != RAD_NO_ELEMENT) e = cc->h.elements[e].first_child;
+        if (rad_hierarchy_split(&cc->h, e, &first) != RAD_OK) return 0;
+    }
+    if (rad_hierarchy_leaves(&cc->h, &cc->leaves) != RAD_OK) return 0;
+    rad_links *L = &cc->links;
+    L->node_count = (uint32_t)cc->h.element_count;
+    L->root_count = FACES;
+    L->leaf_count = (uint32_t)cc->leaves.patch_count;
+    L->nodes = calloc(L->node_count, sizeof *L->nodes);
+    if (!L->nodes) return 0;
+    for (uint32_t i = 0; i < L->node_count; i++) {
+        const rad_element *e = &cc->h.elements[i];
+        rad_link_node *n = &L->nodes[i];
+        n->parent = e->parent, n->first_child = e->first_child, n->root = e->root, n->level = e->level;
+        n->vertex_count = e->vertex_count;
+        memcpy(n->v, e->v, sizeof n->v);
+        n->area = e->area;
+        n->leaf = RAD_NO_ELEMENT;
+    }
+    uint32_t next = 0;
+    for (uint32_t f = 0; f < FACES; f++) number_leaves(L, f, &next);
+    for (uint32_t i = 0; i < L->node_count; i++) /* the numbering is rad_hierarchy_leaves' */
+        if (L->nodes[i].leaf != RAD_NO_ELEMENT && cc->leaves.patches[L->nodes[i].leaf].area != L->nodes[i].area)
+            return 0;
+    return next == L->leaf_count;
+}
+
+static int triple_order(const void *a, const void *b)
+{
+    const link_triple *x = a, *y = b;
+    if (x->receiver != y->receiver) return x->receiver < y->receiver ? -1 : 1;
+    return x->source < y->source ? -1 : x->source > y->source;
+}
+
+/* The triples as the links' CSR table, sorted by receiver and source. */
+static int links_set(rad_links *L, link_triple *t, size_t count)
+{
+    qsort(t, count, sizeof *t, triple_order);
+    free(L->first_link);
+    free(L->links);
+    L->first_link = calloc((size_t)L->node_count + 1, sizeof *L->first_link);
+    L->links = malloc((count ? count : 1) * sizeof *L->links);
+    if (!L->first_link || !L->links) return 0;
+    for (size_t k = 0; k < count; k++) {
+        L->first_link[t[k].receiver + 1]++;
+        L->links[k].source = t[k].source;
+        L->links[k].error = 0;
+        L->links[k].factor = t[k].factor;
+    }
+    for (uint32_t i = 0; i < L->node_count; i++) L->first_link[i + 1] += L->first_link[i];
+    L->link_count = count;
+    return 1;
+}
+
+/* A cover of tree f: 0 the root, 1 the root's children (the root if it is
+ * a leaf), 2 its leaves. Returns the count written to out. */
+static size_t cover(const rad_links *L, uint32_t f, int kind, uint32_t *out)
+{
+    size_t count = 0;
+    uint32_t stack[4096], top = 0;
+    const rad_link_node *root = &L->nodes[f];
+    if (kind == 0 || root->first_child == RAD_NO_ELEMENT) {
+        out[0] = f;
+        return 1;
+    }
+    if (kind == 1) {
+        for (uint32_t k = 0; k < 4; k++) out[k] = root->first_child + k;
+        return 4;
+    }
+    stack[top++] = f;
+    while (top > 0) { /* the leaves, in any order */
+        uint32_t i = stack[--top];
+        if (L->nodes[i].first_child == RAD_NO_ELEMENT)
+            out[count++] = i;
+        else
+            for (uint32_t k = 0; k < 4; k++) stack[top++] = L->nodes[i].first_child + k;
+    }
+    return count;
+}
+
+/* The symmetric point coupling of two elements on different faces:
+ * cos cos / (pi r^2) between their centroids. */
+static double coupling(const cube_case *cc, uint32_t a, uint32_t b)
+{
+    const rad_element *ea = &cc->h.elements[a], *eb = &cc->h.elements[b];
+    rad_vec3 d = rad_v3_sub(eb->centroid, ea->centroid);
+    double r2 = rad_v3_dot(d, d), r = sqrt(r2);
+    const double *na = cube_inward[ea->root], *nb = cube_inward[eb->root];
+    double ca = (na[0] * d.x + na[1] * d.y + na[2] * d.z) / r;
+    double cb = -(nb[0] * d.x + nb[1] * d.y + nb[2] * d.z) / r;
+    return ca * cb / (RAD_PI * r2);
+}
+
+/* Each leaf's row sum: its links' and its ancestors' F. */
+static double largest_row_sum(const rad_links *L)
+{
+    double *s = calloc(L->node_count, sizeof *s), largest = 0;
+    for (uint32_t i = 0; i < L->node_count; i++) {
+        for (uint64_t k = L->first_link[i]; k < L->first_link[i + 1]; k++) s[i] += L->links[k].factor;
+        if (L->nodes[i].parent != RAD_NO_ELEMENT) s[i] += s[L->nodes[i].parent];
+        if (L->nodes[i].first_child == RAD_NO_ELEMENT && s[i] > largest) largest = s[i];
+    }
+    free(s);
+    return largest;
+}
+
+/* Links between every two faces at the covers kind[f][g] (face f's side
+ * of the pair f-g). furnace: F = the exact face-to-face factor spread by
+ * area; else the point coupling, scaled so that the largest row sums to
+ * 0.95. Reciprocal either way. */
+static int links_between_faces(cube_case *cc, int kind[FACES][FACES], int furnace)
+{
+    rad_links *L = &cc->links;
+    size_t cap = 1024, count = 0;
+    link_triple *t = malloc(cap * sizeof *t);
+    uint32_t *a = malloc(L->node_count * sizeof *a), *b = malloc(L->node_count * sizeof *b);
+    int ok = t && a && b;
+    for (uint32_t f = 0; f < FACES && ok; f++)
+        for (uint32_t g = f + 1; g < FACES && ok; g++) {
+            size_t na = cover(L, f, kind[f][g], a), nb = cover(L, g, kind[g][f], b);
+            double F = f / 2 == g / 2 ? CUBE_F_OPPOSITE : CUBE_F_ADJACENT; /* faces 2k, 2k+1 are opposite */
+            for (size_t i = 0; i < na && ok; i++)
+                for (size_t j = 0; j < nb && ok; j++) {
+                    if (count + 2 > cap) {
+                        link_triple *grown = realloc(t, 2 * cap * sizeof *t);
+                        if (!(ok = grown != NULL)) break;
+                        t = grown, cap *= 2;
+                    }
+                    const double Aa = L->nodes[a[i]].area, Ab = L->nodes[b[j]].area;
+                    const double c = furnace ? F : coupling(cc, a[i], b[j]); /* faces have area 1 */
+                    t[count++] = (link_triple){a[i], b[j], c * Ab};
+                    t[count++] = (link_triple){b[j], a[i], c * Aa};
+                }
+        }
+    ok = ok && links_set(L, t, count);
+    if (ok && !furnace) {
+        double scale = 0.95 / largest_row_sum(L);
+        for (uint64_t k = 0; k < L->link_count; k++) L->links[k].factor *= scale;
+    }
+    free(t);
+    free(a);
+    free(b);
+    return ok;
+}
+
+static void kinds_all(int kind[FACES][FACES], int value)
+{
+    for (int f = 0; f < FACES; f++)
+        for (int g = 0; g < FACES; g++) kind[f][g] = value;
+}
+
+/* A fixed mixture of covers: every level meets every other somewhere. */
+static void kinds_mixed(int kind[FACES][FACES])
+{
+    for (int f = 0; f < FACES; f++)
+        for (int g = 0; g < FACES; g++) kind[f][g] = (f + 2 * g) % 3;
+}
+
+/* ---- the reference: the equivalent dense system, solved directly ---- */
+
+/* The leaves under node i (their leaf numbers) and their areas summed. */
+static size_t leaves_under(const rad_links *L, uint32_t i, uint32_t *out, double *area)
+{
+    uint32_t nodes[4096];
+    size_t count = cover(L, i, 2, nodes);
+    *area = 0;
+    for (size_t k = 0; k < count; k++) {
+        out[k] = L->nodes[nodes[k]].leaf;
+        *area += L->nodes[nodes[k]].area;
+    }
+    return count;
+}
+
+/* F_lm = sum over links (r, s), l under r, m under s, of F_rs A_m / A_s. */
+static double *dense_equivalent(const cube_case *cc)
+{
+    const rad_links *L = &cc->links;
+    const size_t n = L->leaf_count;
+    double *F = calloc(n * n, sizeof *F);
+    uint32_t *under_r = malloc(n * sizeof *under_r), *under_s = malloc(n * sizeof *under_s);
+    if (F && under_r && under_s)
+        for (uint32_t r = 0; r < L->node_count; r++) {
+            double area_r, area_s;
+            size_t nr = leaves_under(L, r, under_r, &area_r);
+            for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
+                size_t ns = leaves_under(L, L->links[k].source, under_s, &area_s);
+                for (size_t i = 0; i < nr; i++)
+                    for (size_t j = 0; j < ns; j++)
+                        F[under_r[i] * n + under_s[j]] +=
+                            L->links[k].factor * cc->leaves.patches[under_s[j]].area / area_s;
+            }
+        }
+    free(under_r);
+    free(under_s);
+    return F;
+}
+
+/* x with (I - diag(rho) F) x = E, Gaussian elimination with partial
+ * pivoting in long double. */
+static int dense_solve(size_t n, const double *F, const double *rho, const double *E, double *x)
+{
+    long double *M = malloc(n * (n + 1) * sizeof *M);
+    if (!M) return 0;
+    for (size_t i = 0; i < n; i++) {
+        for (size_t j = 0; j < n; j++) M[i * (n + 1) + j] = (i == j) - (long double)rho[i] * F[i * n + j];
+        M[i * (n + 1) + n] = E[i];
+    }
+    for (size_t k = 0; k < n; k++) {
+        size_t p = k;
+        for (size_t i = k + 1; i < n; i++)
+            if (fabsl(M[i * (n + 1) + k]) > fabsl(M[p * (n + 1) + k])) p = i;
+        for (size_t j = 0; j <= n; j++) {
+            long double t = M[k * (n + 1) + j];
+            M[k * (n + 1) + j] = M[p * (n + 1) + j];
+            M[p * (n + 1) + j] = t;
+        }
+        for (size_t i = k + 1; i < n; i++) {
+            long double q = M[i * (n + 1) + k] / M[k * (n + 1) + k];
+            for (size_t j = k; j <= n; j++) M[i * (n + 1) + j] -= q * M[k * (n + 1) + j];
+        }
+    }
+    for (size_t i = n; i-- > 0;) {
+        long double s = M[i * (n + 1) + n];
+        for (size_t j = i + 1; j < n; j++) s -= M[i * (n + 1) + j] * x[j];
+        x[i] = (double)(s / M[i * (n + 1) + i]);
+    }
+    free(M);
+    return 1;
+}
+
+/* The largest relative difference of the solve's B from the direct solve,
+ * over the leaves and channels; the worst scaled residual of B against F
+ * (max |E + rho F B - B| / ||E||) into *residual. */
+static double worst_against_dense(const cube_case *cc, const double *B, double *residual)
+{
+    const size_t n = cc->leaves.patch_count;
+    double *F = dense_equivalent(cc);
+    double *rho = malloc(n * sizeof *rho), *E = malloc(n * sizeof *E), *x = malloc(n * sizeof *x);
+    double worst = INFINITY;
+    *residual = INFINITY;
+    if (F && rho && E && x) {
+        worst = 0;
+        *residual = 0;
+        for (int c = 0; c < 3; c++) {
+            double e_norm = 0;
+            for (size_t l = 0; l < n; l++) {
+                rho[l] = cc->leaves.patches[l].rho[c];
+                E[l] = cc->leaves.patches[l].emission[c];
+                if (E[l] > e_norm) e_norm = E[l];
+            }
+            if (!dense_solve(n, F, rho, E, x)) return INFINITY;
+            for (size_t l = 0; l < n; l++) {
+                double d = fabs(B[3 * l + c] - x[l]) / fabs(x[l]);
+                if (d > worst) worst = d;
+                double g = 0;
+                for (size_t m = 0; m < n; m++) g += F[l * n + m] * B[3 * m + c];
+                double r = fabs(E[l] + rho[l] * g - B[3 * l + c]) / e_norm;
+                if (r > *residual) *residual = r;
+            }
+        }
+    }
+    free(F);
+    free(rho);
+    free(E);
+    free(x);
+    return worst;
+}
+
+/* ---- the tests ---- */
+
+/* An RGB closed cube: one face lit (more in red), the others dimly, every
+ * face its own reflectances. */
+static void rgb_materials(double rho[FACES][3], double emission[FACES][3])
+{
+    for (int f = 0; f < FACES; f++)
+        for (int c = 0; c < 3; c++) {
+            rho[f][c] = 0.3 + 0.1 * f + 0.05 * c;
+            emission[f][c] = f == 5 ? 10.0 - 2 * c : 0.01 * (f + 1) * (c + 1);
+        }
+}
+
+static rad_status run_lsolve(const cube_case *cc, rad_lsolve_method method, double tol, int threads, double *B,
+                             rad_lsolve_result *r)
+{
+    rad_lsolve_options o = rad_lsolve_defaults();
+    o.method = method;
+    o.tolerance = tol;
+    o.max_iterations = 200000;
+    o.threads = threads;
+    return rad_lsolve(&cc->links, &cc->leaves, &o, B, r);
+}
+
+static void check_against_dense(const char *name, int kind[FACES][FACES])
+{
+    static const int depth[FACES] = {2, 1, 2, 0, 2, 1};
+    double rho[FACES][3], emission[FACES][3];
+    rgb_materials(rho, emission);
+    cube_case cc;
+    int made = cube_make(&cc, depth, 1, rho, emission) && links_between_faces(&cc, kind, 0);
+    RAD_CHECK(made);
+    if (!made) {
+        cube_free(&cc);
+        return;
+    }
+    const size_t n = cc.leaves.patch_count;
+    double *B[2] = {malloc(3 * n * sizeof(double)), malloc(3 * n * sizeof(double))};
+    rad_lsolve_result r[2];
+    for (int m = 0; m < 2; m++) {
+        rad_lsolve_method method = m == 0 ? RAD_LSOLVE_JACOBI : RAD_LSOLVE_GAUSS_SEIDEL;
+        RAD_CHECK(run_lsolve(&cc, method, 1e-13, 0, B[m], &r[m]) == RAD_OK);
+        double residual;
+        double worst = worst_against_dense(&cc, B[m], &residual);
+        printf("%s, %s: %zu leaves, %u nodes, %llu links: iterations %u/%u/%u, residual %.2g (measured %.2g), "
+               "worst %.2g against the direct solve, imbalance %.2g\n",
+               name, m == 0 ? "jacobi" : "gauss-seidel", n, cc.links.node_count,
+               (unsigned long long)cc.links.link_count, r[m].iterations[0], r[m].iterations[1], r[m].iterations[2],
+               r[m].residual[0], residual, worst, r[m].imbalance);
+        RAD_CHECK(r[m].converged);
+        RAD_CHECK(worst <= 1e-10);
+        RAD_CHECK(residual <= 2e-13); /* the test's own sums round otherwise */
+        for (int c = 0; c < 3; c++) RAD_CHECK(r[m].residual[c] <= 1e-13);
+        RAD_CHECK(fabs(r[m].imbalance) <= 1e-9);
+        RAD_CHECK(r[m].emitted > 0 && r[m].absorbed > 0);
+    }
+    /* Jacobi and Gauss-Seidel agree */
+    double apart = 0;
+    for (size_t k = 0; k < 3 * n; k++) {
+        double d = fabs(B[0][k] - B[1][k]) / fabs(B[1][k]);
+        if (d > apart) apart = d;
+    }
+    RAD_CHECK(apart <= 1e-10);
+    RAD_CHECK(r[1].iterations[0] < r[0].iterations[0]); /* Gauss-Seidel needs fewer sweeps */
+    free(B[0]);
+    free(B[1]);
+    cube_free(&cc);
+}
+
+/* Links between leaves only: the full matrix on the leaves. */
+static void test_leaf_links(void)
+{
+    int kind[FACES][FACES];
+    kinds_all(kind, 2);
+    check_against_dense("leaf links", kind);
+}
+
+/* Links at the roots, their children and the leaves, mixed. */
+static void test_mixed_links(void)
+{
+    int kind[FACES][FACES];
+    kinds_mixed(kind);
+    check_against_dense("mixed links", kind);
+}
+
+/* Two roots: A split into 4 children of areas 0.1 .. 0.4, B a leaf. Links
+ * A <-> B at the roots and child 2 <-> B: the children differ, A's B is
+ * their area-weighted mean. Closed form for x = B_B:
+ *   B_child k = E_A + rho_A (F_AB + [k = 2] f) x
+ *   mean_A    = E_A + rho_A (F_AB + a_2 f / A_A) x
+ *   x         = E_B + rho_B (F_BA mean_A + F_B2 B_child 2)
+ */
+static void test_push_pull_by_hand(void)
+{
+    const double area[6] = {1.0, 2.0, 0.1, 0.2, 0.3, 0.4};
+    const double rho_A = 0.6, rho_B = 0.8, E_A = 0.25, E_B = 3.0, F_AB = 0.3, f = 0.2;
+    const double F_BA = area[0] * F_AB / area[1], F_B2 = area[4] * f / area[1];
+    rad_links L;
+    memset(&L, 0, sizeof L);
+    L.node_count = 6, L.root_count = 2, L.leaf_count = 5;
+    L.nodes = calloc(6, sizeof *L.nodes);
+    rad_mesh leaves;
+    memset(&leaves, 0, sizeof leaves);
+    leaves.patch_count = 5;
+    leaves.patches = calloc(5, sizeof *leaves.patches);
+    if (!L.nodes || !leaves.patches) {
+        RAD_CHECK(0);
+        return;
+    }
+    for (uint32_t i = 0; i < 6; i++) {
+        rad_link_node *e = &L.nodes[i];
+        e->parent = i < 2 ? RAD_NO_ELEMENT : 0;
+        e->root = i < 2 ? i : 0;
+        e->level = i >= 2;
+        e->first_child = i == 0 ? 2 : RAD_NO_ELEMENT;
+        e->leaf = i == 0 ? RAD_NO_ELEMENT : i == 1 ? 4 : i - 2;
+        e->area = area[i];
+        e->vertex_count = 4;
+        if (e->leaf == RAD_NO_ELEMENT) continue;
+        rad_patch *p = &leaves.patches[e->leaf];
+        p->area = area[i];
+        for (int c = 0; c < 3; c++) {
+            p->rho[c] = i == 1 ? rho_B : rho_A;
+            p->emission[c] = i == 1 ? E_B : E_A;
+        }
+    }
+    link_triple t[4] = {{0, 1, F_AB}, {1, 0, F_BA}, {4, 1, f}, {1, 4, F_B2}};
+    RAD_CHECK(links_set(&L, t, 4));
+    double x = (E_B + rho_B * E_A * (F_BA + F_B2)) /
+               (1 - rho_B * rho_A * (F_BA * (F_AB + area[4] * f / area[0]) + F_B2 * (F_AB + f)));
+    double B[15];
+    rad_lsolve_result r;
+    rad_lsolve_options o = rad_lsolve_defaults();
+    o.tolerance = 1e-15;
+    o.channels = 1;
+    RAD_CHECK(rad_lsolve(&L, &leaves, &o, B, &r) == RAD_OK);
+    RAD_CHECK_REL(B[3 * 4], x, 1e-13);
+    for (uint32_t k = 0; k < 4; k++) {
+        double expected = E_A + rho_A * (F_AB + (k == 2 ? f : 0)) * x;
+        RAD_CHECK_REL(B[3 * k], expected, 1e-13);
+        RAD_CHECK(B[3 * k + 1] == B[3 * k] && B[3 * k + 2] == B[3 * k]); /* grey: copied */
+    }
+    RAD_CHECK(fabs(r.imbalance) <= 1e-12);
+    /* one Jacobi sweep from B = E: the children gather E_B through A's link
+     * and child 2's own; B gathers A's mean of E (= E_A) and child 2's E */
+    o.method = RAD_LSOLVE_JACOBI;
+    o.max_iterations = 1;
+    RAD_CHECK(rad_lsolve(&L, &leaves, &o, B, &r) == RAD_ERR_NOT_CONVERGED);
+    RAD_CHECK(r.iterations[0] == 1 && !r.converged);
+    for (uint32_t k = 0; k < 4; k++) RAD_CHECK_REL(B[3 * k], E_A + rho_A * (F_AB + (k == 2 ? f : 0)) * E_B, 1e-15);
+    RAD_CHECK_REL(B[3 * 4], E_B + rho_B * (F_BA * E_A + F_B2 * E_A), 1e-15);
+    test_links_free(&L);
+    rad_mesh_free(&leaves);
+}
+
+/* E = 1 and one rho everywhere in the closed cube: B = 1 / (1 - rho). */
+static void check_furnace(const char *name, const int depth[FACES], int uneven, int kind[FACES][FACES])
+{
+    static const double rhos[3] = {0.5, 0.9, 0.999};
+    for (int k = 0; k < 3; k++) {
+        double rho[FACES][3], emission[FACES][3];
+        for (int f = 0; f < FACES; f++)
+            for (int c = 0; c < 3; c++) rho[f][c] = rhos[k], emission[f][c] = 1;
+        cube_case cc;
+        int made = cube_make(&cc, depth, uneven, rho, emission) && links_between_faces(&cc, kind, 1);
+        RAD_CHECK(made);
+        if (!made) {
+            cube_free(&cc);
+            return;
+        }
+        const size_t n = cc.leaves.patch_count;
+        double *B = malloc(3 * n * sizeof *B);
+        for (int m = 0; m < 2; m++) {
+            rad_lsolve_method method = m == 0 ? RAD_LSOLVE_JACOBI : RAD_LSOLVE_GAUSS_SEIDEL;
+            rad_lsolve_result r;
+            RAD_CHECK(run_lsolve(&cc, method, 1e-11, 0, B, &r) == RAD_OK);
+            double worst = 0;
+            for (size_t l = 0; l < 3 * n; l++) {
+                double d = fabs(B[l] * (1 - rhos[k]) - 1);
+                if (d > worst) worst = d;
+            }
+            printf("furnace, %s, rho %g, %s: %zu leaves, %llu links: %u iterations, worst %.2g, imbalance %.2g, "
+                   "escaped %.2g of emitted\n",
+                   name, rhos[k], m == 0 ? "jacobi" : "gauss-seidel", n, (unsigned long long)cc.links.link_count,
+                   r.iterations[0], worst, r.imbalance, r.escaped / r.emitted);
+            RAD_CHECK(worst <= 1e-9);
+            RAD_CHECK(fabs(r.imbalance) <= 1e-9);
+            RAD_CHECK(fabs(r.escaped) <= 1e-9 * r.emitted); /* closed */
+            RAD_CHECK_REL(r.emitted, 3.0 * 6, 1e-12);       /* 3 channels, 6 faces of area 1 */
+        }
+        free(B);
+        cube_free(&cc);
+    }
+}
+
+static void test_furnace(void)
+{
+    static const int roots[FACES] = {0, 0, 0, 0, 0, 0}, deep[FACES] = {2, 2, 2, 2, 2, 2};
+    int kind[FACES][FACES];
+    kinds_all(kind, 0);
+    check_furnace("links at the roots", roots, 0, kind);
+    kinds_mixed(kind);
+    check_furnace("leaves at depth 2, links mixed", deep, 1, kind);
+}
+
+/* 1 and 2 threads: the same bytes, both methods. Leaf links at depth 3
+ * (122,880 links: the gathers run in parallel), and depth 5 with links at
+ * mixed levels (8,190 nodes: Jacobi pushes and pulls trees in parallel). */
+static void test_threads(void)
+{
+    static const int depth3[FACES] = {3, 3, 3, 3, 3, 3}, depth5[FACES] = {5, 5, 5, 5, 5, 5};
+    double rho[FACES][3], emission[FACES][3];
+    rgb_materials(rho, emission);
+    for (int config = 0; config < 2; config++) {
+        int kind[FACES][FACES];
+        if (config == 0)
+            kinds_all(kind, 2);
+        else
+            kinds_mixed(kind);
+        cube_case cc;
+        int made = cube_make(&cc, config == 0 ? depth3 : depth5, 0, rho, emission) && links_between_faces(&cc, kind, 0);
+        RAD_CHECK(made);
+        if (!made) {
+            cube_free(&cc);
+            return;
+        }
+        const size_t n = cc.leaves.patch_count;
+        double *one = malloc(3 * n * sizeof *one), *two = malloc(3 * n * sizeof *two);
+        for (int m = 0; m < 2; m++) {
+            rad_lsolve_method method = m == 0 ? RAD_LSOLVE_JACOBI : RAD_LSOLVE_GAUSS_SEIDEL;
+            rad_lsolve_result r1, r2;
+            RAD_CHECK(run_lsolve(&cc, method, 1e-9, 1, one, &r1) == RAD_OK);
+            RAD_CHECK(run_lsolve(&cc, method, 1e-9, 2, two, &r2) == RAD_OK);
+            printf("threads, %s: %zu leaves, %u nodes, %llu links: %u iterations, %.3f s on 1 thread, %.3f s on 2\n",
+                   m == 0 ? "jacobi" : "gauss-seidel", n, cc.links.node_count, (unsigned long long)cc.links.link_count,
+                   r1.iterations[0], r1.seconds, r2.seconds);
+            RAD_CHECK(memcmp(one, two, 3 * n * sizeof *one) == 0);
+            RAD_CHECK(memcmp(r1.residual, r2.residual, sizeof r1.residual) == 0);
+            RAD_CHECK(r1.iterations[0] == r2.iterations[0] && r1.imbalance == r2.imbalance);
+        }
+        free(one);
+        free(two);
+        cube_free(&cc);
+    }
+}
+
+/* Grey channels, no light, the iteration limit, a warm start, bad input. */
+static void test_edges(void)
+{
+    static const int depth[FACES] = {1, 1, 1, 1, 1, 1};
+    double rho[FACES][3], emission[FACES][3];
+    rgb_materials(rho, emission);
+    int kind[FACES][FACES];
+    kinds_mixed(kind);
+    cube_case cc;
+    int made = cube_make(&cc, depth, 0, rho, emission) && links_between_faces(&cc, kind, 0);
+    RAD_CHECK(made);
+    if (!made) {
+        cube_free(&cc);
+        return;
+    }
+    const size_t n = cc.leaves.patch_count;
+    double *B = malloc(3 * n * sizeof *B), *again = malloc(3 * n * sizeof *again);
+    rad_lsolve_result r;
+    rad_lsolve_options o = rad_lsolve_defaults();
+    RAD_CHECK(o.method == RAD_LSOLVE_GAUSS_SEIDEL && o.tolerance == 1e-6 && o.max_iterations == 10000 &&
+              o.channels == 3 && o.threads == 0 && o.warm_start == 0);
+
+    /* channels 1: channel 0 solved and copied */
+    o.channels = 1;
+    o.tolerance = 1e-12;
+    RAD_CHECK(rad_lsolve(&cc.links, &cc.leaves, &o, B, &r) == RAD_OK);
+    for (size_t l = 0; l < n; l++) RAD_CHECK(B[3 * l + 1] == B[3 * l] && B[3 * l + 2] == B[3 * l]);
+    RAD_CHECK(r.iterations[1] == r.iterations[0] && r.residual[2] == r.residual[0]);
+    o.channels = 3;
+    RAD_CHECK(rad_lsolve(&cc.links, &cc.leaves, &o, again, &r) == RAD_OK);
+    for (size_t l = 0; l < n; l++) RAD_CHECK(again[3 * l] == B[3 * l]); /* the same channel 0 */
+
+    /* a warm start from the solution: converged before any sweep */
+    o.warm_start = 1;
+    RAD_CHECK(rad_lsolve(&cc.links, &cc.leaves, &o, again, &r) == RAD_OK);
+    RAD_CHECK(r.iterations[0] == 0 && r.iterations[1] == 0 && r.iterations[2] == 0 && r.converged);
+    o.warm_start = 0;
+
+    /* the limit: the last measured iterate, marked unconverged */
+    o.max_iterations = 3;
+    rad_test_capture_log();
+    RAD_CHECK(rad_lsolve(&cc.links, &cc.leaves, &o, B, &r) == RAD_ERR_NOT_CONVERGED);
+    RAD_CHECK(!r.converged && r.iterations[0] == 3 && r.residual[0] > 1e-12);
+    RAD_CHECK(rad_test_log_contains("not converged after 3 iterations"));
+    o.max_iterations = 0; /* zero: the default */
+
+    /* no light: B = 0, converged at once */
+    for (size_t l = 0; l < n; l++) memset(cc.leaves.patches[l].emission, 0, sizeof cc.leaves.patches[l].emission);
+    RAD_CHECK(rad_lsolve(&cc.links, &cc.leaves, &o, B, &r) == RAD_OK);
+    for (size_t l = 0; l < 3 * n; l++) RAD_CHECK(B[l] == 0);
+    RAD_CHECK(r.converged && r.iterations[0] == 0 && r.imbalance == 0);
+
+    /* a mesh that does not match, a broken tree, options out of range: refused, B untouched */
+    B[0] = 42;
+    cc.leaves.patch_count--;
+    RAD_CHECK(rad_lsolve(&cc.links, &cc.leaves, &o, B, &r) == RAD_ERR_INVALID);
+    RAD_CHECK(rad_test_log_contains("leaves mesh has"));
+    cc.leaves.patch_count++;
+    cc.links.nodes[7].parent = 8;
+    RAD_CHECK(rad_lsolve(&cc.links, &cc.leaves, &o, B, &r) == RAD_ERR_INVALID);
+    cc.links.nodes[7].parent = cc.h.elements[7].parent;
+    uint32_t source = cc.links.links[0].source;
+    cc.links.links[0].source = cc.links.node_count;
+    RAD_CHECK(rad_lsolve(&cc.links, &cc.leaves, &o, B, &r) == RAD_ERR_INVALID);
+    cc.links.links[0].source = source;
+    o.channels = 2;
+    RAD_CHECK(rad_lsolve(&cc.links, &cc.leaves, &o, B, &r) == RAD_ERR_INVALID);
+    RAD_CHECK(B[0] == 42);
+    rad_log_set_sink(NULL, NULL);
+
+    free(B);
+    free(again);
+    cube_free(&cc);
+}
+
+int main(void)
+{
+    test_push_pull_by_hand();
+    test_leaf_links();
+    test_mixed_links();
+    test_furnace();
+    test_threads();
+    test_edges();
+    return rad_test_finish();
+}
