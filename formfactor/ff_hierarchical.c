@@ -101,12 +101,13 @@ static rad_status build_links(hier_run *h)
         if (pass < 64) h->refined[pass] = refined;
         if (st == RAD_OK) st = export_and_solve(h);
         if (st == RAD_OK)
-            rad_info("pass %u: %llu pairs refined; %u elements, %u leaves, %llu links (%.1f per leaf), solved in %u "
-                     "sweeps",
+            rad_info("pass %u: %llu pairs refined; %u elements, %u leaves, %llu links (%.1f per leaf); %llu candidate "
+                     "pairs, %llu shadow rays so far; links %.2f s, solved in %u sweeps",
                      pass + 1, (unsigned long long)refined, h->exported.node_count, h->exported.leaf_count,
                      (unsigned long long)h->exported.link_count,
                      (double)h->exported.link_count / (h->exported.leaf_count ? h->exported.leaf_count : 1),
-                     h->solution.iterations[0]);
+                     (unsigned long long)h->links.candidates, (unsigned long long)h->counters.rays,
+                     h->seconds_links, h->solution.iterations[0]);
         if (pass > 0 && refined == 0) break;
     }
     if (st == RAD_OK) {
