@@ -59,7 +59,11 @@ typedef struct rad_lsolve_result {
 
 /* Solves into B (3 values per leaf, RGB). RAD_ERR_NOMEM; RAD_ERR_INVALID
  * for a leaves mesh that does not match the links. Logs progress (info)
- * on long runs. */
+ * on long runs. Zero fields of options (options NULL: all) are the
+ * defaults. A channel that stops at max_iterations gives
+ * RAD_ERR_NOT_CONVERGED with B and *out filled (the last iterate
+ * measured; converged 0); other failures leave B and *out untouched. With
+ * channels 1 the balance is channel 0's (as solve reports a grey scene). */
 rad_status rad_lsolve(const rad_links *links, const rad_mesh *leaves, const rad_lsolve_options *options, double *B,
                       rad_lsolve_result *out);
 

@@ -1,7 +1,8 @@
 /* stage.c - the solve stage in three steps: load (open the file, choose
  * the backend, read and check the rows, upload them to the GPU), solve
  * (the channels together, once for grey scenes; solve_channels) and write
- * (the radiosity, the stats, the results by group).
+ * (the radiosity, the stats, the results by group). A file of links
+ * (hierarchical radiosity) goes, once open, to links.c.
  *
  * Across ranks (docs/solve.md, "Across ranks"): every rank opens the file
  * and reads the patch table, then only its block of rows
@@ -18,6 +19,7 @@
 #include <string.h>
 
 #include "groups.h"
+#include "links.h"
 #include "matrix.h"
 #include "rad_ffile.h"
 #include "rad_log.h"
@@ -48,7 +50,7 @@ rad_status solve_backend_parse(const char *name, solve_backend *out_backend)
     return RAD_ERR_USAGE;
 }
 
-static int scene_is_grey(const rad_mesh *mesh)
+int solve_mesh_is_grey(const rad_mesh *mesh)
 {
     for (size_t i = 0; i < mesh->patch_count; i++) {
         const rad_patch *p = &mesh->patches[i];
@@ -138,10 +140,27 @@ static rad_status resolve_backend(solve_backend asked, int ranks, solve_backend 
     return RAD_OK;
 }
 
+/* Does the file hold links (hierarchical radiosity, issue 26), which
+ * links.c solves, rather than a matrix?
+ * Issue 26 merge: RAD_FF_LAYOUT_LINKS and rad_ff_read_links come with the
+ * link file (core/rad_ffile.h, built on another branch); until then this
+ * branch builds without them and reads no link file. Remove this #ifdef
+ * (and the one in links.c, solve_links_run) when they are in. */
+static int file_holds_links(const rad_ff_info *info)
+{
+#ifdef RAD_FF_LAYOUT_LINKS
+    return info->layout == RAD_FF_LAYOUT_LINKS;
+#else
+    (void)info;
+    return 0;
+#endif
+}
+
 /* Stored entries of the matrix: its header's estimate (a sparse file's
  * record bytes over the element's size), before it is read. */
 static uint64_t stored_entries_estimate(const rad_ff_info *info)
 {
+    if (file_holds_links(info)) return 0; /* solved on the CPU */
     if (info->layout != RAD_FF_LAYOUT_SPARSE) return info->patch_count * info->patch_count;
     return info->matrix_bytes / (info->element_type == RAD_ELEMENT_F32 ? 4 : 8);
 }
@@ -271,14 +290,12 @@ static rad_status stage_open(stage_state *s)
     return RAD_OK;
 }
 
-/* The load step: the file opened, this rank's rows read and checked
+/* The load step, once the file is open: this rank's rows read and checked
  * against the patch table, the channels' buffers, the matrix on the GPU
  * when it goes there. */
 static rad_status stage_load(stage_state *s)
 {
-    rad_status status = stage_open(s);
-    if (status != RAD_OK) return status;
-    status = load_rows(s, s->comm, s->options, s->input, s->asked);
+    rad_status status = load_rows(s, s->comm, s->options, s->input, s->asked);
     if (status != RAD_OK) return status;
     s->load_seconds = rad_clock_seconds() - s->t0;
     const rad_mesh *mesh = s->mesh = rad_ff_file_mesh(s->file);
@@ -301,7 +318,7 @@ static rad_status stage_load(stage_state *s)
         rad_warn("%s: no patch emits light (no material has Ke > 0): every radiosity is 0 and an image of it is "
                  "black. " RAD_SCENE_NO_LIGHT_HINT,
                  s->input);
-    s->grey = scene_is_grey(mesh);
+    s->grey = solve_mesh_is_grey(mesh);
     s->channels = s->grey ? 1 : 3;
     rad_info("%s: %zu patches, %s, loaded in %.2f s", s->input, n, s->grey ? "grey (solved once)" : "RGB",
              s->load_seconds);
@@ -367,6 +384,24 @@ static double stage_tolerance(const stage_state *s)
     return s->options->params.tolerance > 0 ? s->options->params.tolerance : SOLVE_DEFAULT_TOLERANCE;
 }
 
+void solve_radiosity_describe(const rad_ff_info *info, const char *input, int speak, rad_radiosity *out)
+{
+    out->scene_fingerprint = info->scene_fingerprint;
+    if (info->flags & RAD_FF_FLAG_KE_RADIANCE) out->flags |= RAD_RF_FLAG_KE_RADIANCE;
+    /* The scene's path, for render's camera sidecar: only a real path that
+     * fits whole (not the built-in box's name). */
+    const char *scene = info->scene_name;
+    if (strcmp(scene, rad_default_scene_name) != 0 && strlen(scene) < sizeof out->scene_path)
+        memcpy(out->scene_path, scene, strlen(scene) + 1);
+    else if (strcmp(scene, rad_default_scene_name) != 0 && speak)
+        /* A cut path would name another file; none is better, and said. */
+        rad_warn("%s: the scene path %s is %zu bytes%s; the radiosity file holds at most %zu, so it records "
+                 "none and render cannot find the scene's camera sidecar: give render --camera FILE",
+                 input, scene, strlen(scene),
+                 strlen(scene) + 1 == sizeof info->scene_name ? " (or more: formfactor cuts scene names there)" : "",
+                 sizeof out->scene_path - 1);
+}
+
 /* The radiosity file (rank 0 writes it), marked unconverged when a
  * channel did not converge. */
 static rad_status write_radiosity(const stage_state *s)
@@ -380,21 +415,7 @@ static rad_status write_radiosity(const stage_state *s)
     out.method = (uint32_t)s->reports[0].method_used;
     out.converged = s->solved == RAD_OK;
     out.tolerance = stage_tolerance(s);
-    out.scene_fingerprint = rad_ff_file_info(s->file)->scene_fingerprint;
-    if (rad_ff_file_info(s->file)->flags & RAD_FF_FLAG_KE_RADIANCE) out.flags |= RAD_RF_FLAG_KE_RADIANCE;
-    /* The scene's path, for render's camera sidecar: only a real path that
-     * fits whole (not the built-in box's name). */
-    const char *scene = rad_ff_file_info(s->file)->scene_name;
-    if (strcmp(scene, rad_default_scene_name) != 0 && strlen(scene) < sizeof out.scene_path)
-        memcpy(out.scene_path, scene, strlen(scene) + 1);
-    else if (strcmp(scene, rad_default_scene_name) != 0 && s->rank == 0)
-        /* A cut path would name another file; none is better, and said. */
-        rad_warn("%s: the scene path %s is %zu bytes%s; the radiosity file holds at most %zu, so it records "
-                 "none and render cannot find the scene's camera sidecar: give render --camera FILE",
-                 s->input, scene, strlen(scene),
-                 strlen(scene) + 1 == sizeof rad_ff_file_info(s->file)->scene_name
-                     ? " (or more: formfactor cuts scene names there)" : "",
-                 sizeof out.scene_path - 1);
+    solve_radiosity_describe(rad_ff_file_info(s->file), s->input, s->rank == 0, &out);
     for (uint32_t c = 0; c < 3; c++) {
         const solve_report *r = &s->reports[s->grey ? 0 : c];
         out.iterations[c] = r->iterations;
@@ -478,9 +499,15 @@ rad_status solve_stage_run(const solve_options *options)
     s.t0 = rad_clock_seconds();
     s.backend = SOLVE_BACKEND_CPU;
     stage_speak(s.comm, s.asked, STAGE_ALIKE);
-    rad_status status = stage_load(&s);
-    if (status == RAD_OK) status = stage_solve(&s);
-    if (status == RAD_OK) status = stage_write(&s);
+    rad_status status = stage_open(&s);
+    if (status == RAD_OK && file_holds_links(rad_ff_file_info(s.file))) {
+        /* hierarchical radiosity: links.c reads, solves and writes */
+        status = solve_links_run(options, s.file);
+    } else {
+        if (status == RAD_OK) status = stage_load(&s);
+        if (status == RAD_OK) status = stage_solve(&s);
+        if (status == RAD_OK) status = stage_write(&s);
+    }
     stage_state_free(&s);
     solve_gpu_prestart_join();
     rad_log_set_level(s.asked);

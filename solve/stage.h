@@ -17,10 +17,15 @@
  *
  * Across ranks each rank reads only its rows; rank 0 alone logs and
  * writes the outputs; every rank returns the same status.
+ *
+ * A file of links (hierarchical radiosity, issue 26) is solved on its
+ * links instead, once open (links.h).
  */
 #ifndef SOLVE_STAGE_H
 #define SOLVE_STAGE_H
 
+#include "rad_ffile.h"
+#include "rad_rfile.h"
 #include "rad_status.h"
 #include "solver.h"
 
@@ -56,5 +61,15 @@ typedef struct solve_options {
 } solve_options;
 
 rad_status solve_stage_run(const solve_options *options);
+
+/* Is every patch grey (rho and E equal in the three channels)? Then one
+ * channel is solved and stored in all three. */
+int solve_mesh_is_grey(const rad_mesh *mesh);
+
+/* The radiosity file's fields that come from the form-factor file `info`
+ * (opened as `input`): the scene fingerprint, the Ke flag and the scene's
+ * path (none, with a warning when `speak`, where it does not fit). Shared
+ * by matrix and link files (links.c). */
+void solve_radiosity_describe(const rad_ff_info *info, const char *input, int speak, rad_radiosity *out);
 
 #endif

@@ -36,6 +36,16 @@ static void put_flag(rad_json_writer *w, const char *key, int flag)
     rad_json_bool(w, flag);
 }
 
+static void put_balance(rad_json_writer *w, const solve_balance *b)
+{
+    rad_json_begin_object(w, RAD_JSON_INLINE);
+    put_number(w, "emitted", b->emitted);
+    put_number(w, "absorbed", b->absorbed);
+    put_number(w, "escaped", b->escaped);
+    put_number(w, "imbalance", b->imbalance);
+    rad_json_end_object(w);
+}
+
 static void put_channel(rad_json_writer *w, const char *name, const solve_report *r)
 {
     rad_json_begin_object(w, RAD_JSON_INLINE);
@@ -51,12 +61,7 @@ static void put_channel(rad_json_writer *w, const char *name, const solve_report
     put_number(w, "margin", r->margin);
     rad_json_line_break(w);
     rad_json_key(w, "energy");
-    rad_json_begin_object(w, RAD_JSON_INLINE);
-    put_number(w, "emitted", r->balance.emitted);
-    put_number(w, "absorbed", r->balance.absorbed);
-    put_number(w, "escaped", r->balance.escaped);
-    put_number(w, "imbalance", r->balance.imbalance);
-    rad_json_end_object(w);
+    put_balance(w, &r->balance);
     put_number(w, "seconds", r->seconds);
     rad_json_line_break(w);
     rad_json_key(w, "history");
@@ -67,6 +72,19 @@ static void put_channel(rad_json_writer *w, const char *name, const solve_report
     }
     rad_json_end_array(w);
     rad_json_end_object(w);
+}
+
+/* A file of links: its size and the solve's balance over all channels. */
+static void put_links(rad_json_writer *w, const solve_stats_links *l)
+{
+    put_count(w, "nodes", l->node_count);
+    put_count(w, "leaves", l->leaf_count);
+    put_count(w, "links", l->link_count);
+    put_number(w, "links_per_leaf", l->leaf_count ? (double)l->link_count / (double)l->leaf_count : 0);
+    put_number(w, "link_tol", l->link_tol);
+    put_number(w, "error_bound", l->error_bound);
+    rad_json_key(w, "balance");
+    put_balance(w, &l->balance);
 }
 
 static void put_stats(rad_json_writer *w, const solve_stats *s)
@@ -83,6 +101,7 @@ static void put_stats(rad_json_writer *w, const solve_stats *s)
     put_name(w, "rule", s->row_sums.with_errors ? "errors" : "fixed");
     rad_json_end_object(w);
     put_count(w, "patch_count", s->patch_count);
+    if (s->links) put_links(w, s->links);
     put_flag(w, "grey", s->channel_count == 1);
     put_name(w, "method", solve_method_name(s->method));
     put_number(w, "tolerance", s->tolerance);

@@ -10,6 +10,14 @@
 #include "rad_status.h"
 #include "solver.h"
 
+/* A file of links (links.c): what it held and the balance of its solve. */
+typedef struct solve_stats_links {
+    uint64_t node_count, leaf_count, link_count;
+    double link_tol;          /* the --link-tol formfactor refined to */
+    double error_bound;       /* formfactor's bound on B's relative error from the links' errors; 0: unknown */
+    solve_balance balance;    /* over the leaves, summed over the channels solved (rad_lsolve_result) */
+} solve_stats_links;
+
 typedef struct solve_stats {
     const char *input;            /* form-factor file */
     const char *output;           /* radiosity file */
@@ -32,6 +40,7 @@ typedef struct solve_stats {
     uint32_t rank_count;           /* MPI ranks (1 alone; 0 is read as 1) */
     const uint64_t *rank_rows;     /* rank_count: rows each rank held; NULL = not known */
     const uint64_t *rank_entries;  /* rank_count: stored entries each rank held */
+    const solve_stats_links *links; /* a file of links; NULL for a matrix */
 } solve_stats;
 
 /* Writes `stats` as JSON to `path` (temporary name + rename). */

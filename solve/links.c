@@ -1,0 +1,268 @@
+/* links.c - solve on a file of links (links.h; docs/solve.md, "On links"):
+ * the options checked, the leaves' row sums judged as a matrix's rows are
+ * (matrix.h: the row-sum note or warning, the refusal of rho * row sum
+ * >= 1), rad_lsolve, then the radiosity file of the leaves mesh and the
+ * stats, as stage.c writes them for a matrix. */
+#include "links.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "matrix.h"
+#include "rad_clock.h"
+#include "rad_log.h"
+#include "rad_lsolve.h"
+#include "rad_rfile.h"
+#include "stats.h"
+
+rad_status solve_links_run(const solve_options *options, rad_ff_file *file)
+{
+#ifdef RAD_FF_LAYOUT_LINKS /* Issue 26 merge: see stage.c, file_holds_links; remove with the guard there */
+    const double start = rad_clock_seconds();
+    rad_links links;
+    memset(&links, 0, sizeof links);
+    rad_status status = solve_comm_agree(options->comm, rad_ff_read_links(file, &links));
+    if (status == RAD_OK) {
+        solve_links_input in = {.info = rad_ff_file_info(file), .leaves = rad_ff_file_mesh(file), .links = &links,
+                                .load_seconds = rad_clock_seconds() - start};
+        status = solve_links_solve(options, &in);
+    }
+    rad_links_free(&links);
+    return status;
+#else
+    (void)file;
+    rad_error("%s: a file of links, which this build of solve cannot read",
+              options->input ? options->input : SOLVE_DEFAULT_INPUT);
+    return RAD_ERR_UNSUPPORTED;
+#endif
+}
+
+/* --method on links: Gauss-Seidel (auto's choice too) or Jacobi; and the
+ * options that do not apply to links. */
+static rad_status check_options(const solve_options *options, const char *input, rad_lsolve_method *out_method)
+{
+    if (options->params.method == SOLVE_CG) {
+        rad_error("%s: holds links (hierarchical radiosity), which solve sweeps: --method gauss-seidel (or auto) "
+                  "or jacobi; cg needs the matrix, which a link file does not store",
+                  input);
+        return RAD_ERR_USAGE;
+    }
+    if (options->errors) {
+        rad_error("%s: holds links, each with its own error bound: --errors (the standard errors of a matrix's "
+                  "entries) does not apply",
+                  input);
+        return RAD_ERR_USAGE;
+    }
+    if (options->by_group) {
+        rad_error("%s: holds links: --by-group is not available for link files yet (issue 26)", input);
+        return RAD_ERR_USAGE;
+    }
+    if (options->backend == SOLVE_BACKEND_CUDA)
+        rad_info("%s: holds links, which solve sweeps on the CPU (--backend cuda applies to matrices)", input);
+    *out_method = options->params.method == SOLVE_JACOBI ? RAD_LSOLVE_JACOBI : RAD_LSOLVE_GAUSS_SEIDEL;
+    return RAD_OK;
+}
+
+/* Each leaf's row sum, the F of its links and of its ancestors' (leaf_count
+ * values, by leaf); NULL when out of memory. The links are as
+ * rad_links_check passes them: parents before children, leaves in range. */
+static double *leaf_row_sums(const rad_links *L)
+{
+    double *node = malloc((L->node_count ? L->node_count : 1) * sizeof *node);
+    double *leaf = malloc((L->leaf_count ? L->leaf_count : 1) * sizeof *leaf);
+    if (!node || !leaf) {
+        free(node);
+        free(leaf);
+        return NULL;
+    }
+    for (uint32_t i = 0; i < L->node_count; i++) {
+        double s = 0;
+        for (uint64_t k = L->first_link[i]; k < L->first_link[i + 1]; k++) s += L->links[k].factor;
+        const uint32_t up = L->nodes[i].parent;
+        node[i] = s + (up != RAD_NO_ELEMENT ? node[up] : 0);
+        if (L->nodes[i].first_child == RAD_NO_ELEMENT) leaf[L->nodes[i].leaf] = node[i];
+    }
+    free(node);
+    return leaf;
+}
+
+/* The bound on ||B - B_exact||_inf of a channel (solver.h's, with the
+ * leaves' row sums): residual ||E||_inf / (1 - max rho row sum). */
+static double channel_error_bound(const rad_mesh *leaves, const double *row_sum, int c, double residual)
+{
+    double e_norm = 0, reflected = 0;
+    for (size_t l = 0; l < leaves->patch_count; l++) {
+        const rad_patch *p = &leaves->patches[l];
+        if (p->emission[c] > e_norm) e_norm = p->emission[c];
+        if (p->rho[c] * row_sum[l] > reflected) reflected = p->rho[c] * row_sum[l];
+    }
+    return reflected < 1 ? residual * e_norm / (1 - reflected) : INFINITY;
+}
+
+/* What solve_links_solve works with; freed in one place. */
+typedef struct links_state {
+    const solve_options *options;
+    const solve_links_input *in;
+    const char *input, *output;
+    double start;
+    int grey;
+    rad_lsolve_options solve;
+    rad_lsolve_result result;
+    rad_status solved; /* RAD_OK or RAD_ERR_NOT_CONVERGED */
+    solve_row_sum_summary row_sums;
+    double *row_sum;   /* by leaf */
+    double *radiosity; /* 3 per leaf */
+    solve_report reports[3];
+} links_state;
+
+/* The leaves' row sums judged as a matrix's rows: the note or warning on
+ * rows above 1, the refusal of rho * row sum >= 1. */
+static rad_status judge_rows(links_state *s)
+{
+    const rad_mesh *leaves = s->in->leaves;
+    solve_matrix view;
+    memset(&view, 0, sizeof view);
+    view.patch_count = leaves->patch_count;
+    view.row_end = leaves->patch_count;
+    view.row_sum = s->row_sum;
+    s->row_sums = solve_matrix_warn_row_sums(&view, s->input);
+    return solve_matrix_check_reflectance(&view, leaves, s->input);
+}
+
+/* The channels' reports, as stage.c logs and stats.c writes them. */
+static void fill_reports(links_state *s)
+{
+    static const char *const rgb_names[3] = {"red", "green", "blue"};
+    const int channels = s->grey ? 1 : 3;
+    const rad_lsolve_result *r = &s->result;
+    for (int c = 0; c < channels; c++) {
+        solve_report *rep = &s->reports[c];
+        memset(rep, 0, sizeof *rep);
+        rep->method_used = s->solve.method == RAD_LSOLVE_JACOBI ? SOLVE_JACOBI : SOLVE_GAUSS_SEIDEL;
+        rep->iterations = r->iterations[c];
+        rep->residual = r->residual[c];
+        rep->converged = r->residual[c] <= s->solve.tolerance;
+        rep->seconds = r->seconds; /* the channels' solve together */
+        rep->reciprocity = -1;     /* not measured */
+        rep->margin = NAN;
+        rep->error_bound = channel_error_bound(s->in->leaves, s->row_sum, c, r->residual[c]);
+        /* the balance is over the channels together (the stats' "balance") */
+        rep->balance = (solve_balance){NAN, NAN, NAN, NAN};
+        rad_info("%s: %s: %s on links, %u iterations, residual %.3g, %.3f s, backend cpu", s->input,
+                 s->grey ? "grey" : rgb_names[c], solve_method_name(rep->method_used), rep->iterations,
+                 rep->residual, rep->seconds);
+    }
+    rad_info("%s: energy%s: emitted %.9g, absorbed %.9g, escaped %.9g (imbalance %.2g)", s->input,
+             s->grey ? "" : " (the channels summed)", r->emitted, r->absorbed, r->escaped, r->imbalance);
+}
+
+static rad_status write_outputs(const links_state *s)
+{
+    const solve_links_input *in = s->in;
+    rad_radiosity out;
+    memset(&out, 0, sizeof out);
+    out.mesh = *in->leaves; /* borrowed; not freed here */
+    out.radiosity = s->radiosity;
+    out.channel_count = s->grey ? 1 : 3;
+    out.method = (uint32_t)s->reports[0].method_used;
+    out.converged = s->solved == RAD_OK;
+    out.tolerance = s->solve.tolerance;
+    for (int c = 0; c < 3; c++) {
+        out.iterations[c] = s->result.iterations[c];
+        out.residual[c] = s->result.residual[c];
+        out.channel_method[c] = out.method;
+    }
+    const int rank = solve_comm_rank(s->options->comm);
+    solve_radiosity_describe(in->info, s->input, rank == 0, &out);
+    rad_status status = rank == 0 ? rad_rf_write(s->output, &out) : RAD_OK;
+    status = solve_comm_agree(s->options->comm, status);
+    if (status != RAD_OK || !s->options->stats) return status;
+    static const char *const rgb_names[3] = {"red", "green", "blue"};
+    const solve_stats_links links = {.node_count = in->links->node_count,
+                                     .leaf_count = in->links->leaf_count,
+                                     .link_count = in->links->link_count,
+                                     .link_tol = in->links->link_tol,
+                                     .error_bound = in->links->error_bound,
+                                     .balance = {s->result.emitted, s->result.absorbed, s->result.escaped,
+                                                 s->result.imbalance}};
+    solve_stats st = {
+        .input = s->input,
+        .output = s->output,
+        .row_sums = s->row_sums,
+        .patch_count = in->leaves->patch_count,
+        .method = s->options->params.method,
+        .tolerance = s->solve.tolerance,
+        .max_iterations = s->solve.max_iterations,
+        .load_seconds = in->load_seconds,
+        .backend = "cpu",
+        .device_exact = -1,
+        .total_seconds = in->load_seconds + rad_clock_seconds() - s->start,
+        .converged = s->solved == RAD_OK,
+        .channel_count = (uint32_t)out.channel_count,
+        .rank_count = (uint32_t)solve_comm_size(s->options->comm),
+        .links = &links,
+    };
+    for (uint32_t c = 0; c < out.channel_count; c++) {
+        st.channel_names[c] = s->grey ? "grey" : rgb_names[c];
+        st.reports[c] = &s->reports[c];
+    }
+    status = rank == 0 ? solve_stats_write(s->options->stats, &st) : RAD_OK;
+    return solve_comm_agree(s->options->comm, status);
+}
+
+rad_status solve_links_solve(const solve_options *options, const solve_links_input *in)
+{
+    links_state s;
+    memset(&s, 0, sizeof s);
+    s.options = options;
+    s.in = in;
+    s.input = options->input ? options->input : SOLVE_DEFAULT_INPUT;
+    s.output = options->output ? options->output : SOLVE_DEFAULT_OUTPUT;
+    s.start = rad_clock_seconds();
+    const rad_links *links = in->links;
+    const rad_mesh *leaves = in->leaves;
+    s.solve = rad_lsolve_defaults();
+    rad_status status = check_options(options, s.input, &s.solve.method);
+    if (status == RAD_OK && links->leaf_count != leaves->patch_count) {
+        rad_error("%s: %u leaves in the links, %zu patches in the patch table", s.input, links->leaf_count,
+                  leaves->patch_count);
+        status = RAD_ERR_INVALID;
+    }
+    if (status == RAD_OK) {
+        s.row_sum = leaf_row_sums(links);
+        s.radiosity = malloc((leaves->patch_count ? 3 * leaves->patch_count : 1) * sizeof *s.radiosity);
+        if (!s.row_sum || !s.radiosity) {
+            rad_error("%s: out of memory for %zu leaves", s.input, leaves->patch_count);
+            status = RAD_ERR_NOMEM;
+        }
+    }
+    if (status == RAD_OK) status = judge_rows(&s);
+    if (status == RAD_OK) {
+        s.grey = solve_mesh_is_grey(leaves);
+        s.solve.tolerance = options->params.tolerance > 0 ? options->params.tolerance : SOLVE_DEFAULT_TOLERANCE;
+        s.solve.max_iterations =
+            options->params.max_iterations ? options->params.max_iterations : SOLVE_DEFAULT_MAX_ITERATIONS;
+        s.solve.channels = s.grey ? 1 : 3;
+        rad_info("%s: %u nodes over %u roots, %u leaves, %llu links (%.1f a leaf), %s, read in %.2f s", s.input,
+                 links->node_count, links->root_count, links->leaf_count, (unsigned long long)links->link_count,
+                 links->leaf_count ? (double)links->link_count / links->leaf_count : 0.0,
+                 s.grey ? "grey (solved once)" : "RGB", in->load_seconds);
+        status = rad_lsolve(links, leaves, &s.solve, s.radiosity, &s.result);
+    }
+    if (status == RAD_OK || status == RAD_ERR_NOT_CONVERGED) {
+        s.solved = status;
+        fill_reports(&s);
+        status = write_outputs(&s);
+        if (status == RAD_OK && s.solved != RAD_OK) {
+            rad_error("%s: not converged; wrote %s marked unconverged (raise --max-iter)", s.input, s.output);
+            status = s.solved;
+        } else if (status == RAD_OK) {
+            rad_info("%s: wrote %s", s.input, s.output);
+        }
+    }
+    free(s.row_sum);
+    free(s.radiosity);
+    for (int c = 0; c < 3; c++) solve_report_free(&s.reports[c]);
+    return status;
+}

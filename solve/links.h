@@ -1,0 +1,46 @@
+/* links.h - solve on a file of links (hierarchical radiosity, issue 26;
+ * docs/solve.md, "On links"): the links read, checked against the leaves'
+ * materials, solved by rad_lsolve (core/rad_lsolve.h) and written as the
+ * radiosity file of the leaves mesh, with the --stats JSON. stage.c hands
+ * such a file over once it is open.
+ *
+ * What solve's options mean here: --method gauss-seidel (also auto, the
+ * default) or jacobi, sweeps over the links (cg is refused: the system on
+ * links is solved by sweeps only); --tol and --max-iter as for a matrix,
+ * the residual being max |E + rho sum F B - B| over the leaves, over
+ * ||E||_inf; --backend: the CPU (a note for cuda); threads: OpenMP's
+ * default (OMP_NUM_THREADS). --errors does not apply (each link carries its
+ * own error bound) and --by-group is not available yet: both are refused
+ * before anything is solved.
+ *
+ * Across ranks every rank solves the same links (the bytes do not depend on
+ * it) and rank 0 writes; every rank returns the same status.
+ */
+#ifndef SOLVE_LINKS_H
+#define SOLVE_LINKS_H
+
+#include "rad_ffile.h"
+#include "rad_links.h"
+#include "rad_mesh.h"
+#include "rad_status.h"
+#include "stage.h"
+
+/* Reads the links of `file` (open, of layout links) and solves them as
+ * solve_links_solve. The file stays open (the caller closes it). */
+rad_status solve_links_run(const solve_options *options, rad_ff_file *file);
+
+/* The links, as read, and where they came from. */
+typedef struct solve_links_input {
+    const rad_ff_info *info;  /* the file's header: fingerprint, flags, scene path */
+    const rad_mesh *leaves;   /* the leaves mesh (the file's patch table) */
+    const rad_links *links;
+    double load_seconds;      /* reading them */
+} solve_links_input;
+
+/* Everything after reading: checks, the solve, the radiosity file and the
+ * stats. RAD_ERR_NOT_CONVERGED once the outputs are written, marked
+ * unconverged; RAD_ERR_USAGE for --method cg, --errors and --by-group;
+ * RAD_ERR_INVALID for a leaf with rho * row sum >= 1 (nothing written). */
+rad_status solve_links_solve(const solve_options *options, const solve_links_input *in);
+
+#endif
