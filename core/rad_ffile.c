@@ -11,6 +11,7 @@
 #include "rad_bytes.h"
 #include "rad_fs.h"
 #include "rad_hash.h"
+#include "rad_lfile.h"
 #include "rad_log.h"
 #include "rad_patch_table.h"
 
@@ -38,13 +39,21 @@ enum {
     H_FILE_BYTES = 104,
     H_TABLES_CHECKSUM = 112,
     H_ROW_CHECKSUMS_DIGEST = 120,
-    H_SCENE_NAME = 128, /* 96 bytes, NUL-padded */
+    H_SCENE_NAME = 128, /* 96 bytes, NUL-padded; 64 in the links layout */
+    H_NODE_COUNT = 192, /* links layout (version 4): the rest of the name's 96 bytes */
+    H_ROOT_COUNT = 196,
+    H_LINK_COUNT = 200,
+    H_LINK_TOL = 208,
+    H_ERROR_BOUND = 216,
     H_GROUP_OFFSET = 224, /* version 2; reserved (zero) in version 1 */
     H_GROUP_COUNT = 232,  /* version 2 */
     H_LAYOUT = 236,       /* version 3 (reserved, zero, before) */
-    H_MATRIX_BYTES = 240, /* version 3, sparse layout: bytes of the row records */
+    H_MATRIX_BYTES = 240, /* version 3, sparse layout: bytes of the row records; links: of the link sections */
     H_HEADER_CHECKSUM = 248
 };
+
+/* The scene name's bytes in the links layout (the link counts follow). */
+#define RAD_FF_LINKS_NAME_BYTES (H_NODE_COUNT - H_SCENE_NAME)
 
 /* Largest N the format allows: patch indices are uint32 in the mesh. */
 #define RAD_FF_MAX_PATCHES (UINT64_C(1) << 31)
@@ -72,6 +81,15 @@ rad_ff_layout rad_ff_layout_of(const rad_ff_info *info)
     }
     uint64_t matrix_bytes = info->layout == RAD_FF_LAYOUT_SPARSE ? info->matrix_bytes : n * l.row_bytes;
     l.index_bytes = info->layout == RAD_FF_LAYOUT_SPARSE ? (2 * n + 1) * 8 : n * 8;
+    l.first_link_offset = l.link_offset = 0;
+    if (info->layout == RAD_FF_LAYOUT_LINKS) {
+        /* node table at the matrix offset, then first_link, then the links */
+        l.first_link_offset =
+            rad_align_up(l.matrix_offset + (uint64_t)info->node_count * RAD_LFILE_NODE_BYTES, RAD_FF_ALIGN);
+        l.link_offset = rad_align_up(l.first_link_offset + ((uint64_t)info->node_count + 1) * 8, RAD_FF_ALIGN);
+        matrix_bytes = l.link_offset + info->link_count * RAD_LFILE_LINK_BYTES - l.matrix_offset;
+        l.index_bytes = rad_lfile_checksum_count(info->link_count) * 8;
+    }
     l.row_checksum_offset = rad_align_up(l.matrix_offset + matrix_bytes, RAD_FF_ALIGN);
     l.file_bytes = l.row_checksum_offset + l.index_bytes;
     return l;
@@ -185,10 +203,10 @@ uint64_t rad_ff_row_checksum(const void *row, size_t row_bytes)
 static void encode_header(const rad_ff_info *info, const rad_ff_layout *l, uint64_t tables_checksum,
                           unsigned char *h)
 {
-    int sparse = info->layout == RAD_FF_LAYOUT_SPARSE;
+    int sparse = info->layout == RAD_FF_LAYOUT_SPARSE, links = info->layout == RAD_FF_LAYOUT_LINKS;
     memset(h, 0, RAD_FF_HEADER_BYTES);
     memcpy(h + H_MAGIC, RAD_FF_MAGIC, 8);
-    rad_put_u32(h + H_VERSION, sparse ? RAD_FF_VERSION : RAD_FF_VERSION_DENSE);
+    rad_put_u32(h + H_VERSION, links ? RAD_FF_VERSION_LINKS : sparse ? RAD_FF_VERSION_SPARSE : RAD_FF_VERSION_DENSE);
     rad_put_u32(h + H_HEADER_BYTES, RAD_FF_HEADER_BYTES);
     rad_put_u64(h + H_PATCH_COUNT, info->patch_count);
     rad_put_u64(h + H_VERTEX_COUNT, info->vertex_count);
@@ -206,13 +224,22 @@ static void encode_header(const rad_ff_info *info, const rad_ff_layout *l, uint6
     rad_put_u64(h + H_ROW_CHECKSUM_OFFSET, l->row_checksum_offset);
     rad_put_u64(h + H_FILE_BYTES, l->file_bytes);
     rad_put_u64(h + H_TABLES_CHECKSUM, tables_checksum);
-    size_t name_len = strnlen(info->scene_name, sizeof info->scene_name - 1);
+    size_t name_len = strnlen(info->scene_name, links ? RAD_FF_LINKS_NAME_BYTES - 1 : sizeof info->scene_name - 1);
     memcpy(h + H_SCENE_NAME, info->scene_name, name_len);
     rad_put_u64(h + H_GROUP_OFFSET, l->group_offset);
     rad_put_u32(h + H_GROUP_COUNT, info->group_count);
     if (sparse) {
         rad_put_u32(h + H_LAYOUT, info->layout);
         rad_put_u64(h + H_MATRIX_BYTES, info->matrix_bytes);
+    }
+    if (links) {
+        rad_put_u32(h + H_NODE_COUNT, info->node_count);
+        rad_put_u32(h + H_ROOT_COUNT, info->root_count);
+        rad_put_u64(h + H_LINK_COUNT, info->link_count);
+        rad_put_f64(h + H_LINK_TOL, info->link_tol);
+        rad_put_f64(h + H_ERROR_BOUND, info->error_bound);
+        rad_put_u32(h + H_LAYOUT, info->layout);
+        rad_put_u64(h + H_MATRIX_BYTES, l->link_offset + info->link_count * RAD_LFILE_LINK_BYTES - l->matrix_offset);
     }
     rad_put_u64(h + H_HEADER_CHECKSUM, rad_hash64(RAD_HASH_SEED, h, H_HEADER_CHECKSUM));
 }
@@ -236,6 +263,15 @@ static void decode_header(const unsigned char *h, rad_ff_info *info)
     if (version >= 3) {
         info->layout = rad_get_u32(h + H_LAYOUT);
         info->matrix_bytes = rad_get_u64(h + H_MATRIX_BYTES);
+    }
+    if (version >= RAD_FF_VERSION_LINKS && info->layout == RAD_FF_LAYOUT_LINKS) {
+        memset(info->scene_name + RAD_FF_LINKS_NAME_BYTES - 1, 0,
+               sizeof info->scene_name - (RAD_FF_LINKS_NAME_BYTES - 1));
+        info->node_count = rad_get_u32(h + H_NODE_COUNT);
+        info->root_count = rad_get_u32(h + H_ROOT_COUNT);
+        info->link_count = rad_get_u64(h + H_LINK_COUNT);
+        info->link_tol = rad_get_f64(h + H_LINK_TOL);
+        info->error_bound = rad_get_f64(h + H_ERROR_BOUND);
     }
 }
 
@@ -298,6 +334,11 @@ rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info_in, con
     char temp[4096];
     rad_ff_info info = *info_in;
     int sparse = info.layout == RAD_FF_LAYOUT_SPARSE;
+    if (info.layout != RAD_FF_LAYOUT_DENSE && !sparse) {
+        rad_error("internal: %s: rad_ff_write_serial writes matrices (layout %u; links: rad_ff_write_links)", path,
+                  info.layout);
+        return RAD_ERR_INVALID;
+    }
     if ((status = rad_ff_prologue_encode(&info, mesh, &prologue, &prologue_size)) != RAD_OK) return status;
     if ((status = rad_fs_temp_create(path, temp, sizeof temp)) != RAD_OK) {
         free(prologue);
@@ -372,9 +413,10 @@ struct rad_ff_file {
     rad_ff_info info;
     rad_ff_layout layout;
     rad_mesh mesh;
-    uint64_t *index;         /* the layout's index: row_offsets (sparse) and row_checksums */
+    uint64_t *index;         /* the layout's index: row_offsets (sparse) and row_checksums;
+                                links: the checksum table (rad_lfile.h) */
     uint64_t *row_offsets;   /* sparse: N + 1 record offsets from the matrix offset; else NULL */
-    uint64_t *row_checksums; /* N */
+    uint64_t *row_checksums; /* N; NULL in the links layout */
     unsigned char *row_buffer;
     uint32_t *tile_buffer;   /* sparse: one row's tile numbers */
     double *value_buffer;    /* sparse: one row's stored entries */
@@ -430,6 +472,28 @@ static int looks_like_paper_format(const unsigned char *h, uint64_t file_size)
     return n > 0 && file_size == 4 + 8 * (uint64_t)n * (uint64_t)n;
 }
 
+/* The links layout's part of the header: its version, element type and
+ * counts, before any size is computed from them. */
+static rad_status check_links_header(const char *path, uint32_t version, const rad_ff_info *info)
+{
+    if (version < RAD_FF_VERSION_LINKS) {
+        rad_error("%s: the links layout in a version-%u file (links need version %u)", path, version,
+                  RAD_FF_VERSION_LINKS);
+        return RAD_ERR_FORMAT;
+    }
+    if (info->element_type != RAD_ELEMENT_F64) {
+        rad_error("%s: element type %u in the links layout (its factors are float64, 2)", path, info->element_type);
+        return RAD_ERR_FORMAT;
+    }
+    const char *why = rad_lfile_counts_fault(info);
+    if (why) {
+        rad_error("%s: implausible sizes (%u nodes, %u roots, %llu leaves, %llu links): %s", path, info->node_count,
+                  info->root_count, (unsigned long long)info->patch_count, (unsigned long long)info->link_count, why);
+        return RAD_ERR_FORMAT;
+    }
+    return RAD_OK;
+}
+
 static rad_status check_header(const char *path, const unsigned char *h, uint64_t got, uint64_t file_size,
                                rad_ff_info *info, rad_ff_layout *layout)
 {
@@ -458,7 +522,8 @@ static rad_status check_header(const char *path, const unsigned char *h, uint64_
         return RAD_ERR_FORMAT;
     }
     decode_header(h, info);
-    if (info->layout != RAD_FF_LAYOUT_DENSE && info->layout != RAD_FF_LAYOUT_SPARSE) {
+    if (info->layout != RAD_FF_LAYOUT_DENSE && info->layout != RAD_FF_LAYOUT_SPARSE &&
+        info->layout != RAD_FF_LAYOUT_LINKS) {
         rad_error("%s: unknown matrix layout %u", path, info->layout);
         return RAD_ERR_FORMAT;
     }
@@ -481,8 +546,10 @@ static rad_status check_header(const char *path, const unsigned char *h, uint64_
                   (unsigned long long)info->patch_count);
         return RAD_ERR_FORMAT;
     }
+    const int links = info->layout == RAD_FF_LAYOUT_LINKS;
+    if (links && check_links_header(path, version, info) != RAD_OK) return RAD_ERR_FORMAT;
     uint64_t element_bytes = info->element_type == RAD_ELEMENT_F32 ? 4 : 8;
-    if (info->patch_count * info->patch_count > RAD_FF_MAX_MATRIX_BYTES / element_bytes) {
+    if (!links && info->patch_count * info->patch_count > RAD_FF_MAX_MATRIX_BYTES / element_bytes) {
         rad_error("%s: implausible sizes (N = %llu: the matrix alone would be %.3g bytes)", path,
                   (unsigned long long)info->patch_count,
                   (double)info->patch_count * (double)info->patch_count * (double)element_bytes);
@@ -498,7 +565,9 @@ static rad_status check_header(const char *path, const unsigned char *h, uint64_
     if (rad_get_u64(h + H_MATRIX_OFFSET) != layout->matrix_offset ||
         (version >= 2 && rad_get_u64(h + H_GROUP_OFFSET) != layout->group_offset) ||
         rad_get_u64(h + H_FILE_BYTES) != layout->file_bytes ||
-        rad_get_u64(h + H_ROW_CHECKSUM_OFFSET) != layout->row_checksum_offset) {
+        rad_get_u64(h + H_ROW_CHECKSUM_OFFSET) != layout->row_checksum_offset ||
+        (links && info->matrix_bytes != layout->link_offset + info->link_count * RAD_LFILE_LINK_BYTES -
+                                            layout->matrix_offset)) {
         rad_error("%s: section offsets disagree with N = %llu", path, (unsigned long long)info->patch_count);
         return RAD_ERR_FORMAT;
     }
@@ -542,10 +611,10 @@ rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
     tables = malloc(tables_size);
     ff->mesh.positions = malloc(v * 24 + 1);
     ff->mesh.patches = malloc(n * sizeof(rad_patch));
-    int sparse = ff->info.layout == RAD_FF_LAYOUT_SPARSE;
+    int sparse = ff->info.layout == RAD_FF_LAYOUT_SPARSE, links = ff->info.layout == RAD_FF_LAYOUT_LINKS;
     size_t record_max = rad_ff_row_record_max(n, ff->info.element_type);
     ff->index = malloc(l->index_bytes);
-    ff->row_buffer = malloc(sparse ? record_max : l->row_bytes);
+    ff->row_buffer = malloc(links ? 8 : sparse ? record_max : l->row_bytes);
     ff->tile_buffer = malloc(sparse ? 4 * tile_count_of(n) : 4);
     ff->value_buffer = malloc(sparse ? 8 * n : 8);
     if (!tables || !ff->mesh.positions || !ff->mesh.patches || !ff->index || !ff->row_buffer || !ff->tile_buffer ||
@@ -565,11 +634,12 @@ rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
         goto done;
     }
     if (rad_hash64(RAD_HASH_SEED, ff->index, l->index_bytes) != rad_get_u64(h + H_ROW_CHECKSUMS_DIGEST)) {
-        rad_error("%s: row-checksum table is corrupted (or the file was not completely written)", path);
+        rad_error("%s: %s table is corrupted (or the file was not completely written)", path,
+                  links ? "links' checksum" : "row-checksum");
         goto done;
     }
     ff->row_offsets = sparse ? ff->index : NULL;
-    ff->row_checksums = sparse ? ff->index + n + 1 : ff->index;
+    ff->row_checksums = links ? NULL : sparse ? ff->index + n + 1 : ff->index;
     for (uint64_t i = 0; sparse && i <= n; i++) {
         uint64_t at = ff->row_offsets[i], size = i < n ? ff->row_offsets[i + 1] - at : 0;
         if ((i == 0 && at != 0) || (i == n && at != ff->info.matrix_bytes) ||
@@ -608,10 +678,21 @@ void rad_ff_close(rad_ff_file *file)
 const rad_ff_info *rad_ff_file_info(const rad_ff_file *file) { return &file->info; }
 const rad_mesh *rad_ff_file_mesh(const rad_ff_file *file) { return &file->mesh; }
 
+/* RAD_ERR_INVALID, logged, where `file` holds links, not a matrix. */
+static rad_status refuse_links(const rad_ff_file *file)
+{
+    if (file->info.layout != RAD_FF_LAYOUT_LINKS) return RAD_OK;
+    rad_error("%s: holds links, not a matrix: hierarchical radiosity's nodes and links (form-factor layout %u, "
+              "version %u), read with rad_ff_read_links",
+              file->path, RAD_FF_LAYOUT_LINKS, RAD_FF_VERSION_LINKS);
+    return RAD_ERR_INVALID;
+}
+
 rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, double *out)
 {
     const rad_ff_layout *l = &file->layout;
     uint64_t n = file->info.patch_count;
+    if (refuse_links(file) != RAD_OK) return RAD_ERR_INVALID;
     if (row_begin > n || row_count > n - row_begin) {
         rad_error("%s: rows %llu..%llu out of range (N = %llu)", file->path, (unsigned long long)row_begin,
                   (unsigned long long)(row_begin + row_count), (unsigned long long)n);
@@ -659,6 +740,27 @@ rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_
     return RAD_OK;
 }
 
+rad_status rad_ff_read_links(rad_ff_file *file, rad_links *out)
+{
+    memset(out, 0, sizeof *out);
+    if (file->info.layout != RAD_FF_LAYOUT_LINKS) {
+        rad_error("%s: holds a matrix, not links (the %s layout; links are the layout of hierarchical radiosity, "
+                  "version %u)",
+                  file->path, file->info.layout == RAD_FF_LAYOUT_SPARSE ? "sparse" : "dense", RAD_FF_VERSION_LINKS);
+        return RAD_ERR_INVALID;
+    }
+    rad_links links;
+    rad_status status = rad_lfile_read(file->f, file->path, &file->info, &file->layout, file->index, &links);
+    if (status == RAD_OK) status = rad_links_check(&links, file->mesh.vertex_count, file->path);
+    if (status == RAD_OK) status = rad_lfile_check_leaves(&links, &file->mesh, file->path);
+    if (status != RAD_OK) {
+        rad_links_free(&links);
+        return status;
+    }
+    *out = links;
+    return RAD_OK;
+}
+
 uint64_t rad_ff_record_offset(const rad_ff_file *file, uint64_t row)
 {
     return file->row_offsets && row <= file->info.patch_count ? file->row_offsets[row] : 0;
@@ -667,6 +769,7 @@ uint64_t rad_ff_record_offset(const rad_ff_file *file, uint64_t row)
 rad_status rad_ff_read_records(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, unsigned char *buffer)
 {
     uint64_t n = file->info.patch_count;
+    if (refuse_links(file) != RAD_OK) return RAD_ERR_INVALID;
     if (!file->row_offsets || row_begin > n || row_count > n - row_begin) {
         rad_error("%s: rows %llu..%llu: out of range or not a sparse file", file->path,
                   (unsigned long long)row_begin, (unsigned long long)(row_begin + row_count));

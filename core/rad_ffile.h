@@ -15,6 +15,10 @@
  *                 row's bytes; sparse: the row index, patch_count + 1
  *                 uint64 record offsets (from the matrix offset), then
  *                 patch_count uint64 checksums of the row records
+ * The links layout (version 4, hierarchical radiosity, rad_links.h) has,
+ * instead of the matrix and its row checksums, the node table, the
+ * first_link table, the links and their checksum table (rad_lfile.h);
+ * its patch table is the leaves mesh.
  * The header carries a checksum of itself, of the vertex + patch tables and
  * of the row-checksum table, so a reader detects truncation, corruption and
  * foreign files before trusting any number.
@@ -23,7 +27,8 @@
  * parallel: rad_ff_layout() gives every offset, rad_ff_prologue_encode()
  * the bytes of header + tables, rad_ff_row_checksum() each row's checksum,
  * rad_ff_header_finish() the final header once all row checksums are known.
- * Reading (rad_ff_open/read_rows/close) uses stdio and validates as it goes.
+ * Reading (rad_ff_open/read_rows/read_links/close) uses stdio and
+ * validates as it goes.
  *
  * `--format paper` files (int32 N, then N*N float64) are written by
  * formfactor only; rad_ff_open recognises and refuses them with a message.
@@ -36,16 +41,21 @@
 #include <stdio.h>
 
 #include "rad_estimator.h"
+#include "rad_links.h"
 #include "rad_mesh.h"
 #include "rad_status.h"
 
 #define RAD_FF_MAGIC "RADFF\r\n\x1a" /* 8 bytes; catches text-mode mangling */
-/* Version 2 added the group table; readers take 1 to 3 (a version-1 file
+/* Version 2 added the group table; readers take 1 to 4 (a version-1 file
  * reads as one without groups: rad_mesh.group_count 0). Version 3 added
  * the sparse layout; dense files are still written as version 2, which
  * they are byte for byte, so that version-2 readers keep reading them. */
-#define RAD_FF_VERSION 3u
+#define RAD_FF_VERSION 4u /* the newest version readers take */
 #define RAD_FF_VERSION_DENSE 2u
+#define RAD_FF_VERSION_SPARSE 3u
+/* Version 4 added the links layout; links files are version 4, dense and
+ * sparse files stay versions 2 and 3, byte for byte. */
+#define RAD_FF_VERSION_LINKS 4u
 #define RAD_FF_VERSION_OLDEST 1u
 /* Columns per tile of a sparse row record. */
 #define RAD_FF_TILE_COLUMNS 64u
@@ -54,7 +64,10 @@
 
 typedef enum rad_ff_layout_kind {
     RAD_FF_LAYOUT_DENSE = 0,  /* every entry stored (versions 1-3) */
-    RAD_FF_LAYOUT_SPARSE = 1  /* row records of non-zero tiles (version 3) */
+    RAD_FF_LAYOUT_SPARSE = 1, /* row records of non-zero tiles (version 3) */
+    RAD_FF_LAYOUT_LINKS = 2   /* hierarchical radiosity's nodes and links, no
+                                 matrix (version 4): rad_ff_write_links,
+                                 rad_ff_read_links */
 } rad_ff_layout_kind;
 
 typedef enum rad_element_type {
@@ -80,7 +93,14 @@ typedef struct rad_ff_info {
                                   (0: no table; always 0 in version-1 files) */
     uint32_t layout;           /* rad_ff_layout_kind (dense in versions 1 and 2) */
     uint64_t matrix_bytes;     /* sparse: bytes of all row records (known once
-                                  written); dense: ignored, 0 */
+                                  written); links: bytes from the node table's
+                                  start to the last link's end; dense: ignored, 0 */
+    /* The links layout: the rad_links' counts and settings (rad_links.h),
+     * set by rad_ff_write_links from the links it writes and by the reader
+     * from the header; 0 in the other layouts. leaf_count is patch_count. */
+    uint32_t node_count, root_count;
+    uint64_t link_count;
+    double link_tol, error_bound;
 } rad_ff_info;
 
 #define RAD_FF_FLAG_PARTIAL_SUBDIV 1u /* only one group was subdivided */
@@ -96,14 +116,19 @@ typedef struct rad_ff_info {
  * (RAD_RF_FLAG_KE_RADIANCE), render into the image's metadata. */
 #define RAD_FF_FLAG_KE_RADIANCE 8u
 
-/* Byte offsets of each section, derived from N, V, G and the element type. */
+/* Byte offsets of each section, derived from N, V, G and the element type
+ * (links: node_count and link_count). */
 typedef struct rad_ff_layout {
     uint64_t vertex_offset, patch_offset, matrix_offset, row_checksum_offset, file_bytes;
     uint64_t group_offset;       /* group names (G * 64 bytes); 0 when G = 0 */
     uint64_t patch_group_offset; /* N * uint32 after them; 0 when G = 0 */
     uint64_t element_bytes; /* 4 or 8 */
     uint64_t row_bytes;     /* N * element_bytes (dense rows; decoded sparse rows) */
-    uint64_t index_bytes;   /* at row_checksum_offset: dense N * 8, sparse (2N + 1) * 8 */
+    uint64_t index_bytes;   /* at row_checksum_offset: dense N * 8, sparse (2N + 1) * 8,
+                               links the checksum table's bytes */
+    /* Links layout: the node table is at matrix_offset, these follow it
+     * (64-byte aligned); 0 in the other layouts. */
+    uint64_t first_link_offset, link_offset;
 } rad_ff_layout;
 
 rad_ff_layout rad_ff_layout_of(const rad_ff_info *info);
@@ -141,6 +166,20 @@ void rad_ff_header_finish(unsigned char *prologue, const rad_ff_info *info, cons
 rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info, const rad_mesh *mesh,
                                const double *matrix);
 
+/* Writes a file of the links layout from one process: header, the tables
+ * of the leaves mesh (the patches solve writes and render draws), then
+ * the node table, first_link, the links and their checksums (rad_lfile.h).
+ * info->layout must be RAD_FF_LAYOUT_LINKS and its counts match `leaves`
+ * (patch_count, vertex_count, group_count); its node_count, root_count,
+ * link_count, link_tol and error_bound are taken from `links`, which must
+ * pass rad_links_check and match the leaves (RAD_ERR_INVALID, logged, and
+ * nothing written, if not). element_type is stored as RAD_ELEMENT_F64 (the
+ * factors' type) and the scene name cut at 63 bytes (the link counts take
+ * the name field's last 32 bytes). Deterministic bytes, padding zeroed;
+ * temporary name + rename, as every output. */
+rad_status rad_ff_write_links(const char *path, const rad_ff_info *info, const rad_mesh *leaves,
+                              const rad_links *links);
+
 /* ---- reading ---- */
 
 typedef struct rad_ff_file rad_ff_file; /* opaque */
@@ -149,7 +188,12 @@ typedef struct rad_ff_file rad_ff_file; /* opaque */
  * and table checksums, the row-checksum table's digest, patch records
  * (finite, unit normals, rho in [0,1), E >= 0, vertex indices in range),
  * the group table (names NUL-terminated, not empty, zero-padded; every
- * patch's group in range).
+ * patch's group in range); in the links layout the link counts (trees of
+ * quadtrees over the patches) and the sections' sizes and offsets
+ * against the file size, and the digest of the links' checksum table.
+ * rad_ff_file_info(file)->layout tells the kinds apart: a links file is
+ * read with rad_ff_read_links, the others with rad_ff_read_rows (or
+ * rad_ff_read_records); each refuses the other kind with a message.
  * Errors name the file and what is wrong. */
 rad_status rad_ff_open(const char *path, rad_ff_file **out_file);
 void rad_ff_close(rad_ff_file *file); /* NULL is fine */
@@ -162,8 +206,18 @@ const rad_mesh *rad_ff_file_mesh(const rad_ff_file *file);
 /* Reads rows [row_begin, row_begin + row_count) into `out` (row_count * N
  * doubles, converted from the stored element type; a sparse file's
  * missing tiles as 0), verifying each row's checksum (and a sparse
- * record's structure). Errors name the file and the first bad row. */
+ * record's structure). Errors name the file and the first bad row.
+ * RAD_ERR_INVALID for a links file ("holds links, not a matrix"). */
 rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, double *out);
+
+/* Links layout: reads the node table, first_link and the links into *out
+ * (rad_links_free frees it), verifying each section's and each block's
+ * checksum, then rad_links_check (the file's vertex count, the file's
+ * name) and that every leaf is its patch (corners; the rho and E of its
+ * root's other leaves). RAD_ERR_FORMAT (damaged), RAD_ERR_IO, RAD_ERR_NOMEM,
+ * logged naming the file and what is wrong; RAD_ERR_INVALID for a matrix
+ * file ("holds a matrix, not links"). *out is zeroed on failure. */
+rad_status rad_ff_read_links(rad_ff_file *file, rad_links *out);
 
 /* Sparse layout, for readers that decode rows on several threads: the
  * records of rows [row_begin, row_begin + row_count) as stored, in one

@@ -162,6 +162,9 @@ static rad_status load_reuse(const ff_options *opt, const rad_mesh *mesh, const 
     } else if (info->flags & RAD_FF_FLAG_STANDARD_ERRORS) {
         rad_error("--reuse %s: holds standard errors, not form factors", path);
         st = RAD_ERR_INVALID;
+    } else if (info->layout == RAD_FF_LAYOUT_LINKS) {
+        rad_error("--reuse %s: holds links (formfactor --method hierarchical), not a matrix to reuse", path);
+        st = RAD_ERR_INVALID;
     } else if (info->estimator != (uint32_t)opt->estimator || info->shadow_rays != opt->shadow_rays ||
                info->samples != opt->samples) {
         rad_error("--reuse %s: computed with --estimator %s --samples %u --shadow-rays %u, this run with %s %u %u; "

@@ -275,6 +275,11 @@ rad_status solve_matrix_load(rad_ff_file *file, const char *path, size_t row_beg
         status = RAD_ERR_FORMAT;
         goto done;
     }
+    if (info->layout == RAD_FF_LAYOUT_LINKS) {
+        rad_error("%s: holds links, not a matrix (hierarchical radiosity): solve_matrix_load reads matrices", path);
+        status = RAD_ERR_UNSUPPORTED;
+        goto done;
+    }
     m.patch_count = n;
     m.reciprocity_bound = solve_reciprocity_bound(info);
     m.row_begin = row_begin < n ? row_begin : n;
@@ -348,6 +353,7 @@ void solve_matrix_free(solve_matrix *matrix)
 static const char *errors_mismatch(const rad_ff_info *f, const rad_mesh *fm, const rad_ff_info *e,
                                    const rad_mesh *em)
 {
+    if (e->layout == RAD_FF_LAYOUT_LINKS) return "it holds links (hierarchical radiosity), not standard errors";
     if (!(e->flags & RAD_FF_FLAG_STANDARD_ERRORS)) return "it holds form factors, not their standard errors";
     if (e->patch_count != f->patch_count) return "a different patch count";
     if (e->scene_fingerprint != f->scene_fingerprint || e->subdiv != f->subdiv) return "a different scene";

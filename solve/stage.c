@@ -269,6 +269,14 @@ static rad_status stage_open(stage_state *s)
     const solve_options *options = s->options;
     rad_status status = solve_comm_agree(s->comm, rad_ff_open(s->input, &s->file));
     if (status != RAD_OK) return status;
+    /* Hierarchical radiosity's links (issue 26): the solve on links
+     * (core/rad_lsolve.h) hooks in here; until then they are refused. */
+    if (rad_ff_file_info(s->file)->layout == RAD_FF_LAYOUT_LINKS) {
+        rad_error("%s: holds links, not a matrix (hierarchical radiosity, form-factor file version %u): this solve "
+                  "cannot solve on links yet; run formfactor without --method hierarchical",
+                  s->input, RAD_FF_VERSION_LINKS);
+        return RAD_ERR_UNSUPPORTED;
+    }
     /* CUDA starts while the matrix loads where the GPU will be asked for. */
     if (s->ranks == 1 && options->backend != SOLVE_BACKEND_CPU && solve_gpu_built() &&
         (options->backend == SOLVE_BACKEND_CUDA ||

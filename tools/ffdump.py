@@ -22,6 +22,9 @@ beside it and renamed when complete, as the programs do.
 
 The group commands need a file with a group table (version 2, from a
 formfactor that records groups); `matrix` and `heatmap` read version 1 too.
+A links file (version 4, hierarchical radiosity) has no matrix: `groups`
+lists its leaves' groups, the matrix commands refuse it with a message
+(tools/ffread.py summarises it).
 This reader checks the header and the file's size, not the checksums (`solve`
 checks them all before it trusts a number). Memory: `group-matrix` streams the
 matrix in blocks of rows; `matrix` and `heatmap` hold it whole (8 N^2 bytes).
@@ -37,8 +40,8 @@ import tempfile
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from ffread import (PATCH, FormatError, _read, damage_message, is_sparse, read_groups, read_header,  # noqa: E402
-                    read_row_index, read_rows)
+from ffread import (PATCH, FormatError, _read, damage_message, is_links, is_sparse, read_groups,  # noqa: E402
+                    read_header, read_row_index, read_rows, scene_name)
 
 FLAG_STANDARD_ERRORS = 2
 BLOCK_BYTES = 64 << 20     # rows read at once by group-matrix
@@ -58,7 +61,8 @@ class FormFactors:
         self.n = n = int(h["patch_count"])
         self.version = int(h["version"])
         self.errors = bool(int(h["flags"]) & FLAG_STANDARD_ERRORS)
-        self.scene = bytes(h["scene_name"]).rstrip(b"\0").decode("utf-8", errors="replace")
+        self.links = is_links(h)
+        self.scene = scene_name(h)
         self.patches = _read(path, PATCH, n, int(h["patch_offset"]), "patch table")
         self.area = self.patches["area"].astype(np.float64)
         if not np.isfinite(self.area).all() or (self.area <= 0).any():
@@ -78,6 +82,7 @@ class FormFactors:
 
     def group_matrix(self):
         """F_GH = (sum_{i in G} A_i sum_{j in H} F_ij) / A_G, streaming blocks of rows."""
+        self.require_matrix()
         self.require_groups()
         if self.errors:
             raise DumpError(f"{self.path}: holds standard errors of form factors (formfactor --errors), "
@@ -93,8 +98,14 @@ class FormFactors:
             np.add.at(interchange, self.patch_group[i0:i1], self.area[i0:i1, None] * to_groups)
         return interchange / self.group_areas()[:, None]
 
+    def require_matrix(self):
+        if self.links:
+            raise DumpError(f"{self.path}: holds links, not a matrix (hierarchical radiosity, form-factor "
+                            "layout 2): there is no patch matrix to dump; tools/ffread.py summarises it")
+
     def rows(self, begin, end):
         """Rows [begin, end) as float64, from either layout (docs/formats.md)."""
+        self.require_matrix()
         return np.asarray(read_rows(self.path, self.header, begin, end), dtype=np.float64)
 
     def dense(self):
@@ -189,6 +200,7 @@ def cmd_matrix(ff, args):
 def cmd_heatmap(ff, args):
     for path in args.output:
         kind_of(path, (".png",))
+    ff.require_matrix()
     try:
         import matplotlib
         matplotlib.use("Agg")

@@ -4,11 +4,15 @@
     python3 tools/ffread.py formfactors     # prints a summary
     from ffread import read_formfactors     # -> (info, vertices, patches, F)
     from ffread import read_groups          # -> (names, group of each patch) or (None, None)
+    from ffread import read_links           # links layout -> (info, nodes, first_link, links)
 
-Versions 1 to 3 of the format; version 2 added the group table (the OBJ
+Versions 1 to 4 of the format; version 2 added the group table (the OBJ
 groups of the patches), which version-1 files lack; version 3 the sparse
 layout (`formfactor --format sparse`), which read_formfactors expands to
-the dense matrix and read_rows reads a block of rows of.
+the dense matrix and read_rows reads a block of rows of; version 4 the
+links layout (hierarchical radiosity: element trees over the patches and
+the links between their nodes, no matrix), which read_links reads and
+is_links tells apart (read_rows and read_formfactors refuse it).
 """
 import os
 import struct
@@ -30,10 +34,23 @@ HEADER = np.dtype([("magic", "S8"), ("version", "<u4"), ("header_bytes", "<u4"),
                    ("matrix_bytes", "<u8"), ("header_checksum", "<u8")])
 
 
+# The links layout's counts, bytes 192-223 of the header (the scene name
+# has the 64 bytes before them).
+LINK_HEADER = np.dtype([("node_count", "<u4"), ("root_count", "<u4"), ("link_count", "<u8"),
+                        ("link_tol", "<f8"), ("error_bound", "<f8")])
+LINK_HEADER_OFFSET = 192
+NODE = np.dtype([("parent", "<u4"), ("first_child", "<u4"), ("leaf", "<u4"), ("root", "<u4"),
+                 ("level", "<u4"), ("vertex_count", "<u4"), ("v", "<u4", 4), ("area", "<f8")])
+LINK = np.dtype([("source", "<u4"), ("error", "<f4"), ("factor", "<f8")])
+NO_ELEMENT = 0xFFFFFFFF
+BLOCK_LINKS = 65536   # links per checksum of the links layout
+
 NAME_BYTES = 64      # one group name, NUL-padded
-VERSIONS = (1, 2, 3)  # what these readers understand
+VERSIONS = (1, 2, 3, 4)  # what these readers understand
 TILE = 64             # columns per tile of a sparse row record
 LAYOUT_SPARSE = 1
+LAYOUT_LINKS = 2
+ALIGN = 64
 HEADER_BYTES = 256
 VERTEX_BYTES = 24     # x, y, z float64
 ELEMENT = {1: np.dtype("<f4"), 2: np.dtype("<f8")}
@@ -41,6 +58,11 @@ ELEMENT = {1: np.dtype("<f4"), 2: np.dtype("<f8")}
 
 class FormatError(ValueError):
     """A damaged or foreign file: the message is "path: what is wrong"."""
+
+
+class KindError(ValueError):
+    """A whole file of the other kind (links where a matrix was asked for,
+    or the reverse): "path: holds ..."."""
 
 
 def damage_message(path, e):
@@ -53,6 +75,34 @@ def damage_message(path, e):
 
 def _pad8(x):
     return (x + 7) // 8 * 8
+
+
+def _align(x):
+    return (x + ALIGN - 1) // ALIGN * ALIGN
+
+
+HASH_SEED = 0xcbf29ce484222325
+_FNV_PRIME = 0x100000001b3
+_MASK = (1 << 64) - 1
+
+
+def rad_hash64(data, h=HASH_SEED):
+    """core/rad_hash.h's checksum: FNV-1a over 8-byte little-endian words
+    (each folded, h ^= h >> 29), then byte-wise over the tail. Pure Python:
+    about 10 MB/s."""
+    data = bytes(data)
+    words = len(data) // 8
+    for w in np.frombuffer(data, "<u8", words).tolist():
+        h = ((h ^ w) * _FNV_PRIME) & _MASK
+        h ^= h >> 29
+    for b in data[8 * words:]:
+        h = ((h ^ b) * _FNV_PRIME) & _MASK
+    return h
+
+
+def scene_name(h):
+    """The header's scene name (in the links layout its first 64 bytes)."""
+    return bytes(h["scene_name"]).split(b"\0")[0].decode("utf-8", errors="replace")
 
 
 def _read(path, dtype, count, offset, what):
@@ -87,15 +137,19 @@ def read_header(path):
         raise FormatError(f"{path}: header size {int(h['header_bytes'])}, expected {HEADER_BYTES}: damaged header")
     if int(h["file_bytes"]) != size:
         raise FormatError(f"{path}: {size} bytes, the header says {int(h['file_bytes'])} (truncated or damaged)")
+    layout = int(h["layout"]) if int(h["version"]) >= 3 else 0
+    if layout == LAYOUT_LINKS and (int(h["version"]) < 4 or int(h["element_type"]) != 2):
+        raise FormatError(f"{path}: the links layout needs version 4 and element type 2, not version "
+                          f"{int(h['version'])} and element type {int(h['element_type'])}: damaged header")
     if int(h["element_type"]) not in ELEMENT:
         raise FormatError(f"{path}: element type {int(h['element_type'])} (expected 1 = float32 or "
                           "2 = float64): damaged header")
     n, v = int(h["patch_count"]), int(h["vertex_count"])
     if n < 1 or v < 3:
         raise FormatError(f"{path}: {n} patches, {v} vertices (at least 1 and 3): damaged header")
-    layout = int(h["layout"]) if int(h["version"]) >= 3 else 0
-    if layout not in (0, LAYOUT_SPARSE):
-        raise FormatError(f"{path}: matrix layout {layout} (expected 0 = dense or 1 = sparse): damaged header")
+    if layout not in (0, LAYOUT_SPARSE, LAYOUT_LINKS):
+        raise FormatError(f"{path}: matrix layout {layout} (expected 0 = dense, 1 = sparse or 2 = links): "
+                          "damaged header")
     g = group_count(h)
     if g > n:
         raise FormatError(f"{path}: {g} groups for {n} patches: damaged header")
@@ -107,6 +161,8 @@ def read_header(path):
     if layout == LAYOUT_SPARSE:
         sections += [("matrix records", int(h["matrix_offset"]), int(h["matrix_bytes"])),
                      ("row index", int(h["row_checksum_offset"]), 8 * (n + 1) + 8 * n)]
+    elif layout == LAYOUT_LINKS:
+        sections += link_sections(path, h, size)
     else:
         sections += [("matrix", int(h["matrix_offset"]), n * n * el),
                      ("row checksums", int(h["row_checksum_offset"]), 8 * n)]
@@ -115,6 +171,41 @@ def read_header(path):
             raise FormatError(f"{path}: the {what} ({nbytes} bytes at offset {offset}) does not lie within "
                               f"the file ({size} bytes): damaged header or truncated file")
     return h
+
+
+def link_counts(path, h):
+    """The links layout's counts and settings (header bytes 192-223) as a dict."""
+    c = np.fromfile(path, dtype=LINK_HEADER, count=1, offset=LINK_HEADER_OFFSET)
+    if len(c) != 1:
+        raise FormatError(f"{path}: the header could not be read whole (the file changed?)")
+    return {k: c[0][k].item() for k in LINK_HEADER.names}
+
+
+def link_offsets(path, h):
+    """(node table, first_link, links, checksum table) offsets and the link
+    count, as the counts imply (docs/formats.md, "The links layout")."""
+    c = link_counts(path, h)
+    nodes, count = c["node_count"], c["link_count"]
+    node_at = int(h["matrix_offset"])
+    first_at = _align(node_at + NODE.itemsize * nodes)
+    links_at = _align(first_at + 8 * (nodes + 1))
+    sums_at = _align(links_at + LINK.itemsize * count)
+    return node_at, first_at, links_at, sums_at, c
+
+
+def link_sections(path, h, size):
+    """The links layout's sections for read_header's bounds check, after
+    the counts are checked to make trees of quadtrees over the patches."""
+    node_at, first_at, links_at, sums_at, c = link_offsets(path, h)
+    n, nodes, roots, count = int(h["patch_count"]), c["node_count"], c["root_count"], c["link_count"]
+    if not (1 <= roots <= nodes < NO_ELEMENT and (nodes - roots) % 4 == 0 and n == roots + (nodes - roots) // 4 * 3):
+        raise FormatError(f"{path}: {nodes} nodes, {roots} roots and {n} leaves do not make trees of quadtrees: "
+                          "damaged header")
+    if LINK.itemsize * count > size or sums_at != int(h["row_checksum_offset"]):
+        raise FormatError(f"{path}: {count} links do not fit the file's sections: damaged header or truncated file")
+    return [("node table", node_at, NODE.itemsize * nodes), ("first_link table", first_at, 8 * (nodes + 1)),
+            ("links", links_at, LINK.itemsize * count),
+            ("links' checksums", sums_at, 8 * (2 + (count + BLOCK_LINKS - 1) // BLOCK_LINKS))]
 
 
 def group_count(h):
@@ -140,6 +231,83 @@ def is_sparse(h):
     return int(h["version"]) >= 3 and int(h["layout"]) == LAYOUT_SPARSE
 
 
+def is_links(h):
+    return int(h["version"]) >= 4 and int(h["layout"]) == LAYOUT_LINKS
+
+
+def refuse_links(path, h):
+    if is_links(h):
+        raise KindError(f"{path}: holds links, not a matrix (hierarchical radiosity, form-factor layout 2): "
+                        "read it with read_links")
+
+
+def read_links(path, h=None, verify=True):
+    """The links layout: (info, nodes, first_link, links) - info a dict of
+    the counts, link_tol, error_bound and scene name; nodes an array of
+    NODE, first_link of uint64 (node_count + 1), links of LINK (CSR by
+    receiver: node r's links are links[first_link[r]:first_link[r + 1]]).
+    verify: check every checksum (the header's, the tables', the checksum
+    table's digest, each section's and block's; pure Python, ~10 MB/s)
+    before trusting a number; always: first_link from 0 to the link count
+    without decreasing, sources and parents in range, each patch one leaf.
+    FormatError for a damaged file, KindError for a matrix file."""
+    h = read_header(path) if h is None else h
+    if not is_links(h):
+        raise KindError(f"{path}: holds a matrix, not links (read it with read_rows or read_formfactors)")
+    node_at, first_at, links_at, sums_at, c = link_offsets(path, h)
+    nodes_n, count, n = c["node_count"], c["link_count"], int(h["patch_count"])
+    if verify:
+        head = _read(path, np.uint8, 256, 0, "header").tobytes()
+        if rad_hash64(head[:248]) != struct.unpack_from("<Q", head, 248)[0]:
+            raise FormatError(f"{path}: header checksum mismatch: the file is corrupted")
+        tables = _read(path, np.uint8, node_at - 256, 256, "tables").tobytes()
+        if rad_hash64(tables) != int(h["tables_checksum"]):
+            raise FormatError(f"{path}: vertex/patch table checksum mismatch: the file is corrupted")
+    blocks = (count + BLOCK_LINKS - 1) // BLOCK_LINKS
+    sums = _read(path, "<u8", 2 + blocks, sums_at, "links' checksums")
+    if verify and rad_hash64(sums.tobytes()) != int(h["row_checksums_digest"]):
+        raise FormatError(f"{path}: links' checksum table is corrupted (or the file was not completely written)")
+    # each section (block) with the padding after it up to the next
+    spans = [("node table", node_at, first_at), ("first_link table", first_at, links_at)]
+    spans += [(f"links {b * BLOCK_LINKS}..{min(count, (b + 1) * BLOCK_LINKS) - 1}",
+               links_at + b * BLOCK_LINKS * LINK.itemsize,
+               sums_at if b == blocks - 1 else links_at + (b + 1) * BLOCK_LINKS * LINK.itemsize)
+              for b in range(blocks)]
+    for k, (what, begin, end) in enumerate(spans):
+        if verify and rad_hash64(_read(path, np.uint8, end - begin, begin, what).tobytes()) != int(sums[k]):
+            raise FormatError(f"{path}: {what}: checksum mismatch: the file is corrupted")
+    nodes = _read(path, NODE, nodes_n, node_at, "node table")
+    first_link = _read(path, "<u8", nodes_n + 1, first_at, "first_link table")
+    links = _read(path, LINK, count, links_at, "links")
+    if first_link[0] != 0 or first_link[-1] != count or (np.diff(first_link.astype(np.int64)) < 0).any():
+        raise FormatError(f"{path}: damaged first_link table (not from 0 to {count} without decreasing)")
+    if count and int(links["source"].max()) >= nodes_n:
+        raise FormatError(f"{path}: damaged links (a source beyond {nodes_n} nodes)")
+    index = np.arange(nodes_n)
+    parent = nodes["parent"].astype(np.int64)
+    roots = c["root_count"]
+    if (parent[:roots] != NO_ELEMENT).any() or (parent[roots:] >= index[roots:]).any():
+        raise FormatError(f"{path}: damaged node table (roots not first, or a parent not before its child)")
+    leaf = nodes["leaf"][nodes["first_child"] == NO_ELEMENT].astype(np.int64)
+    if len(leaf) != n or not np.array_equal(np.sort(leaf), np.arange(n)):
+        raise FormatError(f"{path}: damaged node table (the leaves are not each patch once)")
+    info = dict(c, leaf_count=n, scene_name=scene_name(h))
+    return info, nodes, first_link, links
+
+
+def leaf_row_sums(nodes, first_link, links):
+    """Each node's sum of F over its own and its ancestors' links (the row
+    sums of the leaves' implied matrix, at the leaves)."""
+    receivers = np.repeat(np.arange(len(nodes)), np.diff(first_link.astype(np.int64)))
+    own = np.bincount(receivers, weights=links["factor"], minlength=len(nodes))
+    total = own.copy()
+    parent = nodes["parent"].astype(np.int64)
+    for level in range(1, int(nodes["level"].max()) + 1 if len(nodes) else 0):
+        at = np.nonzero(nodes["level"] == level)[0]
+        total[at] = own[at] + total[parent[at]]
+    return total
+
+
 def read_row_index(path, h):
     """The sparse layout's N + 1 record offsets, checked: 0 first, ascending
     in multiples of 8, the records' total last, no record longer than a
@@ -160,6 +328,7 @@ def read_row_index(path, h):
 def read_rows(path, h, begin, end):
     """Rows [begin, end) of F as a dense (end - begin) x N array, either layout."""
     n = int(h["patch_count"])
+    refuse_links(path, h)
     if not 0 <= begin <= end <= n:
         raise ValueError(f"rows [{begin}, {end}) of {n}")
     element = ELEMENT[int(h["element_type"])]
@@ -196,6 +365,7 @@ def read_rows(path, h, begin, end):
 
 def read_formfactors(path):
     h = read_header(path)
+    refuse_links(path, h)
     n, v = int(h["patch_count"]), int(h["vertex_count"])
     vertices = _read(path, "<f8", 3 * v, int(h["vertex_offset"]), "vertex table").reshape(v, 3)
     patches = _read(path, PATCH, n, int(h["patch_offset"]), "patch table")
@@ -210,12 +380,31 @@ def read_formfactors(path):
     return h, vertices, patches, F
 
 
+def print_links(path, h):
+    """The summary of a links file (the errors go to main's handlers)."""
+    info, nodes, first_link, links = read_links(path, h)
+    names, _ = read_groups(path, h)
+    leaves = nodes["first_child"] == NO_ELEMENT
+    rows = leaf_row_sums(nodes, first_link, links)[leaves]
+    levels = int(nodes["level"].max())
+    print(f"N = {info['leaf_count']} leaves, {info['node_count']} nodes ({info['root_count']} roots, "
+          f"{levels + 1} levels), {info['link_count']} links, links layout; "
+          f"link tol {info['link_tol']:g}, error bound {info['error_bound']:g}")
+    print(f"row sums at the leaves: min {rows.min():.6f} max {rows.max():.6f} mean {rows.mean():.6f}")
+    print(f"checksums verified; {NODE.itemsize} bytes per node, {LINK.itemsize} bytes per link")
+    print(f"groups: {', '.join(names)}" if names else "groups: none recorded")
+    return 0
+
+
 def main(argv):
     if len(argv) != 2:
         print("usage: ffread.py FORMFACTORS", file=sys.stderr)
         return 2
     path = argv[1]
     try:
+        h = read_header(path)
+        if is_links(h):
+            return print_links(path, h)
         h, vertices, patches, F = read_formfactors(path)
         names, _ = read_groups(path, h)
     except OSError as e:

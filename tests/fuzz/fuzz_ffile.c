@@ -1,17 +1,23 @@
-/* fuzz_ffile.c - the form-factor file reader (rad_ff_open, rad_ff_read_rows).
+/* fuzz_ffile.c - the form-factor file reader (rad_ff_open,
+ * rad_ff_read_rows; rad_ff_read_links for the links layout).
  *
  * Each input is read twice: as it is, and with its checksums repaired.
  * Random bytes almost never carry a valid header checksum, so the first
  * pass exercises the magic/version/size/checksum checks; the second
  * recomputes every checksum (header, tables, row checksums and their
- * digest, from the N, V and element type the header claims) so that the
- * fuzzer reaches the checks of sizes, offsets and values behind them.
+ * digest, from the N, V and element type the header claims; in the links
+ * layout the sections' and link blocks' checksums from the node and link
+ * counts it claims) so that the fuzzer reaches the checks of sizes,
+ * offsets and values behind them.
  *
  * What the reader accepts must be self-consistent: the mesh as the header
  * says, patch records valid, every row readable (a row may still fail its
- * checksum in the first pass - then it must be refused, not crash); and
- * the radiosity file solve would write from it must be accepted by
- * render's reader (written to a scratch file and read back).
+ * checksum in the first pass - then it must be refused, not crash), links
+ * that pass rad_links_check again with the header's counts, and the other
+ * kind's reader refusing; and the radiosity file solve would write from
+ * it must be accepted by render's reader (written to a scratch file and
+ * read back). A small valid links file is among the regressions
+ * (regressions/ffile/links-small, written by tests/test_lfile.c).
  */
 #include "fuzz_common.h" /* first: it defines _GNU_SOURCE */
 
@@ -20,6 +26,8 @@
 #include "rad_bytes.h"
 #include "rad_ffile.h"
 #include "rad_hash.h"
+#include "rad_lfile.h"
+#include "rad_links.h"
 #include "rad_rfile.h"
 
 /* Rows are read in one call when N is at most this, else in blocks (the
@@ -62,13 +70,29 @@ static void read_back(const char *path)
         rad_radiosity_free(&back);
         free(solved.radiosity);
     }
+    double dummy;
+    if (info->layout == RAD_FF_LAYOUT_LINKS) {
+        rad_links links;
+        if (rad_ff_read_links(ff, &links) == RAD_OK) {
+            FUZZ_REQUIRE(links.node_count == info->node_count && links.root_count == info->root_count &&
+                         links.leaf_count == n && links.link_count == info->link_count);
+            FUZZ_REQUIRE(rad_links_check(&links, mesh->vertex_count, "fuzz") == RAD_OK);
+            rad_links_free(&links);
+        } else {
+            FUZZ_REQUIRE(links.nodes == NULL && links.links == NULL && links.first_link == NULL);
+        }
+        FUZZ_REQUIRE(rad_ff_read_rows(ff, 0, 1, &dummy) != RAD_OK); /* not a matrix */
+        rad_ff_close(ff);
+        return;
+    }
+    rad_links none;
+    FUZZ_REQUIRE(rad_ff_read_links(ff, &none) != RAD_OK && none.nodes == NULL); /* not links */
     uint64_t block = n < FUZZ_ROWS_AT_ONCE ? n : FUZZ_ROWS_AT_ONCE;
     double *rows = malloc(block * n * sizeof *rows);
     for (uint64_t r = 0; rows && r < n; r += block) {
         uint64_t count = n - r < block ? n - r : block;
         if (rad_ff_read_rows(ff, r, count, rows) != RAD_OK) break;
     }
-    double dummy;
     FUZZ_REQUIRE(rad_ff_read_rows(ff, n, 1, &dummy) != RAD_OK); /* past the end */
     free(rows);
     rad_ff_close(ff);
@@ -89,10 +113,26 @@ static int repair(uint8_t *b, size_t size)
         info.matrix_bytes = rad_get_u64(b + 240);
         if (info.matrix_bytes > size) return 0;
     }
+    if (rad_get_u32(b + 8) >= 4 && rad_get_u32(b + 236) == RAD_FF_LAYOUT_LINKS) {
+        info.layout = RAD_FF_LAYOUT_LINKS;
+        info.node_count = rad_get_u32(b + 192);
+        info.link_count = rad_get_u64(b + 200);
+        if (info.node_count > size || info.link_count > size) return 0;
+    }
     rad_ff_layout l = rad_ff_layout_of(&info);
     if (l.file_bytes > size) return 0;
     uint64_t n = info.patch_count;
-    if (info.layout == RAD_FF_LAYOUT_SPARSE) {
+    if (info.layout == RAD_FF_LAYOUT_LINKS) {
+        /* node table, first_link, each block of links: each up to the next */
+        uint64_t sums = rad_lfile_checksum_count(info.link_count);
+        for (uint64_t k = 0; k < sums; k++) {
+            uint64_t at = k == 0 ? l.matrix_offset : k == 1 ? l.first_link_offset
+                                                            : l.link_offset + (k - 2) * RAD_LFILE_BLOCK_LINKS * 16;
+            uint64_t end = k == 0 ? l.first_link_offset : k == 1 ? l.link_offset
+                         : k + 1 < sums ? at + RAD_LFILE_BLOCK_LINKS * 16 : l.row_checksum_offset;
+            rad_put_u64(b + l.row_checksum_offset + 8 * k, rad_hash64(RAD_HASH_SEED, b + at, (size_t)(end - at)));
+        }
+    } else if (info.layout == RAD_FF_LAYOUT_SPARSE) {
         /* Each record's checksum where its offsets make sense; then the index's. */
         const uint8_t *offsets = b + l.row_checksum_offset;
         for (uint64_t i = 0; i < n; i++) {

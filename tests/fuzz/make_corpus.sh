@@ -54,6 +54,9 @@ done
 "$solve" -q --method jacobi --max-iter 2 "$out/ffile/closed_box" -o "$out/rfile/closed_box_unconverged" || true
 "$solve" -q --method cg "$out/ffile/two_f64" -o "$out/rfile/two_cg"
 cd "$out" && rm -rf work
+# The links layout (hierarchical radiosity): a small valid file that
+# tests/test_lfile.c writes, kept among the regressions.
+cp "$src/tests/fuzz/regressions/ffile/links-small" "$out/ffile/links_small"
 # pair: one input per configuration of pair_cases.h (its first byte), the
 # rest fixed bytes.
 for k in 0 1 2 3 4 5 6 7; do
