@@ -24,10 +24,6 @@
 #include "rad_json.h"
 #include "rad_log.h"
 #include "rad_lsolve.h"
-#ifndef RAD_FF_LAYOUT_LINKS /* TEMP */
-#define RAD_FF_LAYOUT_LINKS 2
-rad_status rad_ff_write_links(const char *path, const rad_ff_info *info, const rad_mesh *leaves, const rad_links *links);
-#endif
 
 typedef struct hier_run {
     const ff_options *opt;

@@ -18,7 +18,6 @@
 
 rad_status solve_links_run(const solve_options *options, rad_ff_file *file)
 {
-#ifdef RAD_FF_LAYOUT_LINKS /* Issue 26 merge: see stage.c, file_holds_links; remove with the guard there */
     const double start = rad_clock_seconds();
     rad_links links;
     memset(&links, 0, sizeof links);
@@ -30,12 +29,6 @@ rad_status solve_links_run(const solve_options *options, rad_ff_file *file)
     }
     rad_links_free(&links);
     return status;
-#else
-    (void)file;
-    rad_error("%s: a file of links, which this build of solve cannot read",
-              options->input ? options->input : SOLVE_DEFAULT_INPUT);
-    return RAD_ERR_UNSUPPORTED;
-#endif
 }
 
 /* --method on links: Gauss-Seidel (auto's choice too) or Jacobi; and the

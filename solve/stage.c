@@ -141,19 +141,10 @@ static rad_status resolve_backend(solve_backend asked, int ranks, solve_backend 
 }
 
 /* Does the file hold links (hierarchical radiosity, issue 26), which
- * links.c solves, rather than a matrix?
- * Issue 26 merge: RAD_FF_LAYOUT_LINKS and rad_ff_read_links come with the
- * link file (core/rad_ffile.h, built on another branch); until then this
- * branch builds without them and reads no link file. Remove this #ifdef
- * (and the one in links.c, solve_links_run) when they are in. */
+ * links.c solves, rather than a matrix? */
 static int file_holds_links(const rad_ff_info *info)
 {
-#ifdef RAD_FF_LAYOUT_LINKS
     return info->layout == RAD_FF_LAYOUT_LINKS;
-#else
-    (void)info;
-    return 0;
-#endif
 }
 
 /* Stored entries of the matrix: its header's estimate (a sparse file's
@@ -269,14 +260,8 @@ static rad_status stage_open(stage_state *s)
     const solve_options *options = s->options;
     rad_status status = solve_comm_agree(s->comm, rad_ff_open(s->input, &s->file));
     if (status != RAD_OK) return status;
-    /* Hierarchical radiosity's links (issue 26): the solve on links
-     * (core/rad_lsolve.h) hooks in here; until then they are refused. */
-    if (rad_ff_file_info(s->file)->layout == RAD_FF_LAYOUT_LINKS) {
-        rad_error("%s: holds links, not a matrix (hierarchical radiosity, form-factor file version %u): this solve "
-                  "cannot solve on links yet; run formfactor without --method hierarchical",
-                  s->input, RAD_FF_VERSION_LINKS);
-        return RAD_ERR_UNSUPPORTED;
-    }
+    /* Hierarchical radiosity's links (issue 26): links.c takes the file from here. */
+    if (file_holds_links(rad_ff_file_info(s->file))) return RAD_OK;
     /* CUDA starts while the matrix loads where the GPU will be asked for. */
     if (s->ranks == 1 && options->backend != SOLVE_BACKEND_CPU && solve_gpu_built() &&
         (options->backend == SOLVE_BACKEND_CUDA ||
