@@ -85,7 +85,7 @@ static rad_status build_links(hier_run *h)
     for (size_t k = 0; k < h->base.patch_count; k++) total_area += h->base.patches[k].area;
     ff_links_config config = {.link_tol = opt->link_tol, .oracle = (ff_oracle)opt->oracle,
                               .max_level = opt->subdiv_given ? (uint32_t)opt->subdiv : FF_HIER_MAX_LEVEL,
-                              .min_area = opt->min_area * total_area};
+                              .min_area = opt->min_area * total_area, .uniform_leaves = opt->uniform_leaves};
     if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, &ff_backend_cpu, h->backend_state)) !=
         RAD_OK)
         return st;

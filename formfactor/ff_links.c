@@ -96,8 +96,15 @@ rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *ba
         const rad_patch *p = &base->patches[r];
         double e = fmax(p->emission[0], fmax(p->emission[1], p->emission[2]));
         L->emitted_power += p->area * e;
+        L->brightest = fmax(L->brightest, e);
     }
-    return elements_added(L, 0);
+    st = elements_added(L, 0);
+    for (size_t r = 0; st == RAD_OK && config->uniform_leaves && r < base->patch_count; r++) {
+        size_t before = L->tree.element_count;
+        st = rad_hierarchy_split_to(&L->tree, (uint32_t)r, config->max_level);
+        if (st == RAD_OK) st = elements_added(L, before);
+    }
+    return st;
 }
 
 void ff_links_free(ff_links *L)
@@ -113,19 +120,37 @@ void ff_links_free(ff_links *L)
 /* ---- the oracle ---- */
 
 /* Mean and spread (largest - smallest) of the unoccluded factor from the
- * points of `from` (corners and centre) to `to`. A spread that is not a
+ * points of `from` to `to`: the centres of its 4 children (a split's
+ * parts, what one more level would tell apart) and its own centre. Not
+ * its corners: where two elements share an edge the factor at the edge
+ * is not what any part of them sees on average. A spread that is not a
  * number is infinite (refine). */
 static void factor_spread(const rad_ff_patch *from, const rad_ff_patch *to, double *mean, double *spread)
 {
+    rad_vec3 x[5];
+    const rad_vec3 *p = from->p;
+    if (from->vertex_count == 4) {
+        static const double uv[4][2] = {{0.25, 0.25}, {0.75, 0.25}, {0.75, 0.75}, {0.25, 0.75}};
+        for (int k = 0; k < 4; k++) {
+            double u = uv[k][0], v = uv[k][1];
+            x[k] = rad_v3_add(rad_v3_add(rad_v3_scale(p[0], (1 - u) * (1 - v)), rad_v3_scale(p[1], u * (1 - v))),
+                              rad_v3_add(rad_v3_scale(p[2], u * v), rad_v3_scale(p[3], (1 - u) * v)));
+        }
+    } else {
+        for (int k = 0; k < 3; k++)
+            x[k] = rad_v3_scale(rad_v3_add(rad_v3_scale(p[k], 4.0), rad_v3_add(p[(k + 1) % 3], p[(k + 2) % 3])),
+                                1.0 / 6.0);
+        x[3] = from->centre;
+    }
+    x[4] = from->centre;
     double lo = INFINITY, hi = -INFINITY, sum = 0;
-    for (uint32_t k = 0; k <= from->vertex_count; k++) {
-        rad_vec3 x = k < from->vertex_count ? from->p[k] : from->centre;
-        double f = rad_ff_point_polygon(x, from->normal, to);
+    for (int k = 0; k < 5; k++) {
+        double f = rad_ff_point_polygon(x[k], from->normal, to);
         lo = f < lo ? f : lo;
         hi = f > hi ? f : hi;
         sum += f;
     }
-    *mean = sum / (from->vertex_count + 1);
+    *mean = sum / 5;
     *spread = isfinite(hi - lo) ? hi - lo : INFINITY;
 }
 
@@ -141,13 +166,15 @@ static double factor_error(const ff_pair_outcome *o, double spread, double mean,
     return spread * V + mean * (partial < 1.0 ? partial : 1.0) + o->error * area_s;
 }
 
-/* How much the oracle weighs r <- s. */
+/* How much the oracle weighs r <- s: in radiosity (error: what the link's
+ * error may move r's leaves by) or power (BF), or F alone. */
 static double weight(const ff_links *L, uint32_t r, uint32_t s, double F_rs, double e_rs)
 {
     if (L->config.oracle == FF_ORACLE_FACTOR) return F_rs;
     const double *rho = L->tree.base->patches[L->tree.elements[r].root].rho, *B = &L->radiosity[3 * (size_t)s];
     double rb = fmax(rho[0] * B[0], fmax(rho[1] * B[1], rho[2] * B[2]));
-    return rb * L->tree.elements[r].area * (L->config.oracle == FF_ORACLE_POWER ? F_rs : e_rs);
+    if (L->config.oracle == FF_ORACLE_POWER) return rb * L->tree.elements[r].area * F_rs;
+    return rb * e_rs;
 }
 
 /* Does the pair (a, b) need finer elements? link_tol 0: always. */
@@ -156,8 +183,10 @@ static int over_tolerance(const ff_links *L, const ff_link_pair *p)
     if (L->config.link_tol <= 0) return 1;
     double Fab = p->coupling * L->tree.elements[p->b].area, Fba = p->coupling * L->tree.elements[p->a].area;
     double w = fmax(weight(L, p->a, p->b, Fab, p->error_ab), weight(L, p->b, p->a, Fba, p->error_ba));
-    double limit = L->config.oracle == FF_ORACLE_FACTOR ? L->config.link_tol : L->config.link_tol * L->emitted_power;
-    return w > limit;
+    double scale = L->config.oracle == FF_ORACLE_FACTOR ? 1.0
+                 : L->config.oracle == FF_ORACLE_POWER  ? L->emitted_power
+                                                        : L->brightest;
+    return w > L->config.link_tol * scale;
 }
 
 /* ---- rounds ---- */
@@ -453,9 +482,9 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
 {
     size_t n = x->node_count;
     double *mean = calloc(3 * n, sizeof *mean), *lo = malloc(3 * n * sizeof *lo), *hi = malloc(3 * n * sizeof *hi);
-    double *beta = calloc(3 * n, sizeof *beta), *rowsum = calloc(n, sizeof *rowsum);
+    double *beta = calloc(3 * n, sizeof *beta);
     double bound = INFINITY;
-    if (!mean || !lo || !hi || !beta || !rowsum) goto done;
+    if (!mean || !lo || !hi || !beta) goto done;
     /* B's mean, least and largest over each node's leaves (children after parents). */
     for (size_t e = n; e-- > 0;) {
         const rad_link_node *d = &x->nodes[e];
@@ -482,21 +511,22 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
             const rad_link *l = &x->links[k];
             const rad_link *back = find_link(x, l->source, (uint32_t)r);
             double rel = back && back->factor > 0 ? back->error / back->factor : 1.0;
-            rowsum[r] += l->factor;
+            /* A leaf receiver's F_rs is the sum of its leaves' F over s (the
+             * factor adds up over the source): only the spread of B over s
+             * is left; a leaf source has none. */
+            double receiver = x->nodes[r].leaf == RAD_NO_ELEMENT ? l->error : 0.0;
             for (int c = 0; c < 3; c++) {
                 size_t s = l->source;
                 double dB = fmax(hi[3 * s + c] - mean[3 * s + c], mean[3 * s + c] - lo[3 * s + c]);
-                beta[3 * r + c] += rho[c] * (l->error * hi[3 * s + c] + rel * (l->factor + l->error) * dB);
+                beta[3 * r + c] += rho[c] * (receiver * hi[3 * s + c] + rel * (l->factor + l->error) * dB);
             }
         }
         const rad_link_node *d = &x->nodes[r];
-        if (d->parent != RAD_NO_ELEMENT) {
-            rowsum[r] += rowsum[d->parent];
+        if (d->parent != RAD_NO_ELEMENT)
             for (int c = 0; c < 3; c++) beta[3 * r + c] += beta[3 * (size_t)d->parent + c];
-        }
         if (d->leaf != RAD_NO_ELEMENT)
             for (int c = 0; c < 3; c++) {
-                q = fmax(q, rho[c] * rowsum[r]);
+                q = fmax(q, rho[c]);
                 worst = fmax(worst, beta[3 * r + c]);
                 bmax = fmax(bmax, leaf_radiosity[3 * (size_t)d->leaf + c]);
             }
@@ -507,6 +537,5 @@ done:
     free(lo);
     free(hi);
     free(beta);
-    free(rowsum);
     return bound;
 }

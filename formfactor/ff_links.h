@@ -38,10 +38,12 @@
 #include "rad_status.h"
 
 /* --oracle: what a link's estimate is weighed by before it is held against
- * link_tol. P is the scene's emitted power (sum of A E, brightest channel),
- * B_s the source's radiosity (E before a solution exists), e_rs the error of
- * F_rs (ff_links.h, above), both directions of a pair taken.
- *   error: rho_r A_r B_s e_rs > link_tol P  (transported power error; the default)
+ * link_tol. E_max is the brightest emitted radiosity and P the emitted
+ * power (sum of A E; brightest channel both), B_s the source's radiosity
+ * (E before a solution exists), e_rs the error of F_rs (above), both
+ * directions of a pair taken.
+ *   error: rho_r B_s e_rs > link_tol E_max  (what the link's error may move r's
+ *                                            radiosity by; the default)
  *   power: rho_r A_r B_s F_rs > link_tol P  (transported power, BF: HSA 1991)
  *   factor: F_rs > link_tol                 (form factor alone: the unweighted 1991 oracle) */
 typedef enum ff_oracle { FF_ORACLE_ERROR = 0, FF_ORACLE_POWER = 1, FF_ORACLE_FACTOR = 2 } ff_oracle;
@@ -52,6 +54,8 @@ typedef struct ff_links_config {
     ff_oracle oracle;
     uint32_t max_level; /* elements split at most this often (--subdiv in hierarchical runs) */
     double min_area;    /* scene units^2: no element is split into children smaller than this */
+    int uniform_leaves; /* every root split to max_level first: the leaves of the full matrix at
+                           --subdiv max_level, whatever the tolerance (to compare the two) */
 } ff_links_config;
 
 /* A link as refinement holds it: both directions of one pair. */
@@ -74,6 +78,7 @@ typedef struct ff_links {
     int exact_keys;        /* roots x 4^max_level fit 32 bits: keys are those indices, else element indices */
     double *radiosity;     /* per element, RGB: the oracle's B (E until a solution is given) */
     double emitted_power;  /* P */
+    double brightest;      /* E_max: the largest emitted radiosity (brightest channel) */
     ff_link_pair *links;
     size_t link_count, link_cap;
     /* what refinement did, all passes */
@@ -98,11 +103,16 @@ rad_status ff_links_refine(ff_links *links, const double *leaf_radiosity, ff_cou
  * receiver then source) and the leaves mesh (rad_hierarchy_leaves). */
 rad_status ff_links_export(const ff_links *links, rad_links *out_links, rad_mesh *out_leaves);
 
-/* A bound on the solution's error from the links' errors, relative to the
- * largest leaf radiosity, for the solution B (3 per leaf, export order):
- * max over leaves x of rho_x sum over x's and its ancestors' links
- * (e_rs B_s + (e_sr / F_sr) (F_rs + e_rs) dB_s), dB_s being the spread of
- * B over s's leaves, divided by (1 - q), q the largest rho x row sum. */
+/* A bound on the solution's error against the full matrix of the same
+ * leaves, relative to the largest leaf radiosity, for the solution B (3
+ * per leaf, export order). With K the links' operator and F the leaves'
+ * matrix, B - B_F = (I - rho F)^-1 rho (K - F) B, and rows of F sum to at
+ * most 1, so the bound is max over leaves x of beta_x / (1 - rho_max), where
+ * beta_x = rho_x sum over the links of x's ancestors (a split receiver r)
+ * of e_rs B_s,max, plus over every link of x and its ancestors with a split
+ * source s of (e_sr / F_sr)(F_rs + e_rs) dB_s: e_rs bounds how far the
+ * factor from x may lie from F_rs, and the second term what the spread dB_s
+ * of B over s's leaves adds where the factor varies over s. */
 double ff_links_error_bound(const ff_links *links, const rad_links *exported, const double *leaf_radiosity);
 
 void ff_links_free(ff_links *links);

@@ -41,6 +41,9 @@ const char ff_options_help[] =
     "                           area (default: 1e-7)\n"
     "      --passes P           hierarchical: refinement passes, each re-weighing the\n"
     "                           links by the last solution's B (default: 3)\n"
+    "      --uniform-leaves     hierarchical: split every face to --subdiv first, so that\n"
+    "                           the leaves are the full matrix's at --subdiv whatever\n"
+    "                           --link-tol (to compare the two: tools/hier_study.py)\n"
     "      --subdiv-only GROUP  subdivide only faces of OBJ group GROUP (the paper's\n"
     "                           code subdivided only the box: --subdiv-only box)\n"
     "      --refine RADIOSITY   instead of --subdiv: take the mesh of RADIOSITY (solve's\n"
@@ -260,7 +263,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
            O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT, O_KE,
-           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES };
+           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -283,7 +286,8 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"flip-group", required_argument, 0, O_FLIP_GROUP}, {"keep-normals", no_argument, 0, O_KEEP_NORMALS},
         {"preset", required_argument, 0, O_PRESET}, {"method", required_argument, 0, O_METHOD},
         {"link-tol", required_argument, 0, O_LINK_TOL}, {"oracle", required_argument, 0, O_ORACLE},
-        {"min-area", required_argument, 0, O_MIN_AREA}, {"passes", required_argument, 0, O_PASSES}, {0, 0, 0, 0}};
+        {"min-area", required_argument, 0, O_MIN_AREA}, {"passes", required_argument, 0, O_PASSES},
+        {"uniform-leaves", no_argument, 0, O_UNIFORM_LEAVES}, {0, 0, 0, 0}};
     int rays_given = 0, rtol_given = 0;
     uint64_t v = 0;
     int named = 0; /* an option's value read through a name table */
@@ -332,6 +336,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_LINK_TOL: st = rad_parse_real("--link-tol", optarg, 0, 1, 1e6, 0, &o->link_tol); break;
         case O_ORACLE: st = parse_name("--oracle", optarg, oracle_names, FF_NAMES_COUNT(oracle_names), &o->oracle); break;
         case O_MIN_AREA: st = rad_parse_real("--min-area", optarg, 0, 1, 1, 0, &o->min_area); break;
+        case O_UNIFORM_LEAVES: o->uniform_leaves = 1; break;
         case O_PASSES: st = rad_parse_uint("--passes", optarg, 1, 100, &v); o->passes = (uint32_t)v; break;
         case O_PRESET: st = parse_name("--preset", optarg, preset_names, FF_NAMES_COUNT(preset_names), &o->preset); break;
         case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;

@@ -3,12 +3,12 @@
 
 For each --link-tol: formfactor --method hierarchical -> solve gives B_h on
 the hierarchy's leaves; formfactor --refine of that solution with nothing
-split (--refine-tol 1e9) computes the full matrix of the very same leaves,
+split (--refine-tol 1e5) computes the full matrix of the very same leaves,
 and solve gives B_f. The error is max |B_h - B_f| / max B_f over leaves and
 channels, held against the bound the links file records (--stats
 error_bound), with links, leaves and times.
 
-    tools/hier_study.py --build BUILD [--scene S] [--tols 1e-2,1e-3,...]
+    tools/hier_study.py --build BUILD [--scene S] [--tols 1e-2,1e-3,...] [--uniform]
                         [--subdiv D] [--oracle O] [--passes P] [--json OUT]
                         [--check]   (exit 1 unless the error falls monotonically
                                      and every bound covers its error)
@@ -63,6 +63,9 @@ def main(argv):
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--json", default=None)
     p.add_argument("--check", action="store_true")
+    p.add_argument("--uniform", action="store_true",
+                   help="formfactor --uniform-leaves: every tolerance on the same leaves (the --subdiv mesh), "
+                        "whose full matrix is computed once")
     a = p.parse_args(argv)
     ff = a.formfactor or os.path.join(a.build, "formfactor")
     solve = a.solve or os.path.join(a.build, "solve")
@@ -82,11 +85,14 @@ def main(argv):
                 cmd += ["--subdiv", str(a.subdiv)]
             if a.passes:
                 cmd += ["--passes", str(a.passes)]
+            if a.uniform:
+                cmd += ["--uniform-leaves"]
             t_links = run(cmd, env)
             t_solve = run([solve, lk, "-q", "--tol", a.solve_tol, "-o", hr], env)
             stats = json.load(open(st))
-            t_full = run([ff, *scene, "--refine", hr, "--refine-tol", "1e9", "-q", "-o", full], env)
-            run([solve, full, "-q", "--tol", a.solve_tol, "-o", fr], env)
+            if not (a.uniform and rows):
+                t_full = run([ff, *scene, "--refine", hr, "--refine-tol", "1e5", "-q", "-o", full], env)
+                t_full += run([solve, full, "-q", "--tol", a.solve_tol, "-o", fr], env)
             Bh, Bf = read_radiosity(hr), read_radiosity(fr)
             err = float(np.max(np.abs(Bh - Bf)) / np.max(Bf))
             rows.append({"link_tol": float(tol), "leaves": stats["leaves"], "elements": stats["elements"],
