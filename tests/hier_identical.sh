@@ -1,0 +1,27 @@
+#!/bin/sh
+# Hierarchical links files (issue 26) are the same bytes for any thread and
+# rank count: formfactor --method hierarchical on cornell_sphere with 1 and
+# 2 threads, and under mpirun -n 2, then solve's radiosity files too.
+#   hier_identical.sh FORMFACTOR SOLVE SCENE WORKDIR
+set -u
+ff=$1 solve=$2 scene=$3 dir=$4
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+mkdir -p "$dir" && cd "$dir" || exit 1
+rm -f ./*.ff ./*.rad
+args="$scene --method hierarchical --subdiv 4 --link-tol 1e-3 -q"
+# shellcheck disable=SC2086 # args is a list of words
+OMP_NUM_THREADS=1 "$ff" $args -o t1.ff || exit 1
+# shellcheck disable=SC2086
+OMP_NUM_THREADS=2 "$ff" $args -o t2.ff || exit 1
+failed=0
+cmp t1.ff t2.ff || { echo "FAIL: 1 and 2 threads differ"; failed=1; }
+if command -v mpirun >/dev/null; then
+  # shellcheck disable=SC2086
+  OMP_NUM_THREADS=1 mpirun -n 2 --oversubscribe "$ff" $args -o r2.ff || exit 1
+  cmp t1.ff r2.ff || { echo "FAIL: 1 and 2 ranks differ"; failed=1; }
+fi
+OMP_NUM_THREADS=1 "$solve" t1.ff -q -o t1.rad || exit 1
+OMP_NUM_THREADS=2 "$solve" t2.ff -q -o t2.rad || exit 1
+cmp t1.rad t2.rad || { echo "FAIL: solve on 1 and 2 threads differs"; failed=1; }
+[ "$failed" -eq 0 ] && echo "links and radiosity: the same bytes for 1 and 2 threads and ranks"
+exit "$failed"
