@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# Hierarchical radiosity (issue 26) timed on this machine, one call:
+#   . .devdeps/setup.sh && scripts/bench-hierarchical.sh      (the GPU machine)
+#   scripts/bench-hierarchical.sh                             (anywhere)
+# Builds formfactor, solve (Release, BUILD_DIR, default /tmp/build-hier),
+# then times scene -> links file -> radiosity (formfactor --method
+# hierarchical, then solve) at each tolerance and finest level below, on
+# THREADS (default "2 all") threads, with peak memory; and the growth of time
+# with the leaves on cornell_sphere at a fixed tolerance (--uniform-leaves
+# off: the leaves the tolerance makes). Writes hier_bench.md and the stats
+# JSON under $OUT (default ./hier-bench-out).
+set -uo pipefail
+cd "$(dirname "$0")/.."
+out=${OUT:-hier-bench-out}; mkdir -p "$out"
+build=${BUILD_DIR:-/tmp/build-hier}
+cores=$(nproc)
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DRAD_WITH_RENDER=OFF -DRAD_WITH_CUDA=OFF > "$out/cmake.log" 2>&1 &&
+  cmake --build "$build" -j"$cores" --target formfactor solve > "$out/build.log" 2>&1 || { tail -20 "$out/build.log"; exit 1; }
+ff="$build/formfactor" solve="$build/solve"
+threads_list=${THREADS:-"2 all"}
+j() { grep -o "\"$2\": [0-9.e+-]*" "$1" | head -1 | sed 's/.*: //'; }
+# run LABEL THREADS FF-ARGS...: one row of the table
+run() {
+  local label=$1 t=$2; shift 2
+  [ "$t" = all ] && t=$cores
+  local tag; tag=$(echo "$label-$t" | tr ' /=' '___')
+  local t0 t1 t2
+  t0=$(date +%s.%N)
+  if [ -x /usr/bin/time ]; then
+    /usr/bin/time -f "%M" -o "$out/$tag.mem" env OMP_NUM_THREADS="$t" "$ff" "$@" -q -o /tmp/hier.ff --stats "$out/$tag.json" || { echo "| $label | $t | failed |"; return; }
+  else
+    echo 0 > "$out/$tag.mem"
+    OMP_NUM_THREADS="$t" "$ff" "$@" -q -o /tmp/hier.ff --stats "$out/$tag.json" || { echo "| $label | $t | failed |"; return; }
+  fi
+  t1=$(date +%s.%N)
+  OMP_NUM_THREADS="$t" "$solve" /tmp/hier.ff -q -o /tmp/hier.rad --stats "$out/$tag.solve.json" || { echo "| $label | $t | solve failed |"; return; }
+  t2=$(date +%s.%N)
+  printf "| %s | %s | %s | %s | %s | %.1f | %s | %.2f | %.2f | %.2f | %.0f |\n" "$label" "$t" "$(j "$out/$tag.json" leaves)" \
+    "$(j "$out/$tag.json" elements)" "$(j "$out/$tag.json" links)" "$(j "$out/$tag.json" links_per_element)" \
+    "$(j "$out/$tag.json" error_bound)" "$(awk -v a="$t0" -v b="$t1" 'BEGIN{print b-a}')" \
+    "$(awk -v a="$t1" -v b="$t2" 'BEGIN{print b-a}')" "$(awk -v a="$t0" -v b="$t2" 'BEGIN{print b-a}')" \
+    "$(( $(cat "$out/$tag.mem") / 1024 ))"
+}
+{
+echo "# Hierarchical radiosity: time ($(lscpu | grep -m1 'Model name' | sed 's/.*: *//'), $cores cores, $(date -u +%F))"
+echo
+echo "formfactor --method hierarchical (CPU backend) then solve; wall seconds; peak MiB of formfactor."
+echo
+echo "| run | threads | leaves | elements | links | links/element | error bound | formfactor s | solve s | total s | MiB |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|"
+for t in $threads_list; do
+  for tol in 1e-2 3e-3 1e-3 1e-4; do
+    run "cornell_box tol $tol" "$t" --method hierarchical --link-tol "$tol"
+  done
+  for tol in 1e-2 3e-3 1e-3; do
+    run "cornell_sphere L6 tol $tol" "$t" scenes/cornell_sphere.obj --method hierarchical --subdiv 6 --link-tol "$tol"
+  done
+done
+echo
+echo "## Growth: cornell_sphere, --link-tol 1e-3, finest level L"
+echo
+echo "| run | threads | leaves | elements | links | links/element | error bound | formfactor s | solve s | total s | MiB |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|"
+for level in ${LEVELS:-2 3 4 5 6 7}; do
+  run "cornell_sphere uniform L$level tol 1e-3" all scenes/cornell_sphere.obj --method hierarchical --subdiv "$level" --link-tol 1e-3 --uniform-leaves
+done
+} 2>&1 | tee "$out/hier_bench.md"
