@@ -38,12 +38,14 @@
 #include "rad_status.h"
 
 /* --oracle: what a link's estimate is weighed by before it is held against
- * link_tol. E_max is the brightest emitted radiosity and P the emitted
- * power (sum of A E; brightest channel both), B_s the source's radiosity
- * (E before a solution exists), e_rs the error of F_rs (above), both
- * directions of a pair taken.
- *   error: rho_r B_s e_rs > link_tol E_max  (what the link's error may move r's
- *                                            radiosity by; the default)
+ * link_tol. B_mean is the mean radiosity of the surfaces that do not emit
+ * (area-weighted, brightest channel; the emitted power over the scene's
+ * area before a solution exists), P the emitted power (sum of A E), B_s the
+ * source's radiosity (E before a solution exists), e_rs the error of F_rs
+ * (above), both directions of a pair taken.
+ *   error: rho_r B_s e_rs > link_tol B_mean (what the link's error may move r's
+ *                                            radiosity by, against the scene's
+ *                                            typical radiosity; the default)
  *   power: rho_r A_r B_s F_rs > link_tol P  (transported power, BF: HSA 1991)
  *   factor: F_rs > link_tol                 (form factor alone: the unweighted 1991 oracle) */
 typedef enum ff_oracle { FF_ORACLE_ERROR = 0, FF_ORACLE_POWER = 1, FF_ORACLE_FACTOR = 2 } ff_oracle;
@@ -78,7 +80,9 @@ typedef struct ff_links {
     int exact_keys;        /* roots x 4^max_level fit 32 bits: keys are those indices, else element indices */
     double *radiosity;     /* per element, RGB: the oracle's B (E until a solution is given) */
     double emitted_power;  /* P */
-    double brightest;      /* E_max: the largest emitted radiosity (brightest channel) */
+    double total_area;     /* of the roots */
+    double reflected;      /* B_mean: the mean radiosity of what does not emit (area-weighted,
+                              brightest channel): P / area until a solution is given */
     ff_link_pair *links;
     size_t link_count, link_cap;
     /* what refinement did, all passes */
@@ -104,7 +108,8 @@ rad_status ff_links_refine(ff_links *links, const double *leaf_radiosity, ff_cou
 rad_status ff_links_export(const ff_links *links, rad_links *out_links, rad_mesh *out_leaves);
 
 /* A bound on the solution's error against the full matrix of the same
- * leaves, relative to the largest leaf radiosity, for the solution B (3
+ * leaves, relative to the mean radiosity of the leaves that do not emit
+ * (area-weighted, brightest channel), for the solution B (3
  * per leaf, export order). With K the links' operator and F the leaves'
  * matrix, B - B_F = (I - rho F)^-1 rho (K - F) B, and rows of F sum to at
  * most 1, so the bound is max over leaves x of beta_x / (1 - rho_max), where

@@ -8,7 +8,7 @@ ff=$1 solve=$2 scene=$3 dir=$4
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 mkdir -p "$dir" && cd "$dir" || exit 1
 rm -f ./*.ff ./*.rad
-args="$scene --method hierarchical --subdiv 4 --link-tol 1e-3 -q"
+args="$scene --method hierarchical --subdiv 4 --link-tol 3e-2 -q"
 # shellcheck disable=SC2086 # args is a list of words
 OMP_NUM_THREADS=1 "$ff" $args -o t1.ff || exit 1
 # shellcheck disable=SC2086

@@ -58,6 +58,8 @@ Options of `run` / `reference` (defaults in brackets):
   --ff-args "ARGS"      extra formfactor flags for every run
                         [--quad-rtol 1e-5 --shadow-rays 16]
   --refine-tols T,T     tolerances for scripts/refine.sh [0.05]; "" for none
+  --hier-tols T,T       formfactor --method hierarchical at each --link-tol
+                        [1e-2,3e-3,1e-3]; "" for none (--hier-args: more flags)
   --refine-budgets B,B  START:MAX_PATCHES[:GROWTH], each a refinement run from
                         --subdiv START to about MAX_PATCHES patches, passes
                         growing the mesh at most GROWTH times [per scene,
@@ -597,6 +599,8 @@ def configurations(scene, args):
                 cfg["name"] += f"_g{growth[0]}"
                 cfg["growth"] = growth[0]
             cfgs.append(cfg)
+    for t in [x for x in args.hier_tols.split(",") if x]:
+        cfgs.append({"name": f"hier_{t}", "kind": "hierarchical", "tol": t})
     return cfgs
 
 
@@ -630,7 +634,16 @@ def run_ours(scene, cfg, args, cam):
     rec = {"config": cfg["name"], "kind": cfg["kind"], "key": key, "log": lg}
     rad = os.path.join(wd, "radiosity")
     log(f"ours {scene} {cfg['name']} ...")
-    if cfg["kind"] == "uniform":
+    if cfg["kind"] == "hierarchical":
+        ff = os.path.join(wd, "links")
+        cmd = [os.path.join(build, "formfactor"), "--method", "hierarchical", "--link-tol", cfg["tol"],
+               *shlex.split(args.hier_args), *ff_args, "--stats", os.path.join(wd, "formfactor.json"), "-o", ff, "-q"]
+        if not builtin:
+            cmd.append(os.path.join(REPO, obj))
+        rec["t_formfactor"] = timed(cmd, lg)
+        rec["t_solve"] = timed([os.path.join(build, "solve"), ff, "-o", rad, "-q"], lg)
+        os.remove(ff)
+    elif cfg["kind"] == "uniform":
         ff = os.path.join(wd, "formfactors")
         cmd = [os.path.join(build, "formfactor"), "--subdiv", str(cfg["subdiv"]), *ff_args,
                "--stats", os.path.join(wd, "formfactor.json"), "-o", ff, "-q"]
@@ -695,11 +708,11 @@ def error_time_png(path, scene, rows, noise):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(5, 3.6), dpi=100)
-    for kind, style in (("uniform", "o-"), ("refine", "s-")):
+    for kind, style in (("uniform", "o-"), ("refine", "s-"), ("hierarchical", "^-")):
         pts = sorted((r["seconds"], r["metrics"]["rel_rmse"], r["config"]) for r in rows
                      if r["kind"] == kind and "metrics" in r)
         if pts:
-            ax.plot([p[0] for p in pts], [p[1] for p in pts], style, label=kind if kind == "uniform" else "refined")
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], style, label="refined" if kind == "refine" else kind)
             for x, y, name in pts:
                 ax.annotate(name, (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7)
     if noise:
@@ -868,6 +881,9 @@ def parse_args(argv):
         r.add_argument("--refine-budgets", default="",
                        help="START:MAX_PATCHES,... for every scene (default: REFINE_BUDGETS per scene)")
         r.add_argument("--refine-script", default=os.path.join(REPO, "scripts", "refine.sh"))
+        r.add_argument("--hier-tols", default="1e-2,3e-3,1e-3",
+                       help="formfactor --method hierarchical at each --link-tol; \"\" for none")
+        r.add_argument("--hier-args", default="", help="extra formfactor flags for the hierarchical runs")
         r.add_argument("--width", type=int, default=512)
         r.add_argument("--height", type=int, default=512)
         r.add_argument("--ref-spp", type=int, default=2048)
