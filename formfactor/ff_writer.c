@@ -182,6 +182,7 @@ static int local_file_system(int fd)
     case 0xEF53UL:     /* ext2/3/4 */
     case 0x58465342UL: /* xfs */
     case 0x9123683EUL: /* btrfs */
+    case 0x794C7630UL: /* overlayfs (a container's disk: its upper layer is one of those) */
         return 1;
     default:
         return 0;

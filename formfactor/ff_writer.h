@@ -24,7 +24,7 @@
  *
  * Two ways to put the bytes in the file (docs/architecture.md, "Writing
  * the file"): pwrite, anywhere; and, for a regular file on a local file
- * system (tmpfs, ext4, xfs, btrfs), through a shared mapping of the range
+ * system (tmpfs, ext4, xfs, btrfs, overlayfs), through a shared mapping of the range
  * (mmap, MADV_POPULATE_WRITE, memcpy). Linux serialises buffered writes to
  * one file (the inode's lock), so pwrite from four ranks goes no faster
  * than from one; page faults on a mapping do not take that lock. Where the

@@ -131,18 +131,19 @@ for s in ${STRONG-5 6}; do
   echo "--- strong scaling, cornell_sphere --subdiv $s (N = $n)"
   ref=$shm/ff$s.p1 rref=$shm/rad$s.p1
   for p in $GPUS; do
-    # formfactor to memory, then solve (one GPU) from it: scene to radiosity
+    # formfactor to memory, then solve on as many GPUs from it: scene to radiosity
     ff_run "ff$s.p$p" $scene "--subdiv $s" "$p" "$shm"
     ffwall=$wall
     sm=$(same "$shm/ff$s.p$p" "$ref")
     record ff "ff$s.p$p" "$n" "$p" shm auto "$ffwall" 0 "ff$s.p$p.json" "$sm"
     sb=cpu; [ "$backend" = cuda ] && sb=cuda
     st=$(now)
-    "$solve" "$shm/ff$s.p$p" -q -o "$shm/rad$s.p$p" --backend $sb --stats "$out/solve$s.p$p.json" \
-      > "$out/solve$s.p$p.log" 2>&1 || echo "FAILED: solve $s $p: $(tail -3 "$out/solve$s.p$p.log")"
+    mpirun -n "$p" --bind-to none "$solve" "$shm/ff$s.p$p" -q -o "$shm/rad$s.p$p" --backend $sb \
+      --stats "$out/solve$s.p$p.json" > "$out/solve$s.p$p.log" 2>&1 || echo "FAILED: solve $s $p: $(tail -3 "$out/solve$s.p$p.log")"
     swall=$(since "$st")
     rs=$(same "$shm/rad$s.p$p" "$rref")
-    record solve "solve$s.p$p" "$n" 1 shm "$sb" "$swall" 0 "solve$s.p$p.json" "$rs"
+    [ "$rs" = NO ] && "$build/tests/radiosity_agree" "$ref" "$rref" "$shm/rad$s.p$p" > /dev/null 2>&1 && rs="no, agree"
+    record solve "solve$s.p$p" "$n" "$p" shm "$sb" "$swall" 0 "solve$s.p$p.json" "$rs"
     echo "P=$p: formfactor $ffwall s (bytes vs 1 GPU: $sm), solve $swall s (radiosity vs 1 GPU: $rs)"
     [ $p = 1 ] || rm -f "$shm/ff$s.p$p"
   done
@@ -270,10 +271,10 @@ if dk:
 sv = [r for r in rows if r[0] == "solve"]
 if sv:
     print()
-    print("## solve (one GPU) and scene → radiosity (formfactor on P GPUs, then solve)")
+    print("## solve on P GPUs (`mpirun -n P solve --backend cuda`), and scene → radiosity (formfactor, then solve, on P GPUs)")
     print()
-    print("| N | formfactor GPUs | solve wall | solve load | scene → radiosity | speed-up | radiosity, same bytes |")
-    print("|---|---|---|---|---|---|---|")
+    print("| N | GPUs | solve wall | solve load (rank 0) | solve upload | solve speed-up | scene → radiosity | speed-up | radiosity, same bytes |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for n in ns:
         rs = sorted((r for r in sv if int(r[2]) == n), key=lambda r: int(r[1].rsplit("p", 1)[1]))
         fr = {r[3]: float(r[6]) for r in ffs if int(r[2]) == n}
@@ -282,8 +283,10 @@ if sv:
             p = r[1].rsplit("p", 1)[1]
             e2e.append(fr.get(p, float("nan")) + float(r[6]))
         loads = [load(r[8]).get("load_seconds", float("nan")) for r in rs]
-        print("| %d | %s | %s s | %s s | %s s | %s | %s |" % (n, " / ".join(r[1].rsplit("p", 1)[1] for r in rs),
-              fmt([float(r[6]) for r in rs]), fmt(loads), fmt(e2e), fmt([e2e[0] / e for e in e2e]),
+        ups = [load(r[8]).get("upload_seconds", float("nan")) for r in rs]
+        sw = [float(r[6]) for r in rs]
+        print("| %d | %s | %s s | %s s | %s s | %s | %s s | %s | %s |" % (n, " / ".join(r[1].rsplit("p", 1)[1] for r in rs),
+              fmt(sw), fmt(loads), fmt(ups), fmt([sw[0] / w for w in sw]), fmt(e2e), fmt([e2e[0] / e for e in e2e]),
               " / ".join(r[9] for r in rs)))
 sc = [r for r in rows if r[0] == "solvecpu"]
 if sc:
