@@ -21,6 +21,7 @@
 #   BUILD=1          0: use the build in BUILD_DIR as it is
 #   SOLVE_RANKS="2 4"  also time mpirun -n K solve --backend cpu at the smallest strong N
 #   DD_MIB=4096      bytes each bandwidth measurement writes
+#   RUN_TIMEOUT=120  seconds one run may take
 #
 # Weak scaling keeps the pairs per GPU fixed: N grows with sqrt(P). A
 # --subdiv step multiplies N by 4 (P by 16), so the scenes are
@@ -63,16 +64,17 @@ fi
 ff=$build/formfactor solve=$build/solve
 if [ "${TESTS:-1}" = 1 ]; then
   t0=$(date +%s)
-  ctest --test-dir "$build" -L gpu -j4 --output-on-failure > "$out/ctest_gpu.log" 2>&1
+  ctest --test-dir "$build" -L gpu -j4 --timeout 150 --output-on-failure > "$out/ctest_gpu.log" 2>&1
   echo "ctest -L gpu: rc=$? ($(( $(date +%s) - t0 )) s)"; grep -E "tests passed|\(Failed\)|\*\*\*Failed|Not Run" "$out/ctest_gpu.log"
   t0=$(date +%s)
   # The writes on this machine's file systems, and the MPI runs of solve
   # (TEST_REGEX for more; the CPU tests run in CI).
-  ctest --test-dir "$build" -R "${TEST_REGEX:-formfactor_write|formfactor_ranks|solve_mpi|stats_json}" -LE gpu -j8 \
+  ctest --test-dir "$build" -R "${TEST_REGEX:-formfactor_write|formfactor_ranks|solve_mpi|stats_json}" -LE gpu -j8 --timeout 150 \
     --output-on-failure > "$out/ctest_more.log" 2>&1
   echo "ctest (more): rc=$? ($(( $(date +%s) - t0 )) s)"; grep -E "tests passed|\(Failed\)|\*\*\*Failed|Not Run" "$out/ctest_more.log"
 fi
 
+limit=${RUN_TIMEOUT:-120} # seconds any one run may take (a hung run must not eat the call)
 now() { date +%s.%N; }
 since() { awk -v s="$1" -v e="$(now)" 'BEGIN { printf "%.3f", e - s }'; }
 results=$out/results.tsv
@@ -116,7 +118,7 @@ ff_run() {
   [ "$method" = pwrite ] && env="RAD_FF_WRITE=pwrite"
   rm -f "$dest/$name"
   local s; s=$(now)
-  env $env mpirun -n "$p" --bind-to none "$ff" "$scene" $args --element f32 --backend "$backend" -q \
+  env $env timeout "$limit" mpirun -n "$p" --bind-to none "$ff" "$scene" $args --element f32 --backend "$backend" -q \
     -o "$dest/$name" --stats "$out/$name.json" > "$out/$name.log" 2>&1 || echo "FAILED: $name: $(tail -3 "$out/$name.log")"
   wall=$(since "$s")
 }
@@ -138,7 +140,7 @@ for s in ${STRONG-5 6}; do
     record ff "ff$s.p$p" "$n" "$p" shm auto "$ffwall" 0 "ff$s.p$p.json" "$sm"
     sb=cpu; [ "$backend" = cuda ] && sb=cuda
     st=$(now)
-    mpirun -n "$p" --bind-to none "$solve" "$shm/ff$s.p$p" -q -o "$shm/rad$s.p$p" --backend $sb \
+    timeout "$limit" mpirun -n "$p" --bind-to none "$solve" "$shm/ff$s.p$p" -q -o "$shm/rad$s.p$p" --backend $sb \
       --stats "$out/solve$s.p$p.json" > "$out/solve$s.p$p.log" 2>&1 || echo "FAILED: solve $s $p: $(tail -3 "$out/solve$s.p$p.log")"
     swall=$(since "$st")
     rs=$(same "$shm/rad$s.p$p" "$rref")
@@ -169,7 +171,7 @@ for s in ${STRONG-5 6}; do
   if [ "$s" = "$first" ]; then
     for k in ${SOLVE_RANKS-2 4}; do
       st=$(now)
-      mpirun -n $k --bind-to none "$solve" "$ref" -q -o "$shm/radcpu$s.$k" --backend cpu --stats "$out/solvecpu$s.k$k.json" \
+      timeout "$limit" mpirun -n $k --bind-to none "$solve" "$ref" -q -o "$shm/radcpu$s.$k" --backend cpu --stats "$out/solvecpu$s.k$k.json" \
         > "$out/solvecpu$s.k$k.log" 2>&1 || echo "FAILED: mpirun -n $k solve"
       sw=$(since "$st")
       agree=$("$build/tests/radiosity_agree" "$ref" "$rref" "$shm/radcpu$s.$k" 2>&1 | tail -1)
