@@ -143,7 +143,9 @@ typedef struct ff_backend {
      * sparse records of `element` into *values and, when `errors` is not
      * NULL, their standard errors as float32 records into *errors - so
      * that only the stored bytes come back. Not for pairs_once setups (the
-     * mirror needs the rows). The views are valid until the next call. */
+     * mirror needs the rows). The views are valid until the call after
+     * next: the driver writes one round's records in the background while
+     * the backend makes the next round's (ff_output.h). */
     rad_status (*compute_records)(void *state, uint32_t row_begin, uint32_t row_count, uint32_t element,
                                   ff_records *values, ff_records *errors, ff_rows_summary *summary,
                                   ff_counters *counters);

@@ -16,8 +16,7 @@
 
 #include "rad_status.h"
 
-typedef struct ff_comm ff_comm;         /* opaque */
-typedef struct ff_comm_file ff_comm_file; /* opaque: a file opened by all ranks */
+typedef struct ff_comm ff_comm; /* opaque */
 
 rad_status ff_comm_init(int *argc, char ***argv, ff_comm **out_comm);
 
@@ -56,13 +55,8 @@ void ff_comm_progress_close(ff_comm *comm);
 rad_status ff_comm_sendrecv(ff_comm *comm, int dest, const double *send, size_t send_count, int source, double *recv,
                             size_t recv_count);
 
-/* Collective open (write-only) of the existing file `path` on every rank. */
-rad_status ff_comm_file_open(ff_comm *comm, const char *path, ff_comm_file **out_file);
-/* Collective write: each rank its own (offset, bytes); bytes may be 0. */
-rad_status ff_comm_file_write_all(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes);
-/* Independent write from one rank. */
-rad_status ff_comm_file_write(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes);
-/* Collective close; returns the agreed status of all writes and the close. */
-rad_status ff_comm_file_close(ff_comm_file *file);
+/* Files: none here. Every rank opens the output itself and writes its
+ * own byte ranges (ff_writer.h), which MPI-IO's collective writes had
+ * serialised. */
 
 #endif

@@ -3,14 +3,11 @@
  *
  * A process that no MPI launcher started (no OMPI_COMM_WORLD_SIZE,
  * PMIX_RANK, PMI_RANK or PMI_SIZE in its environment: a plain
- * `./formfactor`) runs solo: one rank, no MPI_Init, POSIX file I/O. An
+ * `./formfactor`) runs solo: one rank, no MPI_Init. An
  * Open MPI singleton init costs 0.3 s (a forked runtime daemon), as much as
  * the whole paper-size run on a GPU, and `formfactor --version` paid it
- * too. The bytes written are the same either way (formfactor_ranks). */
-#define _GNU_SOURCE /* pwrite, O_NOFOLLOW */
-#include <errno.h>
-#include <fcntl.h>
-#include <limits.h>
+ * too. The bytes written are the same either way (formfactor_ranks). No
+ * files here: each rank writes its part of the output itself (ff_writer.h). */
 #include <mpi.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -23,23 +20,12 @@
 #include "rad_mpi.h"
 
 struct ff_comm {
-    rad_mpi_start mpi; /* rank and size; solo: no MPI, one rank, POSIX files */
+    rad_mpi_start mpi; /* rank and size; solo: no MPI, one rank */
     int node_size;
     uint64_t progress_local; /* rows done: the whole count solo, or until the window opens */
     MPI_Win progress_win;    /* one uint64 on rank 0 (ff_comm_progress_open) */
     int progress_open;
 };
-
-struct ff_comm_file {
-    ff_comm *comm;
-    MPI_File fh;
-    int fd; /* solo */
-    char path[4096];
-    rad_status status; /* first local failure */
-};
-
-/* MPI counts are int: large writes go in pieces of at most this many bytes. */
-#define FF_MPI_MAX_BYTES ((size_t)1 << 30)
 
 static void log_mpi_error(const char *what, const char *path, int code)
 {
@@ -213,125 +199,4 @@ void ff_comm_gather_u64v(ff_comm *comm, const uint64_t *data, uint64_t count, ui
     MPI_Gatherv(data, n, MPI_UINT64_T, out, counts, displs, MPI_UINT64_T, root, MPI_COMM_WORLD);
     free(counts);
     free(displs);
-}
-
-rad_status ff_comm_file_open(ff_comm *comm, const char *path, ff_comm_file **out_file)
-{
-    ff_comm_file *f = calloc(1, sizeof *f);
-    rad_status status = f ? RAD_OK : RAD_ERR_NOMEM;
-    if (f) {
-        f->comm = comm;
-        f->fd = -1;
-        snprintf(f->path, sizeof f->path, "%s", path);
-    }
-    /* The file exists (rad_fs_temp_create made it, empty, or it is a
-     * device written in place): opened, never created, no symlink
-     * followed where POSIX opens it. */
-    if (f && comm->mpi.solo) {
-        f->fd = open(path, O_WRONLY | O_NOFOLLOW | O_CLOEXEC);
-        if (f->fd < 0) {
-            rad_error("%s: cannot open: %s", path, strerror(errno));
-            status = RAD_ERR_IO;
-        }
-    } else if (f) {
-        int rc = MPI_File_open(MPI_COMM_WORLD, path, MPI_MODE_WRONLY, MPI_INFO_NULL, &f->fh);
-        if (rc != MPI_SUCCESS) {
-            if (comm->mpi.rank == 0) log_mpi_error("cannot open", path, rc);
-            status = RAD_ERR_IO;
-        } else {
-            MPI_File_set_errhandler(f->fh, MPI_ERRORS_RETURN);
-        }
-    }
-    status = ff_comm_agree(comm, status);
-    if (status != RAD_OK) {
-        free(f);
-        return status;
-    }
-    *out_file = f;
-    return RAD_OK;
-}
-
-/* Solo: the whole block with pwrite, resuming after short writes. */
-static rad_status write_posix(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes)
-{
-    const char *p = data;
-    while (bytes > 0) {
-        ssize_t n = pwrite(file->fd, p, bytes, (off_t)offset);
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) {
-            if (file->status == RAD_OK)
-                rad_error("%s: write failed: %s", file->path, n < 0 ? strerror(errno) : "no progress (disk full?)");
-            file->status = RAD_ERR_IO;
-            return RAD_ERR_IO;
-        }
-        p += n;
-        offset += (uint64_t)n;
-        bytes -= (size_t)n;
-    }
-    return RAD_OK;
-}
-
-static rad_status write_pieces(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes, int collective)
-{
-    if (file->comm->mpi.solo) return write_posix(file, offset, data, bytes);
-    const char *p = data;
-    do {
-        size_t piece = bytes < FF_MPI_MAX_BYTES ? bytes : FF_MPI_MAX_BYTES;
-        MPI_Status st;
-        int rc = collective ? MPI_File_write_at_all(file->fh, (MPI_Offset)offset, p, (int)piece, MPI_BYTE, &st)
-                            : MPI_File_write_at(file->fh, (MPI_Offset)offset, p, (int)piece, MPI_BYTE, &st);
-        int written = 0;
-        if (rc == MPI_SUCCESS) MPI_Get_count(&st, MPI_BYTE, &written);
-        if (rc != MPI_SUCCESS || (size_t)written != piece) {
-            if (file->status == RAD_OK) {
-                if (rc != MPI_SUCCESS)
-                    log_mpi_error("write failed", file->path, rc);
-                else
-                    rad_error("%s: short write (%d of %zu bytes; disk full?)", file->path, written, piece);
-            }
-            file->status = RAD_ERR_IO;
-            return RAD_ERR_IO;
-        }
-        p += piece;
-        offset += piece;
-        bytes -= piece;
-    } while (bytes > 0 && !collective);
-    return RAD_OK;
-}
-
-rad_status ff_comm_file_write_all(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes)
-{
-    /* Collective calls must match across ranks: callers keep bytes below
-     * FF_MPI_MAX_BYTES (one piece), which the chunking in main guarantees. */
-    if (bytes > FF_MPI_MAX_BYTES) {
-        rad_error("internal: collective write of %zu bytes exceeds one piece", bytes);
-        file->status = RAD_ERR_INVALID;
-        return RAD_ERR_INVALID;
-    }
-    return write_pieces(file, offset, data, bytes, 1);
-}
-
-rad_status ff_comm_file_write(ff_comm_file *file, uint64_t offset, const void *data, size_t bytes)
-{
-    return write_pieces(file, offset, data, bytes, 0);
-}
-
-rad_status ff_comm_file_close(ff_comm_file *file)
-{
-    rad_status status = file->status;
-    if (file->comm->mpi.solo) {
-        if (close(file->fd) != 0 && status == RAD_OK) {
-            rad_error("%s: close failed: %s", file->path, strerror(errno));
-            status = RAD_ERR_IO;
-        }
-    } else {
-        int rc = MPI_File_close(&file->fh);
-        if (rc != MPI_SUCCESS && status == RAD_OK) {
-            log_mpi_error("close failed", file->path, rc);
-            status = RAD_ERR_IO;
-        }
-    }
-    status = ff_comm_agree(file->comm, status);
-    free(file);
-    return status;
 }

@@ -41,14 +41,20 @@ struct row_stats {
     uint32_t error_count, error_max_column;
 };
 
+/* The host's records come in two sets used in turn, call after call: the
+ * driver writes one round's in the background while the next is made
+ * (ff_backend.h: a view lasts until the call after next). [f][set]: f =
+ * 0 values, 1 errors. */
 struct ff_cuda_records {
-    size_t rows_capacity, tiles_capacity, bytes_capacity[2], host_capacity[2];
+    size_t rows_capacity, tiles_capacity, bytes_capacity[2], host_capacity[2][2];
     row_stats *d_stats, *h_stats, *d_segment; /* d_segment: rows x SEGMENTS_MAX */
     uint32_t *d_place;    /* rows x tiles: the tile's place among its row's listed tiles, or NOT_LISTED */
     uint64_t *d_size, *h_size; /* rows: record bytes; then (h_size) offsets, rows + 1 */
     uint64_t *d_at;
-    unsigned char *d_bytes[2], *h_bytes[2]; /* values, errors */
-    uint64_t *h_at[2];
+    unsigned char *d_bytes[2], *h_bytes[2][2];
+    uint64_t *h_at[2][2];
+    size_t h_at_rows[2][2]; /* rows + 1 entries each h_at holds */
+    unsigned calls;         /* ff_cuda_records_make calls so far: the set is calls % 2 */
 };
 
 
@@ -194,8 +200,10 @@ extern "C" void ff_cuda_records_free(ff_cuda_records *r)
     cudaFreeHost(r->h_size);
     for (int f = 0; f < 2; f++) {
         cudaFree(r->d_bytes[f]);
-        cudaFreeHost(r->h_bytes[f]);
-        free(r->h_at[f]);
+        for (int set = 0; set < 2; set++) {
+            cudaFreeHost(r->h_bytes[f][set]);
+            free(r->h_at[f][set]);
+        }
     }
     free(r);
 }
@@ -207,9 +215,7 @@ static rad_status reserve_rows(ff_cuda_records *r, uint32_t rows, uint32_t tiles
     if (rows > r->rows_capacity) {
         cudaFree(r->d_stats), cudaFree(r->d_segment), cudaFree(r->d_size), cudaFree(r->d_at);
         cudaFreeHost(r->h_stats), cudaFreeHost(r->h_size);
-        free(r->h_at[0]), free(r->h_at[1]);
         r->d_stats = r->d_segment = NULL, r->d_size = r->d_at = NULL, r->h_stats = NULL, r->h_size = NULL;
-        r->h_at[0] = r->h_at[1] = NULL;
         r->rows_capacity = 0;
         RAD_CUDA_TRY_RETURN(cudaMalloc(&r->d_stats, sizeof(row_stats) * rows));
         RAD_CUDA_TRY_RETURN(cudaMalloc(&r->d_segment, sizeof(row_stats) * rows * SEGMENTS_MAX));
@@ -217,12 +223,6 @@ static rad_status reserve_rows(ff_cuda_records *r, uint32_t rows, uint32_t tiles
         RAD_CUDA_TRY_RETURN(cudaMalloc(&r->d_at, sizeof(uint64_t) * (rows + 1)));
         RAD_CUDA_TRY_RETURN(cudaMallocHost(&r->h_stats, sizeof(row_stats) * rows));
         RAD_CUDA_TRY_RETURN(cudaMallocHost(&r->h_size, sizeof(uint64_t) * (rows + 1)));
-        r->h_at[0] = (uint64_t *)malloc(sizeof(uint64_t) * (rows + 1));
-        r->h_at[1] = (uint64_t *)malloc(sizeof(uint64_t) * (rows + 1));
-        if (!r->h_at[0] || !r->h_at[1]) {
-            rad_error("out of memory for %u record offsets", rows);
-            return RAD_ERR_NOMEM;
-        }
         r->rows_capacity = rows;
     }
     if ((size_t)rows * tiles > r->tiles_capacity) {
@@ -235,18 +235,27 @@ static rad_status reserve_rows(ff_cuda_records *r, uint32_t rows, uint32_t tiles
     return status;
 }
 
-/* Encodes `rows` rows of d_rows as `element` records into h_bytes[f] /
- * h_at[f] and points *view at them. */
-static rad_status encode(ff_cuda_records *r, int f, const double *d_rows, uint32_t n, uint32_t rows, uint32_t element,
-                         ff_records *view)
+/* Encodes `rows` rows of d_rows as `element` records into h_bytes[f][set]
+ * / h_at[f][set] and points *view at them. */
+static rad_status encode(ff_cuda_records *r, int f, int set, const double *d_rows, uint32_t n, uint32_t rows,
+                         uint32_t element, ff_records *view)
 {
     rad_status status = RAD_OK;
     const uint32_t warps_per_block = 8;
     const unsigned blocks = (rows + warps_per_block - 1) / warps_per_block;
+    if (rows + 1 > r->h_at_rows[f][set]) {
+        free(r->h_at[f][set]);
+        r->h_at_rows[f][set] = 0;
+        if (!(r->h_at[f][set] = (uint64_t *)malloc(sizeof(uint64_t) * (rows + 1)))) {
+            rad_error("out of memory for %u record offsets", rows);
+            return RAD_ERR_NOMEM;
+        }
+        r->h_at_rows[f][set] = rows + 1;
+    }
     tiles_kernel<<<blocks, 32 * warps_per_block>>>(d_rows, n, rows, element, r->d_place, r->d_size);
     RAD_CUDA_TRY_RETURN(cudaGetLastError());
     RAD_CUDA_TRY_RETURN(cudaMemcpy(r->h_size, r->d_size, sizeof(uint64_t) * rows, cudaMemcpyDeviceToHost));
-    uint64_t *at = r->h_at[f];
+    uint64_t *at = r->h_at[f][set];
     at[0] = 0;
     for (uint32_t k = 0; k < rows; k++) at[k + 1] = at[k] + r->h_size[k];
     uint64_t bytes = at[rows];
@@ -257,19 +266,19 @@ static rad_status encode(ff_cuda_records *r, int f, const double *d_rows, uint32
         RAD_CUDA_TRY_RETURN(cudaMalloc(&r->d_bytes[f], bytes));
         r->bytes_capacity[f] = bytes;
     }
-    if (bytes > r->host_capacity[f]) {
-        cudaFreeHost(r->h_bytes[f]);
-        r->h_bytes[f] = NULL;
-        r->host_capacity[f] = 0;
-        RAD_CUDA_TRY_RETURN(cudaMallocHost(&r->h_bytes[f], bytes));
-        r->host_capacity[f] = bytes;
+    if (bytes > r->host_capacity[f][set]) {
+        cudaFreeHost(r->h_bytes[f][set]);
+        r->h_bytes[f][set] = NULL;
+        r->host_capacity[f][set] = 0;
+        RAD_CUDA_TRY_RETURN(cudaMallocHost(&r->h_bytes[f][set], bytes));
+        r->host_capacity[f][set] = bytes;
     }
     RAD_CUDA_TRY_RETURN(cudaMemcpy(r->d_at, at, sizeof(uint64_t) * (rows + 1), cudaMemcpyHostToDevice));
     RAD_CUDA_TRY_RETURN(cudaMemset(r->d_bytes[f], 0, bytes));
     records_kernel<<<blocks, 32 * warps_per_block>>>(d_rows, n, rows, element, r->d_place, r->d_at, r->d_bytes[f]);
     RAD_CUDA_TRY_RETURN(cudaGetLastError());
-    RAD_CUDA_TRY_RETURN(cudaMemcpy(r->h_bytes[f], r->d_bytes[f], bytes, cudaMemcpyDeviceToHost));
-    view->bytes = r->h_bytes[f];
+    RAD_CUDA_TRY_RETURN(cudaMemcpy(r->h_bytes[f][set], r->d_bytes[f], bytes, cudaMemcpyDeviceToHost));
+    view->bytes = r->h_bytes[f][set];
     view->at = at;
     view->rows = rows;
     return status;
@@ -309,7 +318,8 @@ extern "C" rad_status ff_cuda_records_make(ff_cuda_records *r, double *d_values,
         one.error_max_column = s->error_max_column;
         ff_rows_summary_merge(summary, &one);
     }
-    if ((status = encode(r, 0, d_values, n, rows, element, values)) != RAD_OK) return status;
-    if (errors && d_errors) status = encode(r, 1, d_errors, n, rows, RAD_ELEMENT_F32, errors);
+    const int set = (int)(r->calls++ % 2u);
+    if ((status = encode(r, 0, set, d_values, n, rows, element, values)) != RAD_OK) return status;
+    if (errors && d_errors) status = encode(r, 1, set, d_errors, n, rows, RAD_ELEMENT_F32, errors);
     return status;
 }

@@ -27,7 +27,8 @@ void ff_cuda_records_free(ff_cuda_records *records);
  * *summary, and encoded as sparse records (rad_ff_row_encode's bytes) of
  * `element` into *values and, when `errors` is not NULL, of float32 into
  * *errors. The views point into page-locked buffers of `records`, valid
- * until its next call. */
+ * until the call after next (two sets of buffers, used in turn: one
+ * round's records can be written while the next round's are made). */
 rad_status ff_cuda_records_make(ff_cuda_records *records, double *d_values, double *d_errors, const double *d_area,
                                 uint32_t n, uint32_t row_begin, uint32_t rows, uint32_t element, ff_records *values,
                                 ff_records *errors, ff_rows_summary *summary);

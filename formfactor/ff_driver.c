@@ -1,7 +1,7 @@
 /* ff_driver.c - one formfactor run (ff_driver.h): the order of its
  * steps - load and check the scene (ff_load.h, ff_limits.h), set up the
  * backend, the estimate (ff_progress.h), the rounds of rows and their
- * collective writes, the order in which the files are committed, and the
+ * writes, the order in which the files are committed, and the
  * stats. */
 #include "rad_clock.h"
 #include "ff_driver.h"
@@ -22,6 +22,7 @@
 #include "ff_hierarchical.h"
 #include "ff_setup.h"
 #include "ff_stats.h"
+#include "ff_writer.h"
 #include "rad_ffile.h"
 #include "rad_log.h"
 #include "rad_mesh.h"
@@ -196,7 +197,9 @@ static rad_status write_records_round(ff_run *run, const ff_files *files, uint32
 
 /* Streamed rounds finished by the backend: the rank's rows, round by
  * round (ff_plan_round_rows: block-cyclic), computed, finished and encoded
- * by the backend, and written collectively. Every rank joins every write,
+ * by the backend, and written (in the background: the backend's records
+ * stay valid until the call after next, ff_backend.h, while a write
+ * lasts until the next one starts, ff_output.h). Every rank joins every write,
  * with no rows after a failure. */
 static rad_status compute_record_rounds(ff_run *run, const ff_files *files, ff_counters *counters)
 {
@@ -255,13 +258,13 @@ static rad_status complete_block(ff_run *run, double *block, double *errors, ff_
 }
 
 /* This rank's rows, in the plan's rounds (ff_plan_round_rows), computed
- * and written collectively. Streamed (--reciprocity off), the buffers
+ * and written. Streamed (--reciprocity off), the buffers
  * hold one round: each round - a block of rows taken block-cyclically, so
  * that the ranks' blocks of a round are consecutive - is computed, scaled
  * and written before the next. With pairs_once they hold the rank's whole
  * block of the split: each round is computed into its place, the block is
  * completed from the other rows' entries, scaled, and written in the same
- * rounds. Every rank joins every collective write, with no rows after a
+ * rounds. Every rank joins every write (its placement is collective), with no rows after a
  * failure. */
 static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters *counters)
 {
@@ -336,7 +339,7 @@ static void stats_rows(const ff_plan *plan, ff_rank_stats *stats)
     }
 }
 
-/* Computes this rank's rows and writes them collectively. */
+/* Computes this rank's rows and writes them. */
 static rad_status compute_and_write(ff_run *run, const ff_files *files)
 {
     stats_rows(&run->plan, &run->stats);
@@ -395,27 +398,43 @@ static rad_status open_outputs(ff_run *run, ff_files *files)
                         .group_count = (uint32_t)run->mesh.group_count};
     snprintf(info.scene_name, sizeof info.scene_name, "%s",
              run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name);
-    rad_status st = ff_output_open(run->comm, run->opt.output, run->opt.format, &info, &run->mesh, &files->matrix);
+    /* The threads this rank computes with encode the rows; a few of them
+     * write in the background (ff_writer.h). */
+    int threads = run->stats.threads > 0 ? run->stats.threads : 1;
+    ff_output_options oo = {.threads = threads,
+                            .write_threads = threads < FF_WRITER_MAX_THREADS ? threads : FF_WRITER_MAX_THREADS,
+                            .write_method = run->opt.write_method};
+    rad_status st = ff_output_open(run->comm, run->opt.output, run->opt.format, &info, &run->mesh, &oo,
+                                   &files->matrix);
     if (st == RAD_OK && run->opt.errors_path) {
         rad_ff_info error_info = info;
         error_info.element_type = RAD_ELEMENT_F32;
         error_info.flags |= RAD_FF_FLAG_STANDARD_ERRORS; /* the matrix's flags besides: solve matches them */
         ff_format format = run->opt.format == FF_FORMAT_SPARSE ? FF_FORMAT_SPARSE : FF_FORMAT_DENSE;
-        st = ff_output_open(run->comm, run->opt.errors_path, format, &error_info, &run->mesh, &files->errors);
+        st = ff_output_open(run->comm, run->opt.errors_path, format, &error_info, &run->mesh, &oo, &files->errors);
         if (st != RAD_OK) files->errors = NULL;
     }
-    if (files->matrix) ff_output_set_threads(files->matrix, run->stats.threads);
-    if (files->errors) ff_output_set_threads(files->errors, run->stats.threads);
     return st;
+}
+
+/* This rank's background writes of one file, into the stats. */
+static void add_written(ff_rank_stats *stats, const ff_output *output)
+{
+    ff_output_write_stats w = ff_output_written(output);
+    stats->write += w.seconds;
+    stats->write_bytes += w.bytes;
+    stats->write_mapped = w.method && w.method[0] == 'm';
 }
 
 /* Collective: both files are written and closed before either is renamed;
  * the errors file is renamed first, so a failure there leaves the old
  * matrix in place too. (Both destinations were checked up front.) */
-static rad_status commit_outputs(const ff_files *files, rad_status st)
+static rad_status commit_outputs(ff_run *run, const ff_files *files, rad_status st)
 {
     if (files->matrix) st = ff_output_close(files->matrix, st);
     if (files->errors) st = ff_output_close(files->errors, st);
+    if (files->matrix) add_written(&run->stats, files->matrix);
+    if (files->errors) add_written(&run->stats, files->errors);
     if (files->errors) st = ff_output_commit(files->errors, st);
     if (files->matrix) st = ff_output_commit(files->matrix, st);
     return st;
@@ -467,7 +486,7 @@ static rad_status run_formfactor(ff_run *run)
     if (st == RAD_OK) st = compute_and_write(run, &files);
     ff_progress_finish(&run->progress);
     t0 = rad_clock_seconds();
-    st = commit_outputs(&files, st);
+    st = commit_outputs(run, &files, st);
     run->stats.io += rad_clock_seconds() - t0;
     run->stats.total = rad_clock_seconds() - run->start;
     if (st != RAD_OK) return st;

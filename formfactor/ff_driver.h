@@ -8,8 +8,10 @@
  * refuses, before the mesh is built, a run too large for the format, the
  * disk, --max-bytes or the memory. Each rank computes its rows in rounds
  * (ff_plan.h says which: a contiguous block of about equal work where it
- * holds them all, blocks taken in turn where they stream), and all ranks
- * write each round with one collective MPI-IO call. Rank 0 reports:
+ * holds them all, blocks taken in turn where they stream); the ranks agree
+ * on where each round's rows go (an exclusive scan) and each writes its
+ * own in the background while it computes the next round (ff_output.h,
+ * ff_writer.h). Rank 0 reports:
  * the estimate line before any row is computed, progress lines, the
  * summary. The files appear under their final names only when every rank
  * succeeded (the --errors file is renamed first, so a failure there

@@ -107,6 +107,7 @@ typedef struct ff_options {
     /* From the environment, for tests and benchmarks (read once, by ff_options_parse): */
     double progress_seconds; /* RAD_PROGRESS_SECONDS: progress lines every so many seconds; 0 = by the estimate */
     int finish_on_host;      /* RAD_FF_FINISH=host: the CPU finishes rows a GPU would encode (the same bytes) */
+    ff_write_method write_method; /* RAD_FF_WRITE=pwrite: no mapped writes (ff_writer.h; the same bytes) */
 } ff_options;
 
 /* --preset preview: where not given, --quad-rtol FF_PREVIEW_QUAD_RTOL and
@@ -121,7 +122,7 @@ enum { FF_PRESET_FINAL = 0, FF_PRESET_PREVIEW = 1 };
 /* Parses argv (getopt_long: "--name VALUE", "--name=VALUE", unambiguous
  * abbreviations, "-oFILE") into *out, defaults filled in, reads the
  * environment's settings (OMP_NUM_THREADS where --threads is not given,
- * RAD_PROGRESS_SECONDS, RAD_FF_FINISH: the only place formfactor reads
+ * RAD_PROGRESS_SECONDS, RAD_FF_FINISH, RAD_FF_WRITE: the only place formfactor reads
  * its environment), and checks the options together: contradictions, and
  * the output files (new, regular or character devices, no two roles
  * naming one file; docs/reliability.md, "Threat model: files on disk").

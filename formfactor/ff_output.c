@@ -6,14 +6,15 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "ff_writer.h"
 #include "rad_fs.h"
 #include "rad_log.h"
 
-#define FF_OUTPUT_MAX_BYTES ((uint64_t)1 << 28) /* 256 MiB per collective write */
+#define FF_OUTPUT_MAX_BYTES ((uint64_t)1 << 28) /* 256 MiB per write */
 
 struct ff_output {
     ff_comm *comm;
-    ff_comm_file *file;
+    ff_writer *writer;
     ff_format format;
     char path[4096], temp[4096];
     rad_ff_info info;
@@ -31,11 +32,13 @@ struct ff_output {
     int threads;
     int reserved;            /* sparse: ff_output_reserve placed this rank's records */
     uint64_t reserved_at;    /* … the next one's offset */
-    void *convert; /* one write's rows in the stored element type */
-    uint64_t convert_bytes; /* its size: grown to the largest write seen */
+    /* Rows in the stored element type, two buffers in turn: one is being
+     * written in the background while the next write fills the other. */
+    void *convert[2];
+    uint64_t convert_bytes[2]; /* their sizes: grown to the largest write seen */
+    int turn;                  /* the buffer the next ff_output_write_rows fills */
+    ff_output_write_stats written; /* this rank's writes, once closed */
 };
-
-void ff_output_set_threads(ff_output *output, int threads) { output->threads = threads > 0 ? threads : 1; }
 
 /* Bytes one row can take as stored: the dense row, or the largest sparse record; at least 1. */
 static uint64_t record_max_of(uint64_t patch_count, ff_format format, rad_element_type element)
@@ -53,7 +56,7 @@ uint32_t ff_output_max_rows(uint64_t patch_count, ff_format format, rad_element_
 }
 
 rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, const rad_ff_info *info,
-                          const rad_mesh *mesh, ff_output **out_output)
+                          const rad_mesh *mesh, const ff_output_options *options, ff_output **out_output)
 {
     rad_status status = RAD_OK;
     ff_output *o = calloc(1, sizeof *o);
@@ -64,7 +67,7 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
     if (status == RAD_OK) {
         o->comm = comm;
         o->format = format;
-        o->threads = 1;
+        o->threads = options && options->threads > 0 ? options->threads : 1;
         o->info = *info;
         if (format == FF_FORMAT_PAPER) o->info.element_type = RAD_ELEMENT_F64;
         o->info.layout = format == FF_FORMAT_SPARSE ? RAD_FF_LAYOUT_SPARSE : RAD_FF_LAYOUT_DENSE;
@@ -82,9 +85,11 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
             status = rad_ff_prologue_encode(&o->info, mesh, &o->prologue, &o->prologue_size);
         /* Sized by the first write (ff_output_write_rows), not by the
          * largest write allowed: that could be 256 MiB more than needed. */
-        o->convert = malloc(RAD_FF_ALIGN);
-        o->convert_bytes = RAD_FF_ALIGN;
-        if (!o->convert) {
+        for (int k = 0; k < 2; k++) {
+            o->convert[k] = malloc(RAD_FF_ALIGN);
+            o->convert_bytes[k] = RAD_FF_ALIGN;
+        }
+        if (!o->convert[0] || !o->convert[1]) {
             rad_error("%s: out of memory", path);
             status = RAD_ERR_NOMEM;
         }
@@ -94,8 +99,14 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
         ff_comm_broadcast(comm, o->temp, sizeof o->temp, 0);
         if (ff_comm_rank(comm) != 0 && strcmp(o->temp, path)) status = rad_fs_guard(o->temp);
         status = ff_comm_agree(comm, status);
-        if (status == RAD_OK) status = ff_comm_file_open(comm, o->temp, &o->file);
+        /* Every rank opens the file itself and writes its own ranges (ff_writer.h). */
+        ff_writer_options wo = {.threads = options ? options->write_threads : 0,
+                                .method = options ? options->write_method : FF_WRITE_AUTO};
+        if (status == RAD_OK) status = ff_writer_open(o->temp, &wo, &o->writer);
+        status = ff_comm_agree(comm, status);
         if (status != RAD_OK) {
+            ff_writer_close(o->writer);
+            o->writer = NULL;
             if (ff_comm_rank(comm) == 0)
                 rad_fs_discard(o->temp);
             else
@@ -107,7 +118,8 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
     if (status != RAD_OK) {
         if (o) {
             free(o->prologue);
-            free(o->convert);
+            free(o->convert[0]);
+            free(o->convert[1]);
         }
         free(o);
         return status;
@@ -156,21 +168,24 @@ rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_c
     int sparse = o->format == FF_FORMAT_SPARSE;
     rad_status status = RAD_OK;
     if ((uint64_t)row_count * max > FF_OUTPUT_MAX_BYTES) {
-        rad_error("internal: %u rows exceed one collective write", row_count);
+        rad_error("internal: %u rows exceed one write", row_count);
         status = RAD_ERR_INVALID;
         row_count = 0;
     }
     if (status == RAD_OK && (status = grow_row_tables(o, row_count)) != RAD_OK) row_count = 0;
-    if ((uint64_t)row_count * max > o->convert_bytes) {
-        void *grown = realloc(o->convert, (size_t)(row_count * max));
+    /* The other buffer may still be being written; this one is free: its
+     * write was waited for when the other one's began (ff_writer_submit). */
+    int turn = o->turn;
+    if ((uint64_t)row_count * max > o->convert_bytes[turn]) {
+        void *grown = realloc(o->convert[turn], (size_t)(row_count * max));
         if (!grown) {
             rad_error("out of memory for %u rows of output (%llu bytes)", row_count,
                       (unsigned long long)(row_count * max));
             status = RAD_ERR_NOMEM;
             row_count = 0;
         } else {
-            o->convert = grown;
-            o->convert_bytes = (uint64_t)row_count * max;
+            o->convert[turn] = grown;
+            o->convert_bytes[turn] = (uint64_t)row_count * max;
         }
     }
     if (row_count + 1 > o->record_cap) {
@@ -195,7 +210,7 @@ rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_c
     for (int64_t r = 0; r < count; r++) at[r + 1] += at[r];
 #pragma omp parallel for num_threads(o->threads) schedule(dynamic, 16)
     for (int64_t r = 0; r < count; r++) {
-        unsigned char *dst = (unsigned char *)o->convert + at[r];
+        unsigned char *dst = (unsigned char *)o->convert[turn] + at[r];
         const double *src = rows + (uint64_t)r * n;
         if (sparse)
             rad_ff_row_encode(src, n, o->info.element_type, dst);
@@ -208,7 +223,8 @@ rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_c
         o->row_numbers[first + r] = (uint64_t)row_begin + (uint64_t)r;
     }
     o->checksum_count += row_count;
-    return place_and_write(o, row_begin, first, row_count ? at[row_count] : 0, o->convert, status);
+    o->turn = !turn;
+    return place_and_write(o, row_begin, first, row_count ? at[row_count] : 0, o->convert[turn], status);
 }
 
 rad_status ff_output_write_records(ff_output *o, uint32_t row_begin, uint32_t row_count, const ff_records *records)
@@ -240,14 +256,15 @@ rad_status ff_output_write_records(ff_output *o, uint32_t row_begin, uint32_t ro
  * [row_begin, ...) go - their place in the dense layout, or (sparse) after
  * the records written so far, by an exclusive scan of the ranks' sizes,
  * which also turns the offsets of the row index entries from `first` on
- * into the file's - and the write itself. Returns `status` if it is not
- * RAD_OK. */
+ * into the file's - and the write itself, started in the background (the
+ * last one is waited for first). Returns `status` if it is not RAD_OK. */
 static rad_status place_and_write(ff_output *o, uint32_t row_begin, uint64_t first, uint64_t bytes, const void *data,
                                   rad_status status)
 {
     uint64_t rb = o->layout.row_bytes;
-    uint64_t offset = o->format == FF_FORMAT_PAPER ? 4 + (uint64_t)row_begin * rb
-                                                  : o->layout.matrix_offset + (uint64_t)row_begin * rb;
+    uint64_t matrix = o->format == FF_FORMAT_PAPER ? 4 : o->layout.matrix_offset;
+    uint64_t offset = matrix + (uint64_t)row_begin * rb;
+    uint64_t end = matrix + o->info.patch_count * rb; /* where the matrix ends, once every rank wrote */
     if (o->format == FF_FORMAT_SPARSE) {
         /* Every rank takes part in the scan, as in the write below. */
         uint64_t base;
@@ -261,9 +278,10 @@ static rad_status place_and_write(ff_output *o, uint32_t row_begin, uint64_t fir
         }
         for (uint64_t k = first; k < o->checksum_count; k++) o->row_offsets[k] += base;
         offset = o->layout.matrix_offset + base;
+        end = o->layout.matrix_offset + o->appended; /* every rank's records so far: the same on every rank */
     }
-    /* Every rank takes part in the collective write, even with nothing to write. */
-    rad_status written = ff_comm_file_write_all(o->file, offset, data, (size_t)bytes);
+    /* No collective here: each rank writes its own bytes (ff_writer.h). */
+    rad_status written = ff_writer_submit(o->writer, offset, data, bytes, end);
     return status != RAD_OK ? status : written;
 }
 
@@ -274,13 +292,13 @@ static rad_status write_prologue(ff_output *o, const uint64_t *index)
 {
     if (o->format == FF_FORMAT_PAPER) {
         int32_t n = (int32_t)o->info.patch_count;
-        return ff_comm_file_write(o->file, 0, &n, 4);
+        return ff_writer_write(o->writer, 0, &n, 4);
     }
     o->info.matrix_bytes = o->format == FF_FORMAT_SPARSE ? o->appended : 0;
     o->layout = rad_ff_layout_of(&o->info);
     rad_ff_header_finish(o->prologue, &o->info, index);
-    rad_status status = ff_comm_file_write(o->file, o->layout.row_checksum_offset, index, o->layout.index_bytes);
-    if (status == RAD_OK) status = ff_comm_file_write(o->file, 0, o->prologue, o->prologue_size);
+    rad_status status = ff_writer_write(o->writer, o->layout.row_checksum_offset, index, o->layout.index_bytes);
+    if (status == RAD_OK) status = ff_writer_write(o->writer, 0, o->prologue, o->prologue_size);
     return status;
 }
 
@@ -299,6 +317,8 @@ rad_status ff_output_close(ff_output *o, rad_status status)
 {
     int root = ff_comm_rank(o->comm) == 0;
     uint64_t n = o->info.patch_count, *all = NULL, *numbers = NULL, *gathered = NULL;
+    rad_status waited = ff_writer_wait(o->writer); /* this rank's last write */
+    if (status == RAD_OK) status = waited;
     status = ff_comm_agree(o->comm, status);
     if (status == RAD_OK) {
         if (root) {
@@ -333,14 +353,19 @@ rad_status ff_output_close(ff_output *o, rad_status status)
         rad_status local = root ? write_prologue(o, all) : RAD_OK;
         status = ff_comm_agree(o->comm, local);
     }
-    rad_status closed = ff_comm_file_close(o->file);
-    o->file = NULL;
+    o->written.seconds = ff_writer_seconds(o->writer);
+    o->written.bytes = ff_writer_bytes(o->writer);
+    o->written.method = ff_writer_method_name(o->writer);
+    rad_status closed = ff_writer_close(o->writer);
+    o->writer = NULL;
     if (status == RAD_OK) status = closed;
     free(all);
     free(numbers);
     free(gathered);
     return ff_comm_agree(o->comm, status);
 }
+
+ff_output_write_stats ff_output_written(const ff_output *o) { return o->written; }
 
 rad_status ff_output_commit(ff_output *o, rad_status status)
 {
@@ -354,7 +379,8 @@ rad_status ff_output_commit(ff_output *o, rad_status status)
     status = ff_comm_agree(o->comm, status);
     if (ff_comm_rank(o->comm) != 0) rad_fs_unguard(o->temp);
     free(o->prologue);
-    free(o->convert);
+    free(o->convert[0]);
+    free(o->convert[1]);
     free(o->row_checksums);
     free(o->row_offsets);
     free(o->row_numbers);

@@ -13,7 +13,7 @@ static size_t product_or_max(uint64_t a, uint64_t b)
 }
 
 /* Rows per round: round_bytes of doubles, at least 16 rows, at most
- * what one collective write carries. */
+ * what one write carries. */
 static uint32_t rows_per_round(uint64_t n, uint64_t round_bytes, uint32_t max_rows_per_write)
 {
     uint64_t by_memory = round_bytes / (sizeof(double) * (n ? n : 1));

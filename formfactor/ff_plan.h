@@ -33,14 +33,14 @@
 /* Largest N: the paper format stores N as int32, the mesh indexes patches
  * with uint32 (RAD_NO_VERTEX taken), the reader accepts up to 2^31. */
 #define FF_MAX_PATCHES ((uint64_t)INT32_MAX)
-/* Rows computed between collective writes: about this many bytes of
+/* Rows computed between writes: about this many bytes of
  * doubles (at least 16 rows, at most max_rows_per_write). Big
  * enough that a GPU launch fills the device (N = 2944 is one round), small
  * enough that a streamed run's memory stays O(N), not O(N^2). */
 #define FF_ROUND_BYTES ((uint64_t)96 << 20)
 /* The same where the GPU streams rows into a sparse file: the rows stay on
  * the device and only their records come back (compute_records), so a
- * round can be larger - fewer launches, copies and collective writes
+ * round can be larger - fewer launches, copies and writes
  * (N = 47 104: 1425 rows, capped by one write, instead of 267). */
 #define FF_DEVICE_ROUND_BYTES ((uint64_t)1 << 30)
 /* Streamed rows on several ranks go out in blocks, in turn (rank 0's
@@ -66,7 +66,7 @@ typedef struct ff_plan_limits {
     double memory_per_rank;   /* bytes: this node's physical memory / ranks on it; INFINITY = unknown */
     double free_bytes;        /* bytes free on the output's file system; INFINITY = unknown */
     int gpus_visible;         /* CUDA devices this process sees (0 when not asked: --backend cpu) */
-    uint32_t max_rows_per_write; /* rows one collective write carries (ff_output_max_rows); 0 = no cap */
+    uint32_t max_rows_per_write; /* rows one write carries (ff_output_max_rows); 0 = no cap */
 } ff_plan_limits;
 
 /* What the user asked for (ff_options.h); zero = the defaults but element. */
@@ -130,7 +130,7 @@ typedef struct ff_plan {
      * finishing on the CPU where the backend has none): rounds of
      * FF_DEVICE_ROUND_BYTES, and no row buffers on the host. */
     int device_records;
-    /* Rows a rank computes between collective writes, and (every rank
+    /* Rows a rank computes between writes, and (every rank
      * joins every round's write) the rounds, the same on every rank.
      * Which rows a round holds (ff_plan_round_rows):
      *   pairs_once: the rank's block of the split [block_begin, block_end),
@@ -139,7 +139,7 @@ typedef struct ff_plan {
      *   streamed: blocks of rows_per_round taken in turn by the ranks
      *     (block-cyclic) - round k of rank r holds rows
      *     [(k P + r) R, min((k P + r + 1) R, N)), empty past N - so that
-     *     each collective write appends rank 0's block, rank 1's, ...: the
+     *     each round's writes append rank 0's block, rank 1's, ...: the
      *     sparse file's records in row order, the same bytes for any rank
      *     count; rounds = ceil(ceil(N / R) / P). R is also at most
      *     ceil(N / P) there, so that every rank has rows where N >= P

@@ -20,8 +20,9 @@ static ff_rank_stats overall(const ff_run_info *run, const ff_rank_stats *ranks)
 #define FF_MAX(field) all.field = s->field > all.field ? s->field : all.field
         FF_MAX(load); FF_MAX(subdivide); FF_MAX(setup); FF_MAX(form_factors);
         FF_MAX(visibility); FF_MAX(io); FF_MAX(total); FF_MAX(gpu_memory); FF_MAX(mirror);
-        FF_MAX(cuda_start); FF_MAX(estimate);
+        FF_MAX(cuda_start); FF_MAX(estimate); FF_MAX(write);
 #undef FF_MAX
+        all.write_bytes += s->write_bytes;
         ff_counters_add(&all.counters, &s->counters);
         ff_rows_summary_merge(&all.rows, &s->rows);
     }
@@ -72,6 +73,7 @@ static void put_times(rad_json_writer *w, const ff_rank_stats *s)
     put_time(w, "cuda_start", s->cuda_start);
     put_time(w, "estimate", s->estimate);
     put_time(w, "io", s->io);
+    put_time(w, "write", s->write);
     put_time(w, "total", s->total);
     rad_json_end_object(w);
 }
@@ -140,6 +142,7 @@ static void put_rank(rad_json_writer *w, const ff_rank_stats *s)
         rad_json_end_object(w);
     }
     put_counters(w, &s->counters);
+    put_count(w, "written_bytes", s->write_bytes);
     put_times(w, s);
     rad_json_end_object(w);
 }
@@ -189,6 +192,8 @@ static void put_run(rad_json_writer *w, const ff_run_info *run, const ff_rank_st
     put_name(w, "element", run->element);
     put_name(w, "format", run->format);
     put_name(w, "output", run->output);
+    put_count(w, "written_bytes", all.write_bytes);
+    put_name(w, "write_method", ranks[0].write_mapped ? "map" : "pwrite"); /* rank 0's (ff_writer.h) */
     rad_json_key(w, "ranks");
     rad_json_int(w, run->ranks);
     rad_json_key(w, "gpus_visible");
@@ -249,6 +254,8 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
     rad_info("time (s, slowest rank): load %.3f  subdivide %.3f  setup %.3f  form factors %.3f  visibility %.3f  "
              "GPU memory %.3f  I/O %.3f  total %.3f",
              all.load, all.subdivide, all.setup, all.form_factors, all.visibility, all.gpu_memory, all.io, all.total);
+    rad_info("written: %.3f GB by %d rank(s) (%s), in flight %.3f s on the slowest rank", all.write_bytes * 1e-9,
+             run->ranks, ranks[0].write_mapped ? "mapped" : "pwrite", all.write);
     rad_info("row sums: min %.6f  max %.6f  mean %.6f", all.rows.row_sum_min, all.rows.row_sum_max,
              run->patch_count ? all.rows.row_sum_total / run->patch_count : 0.0);
     if (run->patch_count > 1 && !(all.rows.row_sum_max > 0))

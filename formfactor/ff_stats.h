@@ -26,6 +26,13 @@ typedef struct ff_rank_stats {
     double gpu_memory; /* CUDA: allocation + transfers (form_factors is then the GPU kernel) */
     double cuda_start; /* waiting for CUDA's driver and context (what ff_cuda_prestart did not hide) */
     double estimate;   /* the estimate line's calibration (rank 0) */
+    /* The output's bytes, written in the background (ff_writer.h): the
+     * seconds its writes were in flight, mostly behind the computation
+     * (io is what the rank waited for them, with the encoding), how many
+     * bytes, and whether through a mapping (1) or pwrite (0). */
+    double write;
+    uint64_t write_bytes;
+    int32_t write_mapped;
     ff_counters counters;
     ff_rows_summary rows; /* row sums and standard errors of this rank's rows */
 } ff_rank_stats;

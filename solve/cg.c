@@ -269,7 +269,7 @@ static rad_status cg_lockstep(solve_run *const *runs, size_t count, solve_gpu *g
         for (size_t c = 0; c < count; c++)
             if (lanes[c].phase != CG_DONE) operands[active++] = (double *)cg_operand(&lanes[c]);
         if (!active) break;
-        /* across ranks (never with a GPU: stage.c) */
+        /* across ranks (with a GPU, the device exchanges them itself: gpu.h) */
         if (!gpu && (status = solve_comm_gather_rows(runs[0]->comm, operands, active)) != RAD_OK) goto done;
         if ((status = cg_iterate(lanes, count, gpu, residual)) != RAD_OK) break;
         for (size_t c = 0; c < count; c++) fresh[c] = lanes[c].phase != CG_DONE && cg_take(&lanes[c], residual[c]);

@@ -55,6 +55,10 @@ const size_t *solve_comm_row_split(const solve_comm *comm);
  * rank's rows of it from that rank, all vectors in one MPI_Allgatherv.
  * Identity with one rank. */
 rad_status solve_comm_gather_rows(solve_comm *comm, double *const *vectors, size_t count);
+/* The same for another split of the vectors' entries (size + 1 ascending
+ * values from 0 to their length, the same on every rank): rank r's are
+ * [split[r], split[r + 1]). The GPU backend's partial sums travel so. */
+rad_status solve_comm_gather_split(solve_comm *comm, const size_t *split, double *const *vectors, size_t count);
 
 /* Collective: words_to[d] uint64 words from `send` (rank after rank, in
  * rank order) to rank d; *out_received (malloc'ed, the caller frees) gets

@@ -104,8 +104,14 @@ const size_t *solve_comm_row_split(const solve_comm *comm) { return alone(comm) 
 
 rad_status solve_comm_gather_rows(solve_comm *comm, double *const *vectors, size_t count)
 {
+    if (alone(comm)) return RAD_OK;
+    return solve_comm_gather_split(comm, comm->row_begin, vectors, count);
+}
+
+rad_status solve_comm_gather_split(solve_comm *comm, const size_t *rb, double *const *vectors, size_t count)
+{
     if (alone(comm) || count == 0) return RAD_OK;
-    const size_t size = (size_t)comm->mpi.size, *rb = comm->row_begin, n = rb[size];
+    const size_t size = (size_t)comm->mpi.size, n = rb[size];
     if (n > INT_MAX / count) {
         rad_error("%zu rows x %zu vectors: too many for one MPI_Allgatherv (int counts)", n, count);
         return RAD_ERR_NOMEM;

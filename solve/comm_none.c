@@ -27,6 +27,10 @@ void solve_comm_allgather_bytes(solve_comm *comm, const void *mine, size_t bytes
 rad_status solve_comm_set_rows(solve_comm *comm, const size_t *row_begin) { return RAD_OK; }
 const size_t *solve_comm_row_split(const solve_comm *comm) { return NULL; }
 rad_status solve_comm_gather_rows(solve_comm *comm, double *const *vectors, size_t count) { return RAD_OK; }
+rad_status solve_comm_gather_split(solve_comm *comm, const size_t *split, double *const *vectors, size_t count)
+{
+    return RAD_OK;
+}
 
 rad_status solve_comm_exchange(solve_comm *comm, const uint64_t *send, const uint64_t *words_to,
                                uint64_t **out_received, uint64_t *out_received_count)

@@ -14,6 +14,21 @@ rad_status solve_gpu_create(const solve_gpu_tiles *tiles, const double *area, so
     return RAD_ERR_UNSUPPORTED;
 }
 
+rad_status solve_gpu_create_ranks(const solve_gpu_tiles *tiles, const double *area, const solve_gpu_ranks *ranks,
+                                  solve_gpu **out_gpu)
+{
+    (void)ranks;
+    return solve_gpu_create(tiles, area, out_gpu);
+}
+
+/* As gpu_cuda.cu's (256 rows a chunk, at most 512 chunks), so that a split
+ * made in a build without CUDA would be the same. */
+size_t solve_gpu_row_quantum(size_t n)
+{
+    size_t blocks = (n + 256 * 512 - 1) / (256 * 512);
+    return 256 * (blocks ? blocks : 1);
+}
+
 void solve_gpu_destroy(solve_gpu *gpu) { (void)gpu; }
 int solve_gpu_exact(const solve_gpu *gpu) { return (void)gpu, 0; }
 const char *solve_gpu_device_name(const solve_gpu *gpu) { return (void)gpu, "none"; }
@@ -51,5 +66,5 @@ rad_status solve_gpu_cg_restart(solve_gpu *gpu, const int *restart)
 }
 
 void solve_gpu_jacobi_accept(solve_gpu *gpu, size_t lane) { (void)gpu, (void)lane; }
-void solve_gpu_prestart(void) {}
+void solve_gpu_prestart(int rank) { (void)rank; }
 void solve_gpu_prestart_join(void) {}

@@ -19,8 +19,16 @@ void solve_gpu_tiles_free(solve_gpu_tiles *tiles)
 
 rad_status solve_gpu_tiles_make(const solve_rows *F, solve_gpu_tiles *out_tiles)
 {
-    const size_t n = F->n, T = RAD_FF_TILE_COLUMNS, per_row = (n + T - 1) / T;
-    solve_gpu_tiles t = {.n = n, .tile_count = F->dense ? n * per_row : (size_t)F->row_tiles[n]};
+    return solve_gpu_tiles_make_rows(F, 0, F->n, out_tiles);
+}
+
+rad_status solve_gpu_tiles_make_rows(const solve_rows *F, size_t row_begin, size_t row_end, solve_gpu_tiles *out_tiles)
+{
+    /* n: the rows held here; held row r is F's row row_begin + r */
+    const size_t n = row_end - row_begin, T = RAD_FF_TILE_COLUMNS, per_row = (F->n + T - 1) / T;
+    const size_t r0 = row_begin - F->first_row; /* F's own index of the first */
+    solve_gpu_tiles t = {.n = n,
+                         .tile_count = F->dense ? n * per_row : (size_t)(F->row_tiles[r0 + n] - F->row_tiles[r0])};
     t.row_tiles = malloc((n + 1) * sizeof *t.row_tiles);
     t.tile_column = malloc((t.tile_count ? t.tile_count : 1) * sizeof *t.tile_column);
     t.values = malloc((t.tile_count ? t.tile_count : 1) * T * sizeof *t.values);
@@ -30,11 +38,12 @@ rad_status solve_gpu_tiles_make(const solve_rows *F, solve_gpu_tiles *out_tiles)
         solve_gpu_tiles_free(&t);
         return RAD_ERR_NOMEM;
     }
-    for (size_t i = 0; i <= n; i++) t.row_tiles[i] = F->dense ? i * per_row : F->row_tiles[i];
+    for (size_t r = 0; r <= n; r++) t.row_tiles[r] = F->dense ? r * per_row : F->row_tiles[r0 + r] - F->row_tiles[r0];
     int exact = 1;
 #pragma omp parallel for schedule(dynamic, 64) reduction(&& : exact) if (n >= SOLVE_GPU_PARALLEL_MIN_ROWS)
-    for (size_t i = 0; i < n; i++) {
-        uint64_t k = t.row_tiles[i];
+    for (size_t r = 0; r < n; r++) {
+        const size_t i = row_begin + r;
+        uint64_t k = t.row_tiles[r];
         for (size_t s = 0; s < solve_row_span_count(F, i); s++) {
             solve_span sp = solve_row_span(F, i, s);
             for (size_t begin = sp.begin; begin < sp.end; begin += T, k++) { /* a dense span is many tiles */
@@ -49,7 +58,7 @@ rad_status solve_gpu_tiles_make(const solve_rows *F, solve_gpu_tiles *out_tiles)
                 for (size_t e = width; e < T; e++) to[e] = 0;
             }
         }
-        t.diag[i] = solve_row_entry(F, i, i);
+        t.diag[r] = solve_row_entry(F, i, i);
     }
     t.exact = exact;
     *out_tiles = t;

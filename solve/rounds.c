@@ -25,12 +25,13 @@
 #include "stationary.h"
 
 /* out_i = E_i + rho_i sum_j (F_ij - float(F_ij)) B_j, rows by one thread
- * each (no dependence on the thread count). */
-static void refined_emission(const solve_run *run, const double *E, const double *B, double *out)
+ * each (no dependence on the thread count); this rank's rows, then every
+ * rank's (collective: the GPUs take whole vectors). */
+static rad_status refined_emission(const solve_run *run, const double *E, const double *B, double *out)
 {
-    const size_t n = run->n;
-#pragma omp parallel for schedule(dynamic, 64) if (n >= SOLVE_PARALLEL_MIN_ROWS)
-    for (size_t i = 0; i < n; i++) {
+    const size_t begin = run->row_begin, end = run->row_end;
+#pragma omp parallel for schedule(dynamic, 64) if (end - begin >= SOLVE_PARALLEL_MIN_ROWS)
+    for (size_t i = begin; i < end; i++) {
         double rho = run->rho[i], s = 0;
         if (rho != 0)
             for (size_t k = 0; k < solve_row_span_count(&run->F, i); k++) {
@@ -42,6 +43,7 @@ static void refined_emission(const solve_run *run, const double *E, const double
             }
         out[i] = E[i] + rho * s;
     }
+    return solve_comm_gather_rows(run->comm, &out, 1);
 }
 
 rad_status solve_gpu_channels(solve_gpu *gpu, solve_gpu_channel *channels, size_t count)
@@ -84,7 +86,7 @@ rad_status solve_gpu_channels(solve_gpu *gpu, solve_gpu_channel *channels, size_
             if (round > 1) {
                 run->tolerance = tolerance[c] * SOLVE_GPU_ROUND_MARGIN;
                 if (!exact) {
-                    refined_emission(run, emission[c], run->B, refined + c * n);
+                    if ((status = refined_emission(run, emission[c], run->B, refined + c * n)) != RAD_OK) break;
                     run->E = refined + c * n;
                 }
                 rad_info("%s: verified residual %.4g > %.4g with the double matrix: refinement round %u on the GPU",
@@ -98,7 +100,8 @@ rad_status solve_gpu_channels(solve_gpu *gpu, solve_gpu_channel *channels, size_
                 jacobi_runs[jacobi_count++] = run;
             }
         }
-        if (cg_count) status = solve_cg_many(cg_runs, cg_count, gpu, cg_stopped, cg_why, channels[0].why_size);
+        if (status == RAD_OK && cg_count)
+            status = solve_cg_many(cg_runs, cg_count, gpu, cg_stopped, cg_why, channels[0].why_size);
         if (status == RAD_OK && jacobi_count) status = solve_jacobi_many(jacobi_runs, jacobi_count, gpu);
         for (size_t c = 0; c < count; c++) { /* the true system again */
             channels[c].run->E = emission[c];

@@ -75,7 +75,8 @@ typedef struct stage_state {
     rad_log_level asked;                /* the log level the stage was called with */
     double t0;                          /* rad_clock_seconds() at the start */
     /* the load step's */
-    solve_backend backend;              /* auto until the matrix is loaded, then cpu or cuda */
+    solve_backend backend;              /* alone: auto until the matrix is loaded, then cpu or cuda */
+    size_t mesh_n;                      /* N, from the file's header */
     double load_seconds, upload_seconds;
     const rad_mesh *mesh;               /* the file's (borrowed from it) */
     solve_row_sum_summary row_sums;
@@ -108,18 +109,48 @@ static void stage_state_free(stage_state *s)
     for (int c = 0; c < 3; c++) solve_report_free(&s->reports[c]);
 }
 
-/* The backend to use, once the file's header is read: cuda without a
- * visible GPU refused; auto stays auto until the matrix is loaded
- * (auto_backend) - or cpu where it cannot be cuda. */
-static rad_status resolve_backend(solve_backend asked, int ranks, solve_backend *out_backend)
+/* Does the file hold links (hierarchical radiosity, issue 26), which
+ * links.c solves, rather than a matrix? */
+static int file_holds_links(const rad_ff_info *info)
 {
-    if (ranks > 1) { /* every rank decides alike */
-        if (asked == SOLVE_BACKEND_CUDA) {
-            rad_error("--backend cuda: not under mpirun with %d ranks (each rank holds only its rows; the GPU "
-                      "backend keeps one whole matrix): run one process per GPU, or --backend cpu",
-                      ranks);
-            return RAD_ERR_USAGE;
+    return info->layout == RAD_FF_LAYOUT_LINKS;
+}
+
+/* Stored entries of the matrix: its header's estimate (a sparse file's
+ * record bytes over the element's size), before it is read. */
+static uint64_t stored_entries_estimate(const rad_ff_info *info)
+{
+    if (file_holds_links(info)) return 0; /* solved on the CPU */
+    if (info->layout != RAD_FF_LAYOUT_SPARSE) return info->patch_count * info->patch_count;
+    return info->matrix_bytes / (info->element_type == RAD_ELEMENT_F32 ? 4 : 8);
+}
+
+/* The backend to use, once the file's header is read: cuda without a
+ * visible GPU refused; alone, auto stays auto until the matrix is loaded
+ * (auto_backend) - or cpu where it cannot be cuda. Under mpirun every
+ * rank must take the same (the split of the rows depends on it), so auto
+ * decides here, by the header's estimate of the stored entries, and the
+ * ranks agree: cuda only where every rank sees a GPU. */
+static rad_status resolve_backend(solve_comm *comm, solve_backend asked, int ranks, const rad_ff_info *info,
+                                  solve_backend *out_backend)
+{
+    if (ranks > 1 && asked != SOLVE_BACKEND_CPU) {
+        int want = asked == SOLVE_BACKEND_CUDA ||
+                   (solve_gpu_built() && stored_entries_estimate(info) >= SOLVE_GPU_AUTO_MIN_ENTRIES);
+        int can = want && solve_gpu_built() && solve_gpu_device_count() > 0;
+        rad_status status = RAD_OK;
+        if (asked == SOLVE_BACKEND_CUDA && !can) {
+            rad_error("--backend cuda: rank %d sees no CUDA device (no GPU, no driver, a build without CUDA, or "
+                      "CUDA_VISIBLE_DEVICES hides them); --backend cpu solves on the CPUs",
+                      solve_comm_rank(comm));
+            status = RAD_ERR_BACKEND;
         }
+        if ((status = solve_comm_agree(comm, status)) != RAD_OK) return status;
+        int all = solve_comm_max(comm, can ? 0.0 : 1.0) == 0.0; /* every rank can */
+        *out_backend = want && all ? SOLVE_BACKEND_CUDA : SOLVE_BACKEND_CPU;
+        return RAD_OK;
+    }
+    if (ranks > 1) {
         *out_backend = SOLVE_BACKEND_CPU;
         return RAD_OK;
     }
@@ -140,22 +171,6 @@ static rad_status resolve_backend(solve_backend asked, int ranks, solve_backend 
     return RAD_OK;
 }
 
-/* Does the file hold links (hierarchical radiosity, issue 26), which
- * links.c solves, rather than a matrix? */
-static int file_holds_links(const rad_ff_info *info)
-{
-    return info->layout == RAD_FF_LAYOUT_LINKS;
-}
-
-/* Stored entries of the matrix: its header's estimate (a sparse file's
- * record bytes over the element's size), before it is read. */
-static uint64_t stored_entries_estimate(const rad_ff_info *info)
-{
-    if (file_holds_links(info)) return 0; /* solved on the CPU */
-    if (info->layout != RAD_FF_LAYOUT_SPARSE) return info->patch_count * info->patch_count;
-    return info->matrix_bytes / (info->element_type == RAD_ELEMENT_F32 ? 4 : 8);
-}
-
 /* auto, once the matrix is loaded: the GPU for matrices large enough to
  * repay starting CUDA and the upload (SOLVE_GPU_AUTO_MIN_ENTRIES), when
  * one is visible; else the CPU. */
@@ -166,9 +181,16 @@ static solve_backend auto_backend(const solve_matrix *m)
                                                                                 : SOLVE_BACKEND_CPU;
 }
 
-/* The matrix onto the GPU for the cuda backend. Under auto a failure (not
- * enough GPU memory, say) leaves the CPU to do the work; under cuda it is
- * the stage's failure. */
+/* gpu.h's exchange between the ranks' GPUs: comm.h's gather. */
+static rad_status gather_for_gpu(void *user, const size_t *split, double *const *arrays, size_t count)
+{
+    return solve_comm_gather_split((solve_comm *)user, split, arrays, count);
+}
+
+/* The matrix onto the GPU for the cuda backend: this rank's rows onto its
+ * GPU (rank mod the devices) under mpirun. Under auto a failure (not
+ * enough GPU memory, say) leaves the CPU to do the work - on every rank,
+ * which agree; under cuda it is the stage's failure. */
 static rad_status upload_matrix(stage_state *s, const char *input, solve_backend asked, solve_backend *backend,
                                 double *out_seconds)
 {
@@ -176,19 +198,32 @@ static rad_status upload_matrix(stage_state *s, const char *input, solve_backend
     *out_seconds = 0;
     if (*backend != SOLVE_BACKEND_CUDA) return RAD_OK;
     solve_gpu_tiles tiles;
-    rad_status status = solve_gpu_tiles_make(&s->matrix.rows, &tiles);
+    const solve_matrix *m = &s->matrix;
+    rad_status status = solve_gpu_tiles_make_rows(&m->rows, m->row_begin, m->row_end, &tiles);
+    /* exact (no refinement rounds) only where every rank's rows are floats */
+    double inexact = solve_comm_max(s->comm, status == RAD_OK && !tiles.exact ? 1.0 : 0.0);
     if (status == RAD_OK) {
-        status = solve_gpu_create(&tiles, s->matrix.area, &s->gpu);
+        tiles.exact = inexact == 0.0;
+        int devices = solve_gpu_device_count();
+        solve_gpu_ranks ranks = {.n = m->patch_count, .ranks = (size_t)s->ranks, .row_split = s->row_split,
+                                 .rank = (size_t)s->rank, .device = devices > 0 ? s->rank % devices : 0,
+                                 .gather = s->ranks > 1 ? gather_for_gpu : NULL, .user = s->comm};
+        status = solve_gpu_create_ranks(&tiles, m->area, &ranks, &s->gpu);
         solve_gpu_tiles_free(&tiles);
     }
+    if (s->ranks > 1) status = solve_comm_agree(s->comm, status);
     if (status != RAD_OK) {
+        solve_gpu_destroy(s->gpu);
+        s->gpu = NULL;
         if (asked == SOLVE_BACKEND_CUDA) return status;
         rad_warn("%s: the matrix could not go to the GPU (above): --backend auto solves on the CPU", input);
         *backend = SOLVE_BACKEND_CPU;
         return RAD_OK;
     }
     *out_seconds = rad_clock_seconds() - t;
-    rad_info("%s: backend cuda: %s, the matrix resident as float tiles (%.2f GiB, %s) in %.2f s", input,
+    char where[64] = "";
+    if (s->ranks > 1) snprintf(where, sizeof where, " on each of %d ranks (its rows; rank 0's)", s->ranks);
+    rad_info("%s: backend cuda%s: %s, the matrix resident as float tiles (%.2f GiB, %s) in %.2f s", input, where,
              solve_gpu_device_name(s->gpu), solve_gpu_matrix_bytes(s->gpu) / 1073741824.0,
              solve_gpu_exact(s->gpu) ? "exact: the file stores f32"
                                      : "rounded from double: results refined against the double matrix",
@@ -207,6 +242,20 @@ static void stage_speak(solve_comm *comm, rad_log_level asked, stage_voice voice
     rad_log_set_level(voice == STAGE_OWN_ROWS && asked >= RAD_LOG_ERROR ? RAD_LOG_ERROR : RAD_LOG_NONE);
 }
 
+/* The GPU backend's reductions add chunks of solve_gpu_row_quantum rows:
+ * each rank's first row at the nearest chunk boundary (the cost balance
+ * moves by less than a chunk), so that every chunk lies on one rank. */
+static void align_split(size_t *row_split, size_t ranks, size_t n)
+{
+    const size_t q = solve_gpu_row_quantum(n);
+    for (size_t r = 1; r < ranks; r++) {
+        size_t at = (row_split[r] + q / 2) / q * q;
+        if (at > n) at = n;
+        if (at < row_split[r - 1]) at = row_split[r - 1];
+        row_split[r] = at;
+    }
+}
+
 /* Splits the rows over the ranks and reads this rank's; then every rank
  * gets every row's sum (and error): the checks before solving need them. */
 static rad_status load_rows(stage_state *s, solve_comm *comm, const solve_options *options, const char *input,
@@ -220,6 +269,7 @@ static rad_status load_rows(stage_state *s, solve_comm *comm, const solve_option
     status = solve_comm_agree(comm, status);
     if (status != RAD_OK) return status;
     solve_matrix_split_rows(s->file, ranks, s->row_split);
+    if (ranks > 1 && s->backend == SOLVE_BACKEND_CUDA) align_split(s->row_split, ranks, s->mesh_n);
     status = solve_comm_set_rows(comm, s->row_split);
     if (status != RAD_OK) return status;
     stage_speak(comm, asked, STAGE_OWN_ROWS);
@@ -262,12 +312,15 @@ static rad_status stage_open(stage_state *s)
     if (status != RAD_OK) return status;
     /* Hierarchical radiosity's links (issue 26): links.c takes the file from here. */
     if (file_holds_links(rad_ff_file_info(s->file))) return RAD_OK;
-    /* CUDA starts while the matrix loads where the GPU will be asked for. */
-    if (s->ranks == 1 && options->backend != SOLVE_BACKEND_CPU && solve_gpu_built() &&
+    /* CUDA starts while the matrix loads where the GPU will be asked for
+     * (under mpirun on the rank's device, rank mod the devices). */
+    if (options->backend != SOLVE_BACKEND_CPU && solve_gpu_built() &&
         (options->backend == SOLVE_BACKEND_CUDA ||
          stored_entries_estimate(rad_ff_file_info(s->file)) >= SOLVE_GPU_AUTO_MIN_ENTRIES))
-        solve_gpu_prestart();
-    status = solve_comm_agree(s->comm, resolve_backend(options->backend, s->ranks, &s->backend));
+        solve_gpu_prestart(s->rank);
+    s->mesh_n = rad_ff_file_mesh(s->file)->patch_count;
+    status = solve_comm_agree(s->comm, resolve_backend(s->comm, options->backend, s->ranks,
+                                                       rad_ff_file_info(s->file), &s->backend));
     if (status != RAD_OK) return status;
     if (rad_ff_file_info(s->file)->flags & RAD_FF_FLAG_STANDARD_ERRORS) {
         rad_error("%s: holds the standard errors of a form-factor matrix (formfactor --errors), not form factors",

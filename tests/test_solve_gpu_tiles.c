@@ -3,7 +3,9 @@
  * A dense and a sparse matrix (N = 150: the last tile of each row holds
  * 22 columns; whole tiles left out of the sparse one) give the same
  * tiles: every entry rounded to float at its column, zero padding, the
- * diagonal in double, and `exact` set only when every entry is a float. */
+ * diagonal in double, and `exact` set only when every entry is a float.
+ * A block of rows (a rank's, solve_gpu_tiles_make_rows) gives those rows'
+ * tiles, from a view that holds only them as from one that holds all. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -42,6 +44,25 @@ static void check(const solve_rows *rows, int expect_exact, const char *what)
     solve_gpu_tiles_free(&t);
 }
 
+/* Rows [a, b) of `all` (N rows) are the tiles of rows [a, b): from `rows`,
+ * which holds them (all N, or only those). */
+static void check_block(const solve_rows *rows, const solve_gpu_tiles *all, size_t a, size_t b, const char *what)
+{
+    solve_gpu_tiles t;
+    RAD_CHECK(solve_gpu_tiles_make_rows(rows, a, b, &t) == RAD_OK);
+    RAD_CHECK(t.n == b - a && t.row_tiles[0] == 0);
+    size_t wrong = 0;
+    for (size_t r = 0; r < b - a; r++) {
+        const size_t i = a + r;
+        wrong += t.row_tiles[r + 1] - t.row_tiles[r] != all->row_tiles[i + 1] - all->row_tiles[i];
+        wrong += t.diag[r] != all->diag[i];
+        for (size_t j = 0; j < N; j++) wrong += tile_entry(&t, r, j) != tile_entry(all, i, j);
+    }
+    fprintf(stderr, "%s, rows [%zu, %zu): %zu tiles, %zu entries wrong\n", what, a, b, t.tile_count, wrong);
+    RAD_CHECK(wrong == 0 && t.tile_count == all->row_tiles[b] - all->row_tiles[a]);
+    solve_gpu_tiles_free(&t);
+}
+
 int main(void)
 {
     /* rows 0..63 touch only columns 64..127; the rest are full */
@@ -75,5 +96,18 @@ int main(void)
     for (size_t k = 0; k < used; k++) values[k] = (float)values[k];
     check(&dense, 1, "dense, f32 entries");
     check(&sparse, 1, "sparse, f32 entries");
+    /* a rank's block: from the whole matrix, and from a view of its rows only */
+    solve_gpu_tiles all;
+    RAD_CHECK(solve_gpu_tiles_make(&sparse, &all) == RAD_OK);
+    check_block(&sparse, &all, 40, 97, "sparse, a block of the whole");
+    solve_rows held = sparse;
+    held.row_tiles = row_tiles + 40; /* holds rows [40, 97): its index starts at row 40's */
+    held.first_row = 40;
+    check_block(&held, &all, 40, 97, "sparse, only the block held");
+    solve_gpu_tiles_free(&all);
+    RAD_CHECK(solve_gpu_tiles_make(&dense, &all) == RAD_OK);
+    solve_rows dense_held = {.n = N, .dense = F + 40 * N, .first_row = 40};
+    check_block(&dense_held, &all, 40, 97, "dense, only the block held");
+    solve_gpu_tiles_free(&all);
     return rad_test_finish();
 }
