@@ -50,7 +50,7 @@ echo "| run | threads | leaves | elements | links | links/element | error bound 
 echo "|---|---|---|---|---|---|---|---|---|---|---|"
 for t in $threads_list; do
   for tol in 3e-2 1e-2 3e-3; do
-    run "cornell_box tol $tol" "$t" --method hierarchical --link-tol "$tol"
+    run "cornell_box L5 tol $tol" "$t" --method hierarchical --subdiv 5 --link-tol "$tol"
   done
   for tol in 3e-2 1e-2 3e-3; do
     run "cornell_sphere L6 tol $tol" "$t" scenes/cornell_sphere.obj --method hierarchical --subdiv 6 --link-tol "$tol"
