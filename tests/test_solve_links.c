@@ -208,10 +208,14 @@ static void test_refusals_and_limits(void)
     remove(out);
     squares_free(&q);
 
-    /* rho * row sum >= 1: refused before solving */
+    /* Leaves gathering more than 1 (coarse links near an element's edge):
+     * a note, not a refusal as for a matrix's rows; the sweeps decide. */
     RAD_CHECK(squares_make(&q, rho, E, 1.2));
-    RAD_CHECK(solve_squares(&q, &o) == RAD_ERR_INVALID && rad_test_log_contains("rho * row sum >= 1"));
-    RAD_CHECK(!file_exists(out));
+    rad_status st = solve_squares(&q, &o);
+    RAD_CHECK(st == RAD_OK || st == RAD_ERR_NOT_CONVERGED);
+    RAD_CHECK(rad_test_log_contains("gather more than 1.001 of their light"));
+    RAD_CHECK(file_exists(out));
+    remove(out);
     squares_free(&q);
     rad_log_set_sink(NULL, NULL);
 }
