@@ -41,8 +41,8 @@ typedef enum ff_method { FF_METHOD_FULL = 0, FF_METHOD_HIERARCHICAL = 1, FF_METH
 #define FF_AUTO_HIERARCHICAL_PATCHES 20000u
 /* Hierarchical runs: the finest level when --subdiv is not given, the
  * default --link-tol, --min-area (of the scene's total area) and --passes. */
-#define FF_HIER_MAX_LEVEL 8
-#define FF_HIER_LINK_TOL 1e-4
+#define FF_HIER_MAX_LEVEL 5
+#define FF_HIER_LINK_TOL 1e-2
 #define FF_HIER_MIN_AREA 1e-7
 #define FF_HIER_PASSES 3
 
