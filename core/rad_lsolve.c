@@ -283,6 +283,7 @@ static double tree_update(const lsolve_plan *p, const lsolve_vectors *v, double 
     return not_a_number ? NAN : rmax;
 }
 
+#ifdef _OPENMP /* only the parallel loops' num_threads clauses ask */
 /* Threads for `links` links of work: one per LSOLVE_PARALLEL_MIN_LINKS at
  * most (64 threads woken for a tree of 20 000 links cost more than the
  * gather: 2.3 s instead of 0.05 s for 17 sweeps on 64 cores). */
@@ -291,6 +292,7 @@ static int threads_for(const lsolve_plan *p, uint64_t links)
     uint64_t most = 1 + links / LSOLVE_PARALLEL_MIN_LINKS;
     return most < (uint64_t)p->threads ? (int)most : p->threads;
 }
+#endif
 
 /* One Jacobi sweep: old <- B, then B <- the next iterate. Returns the
  * largest |residual| of old. */
