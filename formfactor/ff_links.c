@@ -324,30 +324,43 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     return st;
 }
 
+/* The leaf elements in the order of the leaves mesh (rad_hierarchy_leaves:
+ * root by root, depth first), h->leaf_count of them; NULL (logged) for
+ * lack of memory. */
+static uint32_t *leaf_elements(const rad_hierarchy *h)
+{
+    uint32_t *order = malloc((h->leaf_count ? h->leaf_count : 1) * sizeof *order);
+    uint32_t stack[3 * 16 + 4]; /* depth first: 3 waiting siblings per level, 15 levels at most */
+    if (!order) {
+        rad_error("hierarchy: out of memory for %zu leaves", h->leaf_count);
+        return NULL;
+    }
+    size_t leaf = 0;
+    for (size_t r = 0; r < h->base->patch_count; r++) {
+        size_t top = 0;
+        stack[top++] = (uint32_t)r;
+        while (top) {
+            uint32_t e = stack[--top];
+            if (h->elements[e].first_child == RAD_NO_ELEMENT)
+                order[leaf++] = e;
+            else
+                for (uint32_t i = 4; i-- > 0;) stack[top++] = h->elements[e].first_child + i;
+        }
+    }
+    return order;
+}
+
 /* The oracle's B per element from a solution on the leaves: leaves take
  * theirs, split elements the area-weighted mean of their children
  * (children come after their parent: one pass from the end). */
 static void set_radiosity(ff_links *L, const double *leaf_radiosity)
 {
     const rad_hierarchy *h = &L->tree;
-    size_t leaf = 0;
-    /* leaves in export order: root by root, depth first */
-    uint32_t *stack = malloc((4 * 16 + 4) * sizeof *stack);
-    if (!stack) return;
-    for (size_t r = 0; r < h->base->patch_count; r++) {
-        size_t top = 0;
-        stack[top++] = (uint32_t)r;
-        while (top) {
-            uint32_t e = stack[--top];
-            const rad_element *el = &h->elements[e];
-            if (el->first_child == RAD_NO_ELEMENT) {
-                memcpy(&L->radiosity[3 * (size_t)e], &leaf_radiosity[3 * leaf++], 3 * sizeof(double));
-            } else {
-                for (uint32_t i = 4; i-- > 0;) stack[top++] = el->first_child + i;
-            }
-        }
-    }
-    free(stack);
+    uint32_t *leaves = leaf_elements(h);
+    if (!leaves) return;
+    for (size_t k = 0; k < h->leaf_count; k++)
+        memcpy(&L->radiosity[3 * (size_t)leaves[k]], &leaf_radiosity[3 * k], 3 * sizeof(double));
+    free(leaves);
     for (size_t e = h->element_count; e-- > 0;) {
         const rad_element *el = &h->elements[e];
         if (el->first_child == RAD_NO_ELEMENT) continue;
@@ -424,9 +437,9 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     out->nodes = malloc(n * sizeof *out->nodes);
     out->first_link = calloc(n + 1, sizeof *out->first_link);
     out->links = malloc((L->link_count ? 2 * L->link_count : 1) * sizeof *out->links);
-    uint32_t *stack = malloc((4 * 16 + 4) * sizeof *stack);
-    if (!out->nodes || !out->first_link || !out->links || !stack) {
-        free(stack);
+    uint32_t *order = leaf_elements(h);
+    if (!out->nodes || !out->first_link || !out->links || !order) {
+        free(order);
         rad_links_free(out);
         rad_mesh_free(leaves);
         rad_error("hierarchy: out of memory for %zu nodes and %zu links", n, 2 * L->link_count);
@@ -448,19 +461,8 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
         memcpy(d->v, el->v, sizeof d->v);
         d->area = el->area;
     }
-    uint32_t leaf = 0;
-    for (uint32_t r = 0; r < out->root_count; r++) {
-        size_t top = 0;
-        stack[top++] = r;
-        while (top) {
-            uint32_t e = stack[--top];
-            if (h->elements[e].first_child == RAD_NO_ELEMENT)
-                out->nodes[e].leaf = leaf++;
-            else
-                for (uint32_t i = 4; i-- > 0;) stack[top++] = h->elements[e].first_child + i;
-        }
-    }
-    free(stack);
+    for (uint32_t k = 0; k < out->leaf_count; k++) out->nodes[order[k]].leaf = k;
+    free(order);
     for (size_t k = 0; k < L->link_count; k++) {
         out->first_link[L->links[k].a + 1]++;
         out->first_link[L->links[k].b + 1]++;
