@@ -418,6 +418,7 @@ struct rad_ff_file {
     uint64_t *row_offsets;   /* sparse: N + 1 record offsets from the matrix offset; else NULL */
     uint64_t *row_checksums; /* N; NULL in the links layout */
     unsigned char *row_buffer;
+    unsigned char *held;     /* rad_ff_open_held: the records in memory (f is NULL); else NULL */
     uint32_t *tile_buffer;   /* sparse: one row's tile numbers */
     double *value_buffer;    /* sparse: one row's stored entries */
 };
@@ -580,6 +581,80 @@ static rad_status check_header(const char *path, const unsigned char *h, uint64_
     return RAD_OK;
 }
 
+/* The mesh from the tables as read (which start at byte
+ * RAD_FF_HEADER_BYTES), checked; ff's info, layout and mesh.positions /
+ * mesh.patches (allocated) set. */
+static rad_status decode_tables(const char *path, const unsigned char *tables, rad_ff_file *ff)
+{
+    const rad_ff_layout *l = &ff->layout;
+    ff->mesh.vertex_count = ff->info.vertex_count;
+    ff->mesh.patch_count = ff->info.patch_count;
+    rad_patch_table_decode(tables + (l->vertex_offset - RAD_FF_HEADER_BYTES),
+                           tables + (l->patch_offset - RAD_FF_HEADER_BYTES), &ff->mesh);
+    rad_status status = rad_patch_table_check(path, &ff->mesh);
+    if (status == RAD_OK) status = decode_groups(path, tables, l, &ff->mesh, ff->info.group_count);
+    return status;
+}
+
+rad_status rad_ff_open_held(const char *name, const rad_ff_info *info, const rad_mesh *mesh, uint64_t row_begin,
+                            uint64_t row_end, unsigned char *records, const uint64_t *record_bytes,
+                            const uint64_t *checksums, rad_ff_file **out_file)
+{
+    rad_status status = RAD_ERR_NOMEM;
+    unsigned char *prologue = NULL;
+    size_t prologue_size = 0;
+    rad_ff_file *ff = calloc(1, sizeof *ff);
+    *out_file = NULL;
+    if (!ff) {
+        free(records);
+        return RAD_ERR_NOMEM;
+    }
+    snprintf(ff->path, sizeof ff->path, "%s", name);
+    ff->held = records;
+    ff->info = *info;
+    ff->info.layout = RAD_FF_LAYOUT_SPARSE;
+    uint64_t n = ff->info.patch_count, held_bytes = 0;
+    if (row_begin > row_end || row_end > n) {
+        rad_error("internal: %s: rows %llu..%llu of %llu", name, (unsigned long long)row_begin,
+                  (unsigned long long)row_end, (unsigned long long)n);
+        status = RAD_ERR_INVALID;
+        goto done;
+    }
+    for (uint64_t r = row_begin; r < row_end; r++) held_bytes += record_bytes[r - row_begin];
+    if (!ff->info.matrix_bytes) ff->info.matrix_bytes = held_bytes; /* else all ranks' records, as a file's */
+    ff->layout = rad_ff_layout_of(&ff->info);
+    ff->index = malloc((2 * n + 1) * sizeof *ff->index);
+    ff->mesh.positions = malloc(ff->info.vertex_count * 24 + 1);
+    ff->mesh.patches = malloc((n ? n : 1) * sizeof(rad_patch));
+    ff->row_buffer = malloc(rad_ff_row_record_max(n, ff->info.element_type));
+    ff->tile_buffer = malloc(4 * tile_count_of(n) + 4);
+    ff->value_buffer = malloc(8 * n + 8);
+    if (!ff->index || !ff->mesh.positions || !ff->mesh.patches || !ff->row_buffer || !ff->tile_buffer ||
+        !ff->value_buffer) {
+        rad_error("%s: out of memory for N = %llu", name, (unsigned long long)n);
+        goto done;
+    }
+    ff->row_offsets = ff->index;
+    ff->row_checksums = ff->index + n + 1;
+    uint64_t at = 0;
+    for (uint64_t i = 0; i <= n; i++) {
+        ff->row_offsets[i] = at;
+        if (i >= row_begin && i < row_end) at += record_bytes[i - row_begin];
+    }
+    for (uint64_t i = 0; i < n; i++)
+        ff->row_checksums[i] = i >= row_begin && i < row_end ? checksums[i - row_begin] : 0;
+    /* The mesh as a reader of the file would see it. */
+    if ((status = rad_ff_prologue_encode(&ff->info, mesh, &prologue, &prologue_size)) != RAD_OK) goto done;
+    status = decode_tables(name, prologue + RAD_FF_HEADER_BYTES, ff);
+    if (status != RAD_OK) goto done;
+    *out_file = ff;
+    ff = NULL;
+done:
+    free(prologue);
+    rad_ff_close(ff);
+    return status;
+}
+
 rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
 {
     rad_status status = RAD_ERR_FORMAT;
@@ -648,12 +723,7 @@ rad_status rad_ff_open(const char *path, rad_ff_file **out_file)
             goto done;
         }
     }
-    ff->mesh.vertex_count = v;
-    ff->mesh.patch_count = n;
-    rad_patch_table_decode(tables + (l->vertex_offset - RAD_FF_HEADER_BYTES),
-                           tables + (l->patch_offset - RAD_FF_HEADER_BYTES), &ff->mesh);
-    if ((status = rad_patch_table_check(path, &ff->mesh)) != RAD_OK) goto done;
-    if ((status = decode_groups(path, tables, l, &ff->mesh, ff->info.group_count)) != RAD_OK) goto done;
+    if ((status = decode_tables(path, tables, ff)) != RAD_OK) goto done;
     *out_file = ff;
     ff = NULL;
     status = RAD_OK;
@@ -667,6 +737,7 @@ void rad_ff_close(rad_ff_file *file)
 {
     if (!file) return;
     if (file->f) fclose(file->f);
+    free(file->held);
     rad_mesh_free(&file->mesh);
     free(file->index);
     free(file->tile_buffer);
@@ -699,14 +770,16 @@ rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_
         return RAD_ERR_INVALID;
     }
     uint64_t start = file->row_offsets ? file->row_offsets[row_begin] : row_begin * l->row_bytes;
-    if (row_count && fseeko(file->f, (off_t)(l->matrix_offset + start), SEEK_SET) != 0) {
+    if (row_count && !file->held && fseeko(file->f, (off_t)(l->matrix_offset + start), SEEK_SET) != 0) {
         rad_error("%s: cannot seek: %s", file->path, strerror(errno));
         return RAD_ERR_IO;
     }
     for (uint64_t r = 0; r < row_count; r++) {
         uint64_t i = row_begin + r;
         uint64_t size = file->row_offsets ? file->row_offsets[i + 1] - file->row_offsets[i] : l->row_bytes;
-        if (fread(file->row_buffer, 1, size, file->f) != size) {
+        if (file->held)
+            memcpy(file->row_buffer, file->held + file->row_offsets[i], size);
+        else if (fread(file->row_buffer, 1, size, file->f) != size) {
             rad_error("%s: row %llu: read error", file->path, (unsigned long long)i);
             return RAD_ERR_IO;
         }
@@ -776,6 +849,10 @@ rad_status rad_ff_read_records(rad_ff_file *file, uint64_t row_begin, uint64_t r
         return RAD_ERR_INVALID;
     }
     uint64_t at = file->row_offsets[row_begin], size = file->row_offsets[row_begin + row_count] - at;
+    if (file->held) {
+        if (size) memcpy(buffer, file->held + at, size);
+        return RAD_OK;
+    }
     if (size && (fseeko(file->f, (off_t)(file->layout.matrix_offset + at), SEEK_SET) != 0 ||
                  fread(buffer, 1, size, file->f) != size)) {
         rad_error("%s: rows %llu..%llu: read error", file->path, (unsigned long long)row_begin,

@@ -21,6 +21,7 @@
 #include "ff_rows.h"
 #include "ff_hierarchical.h"
 #include "ff_setup.h"
+#include "ff_solve.h"
 #include "ff_stats.h"
 #include "ff_writer.h"
 #include "rad_ffile.h"
@@ -143,6 +144,8 @@ static rad_status setup(ff_run *run)
     double eps = ff_plane_eps(&run->mesh);
     int convex = run->opt.cull == FF_CULL_ALL && ff_scene_is_convex_enclosure(&run->scene, eps);
     if (st == RAD_OK) st = ff_partition_rows(run->patches, n, eps, ranks, run->row_begin);
+    /* --radiosity: the ranks' blocks are solve's too (ff_solve.h) */
+    if (st == RAD_OK && run->opt.radiosity_path) ff_solve_align_split(run->row_begin, ranks, n);
     run->want_errors = !run->opt.no_errors;
     plan_after_split(run, st); /* collective, so every rank plans, even one that failed above */
     run->stats.threads = ff_limits_threads(run->opt.threads, ff_comm_node_size(run->comm));
@@ -326,7 +329,7 @@ static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters
 static void stats_rows(const ff_plan *plan, ff_rank_stats *stats)
 {
     stats->row_count = plan->rank_rows;
-    if (plan->pairs_once) {
+    if (plan->pairs_once || plan->blocks) {
         stats->row_begin = plan->block_begin;
         stats->row_end = plan->block_end;
     } else {
@@ -374,7 +377,8 @@ static rad_status write_stats(ff_run *run)
                             .target_error = run->opt.target_error, .max_samples = run->opt.max_samples,
                             .errors = run->want_errors, .backend = run->backend->name,
                             .element = ff_element_name(run->opt.element), .format = ff_format_name(run->opt.format),
-                            .output = run->opt.output, .ranks = ranks, .gpus_visible = run->gpus,
+                            .output = run->opt.radiosity_path ? "(in memory: --radiosity)" : run->opt.output,
+                            .held = run->opt.radiosity_path != NULL, .ranks = ranks, .gpus_visible = run->gpus,
                             .refine_from = run->opt.refine_path, .refine_tol = run->opt.refine.tolerance,
                             .refine = &run->refinement.stats,
                             .refine_patches_before = run->refinement.patches_before};
@@ -404,6 +408,8 @@ static rad_status open_outputs(ff_run *run, ff_files *files)
     ff_output_options oo = {.threads = threads,
                             .write_threads = threads < FF_WRITER_MAX_THREADS ? threads : FF_WRITER_MAX_THREADS,
                             .write_method = run->opt.write_method};
+    if (run->opt.radiosity_path) /* solved in memory: no file (ff_solve.h) */
+        return ff_output_open_held(run->comm, &info, &run->mesh, &oo, &files->matrix);
     rad_status st = ff_output_open(run->comm, run->opt.output, run->opt.format, &info, &run->mesh, &oo,
                                    &files->matrix);
     if (st == RAD_OK && run->opt.errors_path) {
@@ -429,10 +435,11 @@ static void add_written(ff_rank_stats *stats, const ff_output *output)
 /* Collective: both files are written and closed before either is renamed;
  * the errors file is renamed first, so a failure there leaves the old
  * matrix in place too. (Both destinations were checked up front.) */
-static rad_status commit_outputs(ff_run *run, const ff_files *files, rad_status st)
+static rad_status commit_outputs(ff_run *run, const ff_files *files, rad_status st, rad_ff_file **held)
 {
     if (files->matrix) st = ff_output_close(files->matrix, st);
     if (files->errors) st = ff_output_close(files->errors, st);
+    if (held && files->matrix && st == RAD_OK) st = ff_output_take_held(files->matrix, FF_SOLVE_NAME, held);
     if (files->matrix) add_written(&run->stats, files->matrix);
     if (files->errors) add_written(&run->stats, files->errors);
     if (files->errors) st = ff_output_commit(files->errors, st);
@@ -479,6 +486,7 @@ static rad_status run_formfactor(ff_run *run)
     if (st != RAD_OK) return st;
 
     ff_files files = {0};
+    rad_ff_file *held = NULL; /* --radiosity: this rank's rows, in memory */
     double t0 = rad_clock_seconds();
     st = open_outputs(run, &files);
     run->stats.io += rad_clock_seconds() - t0;
@@ -486,13 +494,21 @@ static rad_status run_formfactor(ff_run *run)
     if (st == RAD_OK) st = compute_and_write(run, &files);
     ff_progress_finish(&run->progress);
     t0 = rad_clock_seconds();
-    st = commit_outputs(run, &files, st);
+    st = commit_outputs(run, &files, st, run->opt.radiosity_path ? &held : NULL);
     run->stats.io += rad_clock_seconds() - t0;
     run->stats.total = rad_clock_seconds() - run->start;
-    if (st != RAD_OK) return st;
-    if (rank == 0) rad_info("wrote %s%s%s", run->opt.output, run->opt.errors_path ? " and " : "",
-                            run->opt.errors_path ? run->opt.errors_path : "");
-    return write_stats(run);
+    if (st == RAD_OK && !held && rank == 0)
+        rad_info("wrote %s%s%s", run->opt.output, run->opt.errors_path ? " and " : "",
+                 run->opt.errors_path ? run->opt.errors_path : "");
+    if (st == RAD_OK) st = write_stats(run);
+    if (st == RAD_OK && held) {
+        /* The GPU's memory back before solve's upload; then the solve. */
+        run->backend->destroy(run->backend_state);
+        run->backend_state = NULL;
+        st = ff_solve_held(run->comm, held, run->row_begin, &run->opt);
+    }
+    rad_ff_close(held);
+    return st;
 }
 
 static void run_free(ff_run *run)

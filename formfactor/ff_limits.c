@@ -42,6 +42,7 @@ rad_status ff_limits_check(const ff_options *o, uint64_t n, int ranks, int node_
         snprintf(dir, sizeof dir, ".");
     struct statvfs fs; /* no answer: opening the output fails later and says why */
     double free_bytes = statvfs(dir, &fs) == 0 ? (double)fs.f_bavail * (double)fs.f_frsize : INFINITY;
+    if (o->radiosity_path) free_bytes = INFINITY; /* the matrix stays in memory (--radiosity) */
     double per_rank = ff_limits_memory_per_rank(node_ranks);
     ff_plan_limits limits = {.patch_count = n, .ranks = ranks, .rank = 0,
                              .memory_per_rank = per_rank, .free_bytes = free_bytes,

@@ -22,7 +22,8 @@
 static rad_status read_scene_file(const char *path, char **out_data, size_t *out_size, void *user)
 {
     const ff_options *o = user;
-    rad_fs_role roles[] = {{"the scene's file", path, 0}, {"-o", o->output, 1}, {"--stats", o->stats_path, 1},
+    rad_fs_role roles[] = {{"the scene's file", path, 0}, {"-o", o->radiosity_path ? NULL : o->output, 1},
+                           {"--radiosity", o->radiosity_path, 1}, {"--stats", o->stats_path, 1},
                            {"--errors", o->errors_path, 1}};
     *out_data = NULL;
     if (rad_fs_check_roles(roles, sizeof roles / sizeof roles[0]) != RAD_OK) return RAD_ERR_USAGE;

@@ -22,6 +22,12 @@ const char ff_options_help[] =
     "built-in Cornell box) and writes the N x N matrix with the patch table.\n"
     "\n"
     "  -o, --output FILE        output file (default: formfactors)\n"
+    "      --radiosity FILE     solve in memory and write the radiosity FILE (render's\n"
+    "                           input) instead of the matrix: scene to radiosity without\n"
+    "                           writing and reading the N x N file; the same bytes as\n"
+    "                           formfactor, then solve with its defaults (one GPU per rank\n"
+    "                           under --backend cuda|auto; sparse format; not with -o,\n"
+    "                           --errors or --method hierarchical)\n"
     "      --subdiv S           split every face into 4^S patches (default: 0; not with\n"
     "                           --refine, whose mesh comes from RADIOSITY); hierarchical:\n"
     "                           the finest level elements reach (default: 5)\n"
@@ -265,7 +271,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
            O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT, O_KE,
-           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES };
+           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES, O_RADIOSITY };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -289,7 +295,8 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"preset", required_argument, 0, O_PRESET}, {"method", required_argument, 0, O_METHOD},
         {"link-tol", required_argument, 0, O_LINK_TOL}, {"oracle", required_argument, 0, O_ORACLE},
         {"min-area", required_argument, 0, O_MIN_AREA}, {"passes", required_argument, 0, O_PASSES},
-        {"uniform-leaves", no_argument, 0, O_UNIFORM_LEAVES}, {0, 0, 0, 0}};
+        {"uniform-leaves", no_argument, 0, O_UNIFORM_LEAVES}, {"radiosity", required_argument, 0, O_RADIOSITY},
+        {0, 0, 0, 0}};
     int rays_given = 0, rtol_given = 0;
     uint64_t v = 0;
     int named = 0; /* an option's value read through a name table */
@@ -298,7 +305,8 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
     opterr = 0;
     while (st == RAD_OK && (c = getopt_long(argc, argv, "o:qh", longs, NULL)) != -1) {
         switch (c) {
-        case 'o': o->output = optarg; break;
+        case 'o': o->output = optarg, o->output_given = 1; break;
+        case O_RADIOSITY: o->radiosity_path = optarg; break;
         case 'q': o->quiet = 1; break;
         case 'h': o->help = 1; break;
         case O_VERSION: o->version = 1; break;
@@ -488,7 +496,19 @@ static rad_status check_options(ff_options *o)
             return RAD_ERR_USAGE;
         }
     }
-    rad_fs_role roles[] = {{"the scene", o->scene_path, 0}, {"-o", o->output, 1}, {"--stats", o->stats_path, 1},
+    if (o->radiosity_path) {
+        const char *bad = o->output_given ? "-o" : o->errors_path ? "--errors"
+                        : o->format != FF_FORMAT_SPARSE ? "--format dense|paper"
+                        : o->method == FF_METHOD_HIERARCHICAL ? "--method hierarchical" : NULL;
+        if (bad) {
+            rad_error("--radiosity %s: the matrix is solved in memory and not written, so %s does not apply (a "
+                      "hierarchical run's links: write them, then solve)",
+                      o->radiosity_path, bad);
+            return RAD_ERR_USAGE;
+        }
+    }
+    rad_fs_role roles[] = {{"the scene", o->scene_path, 0}, {"-o", o->radiosity_path ? NULL : o->output, 1},
+                           {"--stats", o->stats_path, 1}, {"--radiosity", o->radiosity_path, 1},
                            {"--errors", o->errors_path, 1}, {"--refine", o->refine_path, 0},
                            {"--reuse", o->reuse_path, 0}};
     for (size_t k = 1; k < sizeof roles / sizeof roles[0]; k++)

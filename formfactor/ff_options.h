@@ -61,6 +61,9 @@ const char *ff_method_name(ff_method method);          /* "full", "hierarchical"
 typedef struct ff_options {
     const char *scene_path;  /* NULL = built-in Cornell box */
     const char *output;      /* "formfactors" */
+    int output_given;        /* -o was on the command line */
+    const char *radiosity_path; /* --radiosity FILE: solve in memory and write the radiosity, not the matrix
+                                   (scene to radiosity without the round trip; NULL = write the matrix) */
     const char *stats_path;  /* NULL = none */
     const char *errors_path; /* --errors: standard errors of F as a second file; NULL = none */
     int no_errors;           /* --no-errors: skip them (GPU: about N % less kernel time) */

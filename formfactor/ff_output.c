@@ -38,6 +38,11 @@ struct ff_output {
     uint64_t convert_bytes[2]; /* their sizes: grown to the largest write seen */
     int turn;                  /* the buffer the next ff_output_write_rows fills */
     ff_output_write_stats written; /* this rank's writes, once closed */
+    /* ff_output_open_held: this rank's records kept here, no file (writer NULL) */
+    int held;
+    unsigned char *held_bytes;
+    uint64_t held_size, held_cap;
+    const rad_mesh *mesh;
 };
 
 /* Bytes one row can take as stored: the dense row, or the largest sparse record; at least 1. */
@@ -128,9 +133,108 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
     return RAD_OK;
 }
 
+rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, const rad_mesh *mesh,
+                               const ff_output_options *options, ff_output **out_output)
+{
+    ff_output *o = calloc(1, sizeof *o);
+    if (o) {
+        o->comm = comm;
+        o->format = FF_FORMAT_SPARSE;
+        o->threads = options && options->threads > 0 ? options->threads : 1;
+        o->info = *info;
+        o->info.layout = RAD_FF_LAYOUT_SPARSE;
+        o->info.matrix_bytes = 0;
+        o->layout = rad_ff_layout_of(&o->info);
+        o->record_max = record_max_of(info->patch_count, FF_FORMAT_SPARSE, (rad_element_type)info->element_type);
+        o->held = 1;
+        o->mesh = mesh;
+        snprintf(o->path, sizeof o->path, "(in memory)");
+        for (int k = 0; k < 2; k++) {
+            o->convert[k] = malloc(RAD_FF_ALIGN);
+            o->convert_bytes[k] = RAD_FF_ALIGN;
+        }
+    }
+    rad_status status = o && o->convert[0] && o->convert[1] ? RAD_OK : RAD_ERR_NOMEM;
+    if (status != RAD_OK) rad_error("out of memory for the form factors held in memory");
+    status = ff_comm_agree(comm, status);
+    if (status != RAD_OK) {
+        if (o) {
+            free(o->convert[0]);
+            free(o->convert[1]);
+        }
+        free(o);
+        return status;
+    }
+    *out_output = o;
+    return RAD_OK;
+}
+
+/* A held output: `bytes` more records appended to this rank's, copied on
+ * the output's threads (the pages are touched for the first time here). */
+static rad_status hold(ff_output *o, const void *data, uint64_t bytes)
+{
+    if (o->held_size + bytes > o->held_cap) {
+        uint64_t cap = o->held_cap ? o->held_cap : (uint64_t)1 << 24;
+        while (cap < o->held_size + bytes) cap += cap / 2;
+        unsigned char *grown = realloc(o->held_bytes, (size_t)cap);
+        if (!grown) {
+            rad_error("out of memory holding %.2f GiB of form factors in memory (formfactor --radiosity); without "
+                      "it the matrix goes to a file",
+                      (double)(o->held_size + bytes) / 1073741824.0);
+            return RAD_ERR_NOMEM;
+        }
+        o->held_bytes = grown;
+        o->held_cap = cap;
+    }
+    const uint64_t chunk = (uint64_t)1 << 22;
+    int64_t chunks = (int64_t)((bytes + chunk - 1) / chunk);
+    unsigned char *dst = o->held_bytes + o->held_size;
+    const unsigned char *src = data;
+#pragma omp parallel for num_threads(o->threads) schedule(static)
+    for (int64_t k = 0; k < chunks; k++) {
+        uint64_t at = (uint64_t)k * chunk, size = bytes - at < chunk ? bytes - at : chunk;
+        memcpy(dst + at, src + at, (size_t)size);
+    }
+    o->held_size += bytes;
+    return RAD_OK;
+}
+
+rad_status ff_output_take_held(ff_output *o, const char *name, rad_ff_file **out_file)
+{
+    *out_file = NULL;
+    rad_status status = RAD_OK;
+    uint64_t count = o->checksum_count, total = 0;
+    for (uint64_t k = 1; k < count && status == RAD_OK; k++)
+        if (o->row_numbers[k] != o->row_numbers[0] + k) {
+            rad_error("internal: the rows held in memory are not one block (row %llu after %llu)",
+                      (unsigned long long)o->row_numbers[k], (unsigned long long)o->row_numbers[k - 1]);
+            status = RAD_ERR_INVALID;
+        }
+    ff_comm_exscan_u64(o->comm, o->held_size, &total); /* every rank's records: what a file's header says */
+    o->info.matrix_bytes = total;
+    uint64_t *sizes = malloc((count ? count : 1) * sizeof *sizes);
+    if (status == RAD_OK && !sizes) {
+        rad_error("out of memory for %llu rows", (unsigned long long)count);
+        status = RAD_ERR_NOMEM;
+    }
+    if (status == RAD_OK) {
+        for (uint64_t k = 0; k < count; k++)
+            sizes[k] = (k + 1 < count ? o->row_offsets[k + 1] : o->held_size) - o->row_offsets[k];
+        uint64_t first = count ? o->row_numbers[0] : 0;
+        unsigned char *records = o->held_bytes ? o->held_bytes : malloc(1);
+        o->held_bytes = NULL;
+        o->held_size = o->held_cap = 0;
+        status = records ? rad_ff_open_held(name, &o->info, o->mesh, first, first + count, records, sizes,
+                                            o->row_checksums, out_file)
+                         : RAD_ERR_NOMEM;
+    }
+    free(sizes);
+    return ff_comm_agree(o->comm, status);
+}
+
 rad_status ff_output_reserve(ff_output *o, uint32_t row_count, const double *rows)
 {
-    if (o->format != FF_FORMAT_SPARSE) return RAD_OK;
+    if (o->format != FF_FORMAT_SPARSE || o->held) return RAD_OK;
     uint64_t n = o->info.patch_count, bytes = 0, total = 0;
 #pragma omp parallel for num_threads(o->threads) schedule(dynamic, 16) reduction(+ : bytes)
     for (uint32_t r = 0; r < row_count; r++) bytes += rad_ff_row_encode(rows + (uint64_t)r * n, n, o->info.element_type, NULL);
@@ -261,6 +365,11 @@ rad_status ff_output_write_records(ff_output *o, uint32_t row_begin, uint32_t ro
 static rad_status place_and_write(ff_output *o, uint32_t row_begin, uint64_t first, uint64_t bytes, const void *data,
                                   rad_status status)
 {
+    if (o->held) { /* this rank's records, after its last: no file, nothing shared */
+        for (uint64_t k = first; k < o->checksum_count; k++) o->row_offsets[k] += o->held_size;
+        rad_status kept = status == RAD_OK && bytes ? hold(o, data, bytes) : RAD_OK;
+        return status != RAD_OK ? status : kept;
+    }
     uint64_t rb = o->layout.row_bytes;
     uint64_t matrix = o->format == FF_FORMAT_PAPER ? 4 : o->layout.matrix_offset;
     uint64_t offset = matrix + (uint64_t)row_begin * rb;
@@ -315,6 +424,7 @@ static void gather_by_row(ff_output *o, const uint64_t *values, const uint64_t *
 
 rad_status ff_output_close(ff_output *o, rad_status status)
 {
+    if (o->held) return ff_comm_agree(o->comm, status);
     int root = ff_comm_rank(o->comm) == 0;
     uint64_t n = o->info.patch_count, *all = NULL, *numbers = NULL, *gathered = NULL;
     rad_status waited = ff_writer_wait(o->writer); /* this rank's last write */
@@ -370,14 +480,15 @@ ff_output_write_stats ff_output_written(const ff_output *o) { return o->written;
 rad_status ff_output_commit(ff_output *o, rad_status status)
 {
     status = ff_comm_agree(o->comm, status);
-    if (ff_comm_rank(o->comm) == 0) {
+    if (ff_comm_rank(o->comm) == 0 && !o->held) {
         if (status == RAD_OK)
             status = rad_fs_commit(o->temp, o->path);
         else
             rad_fs_discard(o->temp);
     }
     status = ff_comm_agree(o->comm, status);
-    if (ff_comm_rank(o->comm) != 0) rad_fs_unguard(o->temp);
+    if (ff_comm_rank(o->comm) != 0 && !o->held) rad_fs_unguard(o->temp);
+    free(o->held_bytes);
     free(o->prologue);
     free(o->convert[0]);
     free(o->convert[1]);

@@ -79,6 +79,7 @@ typedef struct ff_plan_choices {
     ff_backend_choice backend;
     double max_bytes;          /* --max-bytes: refuse larger outputs; 0 = no limit */
     int allow_disk_overcommit; /* --allow-disk-overcommit: no FF_PLAN_DISK for a sparse file */
+    int held;                  /* --radiosity: the matrix is held in memory and solved there (blocks) */
 } ff_plan_choices;
 
 /* A sparse file whose bound (file_bytes) is more than this many times the
@@ -146,6 +147,10 @@ typedef struct ff_plan {
      *     (the bytes do not depend on R: the records lie in row order). */
     uint32_t rows_per_round;
     uint64_t rounds;
+    /* Streamed, but each rank's rows one block, the split's, rows_per_round
+     * at a time (as pairs_once): a matrix held in memory (choices.held),
+     * which the solve takes as the ranks' contiguous row blocks. */
+    int blocks;
     uint32_t block_begin, block_end; /* pairs_once: this rank's block of the split (an even share before it) */
     uint32_t rank_rows;              /* rows this rank computes in all */
     uint32_t most_rows;              /* ... and the busiest rank */

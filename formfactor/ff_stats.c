@@ -254,8 +254,11 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
     rad_info("time (s, slowest rank): load %.3f  subdivide %.3f  setup %.3f  form factors %.3f  visibility %.3f  "
              "GPU memory %.3f  I/O %.3f  total %.3f",
              all.load, all.subdivide, all.setup, all.form_factors, all.visibility, all.gpu_memory, all.io, all.total);
-    rad_info("written: %.3f GB by %d rank(s) (%s), in flight %.3f s on the slowest rank", all.write_bytes * 1e-9,
-             run->ranks, ranks[0].write_mapped ? "mapped" : "pwrite", all.write);
+    if (run->held)
+        rad_info("the matrix held in memory for the solve (--radiosity): no file written");
+    else
+        rad_info("written: %.3f GB by %d rank(s) (%s), in flight %.3f s on the slowest rank", all.write_bytes * 1e-9,
+                 run->ranks, ranks[0].write_mapped ? "mapped" : "pwrite", all.write);
     rad_info("row sums: min %.6f  max %.6f  mean %.6f", all.rows.row_sum_min, all.rows.row_sum_max,
              run->patch_count ? all.rows.row_sum_total / run->patch_count : 0.0);
     if (run->patch_count > 1 && !(all.rows.row_sum_max > 0))

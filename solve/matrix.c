@@ -283,7 +283,7 @@ rad_status solve_matrix_load(rad_ff_file *file, const char *path, size_t row_beg
     m.patch_count = n;
     m.reciprocity_bound = solve_reciprocity_bound(info);
     m.row_begin = row_begin < n ? row_begin : n;
-    m.row_end = row_end && row_end <= n ? row_end : n;
+    m.row_end = row_end <= n ? row_end : n;
     if (m.row_begin > m.row_end) m.row_begin = m.row_end;
     m.area = malloc(n * sizeof(double));
     m.row_sum = malloc(n * sizeof(double));

@@ -101,7 +101,8 @@ double solve_reciprocity_bound(const rad_ff_info *info);
 void solve_matrix_split_rows(const rad_ff_file *file, size_t parts, size_t *row_begin);
 
 /* Reads rows [row_begin, row_end) of `file` (opened from `path`, used in
- * messages; row_end 0: to the last), and nothing else of the matrix: a
+ * messages; row_end SIZE_MAX: to the last; an empty block, [0, 0)
+ * included, reads none), and nothing else of the matrix: a
  * dense file into form_factors, a sparse one (version 3) as its tiles.
  * *out_matrix is set only on success; free with solve_matrix_free. */
 rad_status solve_matrix_load(rad_ff_file *file, const char *path, size_t row_begin, size_t row_end,

@@ -85,7 +85,7 @@ typedef struct stage_state {
     /* the solve step's */
     rad_status solved;                  /* RAD_OK, or RAD_ERR_NOT_CONVERGED: written all the same */
     /* owned */
-    rad_ff_file *file;
+    rad_ff_file *file;                  /* options->matrix (borrowed) or opened here */
     solve_matrix matrix;
     solve_gpu *gpu;                     /* the matrix on the GPU (--backend cuda), or NULL */
     size_t *row_split;                  /* ranks + 1: each rank's first row */
@@ -98,7 +98,7 @@ typedef struct stage_state {
 static void stage_state_free(stage_state *s)
 {
     solve_gpu_destroy(s->gpu);
-    rad_ff_close(s->file);
+    if (s->file != s->options->matrix) rad_ff_close(s->file);
     solve_matrix_free(&s->matrix);
     free(s->row_split);
     free(s->rank_counts);
@@ -244,12 +244,15 @@ static void stage_speak(solve_comm *comm, rad_log_level asked, stage_voice voice
 
 /* The GPU backend's reductions add chunks of solve_gpu_row_quantum rows:
  * each rank's first row at the nearest chunk boundary (the cost balance
- * moves by less than a chunk), so that every chunk lies on one rank. */
-static void align_split(size_t *row_split, size_t ranks, size_t n)
+ * moves by less than a chunk), so that every chunk lies on one rank.
+ * Rank 0 keeps at least one chunk: a system's rows [0, 0) would read as
+ * all of them (solver.h), so only the last ranks may be left empty. */
+void solve_stage_align_split(size_t *row_split, size_t ranks, size_t n)
 {
     const size_t q = solve_gpu_row_quantum(n);
     for (size_t r = 1; r < ranks; r++) {
         size_t at = (row_split[r] + q / 2) / q * q;
+        if (r == 1 && at == 0) at = q;
         if (at > n) at = n;
         if (at < row_split[r - 1]) at = row_split[r - 1];
         row_split[r] = at;
@@ -268,8 +271,12 @@ static rad_status load_rows(stage_state *s, solve_comm *comm, const solve_option
     if (status != RAD_OK) rad_error("%s: out of memory for the row split of %zu ranks", input, ranks);
     status = solve_comm_agree(comm, status);
     if (status != RAD_OK) return status;
-    solve_matrix_split_rows(s->file, ranks, s->row_split);
-    if (ranks > 1 && s->backend == SOLVE_BACKEND_CUDA) align_split(s->row_split, ranks, s->mesh_n);
+    if (options->row_split) { /* the rows the caller's matrix holds on each rank */
+        memcpy(s->row_split, options->row_split, (ranks + 1) * sizeof *s->row_split);
+    } else {
+        solve_matrix_split_rows(s->file, ranks, s->row_split);
+        if (ranks > 1 && s->backend == SOLVE_BACKEND_CUDA) solve_stage_align_split(s->row_split, ranks, s->mesh_n);
+    }
     status = solve_comm_set_rows(comm, s->row_split);
     if (status != RAD_OK) return status;
     stage_speak(comm, asked, STAGE_OWN_ROWS);
@@ -308,7 +315,11 @@ static rad_status load_rows(stage_state *s, solve_comm *comm, const solve_option
 static rad_status stage_open(stage_state *s)
 {
     const solve_options *options = s->options;
-    rad_status status = solve_comm_agree(s->comm, rad_ff_open(s->input, &s->file));
+    rad_status status = RAD_OK;
+    if (options->matrix)
+        s->file = options->matrix;
+    else
+        status = solve_comm_agree(s->comm, rad_ff_open(s->input, &s->file));
     if (status != RAD_OK) return status;
     /* Hierarchical radiosity's links (issue 26): links.c takes the file from here. */
     if (file_holds_links(rad_ff_file_info(s->file))) return RAD_OK;

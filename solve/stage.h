@@ -58,7 +58,22 @@ typedef struct solve_options {
     solve_params params; /* zero = defaults (solver.h) */
     solve_comm *comm;    /* the ranks of `mpirun -n K solve` (comm.h); NULL = this process alone.
                             Every rank calls solve_stage_run with the same options */
+    /* A matrix already open instead of `input` (which then only names it in
+     * messages): formfactor --radiosity hands over the rows it holds in
+     * memory (rad_ff_open_held). Borrowed: the caller closes it. NULL =
+     * open `input`. */
+    rad_ff_file *matrix;
+    /* With `matrix` under several ranks: ranks + 1 entries, each rank's
+     * first row - the rows `matrix` holds on each rank - aligned by
+     * solve_stage_align_split. NULL: the stage splits the rows itself. */
+    const size_t *row_split;
 } solve_options;
+
+/* A row split (ranks + 1 entries, row_split[ranks] = n) moved to the
+ * chunks the GPU backend's reductions add (solve_gpu_row_quantum), so that
+ * the results are the same bits for any number of ranks; the stage splits
+ * so, and a caller that gives row_split must too. */
+void solve_stage_align_split(size_t *row_split, size_t ranks, size_t n);
 
 rad_status solve_stage_run(const solve_options *options);
 

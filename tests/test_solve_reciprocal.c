@@ -8,6 +8,7 @@
  * And the check trusts the flag: a non-reciprocal matrix given a bound
  * passes, the same matrix without one is refused (so the bound path is the
  * one taken). */
+#include <stdint.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -25,7 +26,7 @@ static void bound_holds(const char *path)
     const rad_ff_info *info = rad_ff_file_info(file);
     RAD_CHECK(info->flags & RAD_FF_FLAG_RECIPROCAL);
     solve_matrix m;
-    RAD_CHECK(solve_matrix_load(file, path, 0, 0, &m) == RAD_OK);
+    RAD_CHECK(solve_matrix_load(file, path, 0, SIZE_MAX, &m) == RAD_OK);
     const size_t n = m.patch_count;
     double *rho = malloc(n * sizeof *rho), *work = malloc(n * sizeof *work);
     for (size_t i = 0; i < n; i++) rho[i] = 0.5;
