@@ -505,7 +505,7 @@ static rad_status run_formfactor(ff_run *run)
         /* The GPU's memory back before solve's upload; then the solve. */
         run->backend->destroy(run->backend_state);
         run->backend_state = NULL;
-        st = ff_solve_held(run->comm, held, run->row_begin, &run->opt);
+        st = ff_solve_held(run->comm, held, run->row_begin, &run->opt, run->stats.threads);
     }
     rad_ff_close(held);
     return st;

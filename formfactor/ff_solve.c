@@ -27,7 +27,8 @@ static solve_backend solve_backend_of(ff_backend_choice backend)
     }
 }
 
-rad_status ff_solve_held(ff_comm *comm, rad_ff_file *held, const uint32_t *row_begin, const ff_options *options)
+rad_status ff_solve_held(ff_comm *comm, rad_ff_file *held, const uint32_t *row_begin, const ff_options *options,
+                         int threads)
 {
     int ranks = ff_comm_size(comm);
     size_t *split = malloc(((size_t)ranks + 1) * sizeof *split);
@@ -42,7 +43,8 @@ rad_status ff_solve_held(ff_comm *comm, rad_ff_file *held, const uint32_t *row_b
                             .backend = solve_backend_of(options->backend),
                             .comm = sc,
                             .matrix = held,
-                            .row_split = ranks > 1 ? split : NULL};
+                            .row_split = ranks > 1 ? split : NULL,
+                            .threads = threads};
         status = solve_stage_run(&so);
     }
     solve_comm_finalize(sc);

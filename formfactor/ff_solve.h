@@ -30,8 +30,10 @@ void ff_solve_align_split(uint32_t *row_begin, int ranks, uint32_t n);
 
 /* Collective: solves the held matrix (rank r holds rows [row_begin[r],
  * row_begin[r + 1])) with solve's defaults and writes options->radiosity_path;
- * the backend follows --backend (cpu, cuda, or auto as solve's). `held`
- * stays the caller's. */
-rad_status ff_solve_held(ff_comm *comm, rad_ff_file *held, const uint32_t *row_begin, const ff_options *options);
+ * the backend follows --backend (cpu, cuda, or auto as solve's), on
+ * `threads` OpenMP threads per rank (formfactor's). `held` stays the
+ * caller's. */
+rad_status ff_solve_held(ff_comm *comm, rad_ff_file *held, const uint32_t *row_begin, const ff_options *options,
+                         int threads);
 
 #endif

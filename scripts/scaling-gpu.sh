@@ -20,6 +20,7 @@
 #   TESTS=1          build everything and run ctest -L gpu and the MPI tests first
 #   BACKEND=cuda     (cpu: a dry run of the script on a machine without GPUs)
 #   BUILD=1          0: use the build in BUILD_DIR as it is
+#   MEM=1            also time scene to radiosity in memory (formfactor --radiosity) at each P
 #   SOLVE_RANKS="2 4"  also time mpirun -n K solve --backend cpu at the smallest strong N
 #   DD_MIB=4096      bytes each bandwidth measurement writes
 #   RUN_TIMEOUT=120  seconds one run may take
@@ -148,6 +149,19 @@ for s in ${STRONG-5 6}; do
     [ "$rs" = NO ] && "$build/tests/radiosity_agree" "$ref" "$rref" "$shm/rad$s.p$p" > /dev/null 2>&1 && rs="no, agree"
     record solve "solve$s.p$p" "$n" "$p" shm "$sb" "$swall" 0 "solve$s.p$p.json" "$rs"
     echo "P=$p: formfactor $ffwall s (bytes vs 1 GPU: $sm), solve $swall s (radiosity vs 1 GPU: $rs)"
+    if [ "${MEM:-1}" = 1 ]; then
+      # scene to radiosity without the file: formfactor --radiosity (the log keeps the solve's lines)
+      st=$(now)
+      timeout "$limit" mpirun -n "$p" --bind-to none "$ff" $scene --subdiv $s --element f32 --backend "$backend" \
+        --radiosity "$shm/mem$s.p$p" --stats "$out/mem$s.p$p.json" > "$out/mem$s.p$p.log" 2>&1 ||
+        echo "FAILED: --radiosity $s $p: $(tail -3 "$out/mem$s.p$p.log")"
+      mwall=$(since "$st")
+      ms=$(same "$shm/mem$s.p$p" "$rref")
+      [ "$ms" = NO ] && "$build/tests/radiosity_agree" "$ref" "$rref" "$shm/mem$s.p$p" > /dev/null 2>&1 && ms="no, agree"
+      record mem "mem$s.p$p" "$n" "$p" shm "$backend" "$mwall" 0 "mem$s.p$p.json" "$ms"
+      echo "P=$p: formfactor --radiosity $mwall s (radiosity vs the two stages on 1 GPU: $ms)"
+      rm -f "$shm/mem$s.p$p"
+    fi
     [ $p = 1 ] || rm -f "$shm/ff$s.p$p"
   done
   # pwrite instead of a mapping, at the most GPUs: the same bytes, and what the mapping buys
@@ -290,6 +304,23 @@ if sv:
         sw = [float(r[6]) for r in rs]
         print("| %d | %s | %s s | %s s | %s s | %s | %s s | %s | %s |" % (n, " / ".join(r[1].rsplit("p", 1)[1] for r in rs),
               fmt(sw), fmt(loads), fmt(ups), fmt([sw[0] / w for w in sw]), fmt(e2e), fmt([e2e[0] / e for e in e2e]),
+              " / ".join(r[9] for r in rs)))
+mm = [r for r in rows if r[0] == "mem"]
+if mm:
+    print()
+    print("## Scene → radiosity without the file (`mpirun -n P formfactor --radiosity`, one GPU per rank)")
+    print()
+    print("| N | GPUs | wall | speed-up | the two stages through /dev/shm | in memory vs two stages | radiosity, same bytes as the two stages on one GPU |")
+    print("|---|---|---|---|---|---|---|")
+    for n in ns:
+        rs = sorted((r for r in mm if int(r[2]) == n), key=lambda r: int(r[3]))
+        if not rs: continue
+        fr = {r[3]: float(r[6]) for r in ffs if int(r[2]) == n}
+        so = {r[1].rsplit("p", 1)[1]: float(r[6]) for r in sv if int(r[2]) == n}
+        two = [fr.get(r[3], float("nan")) + so.get(r[3], float("nan")) for r in rs]
+        mw = [float(r[6]) for r in rs]
+        print("| %d | %s | %s s | %s | %s s | %s | %s |" % (n, " / ".join(r[3] for r in rs), fmt(mw),
+              fmt([mw[0] / w for w in mw]), fmt(two), fmt([t2 / w for t2, w in zip(two, mw)]),
               " / ".join(r[9] for r in rs)))
 sc = [r for r in rows if r[0] == "solvecpu"]
 if sc:

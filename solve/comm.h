@@ -36,6 +36,8 @@ void solve_comm_finalize(solve_comm *comm); /* NULL is fine */
 
 int solve_comm_rank(const solve_comm *comm); /* 0 for NULL */
 int solve_comm_size(const solve_comm *comm); /* 1 for NULL */
+/* Ranks on this process's node (sharing its memory and cores); 1 alone. */
+int solve_comm_node_size(const solve_comm *comm);
 
 /* Collective: the worst (largest) status over all ranks. */
 rad_status solve_comm_agree(solve_comm *comm, rad_status local);

@@ -52,6 +52,19 @@ void solve_comm_finalize(solve_comm *comm)
 int solve_comm_rank(const solve_comm *comm) { return comm ? comm->mpi.rank : 0; }
 int solve_comm_size(const solve_comm *comm) { return comm ? comm->mpi.size : 1; }
 
+int solve_comm_node_size(const solve_comm *comm)
+{
+    if (alone(comm)) return 1;
+    MPI_Comm node;
+    int size = 1;
+    if (MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, comm->mpi.rank, MPI_INFO_NULL, &node) !=
+        MPI_SUCCESS)
+        return 1;
+    MPI_Comm_size(node, &size);
+    MPI_Comm_free(&node);
+    return size;
+}
+
 rad_status solve_comm_agree(solve_comm *comm, rad_status local)
 {
     if (alone(comm)) return local;

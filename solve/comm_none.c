@@ -20,6 +20,7 @@ rad_status solve_comm_init(int *argc, char ***argv, solve_comm **out_comm)
 void solve_comm_finalize(solve_comm *comm) { free(comm); }
 int solve_comm_rank(const solve_comm *comm) { return 0; }
 int solve_comm_size(const solve_comm *comm) { return 1; }
+int solve_comm_node_size(const solve_comm *comm) { return 1; }
 rad_status solve_comm_agree(solve_comm *comm, rad_status local) { return local; }
 void solve_comm_sum(solve_comm *comm, double *values, size_t count) {}
 double solve_comm_max(solve_comm *comm, double value) { return value; }

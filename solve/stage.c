@@ -17,6 +17,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "groups.h"
 #include "links.h"
@@ -555,6 +558,9 @@ rad_status solve_stage_run(const solve_options *options)
     s.asked = rad_log_get_level();
     s.t0 = rad_clock_seconds();
     s.backend = SOLVE_BACKEND_CPU;
+#ifdef _OPENMP
+    if (options->threads > 0) omp_set_num_threads(options->threads);
+#endif
     stage_speak(s.comm, s.asked, STAGE_ALIKE);
     rad_status status = stage_open(&s);
     if (status == RAD_OK && file_holds_links(rad_ff_file_info(s.file))) {

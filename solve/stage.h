@@ -67,6 +67,7 @@ typedef struct solve_options {
      * first row - the rows `matrix` holds on each rank - aligned by
      * solve_stage_align_split. NULL: the stage splits the rows itself. */
     const size_t *row_split;
+    int threads; /* OpenMP threads of this rank; 0 = OpenMP's own default (OMP_NUM_THREADS, else every core) */
 } solve_options;
 
 /* A row split (ranks + 1 entries, row_split[ranks] = n) moved to the
