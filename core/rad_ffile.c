@@ -7,6 +7,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "rad_bytes.h"
 #include "rad_fs.h"
@@ -839,6 +840,37 @@ uint64_t rad_ff_record_offset(const rad_ff_file *file, uint64_t row)
     return file->row_offsets && row <= file->info.patch_count ? file->row_offsets[row] : 0;
 }
 
+const unsigned char *rad_ff_held_records(const rad_ff_file *file, uint64_t row_begin)
+{
+    if (!file->held || !file->row_offsets || row_begin > file->info.patch_count) return NULL;
+    return file->held + file->row_offsets[row_begin];
+}
+
+/* `size` bytes at `offset` of the file into `buffer`, in chunks read by
+ * several threads at once (pread: no shared file position): a matrix
+ * read from the page cache goes several times faster than by one
+ * thread's fread. 0, or -1 with errno. */
+static int read_parallel(FILE *f, uint64_t offset, unsigned char *buffer, uint64_t size)
+{
+    const uint64_t chunk = (uint64_t)8 << 20;
+    const int fd = fileno(f);
+    int64_t chunks = (int64_t)((size + chunk - 1) / chunk), failed = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : failed) if (chunks > 1)
+    for (int64_t k = 0; k < chunks; k++) {
+        uint64_t at = (uint64_t)k * chunk, want = size - at < chunk ? size - at : chunk;
+        while (want > 0) {
+            ssize_t got = pread(fd, buffer + at, (size_t)want, (off_t)(offset + at));
+            if (got <= 0) {
+                failed++;
+                break;
+            }
+            at += (uint64_t)got;
+            want -= (uint64_t)got;
+        }
+    }
+    return failed ? -1 : 0;
+}
+
 rad_status rad_ff_read_records(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, unsigned char *buffer)
 {
     uint64_t n = file->info.patch_count;
@@ -853,8 +885,7 @@ rad_status rad_ff_read_records(rad_ff_file *file, uint64_t row_begin, uint64_t r
         if (size) memcpy(buffer, file->held + at, size);
         return RAD_OK;
     }
-    if (size && (fseeko(file->f, (off_t)(file->layout.matrix_offset + at), SEEK_SET) != 0 ||
-                 fread(buffer, 1, size, file->f) != size)) {
+    if (size && read_parallel(file->f, file->layout.matrix_offset + at, buffer, size) != 0) {
         rad_error("%s: rows %llu..%llu: read error", file->path, (unsigned long long)row_begin,
                   (unsigned long long)(row_begin + row_count));
         return RAD_ERR_IO;

@@ -245,6 +245,10 @@ rad_status rad_ff_read_links(rad_ff_file *file, rad_links *out);
  * rad_ff_record_counts, so that the outputs can be placed. */
 uint64_t rad_ff_record_offset(const rad_ff_file *file, uint64_t row);
 rad_status rad_ff_read_records(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, unsigned char *buffer);
+/* A matrix held in memory (rad_ff_open_held): its records from row
+ * `row_begin` on, where rad_ff_read_records would copy them from (valid
+ * while the file is open); NULL for a file, whose records must be read. */
+const unsigned char *rad_ff_held_records(const rad_ff_file *file, uint64_t row_begin);
 /* Verifies row `row`'s record (checksum, tile list) and gives how many
  * tiles and entries it stores; RAD_ERR_FORMAT (logged) if it is damaged. */
 rad_status rad_ff_record_counts(const rad_ff_file *file, uint64_t row, const unsigned char *record,

@@ -9,6 +9,7 @@
 #include "ff_writer.h"
 #include "rad_fs.h"
 #include "rad_log.h"
+#include "rad_mem.h"
 
 #define FF_OUTPUT_MAX_BYTES ((uint64_t)1 << 28) /* 256 MiB per write */
 
@@ -184,6 +185,7 @@ static rad_status hold(ff_output *o, const void *data, uint64_t bytes)
             return RAD_ERR_NOMEM;
         }
         o->held_bytes = grown;
+        rad_mem_advise_huge(grown, (size_t)cap);
         o->held_cap = cap;
     }
     const uint64_t chunk = (uint64_t)1 << 22;

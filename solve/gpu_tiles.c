@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rad_mem.h"
 #include "gpu.h"
 #include "rad_log.h"
 
@@ -38,6 +39,8 @@ rad_status solve_gpu_tiles_make_rows(const solve_rows *F, size_t row_begin, size
         solve_gpu_tiles_free(&t);
         return RAD_ERR_NOMEM;
     }
+    rad_mem_advise_huge(t.values, t.tile_count * T * sizeof *t.values);
+    rad_mem_advise_huge(t.tile_column, t.tile_count * sizeof *t.tile_column);
     for (size_t r = 0; r <= n; r++) t.row_tiles[r] = F->dense ? r * per_row : F->row_tiles[r0 + r] - F->row_tiles[r0];
     int exact = 1;
 #pragma omp parallel for schedule(dynamic, 64) reduction(&& : exact) if (n >= SOLVE_GPU_PARALLEL_MIN_ROWS)

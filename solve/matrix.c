@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "rad_log.h"
+#include "rad_mem.h"
 #include "rad_mesh.h"
 
 /* Rows read per rad_ff_read_rows call: about 8 MiB at a time. */
@@ -66,14 +67,18 @@ static rad_status grow_sparse(solve_matrix *m, size_t tiles, size_t values)
         uint64_t *value = column ? realloc(m->tile_value, cap * sizeof *value) : NULL;
         if (value) m->tile_value = value;
         if (!column || !value) return RAD_ERR_NOMEM;
+        rad_mem_advise_huge(m->tile_column, cap * sizeof *column);
+        rad_mem_advise_huge(m->tile_value, cap * sizeof *value);
         m->tile_cap = cap;
     }
     if (m->value_count + values > m->value_cap) {
         size_t cap = m->value_cap ? 2 * m->value_cap : 1 << 18;
         while (cap < m->value_count + values) cap *= 2;
+        if (!m->value_cap) cap = m->value_count + values; /* the first: sized by the caller */
         double *grown = realloc(m->values, cap * sizeof *grown);
         if (!grown) return RAD_ERR_NOMEM;
         m->values = grown;
+        rad_mem_advise_huge(m->values, cap * sizeof *grown); /* before its new pages are touched */
         m->value_cap = cap;
     }
     return RAD_OK;
@@ -171,16 +176,27 @@ static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix 
         return RAD_ERR_NOMEM;
     }
     m->row_tiles[0] = 0;
+    /* Room for every entry at once: each takes an element's bytes in its
+     * record, so the records' size bounds them (within the tile lists'
+     * few per cent); one array, on huge pages before it is touched. */
+    size_t element = rad_ff_file_info(file)->element_type == RAD_ELEMENT_F32 ? 4 : 8;
+    if (grow_sparse(m, 0, (size_t)((rad_ff_record_offset(file, last) - rad_ff_record_offset(file, first)) / element)) !=
+        RAD_OK) {
+        rad_error("%s: out of memory for the stored entries of %zu rows", path, last - first);
+        return RAD_ERR_NOMEM;
+    }
     for (size_t begin = first, end; begin < last && status == RAD_OK; begin = end) {
         /* as many rows as fit in MATRIX_RECORD_BYTES, at least one */
         uint64_t start = rad_ff_record_offset(file, begin);
         for (end = begin + 1; end < last && rad_ff_record_offset(file, end + 1) - start <= MATRIX_RECORD_BYTES; end++) {
         }
         size_t bytes = (size_t)(rad_ff_record_offset(file, end) - start), rows = end - begin;
-        if (bytes > records_cap || 2 * rows + 1 > counts_cap) {
+        /* A matrix held in memory (formfactor --radiosity) is decoded where it lies. */
+        const unsigned char *held = rad_ff_held_records(file, begin);
+        if ((!held && bytes > records_cap) || 2 * rows + 1 > counts_cap) {
             free(records);
             free(counts);
-            records_cap = bytes > records_cap ? bytes : records_cap;
+            records_cap = !held && bytes > records_cap ? bytes : records_cap;
             counts_cap = 2 * rows + 1 > counts_cap ? 2 * rows + 1 : counts_cap;
             records = malloc(records_cap ? records_cap : 1);
             counts = malloc(counts_cap * sizeof *counts);
@@ -190,8 +206,8 @@ static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix 
                 break;
             }
         }
-        status = rad_ff_read_records(file, begin, rows, records);
-        if (status == RAD_OK) status = load_records(file, path, m, begin, end, records, counts);
+        if (!held) status = rad_ff_read_records(file, begin, rows, records);
+        if (status == RAD_OK) status = load_records(file, path, m, begin, end, held ? held : records, counts);
     }
     free(records);
     free(counts);
