@@ -14,6 +14,7 @@
 #include "rad_hash.h"
 #include "rad_lfile.h"
 #include "rad_log.h"
+#include "rad_mem.h"
 #include "rad_patch_table.h"
 
 _Static_assert(RAD_PATCH_RECORD_BYTES == 128, "the patch table's records are 128 bytes (rad_patch_table.h)");
@@ -420,6 +421,7 @@ struct rad_ff_file {
     uint64_t *row_checksums; /* N; NULL in the links layout */
     unsigned char *row_buffer;
     unsigned char *held;     /* rad_ff_open_held: the records in memory (f is NULL); else NULL */
+    size_t held_reserved;    /* ... from rad_mem_reserve, this many bytes (0: malloc) */
     uint32_t *tile_buffer;   /* sparse: one row's tile numbers */
     double *value_buffer;    /* sparse: one row's stored entries */
 };
@@ -598,8 +600,8 @@ static rad_status decode_tables(const char *path, const unsigned char *tables, r
 }
 
 rad_status rad_ff_open_held(const char *name, const rad_ff_info *info, const rad_mesh *mesh, uint64_t row_begin,
-                            uint64_t row_end, unsigned char *records, const uint64_t *record_bytes,
-                            const uint64_t *checksums, rad_ff_file **out_file)
+                            uint64_t row_end, unsigned char *records, size_t reserved,
+                            const uint64_t *record_bytes, const uint64_t *checksums, rad_ff_file **out_file)
 {
     rad_status status = RAD_ERR_NOMEM;
     unsigned char *prologue = NULL;
@@ -607,11 +609,15 @@ rad_status rad_ff_open_held(const char *name, const rad_ff_info *info, const rad
     rad_ff_file *ff = calloc(1, sizeof *ff);
     *out_file = NULL;
     if (!ff) {
-        free(records);
+        if (reserved)
+            rad_mem_release(records, reserved);
+        else
+            free(records);
         return RAD_ERR_NOMEM;
     }
     snprintf(ff->path, sizeof ff->path, "%s", name);
     ff->held = records;
+    ff->held_reserved = reserved;
     ff->info = *info;
     ff->info.layout = RAD_FF_LAYOUT_SPARSE;
     uint64_t n = ff->info.patch_count, held_bytes = 0;
@@ -738,7 +744,10 @@ void rad_ff_close(rad_ff_file *file)
 {
     if (!file) return;
     if (file->f) fclose(file->f);
-    free(file->held);
+    if (file->held_reserved)
+        rad_mem_release(file->held, file->held_reserved);
+    else
+        free(file->held);
     rad_mesh_free(&file->mesh);
     free(file->index);
     free(file->tile_buffer);

@@ -205,14 +205,15 @@ void rad_ff_close(rad_ff_file *file); /* NULL is fine */
  * is encoded and decoded as a file's is, so readers see the very mesh
  * they would read from the file; rows outside [row_begin, row_end) read
  * as empty and must not be asked for. `records` is taken over (freed by
- * rad_ff_close, or here on failure); the other arrays are copied. `name`
+ * rad_ff_close, or here on failure: free(), or rad_mem_release where
+ * `reserved` is its rad_mem_reserve size); the other arrays are copied. `name`
  * stands for the path in messages; info->matrix_bytes, where not 0, is
  * kept (all ranks' records together: what a file's header would say),
  * else set to these rows' bytes. Read with rad_ff_read_records,
  * rad_ff_record_counts and rad_ff_decode_record (solve's loader). */
 rad_status rad_ff_open_held(const char *name, const rad_ff_info *info, const rad_mesh *mesh, uint64_t row_begin,
-                            uint64_t row_end, unsigned char *records, const uint64_t *record_bytes,
-                            const uint64_t *checksums, rad_ff_file **out_file);
+                            uint64_t row_end, unsigned char *records, size_t reserved,
+                            const uint64_t *record_bytes, const uint64_t *checksums, rad_ff_file **out_file);
 
 const rad_ff_info *rad_ff_file_info(const rad_ff_file *file);
 /* The patch mesh stored in the file (owned by the file), with its groups

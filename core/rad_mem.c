@@ -3,7 +3,7 @@
 #include "rad_mem.h"
 
 #include <stdint.h>
-#if defined(__linux__)
+#if defined(__unix__)
 #include <sys/mman.h>
 #endif
 
@@ -14,6 +14,30 @@ void rad_mem_advise_huge(void *p, size_t bytes)
     if (!p || bytes < RAD_MEM_HUGE_MIN) return;
     uintptr_t begin = ((uintptr_t)p + huge - 1) & ~(huge - 1), end = ((uintptr_t)p + bytes) & ~(huge - 1);
     if (end > begin) (void)madvise((void *)begin, (size_t)(end - begin), MADV_HUGEPAGE);
+#else
+    (void)p;
+    (void)bytes;
+#endif
+}
+
+void *rad_mem_reserve(size_t bytes)
+{
+#if defined(__unix__) && defined(MAP_ANONYMOUS) && defined(MAP_NORESERVE)
+    if (bytes == 0) bytes = 1;
+    void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+    if (p == MAP_FAILED) return NULL;
+    rad_mem_advise_huge(p, bytes);
+    return p;
+#else
+    (void)bytes;
+    return NULL;
+#endif
+}
+
+void rad_mem_release(void *p, size_t bytes)
+{
+#if defined(__unix__) && defined(MAP_ANONYMOUS) && defined(MAP_NORESERVE)
+    if (p) munmap(p, bytes ? bytes : 1);
 #else
     (void)p;
     (void)bytes;

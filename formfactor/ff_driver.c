@@ -409,7 +409,7 @@ static rad_status open_outputs(ff_run *run, ff_files *files)
                             .write_threads = threads < FF_WRITER_MAX_THREADS ? threads : FF_WRITER_MAX_THREADS,
                             .write_method = run->opt.write_method};
     if (run->opt.radiosity_path) /* solved in memory: no file (ff_solve.h) */
-        return ff_output_open_held(run->comm, &info, &run->mesh, &oo, &files->matrix);
+        return ff_output_open_held(run->comm, &info, &run->mesh, run->plan.rank_rows, &oo, &files->matrix);
     rad_status st = ff_output_open(run->comm, run->opt.output, run->opt.format, &info, &run->mesh, &oo,
                                    &files->matrix);
     if (st == RAD_OK && run->opt.errors_path) {

@@ -43,6 +43,7 @@ struct ff_output {
     int held;
     unsigned char *held_bytes;
     uint64_t held_size, held_cap;
+    size_t held_reserved;    /* held_bytes from rad_mem_reserve, this large (0: malloc) */
     const rad_mesh *mesh;
 };
 
@@ -134,11 +135,19 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
     return RAD_OK;
 }
 
-rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, const rad_mesh *mesh,
+rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, const rad_mesh *mesh, uint64_t row_count,
                                const ff_output_options *options, ff_output **out_output)
 {
     ff_output *o = calloc(1, sizeof *o);
     if (o) {
+        /* Room for the rows' largest records, reserved, not committed: only
+         * what they take is ever touched (rad_mem.h). */
+        uint64_t most = row_count * record_max_of(info->patch_count, FF_FORMAT_SPARSE,
+                                                  (rad_element_type)info->element_type);
+        if (row_count && most <= SIZE_MAX && (o->held_bytes = rad_mem_reserve((size_t)most))) {
+            o->held_reserved = (size_t)most;
+            o->held_cap = most;
+        }
         o->comm = comm;
         o->format = FF_FORMAT_SPARSE;
         o->threads = options && options->threads > 0 ? options->threads : 1;
@@ -174,10 +183,10 @@ rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, const rad
  * the output's threads (the pages are touched for the first time here). */
 static rad_status hold(ff_output *o, const void *data, uint64_t bytes)
 {
-    if (o->held_size + bytes > o->held_cap) {
+    if (o->held_size + bytes > o->held_cap && !o->held_reserved) {
         uint64_t cap = o->held_cap ? o->held_cap : (uint64_t)1 << 24;
         while (cap < o->held_size + bytes) cap += cap / 2;
-        unsigned char *grown = realloc(o->held_bytes, (size_t)cap);
+        unsigned char *grown = realloc(o->held_bytes, (size_t)cap); /* unadvised: see rad_mem_reserve */
         if (!grown) {
             rad_error("out of memory holding %.2f GiB of form factors in memory (formfactor --radiosity); without "
                       "it the matrix goes to a file",
@@ -185,8 +194,12 @@ static rad_status hold(ff_output *o, const void *data, uint64_t bytes)
             return RAD_ERR_NOMEM;
         }
         o->held_bytes = grown;
-        rad_mem_advise_huge(grown, (size_t)cap);
         o->held_cap = cap;
+    }
+    if (o->held_size + bytes > o->held_cap) { /* beyond the reservation: the row count was wrong */
+        rad_error("internal: %llu bytes of records beyond the %llu reserved", (unsigned long long)(o->held_size + bytes),
+                  (unsigned long long)o->held_cap);
+        return RAD_ERR_INVALID;
     }
     const uint64_t chunk = (uint64_t)1 << 22;
     int64_t chunks = (int64_t)((bytes + chunk - 1) / chunk);
@@ -223,10 +236,12 @@ rad_status ff_output_take_held(ff_output *o, const char *name, rad_ff_file **out
         for (uint64_t k = 0; k < count; k++)
             sizes[k] = (k + 1 < count ? o->row_offsets[k + 1] : o->held_size) - o->row_offsets[k];
         uint64_t first = count ? o->row_numbers[0] : 0;
+        size_t reserved = o->held_bytes ? o->held_reserved : 0;
         unsigned char *records = o->held_bytes ? o->held_bytes : malloc(1);
         o->held_bytes = NULL;
         o->held_size = o->held_cap = 0;
-        status = records ? rad_ff_open_held(name, &o->info, o->mesh, first, first + count, records, sizes,
+        o->held_reserved = 0;
+        status = records ? rad_ff_open_held(name, &o->info, o->mesh, first, first + count, records, reserved, sizes,
                                             o->row_checksums, out_file)
                          : RAD_ERR_NOMEM;
     }
@@ -490,7 +505,10 @@ rad_status ff_output_commit(ff_output *o, rad_status status)
     }
     status = ff_comm_agree(o->comm, status);
     if (ff_comm_rank(o->comm) != 0 && !o->held) rad_fs_unguard(o->temp);
-    free(o->held_bytes);
+    if (o->held_reserved)
+        rad_mem_release(o->held_bytes, o->held_reserved);
+    else
+        free(o->held_bytes);
     free(o->prologue);
     free(o->convert[0]);
     free(o->convert[1]);

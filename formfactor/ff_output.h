@@ -64,11 +64,12 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
 /* Collective, sparse format: an output that keeps this rank's records in
  * memory instead of writing a file (formfactor --radiosity, issue 28):
  * the same calls as a file's (reserve, write_rows, write_records, close,
- * commit), no file, no temporary. The rank's rows must come in ascending
+ * commit), no file, no temporary; `row_count`: this rank's rows, whose
+ * largest records' room is reserved. The rank's rows must come in ascending
  * order without gaps (a contiguous block); ff_output_take_held then hands
  * them over as a matrix held in memory (rad_ff_open_held), which solve's
  * loader reads as it reads a file. */
-rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, const rad_mesh *mesh,
+rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, const rad_mesh *mesh, uint64_t row_count,
                                const ff_output_options *options, ff_output **out_output);
 /* Collective, after a successful ff_output_close of a held output,
  * before commit: this rank's rows as a matrix in memory named `name` (the
