@@ -143,10 +143,7 @@ static rad_status setup(ff_run *run)
     if (st == RAD_OK && !run->row_begin) st = RAD_ERR_NOMEM;
     double eps = ff_plane_eps(&run->mesh);
     int convex = run->opt.cull == FF_CULL_ALL && ff_scene_is_convex_enclosure(&run->scene, eps);
-    /* The GPU's blocks (--radiosity holds them on the GPU) also pay for every entry they finish. */
-    double entry_cost = run->opt.radiosity_path && run->gpus > 0 && run->opt.backend != FF_BACKEND_CPU
-                            ? FF_PARTITION_GPU_ENTRY_COST : 0.0;
-    if (st == RAD_OK) st = ff_partition_rows(run->patches, n, eps, ranks, entry_cost, run->row_begin);
+    if (st == RAD_OK) st = ff_partition_rows(run->patches, n, eps, ranks, run->row_begin);
     /* --radiosity: the ranks' blocks are solve's too (ff_solve.h) */
     if (st == RAD_OK && run->opt.radiosity_path) ff_solve_align_split(run->row_begin, ranks, n);
     run->want_errors = !run->opt.no_errors;

@@ -159,8 +159,7 @@ float ff_cull_margin(const rad_mesh *mesh, const double centre[3], double eps)
     return (float)fmax(1e4 * eps, 8.0 * FLT_EPSILON * largest);
 }
 
-rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps, int ranks, double entry_cost,
-                             uint32_t *out_begin)
+rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps, int ranks, uint32_t *out_begin)
 {
     double *prefix = malloc(sizeof *prefix * ((size_t)n + 1));
     if (!prefix) {
@@ -179,7 +178,7 @@ rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps
             facing += j != i && rad_ff_pair_facing(&patches[i], &patches[j], eps);
         }
         /* Every row also costs its loop and its write: at least one unit. */
-        prefix[i + 1] = 1.0 + (double)facing * n / (probes ? probes : 1) + entry_cost * n;
+        prefix[i + 1] = 1.0 + (double)facing * n / (probes ? probes : 1);
     }
     for (uint32_t i = 0; i < n; i++) prefix[i + 1] += prefix[i];
     out_begin[0] = 0;

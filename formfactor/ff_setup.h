@@ -61,19 +61,9 @@ double ff_ray_delta(const rad_mesh *mesh);
  * to the ranks block-cyclically, ff_plan.h):
  * row i costs the number of columns facing it, estimated on a fixed,
  * evenly spaced subset of at most FF_PARTITION_PROBES columns (so the split
- * is cheap and the same on every rank), plus `entry_cost` per entry of the
- * row (facing or not: what finishing and storing a row costs, in facing
- * pairs' worth). out_begin has ranks + 1 entries; rank r owns
- * [out_begin[r], out_begin[r + 1]). */
+ * is cheap and the same on every rank). out_begin has ranks + 1 entries;
+ * rank r owns [out_begin[r], out_begin[r + 1]). */
 #define FF_PARTITION_PROBES 512
-/* entry_cost on the GPU, where each row is finished and encoded on the
- * device whatever faces it. Fitted on 4 x H100, cornell_sphere at N =
- * 188 416, formfactor --radiosity split by facing pairs alone: the box's
- * first 10 240 rows took 3.5 s (342 us a row), the sphere's last 110 080
- * rows 5.4 s (49 us), a ratio of 7 where facing pairs alone said 10.75:
- * (F_box + c N) / (F_sphere + c N) = 7 gives c = 0.044. */
-#define FF_PARTITION_GPU_ENTRY_COST 0.044
-rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps, int ranks, double entry_cost,
-                             uint32_t *out_begin);
+rad_status ff_partition_rows(const rad_ff_patch *patches, uint32_t n, double eps, int ranks, uint32_t *out_begin);
 
 #endif
