@@ -14,7 +14,6 @@
 #include "rad_hash.h"
 #include "rad_lfile.h"
 #include "rad_log.h"
-#include "rad_mem.h"
 #include "rad_patch_table.h"
 
 _Static_assert(RAD_PATCH_RECORD_BYTES == 128, "the patch table's records are 128 bytes (rad_patch_table.h)");
@@ -194,6 +193,27 @@ static const char *decode_record(const unsigned char *rec, uint64_t size, uint64
         if (rec[k]) return "padding is not zero";
     *out_count = (uint32_t)listed;
     *out_values = v;
+    return NULL;
+}
+
+const char *rad_ff_record_decode(const unsigned char *record, uint64_t size, uint64_t n, uint32_t element_type,
+                                 uint32_t *tiles, uint32_t *out_tiles, double *values, uint64_t *out_values)
+{
+    return decode_record(record, size, n, element_type, tiles, out_tiles, values, out_values);
+}
+
+const char *rad_ff_record_sizes(const unsigned char *record, uint64_t size, uint64_t n, uint32_t *out_tiles,
+                                uint64_t *out_values)
+{
+    if (size < 8 || size % 8) return "record size is not a multiple of 8 bytes of at least 8";
+    uint64_t listed = rad_get_u32(record), values = 0;
+    if (listed > tile_count_of(n) || 4 + 4 * listed > size) return "more tiles than the row has";
+    for (uint64_t k = 0; k < listed; k++) {
+        uint64_t j0 = (uint64_t)rad_get_u32(record + 4 + 4 * k) * RAD_FF_TILE_COLUMNS;
+        values += j0 >= n ? 0 : (j0 + RAD_FF_TILE_COLUMNS < n ? RAD_FF_TILE_COLUMNS : n - j0);
+    }
+    *out_tiles = (uint32_t)listed;
+    *out_values = values;
     return NULL;
 }
 
@@ -420,8 +440,6 @@ struct rad_ff_file {
     uint64_t *row_offsets;   /* sparse: N + 1 record offsets from the matrix offset; else NULL */
     uint64_t *row_checksums; /* N; NULL in the links layout */
     unsigned char *row_buffer;
-    unsigned char *held;     /* rad_ff_open_held: the records in memory (f is NULL); else NULL */
-    size_t held_reserved;    /* ... from rad_mem_reserve, this many bytes (0: malloc) */
     uint32_t *tile_buffer;   /* sparse: one row's tile numbers */
     double *value_buffer;    /* sparse: one row's stored entries */
 };
@@ -599,57 +617,26 @@ static rad_status decode_tables(const char *path, const unsigned char *tables, r
     return status;
 }
 
-rad_status rad_ff_open_held(const char *name, const rad_ff_info *info, const rad_mesh *mesh, uint64_t row_begin,
-                            uint64_t row_end, unsigned char *records, size_t reserved,
-                            const uint64_t *record_bytes, const uint64_t *checksums, rad_ff_file **out_file)
+rad_status rad_ff_open_tables(const char *name, const rad_ff_info *info, const rad_mesh *mesh,
+                              rad_ff_file **out_file)
 {
     rad_status status = RAD_ERR_NOMEM;
     unsigned char *prologue = NULL;
     size_t prologue_size = 0;
     rad_ff_file *ff = calloc(1, sizeof *ff);
     *out_file = NULL;
-    if (!ff) {
-        if (reserved)
-            rad_mem_release(records, reserved);
-        else
-            free(records);
-        return RAD_ERR_NOMEM;
-    }
+    if (!ff) return RAD_ERR_NOMEM;
     snprintf(ff->path, sizeof ff->path, "%s", name);
-    ff->held = records;
-    ff->held_reserved = reserved;
     ff->info = *info;
     ff->info.layout = RAD_FF_LAYOUT_SPARSE;
-    uint64_t n = ff->info.patch_count, held_bytes = 0;
-    if (row_begin > row_end || row_end > n) {
-        rad_error("internal: %s: rows %llu..%llu of %llu", name, (unsigned long long)row_begin,
-                  (unsigned long long)row_end, (unsigned long long)n);
-        status = RAD_ERR_INVALID;
-        goto done;
-    }
-    for (uint64_t r = row_begin; r < row_end; r++) held_bytes += record_bytes[r - row_begin];
-    if (!ff->info.matrix_bytes) ff->info.matrix_bytes = held_bytes; /* else all ranks' records, as a file's */
     ff->layout = rad_ff_layout_of(&ff->info);
-    ff->index = malloc((2 * n + 1) * sizeof *ff->index);
+    uint64_t n = ff->info.patch_count;
     ff->mesh.positions = malloc(ff->info.vertex_count * 24 + 1);
     ff->mesh.patches = malloc((n ? n : 1) * sizeof(rad_patch));
-    ff->row_buffer = malloc(rad_ff_row_record_max(n, ff->info.element_type));
-    ff->tile_buffer = malloc(4 * tile_count_of(n) + 4);
-    ff->value_buffer = malloc(8 * n + 8);
-    if (!ff->index || !ff->mesh.positions || !ff->mesh.patches || !ff->row_buffer || !ff->tile_buffer ||
-        !ff->value_buffer) {
+    if (!ff->mesh.positions || !ff->mesh.patches) {
         rad_error("%s: out of memory for N = %llu", name, (unsigned long long)n);
         goto done;
     }
-    ff->row_offsets = ff->index;
-    ff->row_checksums = ff->index + n + 1;
-    uint64_t at = 0;
-    for (uint64_t i = 0; i <= n; i++) {
-        ff->row_offsets[i] = at;
-        if (i >= row_begin && i < row_end) at += record_bytes[i - row_begin];
-    }
-    for (uint64_t i = 0; i < n; i++)
-        ff->row_checksums[i] = i >= row_begin && i < row_end ? checksums[i - row_begin] : 0;
     /* The mesh as a reader of the file would see it. */
     if ((status = rad_ff_prologue_encode(&ff->info, mesh, &prologue, &prologue_size)) != RAD_OK) goto done;
     status = decode_tables(name, prologue + RAD_FF_HEADER_BYTES, ff);
@@ -744,10 +731,6 @@ void rad_ff_close(rad_ff_file *file)
 {
     if (!file) return;
     if (file->f) fclose(file->f);
-    if (file->held_reserved)
-        rad_mem_release(file->held, file->held_reserved);
-    else
-        free(file->held);
     rad_mesh_free(&file->mesh);
     free(file->index);
     free(file->tile_buffer);
@@ -758,6 +741,13 @@ void rad_ff_close(rad_ff_file *file)
 
 const rad_ff_info *rad_ff_file_info(const rad_ff_file *file) { return &file->info; }
 const rad_mesh *rad_ff_file_mesh(const rad_ff_file *file) { return &file->mesh; }
+
+/* RAD_ERR_INVALID, logged: a file of tables only (rad_ff_open_tables) has no rows to read. */
+static rad_status refuse_tables(const rad_ff_file *file)
+{
+    rad_error("internal: %s: the patch table alone, no matrix to read", file->path);
+    return RAD_ERR_INVALID;
+}
 
 /* RAD_ERR_INVALID, logged, where `file` holds links, not a matrix. */
 static rad_status refuse_links(const rad_ff_file *file)
@@ -780,16 +770,15 @@ rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_
         return RAD_ERR_INVALID;
     }
     uint64_t start = file->row_offsets ? file->row_offsets[row_begin] : row_begin * l->row_bytes;
-    if (row_count && !file->held && fseeko(file->f, (off_t)(l->matrix_offset + start), SEEK_SET) != 0) {
+    if (row_count && !file->f) return refuse_tables(file);
+    if (row_count && fseeko(file->f, (off_t)(l->matrix_offset + start), SEEK_SET) != 0) {
         rad_error("%s: cannot seek: %s", file->path, strerror(errno));
         return RAD_ERR_IO;
     }
     for (uint64_t r = 0; r < row_count; r++) {
         uint64_t i = row_begin + r;
         uint64_t size = file->row_offsets ? file->row_offsets[i + 1] - file->row_offsets[i] : l->row_bytes;
-        if (file->held)
-            memcpy(file->row_buffer, file->held + file->row_offsets[i], size);
-        else if (fread(file->row_buffer, 1, size, file->f) != size) {
+        if (fread(file->row_buffer, 1, size, file->f) != size) {
             rad_error("%s: row %llu: read error", file->path, (unsigned long long)i);
             return RAD_ERR_IO;
         }
@@ -849,12 +838,6 @@ uint64_t rad_ff_record_offset(const rad_ff_file *file, uint64_t row)
     return file->row_offsets && row <= file->info.patch_count ? file->row_offsets[row] : 0;
 }
 
-const unsigned char *rad_ff_held_records(const rad_ff_file *file, uint64_t row_begin)
-{
-    if (!file->held || !file->row_offsets || row_begin > file->info.patch_count) return NULL;
-    return file->held + file->row_offsets[row_begin];
-}
-
 /* `size` bytes at `offset` of the file into `buffer`, in chunks read by
  * several threads at once (pread: no shared file position): a matrix
  * read from the page cache goes several times faster than by one
@@ -890,10 +873,7 @@ rad_status rad_ff_read_records(rad_ff_file *file, uint64_t row_begin, uint64_t r
         return RAD_ERR_INVALID;
     }
     uint64_t at = file->row_offsets[row_begin], size = file->row_offsets[row_begin + row_count] - at;
-    if (file->held) {
-        if (size) memcpy(buffer, file->held + at, size);
-        return RAD_OK;
-    }
+    if (size && !file->f) return refuse_tables(file);
     if (size && read_parallel(file->f, file->layout.matrix_offset + at, buffer, size) != 0) {
         rad_error("%s: rows %llu..%llu: read error", file->path, (unsigned long long)row_begin,
                   (unsigned long long)(row_begin + row_count));

@@ -153,6 +153,14 @@ uint64_t rad_ff_row_checksum(const void *row, size_t row_bytes);
 size_t rad_ff_row_encode(const double *row, uint64_t n, uint32_t element_type, void *out);
 /* The largest record a row of n entries can need. */
 size_t rad_ff_row_record_max(uint64_t n, uint32_t element_type);
+/* A record of `size` bytes without its file (a matrix handed over in
+ * memory: formfactor --radiosity): how many tiles and entries it lists,
+ * then (at most that many into tiles[] and values[]) its tile numbers and
+ * entries as double. NULL, or what is wrong with it. */
+const char *rad_ff_record_sizes(const unsigned char *record, uint64_t size, uint64_t n, uint32_t *out_tiles,
+                                uint64_t *out_values);
+const char *rad_ff_record_decode(const unsigned char *record, uint64_t size, uint64_t n, uint32_t element_type,
+                                 uint32_t *tiles, uint32_t *out_tiles, double *values, uint64_t *out_values);
 
 /* Rewrites the 256-byte header at the start of `prologue` for `info`
  * (sparse: its matrix_bytes, now known) with the digest of the index
@@ -197,23 +205,14 @@ typedef struct rad_ff_file rad_ff_file; /* opaque */
  * Errors name the file and what is wrong. */
 rad_status rad_ff_open(const char *path, rad_ff_file **out_file);
 void rad_ff_close(rad_ff_file *file); /* NULL is fine */
-/* A sparse matrix held in memory, not in a file (formfactor --radiosity:
- * scene to radiosity without the round trip, issue 28): the rows
- * [row_begin, row_end) of it that one rank computed, as their records
- * (rad_ff_row_encode) one after another in `records`, record k of
- * `record_bytes[k]` bytes with checksum `checksums[k]`. The patch table
- * is encoded and decoded as a file's is, so readers see the very mesh
- * they would read from the file; rows outside [row_begin, row_end) read
- * as empty and must not be asked for. `records` is taken over (freed by
- * rad_ff_close, or here on failure: free(), or rad_mem_release where
- * `reserved` is its rad_mem_reserve size); the other arrays are copied. `name`
- * stands for the path in messages; info->matrix_bytes, where not 0, is
- * kept (all ranks' records together: what a file's header would say),
- * else set to these rows' bytes. Read with rad_ff_read_records,
- * rad_ff_record_counts and rad_ff_decode_record (solve's loader). */
-rad_status rad_ff_open_held(const char *name, const rad_ff_info *info, const rad_mesh *mesh, uint64_t row_begin,
-                            uint64_t row_end, unsigned char *records, size_t reserved,
-                            const uint64_t *record_bytes, const uint64_t *checksums, rad_ff_file **out_file);
+/* A form-factor file's header and patch table without its matrix: what a
+ * reader of a matrix handed over in memory (formfactor --radiosity: solve's
+ * stage on rows that were never written) takes from the file. The patch
+ * table is encoded and decoded as a file's is, so readers see the very
+ * mesh they would read from the file; reading rows from it is refused.
+ * `name` stands for the path in messages. */
+rad_status rad_ff_open_tables(const char *name, const rad_ff_info *info, const rad_mesh *mesh,
+                              rad_ff_file **out_file);
 
 const rad_ff_info *rad_ff_file_info(const rad_ff_file *file);
 /* The patch mesh stored in the file (owned by the file), with its groups
@@ -246,10 +245,6 @@ rad_status rad_ff_read_links(rad_ff_file *file, rad_links *out);
  * rad_ff_record_counts, so that the outputs can be placed. */
 uint64_t rad_ff_record_offset(const rad_ff_file *file, uint64_t row);
 rad_status rad_ff_read_records(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, unsigned char *buffer);
-/* A matrix held in memory (rad_ff_open_held): its records from row
- * `row_begin` on, where rad_ff_read_records would copy them from (valid
- * while the file is open); NULL for a file, whose records must be read. */
-const unsigned char *rad_ff_held_records(const rad_ff_file *file, uint64_t row_begin);
 /* Verifies row `row`'s record (checksum, tile list) and gives how many
  * tiles and entries it stores; RAD_ERR_FORMAT (logged) if it is damaged. */
 rad_status rad_ff_record_counts(const rad_ff_file *file, uint64_t row, const unsigned char *record,

@@ -52,6 +52,7 @@ typedef struct ff_run {
     ff_refinement refinement; /* --refine: what was split; --reuse's couplings */
     double start;
     ff_progress progress; /* the backend's progress callback reports here */
+    ff_solve *solve;      /* --radiosity: this rank's rows go into solve's matrix, not a file */
 } ff_run;
 
 /* The files of a run: the matrix, and its standard errors on request. */
@@ -408,8 +409,12 @@ static rad_status open_outputs(ff_run *run, ff_files *files)
     ff_output_options oo = {.threads = threads,
                             .write_threads = threads < FF_WRITER_MAX_THREADS ? threads : FF_WRITER_MAX_THREADS,
                             .write_method = run->opt.write_method};
-    if (run->opt.radiosity_path) /* solved in memory: no file (ff_solve.h) */
-        return ff_output_open_held(run->comm, &info, &run->mesh, run->plan.rank_rows, &oo, &files->matrix);
+    if (run->opt.radiosity_path) { /* solved in memory: no file (ff_solve.h) */
+        rad_status st = ff_comm_agree(run->comm, ff_solve_begin(&info, &run->mesh, run->plan.block_begin,
+                                                                run->plan.block_end, &run->solve));
+        if (st != RAD_OK) return st;
+        return ff_output_open_held(run->comm, &info, ff_solve_rows, run->solve, &oo, &files->matrix);
+    }
     rad_status st = ff_output_open(run->comm, run->opt.output, run->opt.format, &info, &run->mesh, &oo,
                                    &files->matrix);
     if (st == RAD_OK && run->opt.errors_path) {
@@ -435,11 +440,10 @@ static void add_written(ff_rank_stats *stats, const ff_output *output)
 /* Collective: both files are written and closed before either is renamed;
  * the errors file is renamed first, so a failure there leaves the old
  * matrix in place too. (Both destinations were checked up front.) */
-static rad_status commit_outputs(ff_run *run, const ff_files *files, rad_status st, rad_ff_file **held)
+static rad_status commit_outputs(ff_run *run, const ff_files *files, rad_status st)
 {
     if (files->matrix) st = ff_output_close(files->matrix, st);
     if (files->errors) st = ff_output_close(files->errors, st);
-    if (held && files->matrix && st == RAD_OK) st = ff_output_take_held(files->matrix, FF_SOLVE_NAME, held);
     if (files->matrix) add_written(&run->stats, files->matrix);
     if (files->errors) add_written(&run->stats, files->errors);
     if (files->errors) st = ff_output_commit(files->errors, st);
@@ -486,7 +490,6 @@ static rad_status run_formfactor(ff_run *run)
     if (st != RAD_OK) return st;
 
     ff_files files = {0};
-    rad_ff_file *held = NULL; /* --radiosity: this rank's rows, in memory */
     double t0 = rad_clock_seconds();
     st = open_outputs(run, &files);
     run->stats.io += rad_clock_seconds() - t0;
@@ -494,20 +497,19 @@ static rad_status run_formfactor(ff_run *run)
     if (st == RAD_OK) st = compute_and_write(run, &files);
     ff_progress_finish(&run->progress);
     t0 = rad_clock_seconds();
-    st = commit_outputs(run, &files, st, run->opt.radiosity_path ? &held : NULL);
+    st = commit_outputs(run, &files, st);
     run->stats.io += rad_clock_seconds() - t0;
     run->stats.total = rad_clock_seconds() - run->start;
-    if (st == RAD_OK && !held && rank == 0)
+    if (st == RAD_OK && !run->solve && rank == 0)
         rad_info("wrote %s%s%s", run->opt.output, run->opt.errors_path ? " and " : "",
                  run->opt.errors_path ? run->opt.errors_path : "");
     if (st == RAD_OK) st = write_stats(run);
-    if (st == RAD_OK && held) {
+    if (st == RAD_OK && run->solve) {
         /* The GPU's memory back before solve's upload; then the solve. */
         run->backend->destroy(run->backend_state);
         run->backend_state = NULL;
-        st = ff_solve_held(run->comm, held, run->row_begin, &run->opt, run->stats.threads);
+        st = ff_solve_run(run->comm, run->solve, run->row_begin, &run->opt, run->stats.threads);
     }
-    rad_ff_close(held);
     return st;
 }
 
@@ -520,6 +522,7 @@ static void run_free(ff_run *run)
     free(run->triangles);
     free(run->triangle_face);
     free(run->row_begin);
+    ff_solve_free(run->solve);
     rad_mesh_free(&run->mesh);
     rad_scene_free(&run->scene);
 }

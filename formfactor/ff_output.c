@@ -9,7 +9,6 @@
 #include "ff_writer.h"
 #include "rad_fs.h"
 #include "rad_log.h"
-#include "rad_mem.h"
 
 #define FF_OUTPUT_MAX_BYTES ((uint64_t)1 << 28) /* 256 MiB per write */
 
@@ -28,8 +27,8 @@ struct ff_output {
     uint64_t checksum_count, checksum_cap;
     uint64_t record_max;     /* bytes one row can take as stored */
     uint64_t appended;       /* sparse: bytes of records written so far, all ranks */
-    uint64_t *record_at;     /* one write's records' offsets in `convert` (row_count + 1) */
-    uint64_t record_cap;
+    uint64_t *record_at[2];  /* a write's records' offsets in `convert` (row_count + 1), one per buffer */
+    uint64_t record_cap[2];
     int threads;
     int reserved;            /* sparse: ff_output_reserve placed this rank's records */
     uint64_t reserved_at;    /* … the next one's offset */
@@ -39,12 +38,8 @@ struct ff_output {
     uint64_t convert_bytes[2]; /* their sizes: grown to the largest write seen */
     int turn;                  /* the buffer the next ff_output_write_rows fills */
     ff_output_write_stats written; /* this rank's writes, once closed */
-    /* ff_output_open_held: this rank's records kept here, no file (writer NULL) */
-    int held;
-    unsigned char *held_bytes;
-    uint64_t held_size, held_cap;
-    size_t held_reserved;    /* held_bytes from rad_mem_reserve, this large (0: malloc) */
-    const rad_mesh *mesh;
+    /* ff_output_open_held: this rank's records handed over, no file (writer NULL) */
+    ff_handoff *handoff;
 };
 
 /* Bytes one row can take as stored: the dense row, or the largest sparse record; at least 1. */
@@ -135,19 +130,12 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
     return RAD_OK;
 }
 
-rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, const rad_mesh *mesh, uint64_t row_count,
+rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, ff_handoff_consume consume, void *user,
                                const ff_output_options *options, ff_output **out_output)
 {
     ff_output *o = calloc(1, sizeof *o);
+    rad_status status = o ? RAD_OK : RAD_ERR_NOMEM;
     if (o) {
-        /* Room for the rows' largest records, reserved, not committed: only
-         * what they take is ever touched (rad_mem.h). */
-        uint64_t most = row_count * record_max_of(info->patch_count, FF_FORMAT_SPARSE,
-                                                  (rad_element_type)info->element_type);
-        if (row_count && most <= SIZE_MAX && (o->held_bytes = rad_mem_reserve((size_t)most))) {
-            o->held_reserved = (size_t)most;
-            o->held_cap = most;
-        }
         o->comm = comm;
         o->format = FF_FORMAT_SPARSE;
         o->threads = options && options->threads > 0 ? options->threads : 1;
@@ -156,19 +144,18 @@ rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, const rad
         o->info.matrix_bytes = 0;
         o->layout = rad_ff_layout_of(&o->info);
         o->record_max = record_max_of(info->patch_count, FF_FORMAT_SPARSE, (rad_element_type)info->element_type);
-        o->held = 1;
-        o->mesh = mesh;
         snprintf(o->path, sizeof o->path, "(in memory)");
         for (int k = 0; k < 2; k++) {
             o->convert[k] = malloc(RAD_FF_ALIGN);
             o->convert_bytes[k] = RAD_FF_ALIGN;
         }
+        status = o->convert[0] && o->convert[1] ? ff_handoff_open(consume, user, &o->handoff) : RAD_ERR_NOMEM;
     }
-    rad_status status = o && o->convert[0] && o->convert[1] ? RAD_OK : RAD_ERR_NOMEM;
-    if (status != RAD_OK) rad_error("out of memory for the form factors held in memory");
+    if (status == RAD_ERR_NOMEM) rad_error("out of memory for the form factors handed over in memory");
     status = ff_comm_agree(comm, status);
     if (status != RAD_OK) {
         if (o) {
+            ff_handoff_close(o->handoff);
             free(o->convert[0]);
             free(o->convert[1]);
         }
@@ -179,79 +166,9 @@ rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, const rad
     return RAD_OK;
 }
 
-/* A held output: `bytes` more records appended to this rank's, copied on
- * the output's threads (the pages are touched for the first time here). */
-static rad_status hold(ff_output *o, const void *data, uint64_t bytes)
-{
-    if (o->held_size + bytes > o->held_cap && !o->held_reserved) {
-        uint64_t cap = o->held_cap ? o->held_cap : (uint64_t)1 << 24;
-        while (cap < o->held_size + bytes) cap += cap / 2;
-        unsigned char *grown = realloc(o->held_bytes, (size_t)cap); /* unadvised: see rad_mem_reserve */
-        if (!grown) {
-            rad_error("out of memory holding %.2f GiB of form factors in memory (formfactor --radiosity); without "
-                      "it the matrix goes to a file",
-                      (double)(o->held_size + bytes) / 1073741824.0);
-            return RAD_ERR_NOMEM;
-        }
-        o->held_bytes = grown;
-        o->held_cap = cap;
-    }
-    if (o->held_size + bytes > o->held_cap) { /* beyond the reservation: the row count was wrong */
-        rad_error("internal: %llu bytes of records beyond the %llu reserved", (unsigned long long)(o->held_size + bytes),
-                  (unsigned long long)o->held_cap);
-        return RAD_ERR_INVALID;
-    }
-    const uint64_t chunk = (uint64_t)1 << 22;
-    int64_t chunks = (int64_t)((bytes + chunk - 1) / chunk);
-    unsigned char *dst = o->held_bytes + o->held_size;
-    const unsigned char *src = data;
-#pragma omp parallel for num_threads(o->threads) schedule(static)
-    for (int64_t k = 0; k < chunks; k++) {
-        uint64_t at = (uint64_t)k * chunk, size = bytes - at < chunk ? bytes - at : chunk;
-        memcpy(dst + at, src + at, (size_t)size);
-    }
-    o->held_size += bytes;
-    return RAD_OK;
-}
-
-rad_status ff_output_take_held(ff_output *o, const char *name, rad_ff_file **out_file)
-{
-    *out_file = NULL;
-    rad_status status = RAD_OK;
-    uint64_t count = o->checksum_count, total = 0;
-    for (uint64_t k = 1; k < count && status == RAD_OK; k++)
-        if (o->row_numbers[k] != o->row_numbers[0] + k) {
-            rad_error("internal: the rows held in memory are not one block (row %llu after %llu)",
-                      (unsigned long long)o->row_numbers[k], (unsigned long long)o->row_numbers[k - 1]);
-            status = RAD_ERR_INVALID;
-        }
-    ff_comm_exscan_u64(o->comm, o->held_size, &total); /* every rank's records: what a file's header says */
-    o->info.matrix_bytes = total;
-    uint64_t *sizes = malloc((count ? count : 1) * sizeof *sizes);
-    if (status == RAD_OK && !sizes) {
-        rad_error("out of memory for %llu rows", (unsigned long long)count);
-        status = RAD_ERR_NOMEM;
-    }
-    if (status == RAD_OK) {
-        for (uint64_t k = 0; k < count; k++)
-            sizes[k] = (k + 1 < count ? o->row_offsets[k + 1] : o->held_size) - o->row_offsets[k];
-        uint64_t first = count ? o->row_numbers[0] : 0;
-        size_t reserved = o->held_bytes ? o->held_reserved : 0;
-        unsigned char *records = o->held_bytes ? o->held_bytes : malloc(1);
-        o->held_bytes = NULL;
-        o->held_size = o->held_cap = 0;
-        o->held_reserved = 0;
-        status = records ? rad_ff_open_held(name, &o->info, o->mesh, first, first + count, records, reserved, sizes,
-                                            o->row_checksums, out_file)
-                         : RAD_ERR_NOMEM;
-    }
-    free(sizes);
-    return ff_comm_agree(o->comm, status);
-}
-
 rad_status ff_output_reserve(ff_output *o, uint32_t row_count, const double *rows)
 {
-    if (o->format != FF_FORMAT_SPARSE || o->held) return RAD_OK;
+    if (o->format != FF_FORMAT_SPARSE || o->handoff) return RAD_OK;
     uint64_t n = o->info.patch_count, bytes = 0, total = 0;
 #pragma omp parallel for num_threads(o->threads) schedule(dynamic, 16) reduction(+ : bytes)
     for (uint32_t r = 0; r < row_count; r++) bytes += rad_ff_row_encode(rows + (uint64_t)r * n, n, o->info.element_type, NULL);
@@ -293,7 +210,7 @@ rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_c
         status = RAD_ERR_INVALID;
         row_count = 0;
     }
-    if (status == RAD_OK && (status = grow_row_tables(o, row_count)) != RAD_OK) row_count = 0;
+    if (status == RAD_OK && !o->handoff && (status = grow_row_tables(o, row_count)) != RAD_OK) row_count = 0;
     /* The other buffer may still be being written; this one is free: its
      * write was waited for when the other one's began (ff_writer_submit). */
     int turn = o->turn;
@@ -309,20 +226,21 @@ rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_c
             o->convert_bytes[turn] = (uint64_t)row_count * max;
         }
     }
-    if (row_count + 1 > o->record_cap) {
-        uint64_t *grown = realloc(o->record_at, (row_count + 1) * sizeof *grown);
+    if (row_count + 1 > o->record_cap[turn]) {
+        uint64_t *grown = realloc(o->record_at[turn], (row_count + 1) * sizeof *grown);
         if (!grown) {
             rad_error("out of memory for %u rows of output", row_count);
             status = RAD_ERR_NOMEM;
             row_count = 0;
         } else {
-            o->record_at = grown;
-            o->record_cap = row_count + 1;
+            o->record_at[turn] = grown;
+            o->record_cap[turn] = row_count + 1;
         }
     }
     /* Sizes, then where each record goes, then the records themselves,
      * each row on its own: the same bytes for any number of threads. */
-    uint64_t *at = o->record_at, first = o->checksum_count;
+    uint64_t *at = o->record_at[turn], first = o->checksum_count;
+    int keep_index = !o->handoff; /* a handed-over matrix has no row index */
     int64_t count = row_count;
 #pragma omp parallel for num_threads(o->threads) schedule(dynamic, 16)
     for (int64_t r = 0; r < count; r++)
@@ -339,12 +257,17 @@ rad_status ff_output_write_rows(ff_output *o, uint32_t row_begin, uint32_t row_c
             for (uint64_t j = 0; j < n; j++) ((float *)dst)[j] = (float)src[j];
         else
             memcpy(dst, src, rb);
+        if (!keep_index) continue;
         o->row_offsets[first + r] = at[r]; /* from this write's start, fixed below */
         o->row_checksums[first + r] = rad_ff_row_checksum(dst, at[r + 1] - at[r]);
         o->row_numbers[first + r] = (uint64_t)row_begin + (uint64_t)r;
     }
-    o->checksum_count += row_count;
     o->turn = !turn;
+    if (o->handoff) { /* to the consumer, in the background; no file, nothing shared */
+        rad_status handed = ff_handoff_submit(o->handoff, row_begin, row_count, o->convert[turn], at);
+        return status != RAD_OK ? status : handed;
+    }
+    o->checksum_count += row_count;
     return place_and_write(o, row_begin, first, row_count ? at[row_count] : 0, o->convert[turn], status);
 }
 
@@ -356,6 +279,12 @@ rad_status ff_output_write_records(ff_output *o, uint32_t row_begin, uint32_t ro
                   o->format == FF_FORMAT_SPARSE ? "different number of" : "file that is not sparse:");
         status = RAD_ERR_INVALID;
         row_count = 0;
+    }
+    if (o->handoff) { /* to the consumer, in the background (the backend keeps them until the call after next) */
+        rad_status handed = row_count ? ff_handoff_submit(o->handoff, row_begin, row_count,
+                                                          records->bytes + records->at[0], records->at)
+                                      : ff_handoff_wait(o->handoff);
+        return status != RAD_OK ? status : handed;
     }
     if (status == RAD_OK && (status = grow_row_tables(o, row_count)) != RAD_OK) row_count = 0;
     uint64_t first = o->checksum_count;
@@ -382,11 +311,6 @@ rad_status ff_output_write_records(ff_output *o, uint32_t row_begin, uint32_t ro
 static rad_status place_and_write(ff_output *o, uint32_t row_begin, uint64_t first, uint64_t bytes, const void *data,
                                   rad_status status)
 {
-    if (o->held) { /* this rank's records, after its last: no file, nothing shared */
-        for (uint64_t k = first; k < o->checksum_count; k++) o->row_offsets[k] += o->held_size;
-        rad_status kept = status == RAD_OK && bytes ? hold(o, data, bytes) : RAD_OK;
-        return status != RAD_OK ? status : kept;
-    }
     uint64_t rb = o->layout.row_bytes;
     uint64_t matrix = o->format == FF_FORMAT_PAPER ? 4 : o->layout.matrix_offset;
     uint64_t offset = matrix + (uint64_t)row_begin * rb;
@@ -441,7 +365,11 @@ static void gather_by_row(ff_output *o, const uint64_t *values, const uint64_t *
 
 rad_status ff_output_close(ff_output *o, rad_status status)
 {
-    if (o->held) return ff_comm_agree(o->comm, status);
+    if (o->handoff) { /* every batch consumed */
+        rad_status handed = ff_handoff_wait(o->handoff);
+        o->written.seconds = ff_handoff_seconds(o->handoff);
+        return ff_comm_agree(o->comm, status != RAD_OK ? status : handed);
+    }
     int root = ff_comm_rank(o->comm) == 0;
     uint64_t n = o->info.patch_count, *all = NULL, *numbers = NULL, *gathered = NULL;
     rad_status waited = ff_writer_wait(o->writer); /* this rank's last write */
@@ -497,25 +425,23 @@ ff_output_write_stats ff_output_written(const ff_output *o) { return o->written;
 rad_status ff_output_commit(ff_output *o, rad_status status)
 {
     status = ff_comm_agree(o->comm, status);
-    if (ff_comm_rank(o->comm) == 0 && !o->held) {
+    if (ff_comm_rank(o->comm) == 0 && !o->handoff) {
         if (status == RAD_OK)
             status = rad_fs_commit(o->temp, o->path);
         else
             rad_fs_discard(o->temp);
     }
     status = ff_comm_agree(o->comm, status);
-    if (ff_comm_rank(o->comm) != 0 && !o->held) rad_fs_unguard(o->temp);
-    if (o->held_reserved)
-        rad_mem_release(o->held_bytes, o->held_reserved);
-    else
-        free(o->held_bytes);
+    if (ff_comm_rank(o->comm) != 0 && !o->handoff) rad_fs_unguard(o->temp);
+    ff_handoff_close(o->handoff);
     free(o->prologue);
     free(o->convert[0]);
     free(o->convert[1]);
     free(o->row_checksums);
     free(o->row_offsets);
     free(o->row_numbers);
-    free(o->record_at);
+    free(o->record_at[0]);
+    free(o->record_at[1]);
     free(o);
     return status;
 }

@@ -34,6 +34,7 @@
 
 #include "ff_backend.h"
 #include "ff_comm.h"
+#include "ff_handoff.h"
 #include "ff_writer.h"
 #include "rad_ffile.h"
 
@@ -61,20 +62,14 @@ typedef struct ff_output_write_stats {
 
 rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, const rad_ff_info *info,
                           const rad_mesh *mesh, const ff_output_options *options, ff_output **out_output);
-/* Collective, sparse format: an output that keeps this rank's records in
- * memory instead of writing a file (formfactor --radiosity, issue 28):
- * the same calls as a file's (reserve, write_rows, write_records, close,
- * commit), no file, no temporary; `row_count`: this rank's rows, whose
- * largest records' room is reserved. The rank's rows must come in ascending
- * order without gaps (a contiguous block); ff_output_take_held then hands
- * them over as a matrix held in memory (rad_ff_open_held), which solve's
- * loader reads as it reads a file. */
-rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, const rad_mesh *mesh, uint64_t row_count,
+/* Collective, sparse format: an output that hands this rank's records to
+ * `consume` instead of writing a file (formfactor --radiosity, issue 28:
+ * solve's matrix decodes them, ff_solve.h), on a background thread while
+ * the rank computes its next rows (ff_handoff.h). The same calls as a
+ * file's (reserve, write_rows, write_records, close, commit); no file, no
+ * temporary, no row index. */
+rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, ff_handoff_consume consume, void *user,
                                const ff_output_options *options, ff_output **out_output);
-/* Collective, after a successful ff_output_close of a held output,
- * before commit: this rank's rows as a matrix in memory named `name` (the
- * records move into it; its header's matrix_bytes all ranks' records). */
-rad_status ff_output_take_held(ff_output *output, const char *name, rad_ff_file **out_file);
 /* Largest number of rows one write may carry in a file of this format
  * (bounds the two buffers a write is encoded into); known before it is
  * opened (ff_plan.h). */

@@ -1,11 +1,19 @@
-/* ff_solve.c - the held matrix to solve's stage (ff_solve.h). */
+/* ff_solve.c - a rank's rows into solve's matrix, then solve's stage (ff_solve.h). */
 #include "ff_solve.h"
 
 #include <stdlib.h>
 
 #include "comm.h"
+#include "matrix.h"
 #include "rad_log.h"
 #include "stage.h"
+
+struct ff_solve {
+    rad_ff_info info;
+    const rad_mesh *mesh;
+    solve_matrix matrix;
+    uint64_t bytes; /* the records' bytes so far */
+};
 
 void ff_solve_align_split(uint32_t *row_begin, int ranks, uint32_t n)
 {
@@ -18,6 +26,33 @@ void ff_solve_align_split(uint32_t *row_begin, int ranks, uint32_t n)
     free(split);
 }
 
+rad_status ff_solve_begin(const rad_ff_info *info, const rad_mesh *mesh, uint32_t row_begin, uint32_t row_end,
+                          ff_solve **out_solve)
+{
+    *out_solve = NULL;
+    ff_solve *s = calloc(1, sizeof *s);
+    if (!s) {
+        rad_error("out of memory");
+        return RAD_ERR_NOMEM;
+    }
+    s->info = *info;
+    s->mesh = mesh;
+    rad_status status = solve_matrix_begin(info, mesh, row_begin, row_end, &s->matrix);
+    if (status != RAD_OK) {
+        free(s);
+        return status;
+    }
+    *out_solve = s;
+    return RAD_OK;
+}
+
+rad_status ff_solve_rows(void *solve, uint32_t row, uint32_t rows, const unsigned char *records, const uint64_t *at)
+{
+    ff_solve *s = solve;
+    s->bytes += at[rows] - at[0];
+    return solve_matrix_append(&s->matrix, FF_SOLVE_NAME, row, rows, records, at);
+}
+
 static solve_backend solve_backend_of(ff_backend_choice backend)
 {
     switch (backend) {
@@ -27,13 +62,18 @@ static solve_backend solve_backend_of(ff_backend_choice backend)
     }
 }
 
-rad_status ff_solve_held(ff_comm *comm, rad_ff_file *held, const uint32_t *row_begin, const ff_options *options,
-                         int threads)
+rad_status ff_solve_run(ff_comm *comm, ff_solve *s, const uint32_t *row_begin, const ff_options *options,
+                        int threads)
 {
     int ranks = ff_comm_size(comm);
     size_t *split = malloc(((size_t)ranks + 1) * sizeof *split);
     solve_comm *sc = NULL;
-    rad_status status = split ? RAD_OK : RAD_ERR_NOMEM;
+    rad_ff_file *tables = NULL;
+    uint64_t total = 0;
+    ff_comm_exscan_u64(comm, s->bytes, &total); /* every rank's records: what a file's header would say */
+    s->info.matrix_bytes = total;
+    rad_status status = split ? solve_matrix_end(&s->matrix, FF_SOLVE_NAME) : RAD_ERR_NOMEM;
+    if (status == RAD_OK) status = rad_ff_open_tables(FF_SOLVE_NAME, &s->info, s->mesh, &tables);
     if (status == RAD_OK) status = solve_comm_init(NULL, NULL, &sc); /* MPI is up already (or not used) */
     status = ff_comm_agree(comm, status);
     if (status == RAD_OK) {
@@ -42,12 +82,21 @@ rad_status ff_solve_held(ff_comm *comm, rad_ff_file *held, const uint32_t *row_b
                             .output = options->radiosity_path,
                             .backend = solve_backend_of(options->backend),
                             .comm = sc,
-                            .matrix = held,
+                            .matrix = tables,
+                            .loaded = &s->matrix,
                             .row_split = ranks > 1 ? split : NULL,
                             .threads = threads};
         status = solve_stage_run(&so);
     }
     solve_comm_finalize(sc);
+    rad_ff_close(tables);
     free(split);
     return ff_comm_agree(comm, status);
+}
+
+void ff_solve_free(ff_solve *s)
+{
+    if (!s) return;
+    solve_matrix_free(&s->matrix);
+    free(s);
 }

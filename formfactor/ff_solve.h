@@ -1,14 +1,18 @@
 /* ff_solve.h - formfactor --radiosity: scene to radiosity without the
- * round trip through the N x N file (issue 28, item 3). Each rank keeps
- * its block of rows in memory as the sparse file's records
- * (ff_output_open_held); they go to solve's stage (solve/stage.h) as a
- * matrix held in memory, each rank its rows, and the stage solves and
- * writes the radiosity file exactly as `solve` would from the file: the
+ * round trip through the N x N file (issue 28, item 3). Each rank's block
+ * of rows goes, as the sparse file's records, straight into solve's matrix
+ * (solve_matrix_begin/append/end: decoded on a background thread while the
+ * rank computes its next rows, ff_output_open_held); then solve's stage
+ * (solve/stage.h) runs on it exactly as `solve` would on the file: the
  * same checks, method, backend choice and bytes.
  *
- *     ff_solve_align_split(row_begin, ranks, n);   // before the rows are computed
- *     ... compute, ff_output_take_held(out, name, &held) ...
- *     status = ff_solve_held(comm, held, row_begin, options);
+ *     ff_solve_align_split(row_begin, ranks, n);         // before the rows are split into rounds
+ *     ff_solve *s;
+ *     ff_solve_begin(&info, &mesh, row_begin[r], row_begin[r + 1], &s);
+ *     ff_output_open_held(comm, &info, ff_solve_rows, s, &options, &out);
+ *     ... the rounds; ff_output_close ...
+ *     status = ff_solve_run(comm, s, row_begin, &options, threads);
+ *     ff_solve_free(s);
  */
 #ifndef FF_SOLVE_H
 #define FF_SOLVE_H
@@ -20,7 +24,7 @@
 #include "rad_ffile.h"
 #include "rad_status.h"
 
-/* What solve's messages call the held matrix. */
+/* What solve's messages call the matrix in memory. */
 #define FF_SOLVE_NAME "the matrix in memory"
 
 /* The split of rows among ranks (ranks + 1 entries) moved to the chunks
@@ -28,12 +32,20 @@
  * radiosity is the same bits for any number of ranks. */
 void ff_solve_align_split(uint32_t *row_begin, int ranks, uint32_t n);
 
-/* Collective: solves the held matrix (rank r holds rows [row_begin[r],
- * row_begin[r + 1])) with solve's defaults and writes options->radiosity_path;
- * the backend follows --backend (cpu, cuda, or auto as solve's), on
- * `threads` OpenMP threads per rank (formfactor's). `held` stays the
- * caller's. */
-rad_status ff_solve_held(ff_comm *comm, rad_ff_file *held, const uint32_t *row_begin, const ff_options *options,
-                         int threads);
+typedef struct ff_solve ff_solve;
+
+/* This rank's rows [row_begin, row_end) of the matrix described by `info`
+ * (the header a file of it would have) over `mesh`. */
+rad_status ff_solve_begin(const rad_ff_info *info, const rad_mesh *mesh, uint32_t row_begin, uint32_t row_end,
+                          ff_solve **out_solve);
+/* ff_handoff_consume: the next rows' records into the matrix. */
+rad_status ff_solve_rows(void *solve, uint32_t row, uint32_t rows, const unsigned char *records, const uint64_t *at);
+/* Collective, once every rank's rows are in: solves with solve's defaults
+ * and writes options->radiosity_path; the backend follows --backend (cpu,
+ * cuda, or auto as solve's), on `threads` OpenMP threads per rank
+ * (formfactor's). */
+rad_status ff_solve_run(ff_comm *comm, ff_solve *solve, const uint32_t *row_begin, const ff_options *options,
+                        int threads);
+void ff_solve_free(ff_solve *solve); /* NULL is fine */
 
 #endif

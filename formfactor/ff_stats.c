@@ -255,7 +255,8 @@ void ff_stats_log_summary(const ff_run_info *run, const ff_rank_stats *ranks)
              "GPU memory %.3f  I/O %.3f  total %.3f",
              all.load, all.subdivide, all.setup, all.form_factors, all.visibility, all.gpu_memory, all.io, all.total);
     if (run->held)
-        rad_info("the matrix held in memory for the solve (--radiosity): no file written");
+        rad_info("no file written (--radiosity): the rows went into the solve's matrix as they came, decoded in "
+                 "%.3f s in the background on the slowest rank", all.write);
     else
         rad_info("written: %.3f GB by %d rank(s) (%s), in flight %.3f s on the slowest rank", all.write_bytes * 1e-9,
                  run->ranks, ranks[0].write_mapped ? "mapped" : "pwrite", all.write);

@@ -56,7 +56,7 @@ typedef struct ff_run_info {
     const char *element;
     const char *format;
     const char *output;
-    int held;                /* --radiosity: the matrix was held in memory, not written */
+    int held;                /* --radiosity: the rows went into the solve's matrix, not to a file */
     int ranks;
     int gpus_visible;
     const char *refine_from;      /* --refine RADIOSITY, or NULL */

@@ -191,12 +191,10 @@ static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix 
         for (end = begin + 1; end < last && rad_ff_record_offset(file, end + 1) - start <= MATRIX_RECORD_BYTES; end++) {
         }
         size_t bytes = (size_t)(rad_ff_record_offset(file, end) - start), rows = end - begin;
-        /* A matrix held in memory (formfactor --radiosity) is decoded where it lies. */
-        const unsigned char *held = rad_ff_held_records(file, begin);
-        if ((!held && bytes > records_cap) || 2 * rows + 1 > counts_cap) {
+        if (bytes > records_cap || 2 * rows + 1 > counts_cap) {
             free(records);
             free(counts);
-            records_cap = !held && bytes > records_cap ? bytes : records_cap;
+            records_cap = bytes > records_cap ? bytes : records_cap;
             counts_cap = 2 * rows + 1 > counts_cap ? 2 * rows + 1 : counts_cap;
             records = malloc(records_cap ? records_cap : 1);
             counts = malloc(counts_cap * sizeof *counts);
@@ -206,8 +204,8 @@ static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix 
                 break;
             }
         }
-        if (!held) status = rad_ff_read_records(file, begin, rows, records);
-        if (status == RAD_OK) status = load_records(file, path, m, begin, end, held ? held : records, counts);
+        status = rad_ff_read_records(file, begin, rows, records);
+        if (status == RAD_OK) status = load_records(file, path, m, begin, end, records, counts);
     }
     free(records);
     free(counts);
@@ -350,14 +348,192 @@ done:
     return status;
 }
 
+rad_status solve_matrix_begin(const rad_ff_info *info, const rad_mesh *mesh, size_t row_begin, size_t row_end,
+                              solve_matrix *out_matrix)
+{
+    solve_matrix m;
+    memset(&m, 0, sizeof m);
+    memset(out_matrix, 0, sizeof *out_matrix);
+    const size_t n = mesh->patch_count, rows = row_end - row_begin;
+    const size_t tiles = rows * ((n + RAD_FF_TILE_COLUMNS - 1) / RAD_FF_TILE_COLUMNS);
+    m.patch_count = n;
+    m.reciprocity_bound = solve_reciprocity_bound(info);
+    m.row_begin = row_begin;
+    m.row_end = row_end;
+    m.element_type = info->element_type;
+    m.area = malloc((n ? n : 1) * sizeof(double));
+    m.row_sum = calloc(n ? n : 1, sizeof(double));
+    m.row_tiles = malloc((rows + 1) * sizeof *m.row_tiles);
+    /* at most every entry and every tile of the rows: reserved, touched as filled */
+    m.values_reserved = (rows ? rows : 1) * n * sizeof(double);
+    m.tiles_reserved = (tiles ? tiles : 1) * sizeof(uint64_t);
+    m.values = rad_mem_reserve(m.values_reserved);
+    m.tile_value = rad_mem_reserve(m.tiles_reserved);
+    m.tile_column = rad_mem_reserve(m.tiles_reserved);
+    if (!m.values || !m.tile_value || !m.tile_column) { /* no reservation: the bound, allocated */
+        rad_mem_release(m.values, m.values_reserved);
+        rad_mem_release(m.tile_value, m.tiles_reserved);
+        rad_mem_release(m.tile_column, m.tiles_reserved);
+        m.values_reserved = m.tiles_reserved = 0;
+        m.values = malloc((rows ? rows : 1) * n * sizeof(double));
+        m.tile_value = malloc((tiles ? tiles : 1) * sizeof *m.tile_value);
+        m.tile_column = malloc((tiles ? tiles : 1) * sizeof *m.tile_column);
+    }
+    if (!m.area || !m.row_sum || !m.row_tiles || !m.values || !m.tile_value || !m.tile_column) {
+        rad_error("out of memory for %zu rows of %zu form factors", rows, n);
+        solve_matrix_free(&m);
+        return RAD_ERR_NOMEM;
+    }
+    m.value_cap = rows * n;
+    m.tile_cap = tiles;
+    for (size_t i = 0; i < n; i++) m.area[i] = mesh->patches[i].area;
+    m.row_tiles[0] = 0;
+    m.rows = (solve_rows){.n = n, .row_tiles = m.row_tiles, .tile_column = m.tile_column,
+                          .tile_value = m.tile_value, .values = m.values, .first_row = row_begin};
+    *out_matrix = m;
+    return RAD_OK;
+}
+
+/* Row i's record, found wanting by solve_matrix_append: decoded on its
+ * own and its first problem named as the file's loader names it. */
+static rad_status report_record(const char *name, size_t i, const unsigned char *record, uint64_t size, size_t n,
+                                uint32_t element)
+{
+    uint32_t *tiles = malloc(((n + RAD_FF_TILE_COLUMNS - 1) / RAD_FF_TILE_COLUMNS + 1) * sizeof *tiles), count = 0;
+    double *values = malloc((n ? n : 1) * sizeof *values);
+    uint64_t t64 = 0, stored = 0;
+    uint32_t listed = 0;
+    rad_status status = tiles && values ? RAD_ERR_FORMAT : RAD_ERR_NOMEM;
+    const char *why = !tiles || !values ? "out of memory" : rad_ff_record_sizes(record, size, n, &listed, &t64);
+    if (!why) why = rad_ff_record_decode(record, size, n, element, tiles, &count, values, &stored);
+    if (why) {
+        rad_error("%s: row %zu: %s", name, i, why);
+    } else {
+        double sum = 0;
+        status = RAD_OK;
+        for (uint32_t k = 0, v = 0; k < count && status == RAD_OK; k++) {
+            size_t first = (size_t)tiles[k] * RAD_FF_TILE_COLUMNS;
+            for (size_t j = first; j < first + RAD_FF_TILE_COLUMNS && j < n && status == RAD_OK; j++, v++) {
+                status = check_entry(name, i, j, values[v]);
+                sum += values[v];
+            }
+        }
+        if (status == RAD_OK) {
+            rad_error("%s: row %zu: form factors sum to %.6g, more than %g (a closed scene sums to 1)", name, i,
+                      sum, SOLVE_ROW_SUM_LIMIT);
+            status = RAD_ERR_INVALID;
+        }
+    }
+    free(tiles);
+    free(values);
+    return status;
+}
+
+rad_status solve_matrix_append(solve_matrix *m, const char *name, size_t row, size_t rows,
+                               const unsigned char *records, const uint64_t *at)
+{
+    const size_t n = m->patch_count;
+    if (row != m->row_begin + m->appended || row + rows > m->row_end) {
+        rad_error("internal: %s: rows %zu..%zu appended after %zu of [%zu, %zu)", name, row, row + rows,
+                  m->appended, m->row_begin, m->row_end);
+        return RAD_ERR_INVALID;
+    }
+    if (rows == 0) return RAD_OK;
+    uint64_t *counts = malloc((2 * rows + 1) * sizeof *counts), *tiles = counts, *values = counts + rows + 1;
+    if (!counts) {
+        rad_error("%s: out of memory", name);
+        return RAD_ERR_NOMEM;
+    }
+    const uint64_t base = at[0];
+    size_t bad = SIZE_MAX;
+#pragma omp parallel for schedule(dynamic, 64) reduction(min : bad)
+    for (size_t r = 0; r < rows; r++) {
+        uint32_t t = 0;
+        uint64_t v = 0;
+        if (rad_ff_record_sizes(records + (at[r] - base), at[r + 1] - at[r], n, &t, &v)) bad = r < bad ? r : bad;
+        tiles[r + 1] = t;
+        values[r] = v;
+    }
+    tiles[0] = 0;
+    for (size_t r = 0; r < rows; r++) tiles[r + 1] += tiles[r];
+    size_t total = 0;
+    for (size_t r = 0; r < rows && bad == SIZE_MAX; r++) {
+        uint64_t v = values[r];
+        values[r] = total;
+        total += v;
+    }
+    if (bad == SIZE_MAX && (m->tile_count + tiles[rows] > m->tile_cap || m->value_count + total > m->value_cap)) {
+        rad_error("internal: %s: rows %zu..%zu hold more than their room", name, row, row + rows);
+        free(counts);
+        return RAD_ERR_INVALID;
+    }
+    if (bad == SIZE_MAX) {
+        const unsigned element = m->element_type;
+#pragma omp parallel for schedule(dynamic, 64) reduction(min : bad)
+        for (size_t r = 0; r < rows; r++) {
+            uint32_t *column = m->tile_column + m->tile_count + tiles[r], count = 0;
+            uint64_t *where = m->tile_value + m->tile_count + tiles[r], stored = 0;
+            uint64_t v = m->value_count + values[r];
+            if (rad_ff_record_decode(records + (at[r] - base), at[r + 1] - at[r], n, element, column, &count,
+                                     m->values + v, &stored)) {
+                bad = r < bad ? r : bad;
+                continue;
+            }
+            double sum = 0;
+            int ok = 1;
+            for (uint64_t k = 0; k < count; k++) { /* tile numbers -> first columns, entries; the row's sum */
+                size_t first = (size_t)column[k] * RAD_FF_TILE_COLUMNS;
+                size_t width = first + RAD_FF_TILE_COLUMNS < n ? RAD_FF_TILE_COLUMNS : n - first;
+                column[k] = (uint32_t)first;
+                where[k] = v;
+                for (size_t e = 0; e < width; e++) {
+                    double f = m->values[v + e];
+                    ok &= isfinite(f) && f >= -SOLVE_NEGATIVE_TOLERANCE;
+                    sum += f;
+                }
+                v += width;
+            }
+            m->row_sum[row + r] = sum;
+            if (!ok || !(sum <= SOLVE_ROW_SUM_LIMIT)) bad = r < bad ? r : bad;
+        }
+    }
+    if (bad != SIZE_MAX) {
+        free(counts);
+        return report_record(name, row + bad, records + (at[bad] - base), at[bad + 1] - at[bad], n, m->element_type);
+    }
+    for (size_t r = 0; r < rows; r++) m->row_tiles[row - m->row_begin + r + 1] = m->tile_count + tiles[r + 1];
+    m->tile_count += tiles[rows];
+    m->value_count += total;
+    m->appended += rows;
+    free(counts);
+    return RAD_OK;
+}
+
+rad_status solve_matrix_end(solve_matrix *m, const char *name)
+{
+    if (m->appended != m->row_end - m->row_begin) {
+        rad_error("internal: %s: %zu of %zu rows came", name, m->appended, m->row_end - m->row_begin);
+        return RAD_ERR_INVALID;
+    }
+    return RAD_OK;
+}
+
 void solve_matrix_free(solve_matrix *matrix)
 {
     if (!matrix) return;
     free(matrix->form_factors);
     free(matrix->row_tiles);
-    free(matrix->tile_column);
-    free(matrix->tile_value);
-    free(matrix->values);
+    if (matrix->tiles_reserved) {
+        rad_mem_release(matrix->tile_column, matrix->tiles_reserved);
+        rad_mem_release(matrix->tile_value, matrix->tiles_reserved);
+    } else {
+        free(matrix->tile_column);
+        free(matrix->tile_value);
+    }
+    if (matrix->values_reserved)
+        rad_mem_release(matrix->values, matrix->values_reserved);
+    else
+        free(matrix->values);
     free(matrix->area);
     free(matrix->row_sum);
     free(matrix->row_error);

@@ -84,7 +84,28 @@ typedef struct solve_matrix {
     double *row_error;    /* N: sqrt(sum_j sigma_ij^2), the held rows' (others 0 until gathered);
                              NULL until solve_matrix_load_errors */
     double reciprocity_bound; /* solve_system.reciprocity_bound, from the file's header */
+    /* solve_matrix_begin's arrays: reserved address space (rad_mem_reserve),
+     * these many bytes each; 0 where malloc'd */
+    size_t values_reserved, tiles_reserved;
+    size_t appended;      /* solve_matrix_append: rows so far */
+    uint32_t element_type; /* solve_matrix_begin: the records' element (rad_element_type) */
 } solve_matrix;
+
+/* A matrix built from its records as they are computed, never written
+ * (formfactor --radiosity): begin with the rows [row_begin, row_end) this
+ * rank will hold, then append them in order, a block of records at a time
+ * (any thread; the decoding runs on the OpenMP threads), then end. Each
+ * row is decoded and checked as solve_matrix_load checks a file's (`name`
+ * stands for the file in messages). The entries' room is reserved, not
+ * committed (rad_mem.h): only what the records hold is touched. */
+rad_status solve_matrix_begin(const rad_ff_info *info, const rad_mesh *mesh, size_t row_begin, size_t row_end,
+                              solve_matrix *out_matrix);
+/* Rows [row, row + rows): record k is `at[k + 1] - at[k]` bytes at
+ * records + at[k] - at[0]; row must be the next row not yet appended. */
+rad_status solve_matrix_append(solve_matrix *matrix, const char *name, size_t row, size_t rows,
+                               const unsigned char *records, const uint64_t *at);
+/* Every row appended? Then the matrix is ready (as from solve_matrix_load). */
+rad_status solve_matrix_end(solve_matrix *matrix, const char *name);
 
 /* For a file whose header says it is reciprocal by construction
  * (RAD_FF_FLAG_RECIPROCAL, set by formfactor): the bound b with

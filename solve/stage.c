@@ -285,7 +285,17 @@ static rad_status load_rows(stage_state *s, solve_comm *comm, const solve_option
     status = solve_comm_set_rows(comm, s->row_split);
     if (status != RAD_OK) return status;
     stage_speak(comm, asked, STAGE_OWN_ROWS);
-    status = solve_matrix_load(s->file, input, s->row_split[rank], s->row_split[rank + 1], &s->matrix);
+    if (options->loaded) { /* the caller's rows, already in memory: taken over */
+        s->matrix = *options->loaded;
+        memset(options->loaded, 0, sizeof *options->loaded);
+        if (s->matrix.row_begin != s->row_split[rank] || s->matrix.row_end != s->row_split[rank + 1]) {
+            rad_error("internal: %s: rank %zu holds rows %zu..%zu, the split says %zu..%zu", input, rank,
+                      s->matrix.row_begin, s->matrix.row_end, s->row_split[rank], s->row_split[rank + 1]);
+            status = RAD_ERR_INVALID;
+        }
+    } else {
+        status = solve_matrix_load(s->file, input, s->row_split[rank], s->row_split[rank + 1], &s->matrix);
+    }
     status = solve_comm_agree(comm, status);
     if (status == RAD_OK && options->errors) {
         status = solve_matrix_load_errors(&s->matrix, s->file, input, options->errors);

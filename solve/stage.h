@@ -46,6 +46,8 @@ const char *solve_backend_name(solve_backend backend);
  * "cuda" in a build without CUDA. */
 rad_status solve_backend_parse(const char *name, solve_backend *out_backend);
 
+struct solve_matrix; /* matrix.h */
+
 typedef struct solve_options {
     const char *input;   /* form-factor file; NULL = SOLVE_DEFAULT_INPUT */
     const char *output;  /* radiosity file; NULL = SOLVE_DEFAULT_OUTPUT */
@@ -63,6 +65,11 @@ typedef struct solve_options {
      * memory (rad_ff_open_held). Borrowed: the caller closes it. NULL =
      * open `input`. */
     rad_ff_file *matrix;
+    /* With `matrix`: this rank's rows already in memory (solve_matrix_begin,
+     * append, end; formfactor --radiosity), taken over by the stage (left
+     * zeroed); `matrix` then only gives the header and the patch table
+     * (rad_ff_open_tables). NULL: the rows are read from `matrix`. */
+    struct solve_matrix *loaded;
     /* With `matrix` under several ranks: ranks + 1 entries, each rank's
      * first row - the rows `matrix` holds on each rank - aligned by
      * solve_stage_align_split. NULL: the stage splits the rows itself. */
