@@ -885,32 +885,12 @@ rad_status rad_ff_read_records(rad_ff_file *file, uint64_t row_begin, uint64_t r
 rad_status rad_ff_record_counts(const rad_ff_file *file, uint64_t row, const unsigned char *record,
                                 uint32_t *out_tiles, uint64_t *out_values)
 {
-    uint64_t n = file->info.patch_count, size = file->row_offsets[row + 1] - file->row_offsets[row];
+    uint64_t size = file->row_offsets[row + 1] - file->row_offsets[row];
     if (rad_ff_row_checksum(record, size) != file->row_checksums[row]) {
         rad_error("%s: row %llu: checksum mismatch: the matrix is corrupted", file->path, (unsigned long long)row);
         return RAD_ERR_FORMAT;
     }
-    uint64_t listed = rad_get_u32(record), values = 0;
-    if (listed > tile_count_of(n) || 4 + 4 * listed > size) {
-        rad_error("%s: row %llu: %s", file->path, (unsigned long long)row, "more tiles than the row has");
-        return RAD_ERR_FORMAT;
-    }
-    for (uint64_t k = 0; k < listed; k++) {
-        uint64_t j0 = (uint64_t)rad_get_u32(record + 4 + 4 * k) * RAD_FF_TILE_COLUMNS;
-        values += j0 >= n ? 0 : (j0 + RAD_FF_TILE_COLUMNS < n ? RAD_FF_TILE_COLUMNS : n - j0);
-    }
-    *out_tiles = (uint32_t)listed;
-    *out_values = values;
-    return RAD_OK;
-}
-
-rad_status rad_ff_decode_record(const rad_ff_file *file, uint64_t row, const unsigned char *record, uint32_t *tiles,
-                                double *values)
-{
-    uint64_t size = file->row_offsets[row + 1] - file->row_offsets[row], stored;
-    uint32_t count;
-    const char *why =
-        decode_record(record, size, file->info.patch_count, file->info.element_type, tiles, &count, values, &stored);
+    const char *why = rad_ff_record_sizes(record, size, file->info.patch_count, out_tiles, out_values);
     if (why) {
         rad_error("%s: row %llu: %s", file->path, (unsigned long long)row, why);
         return RAD_ERR_FORMAT;

@@ -240,7 +240,7 @@ rad_status rad_ff_read_links(rad_ff_file *file, rad_links *out);
  * read, into `buffer` (rad_ff_record_offset(file, row_begin + row_count) -
  * rad_ff_record_offset(file, row_begin) bytes); then each row's record,
  * at buffer + rad_ff_record_offset(file, row) - rad_ff_record_offset(file,
- * row_begin), goes through rad_ff_decode_record, which touches nothing
+ * row_begin), goes through rad_ff_record_decode, which touches nothing
  * but its outputs (any thread). Its counts come first from
  * rad_ff_record_counts, so that the outputs can be placed. */
 uint64_t rad_ff_record_offset(const rad_ff_file *file, uint64_t row);
@@ -249,9 +249,5 @@ rad_status rad_ff_read_records(rad_ff_file *file, uint64_t row_begin, uint64_t r
  * tiles and entries it stores; RAD_ERR_FORMAT (logged) if it is damaged. */
 rad_status rad_ff_record_counts(const rad_ff_file *file, uint64_t row, const unsigned char *record,
                                 uint32_t *out_tiles, uint64_t *out_values);
-/* Decodes a verified record: its tile numbers into tiles[] and entries
- * into values[] (as many as rad_ff_record_counts said). */
-rad_status rad_ff_decode_record(const rad_ff_file *file, uint64_t row, const unsigned char *record, uint32_t *tiles,
-                                double *values);
 
 #endif

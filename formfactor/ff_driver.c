@@ -13,6 +13,7 @@
 #include "ff_backend.h"
 #include "ff_cuda.h"
 #include "ff_limits.h"
+#include "rad_cpu.h"
 #include "ff_load.h"
 #include "ff_output.h"
 #include "ff_plan.h"
@@ -149,7 +150,7 @@ static rad_status setup(ff_run *run)
     if (st == RAD_OK && run->opt.radiosity_path) ff_solve_align_split(run->row_begin, ranks, n);
     run->want_errors = !run->opt.no_errors;
     plan_after_split(run, st); /* collective, so every rank plans, even one that failed above */
-    run->stats.threads = ff_limits_threads(run->opt.threads, ff_comm_node_size(run->comm));
+    run->stats.threads = rad_cpu_threads_per_rank(run->opt.threads, ff_comm_node_size(run->comm));
     if (st == RAD_OK) {
         ff_setup su = {.patches = run->patches, .patch_count = n, .triangles = run->triangles,
                        .triangle_face = run->triangle_face, .triangle_count = run->triangle_count,
@@ -330,7 +331,7 @@ static rad_status compute_rounds(ff_run *run, const ff_files *files, ff_counters
 static void stats_rows(const ff_plan *plan, ff_rank_stats *stats)
 {
     stats->row_count = plan->rank_rows;
-    if (plan->pairs_once || plan->blocks) {
+    if (plan->blocks) {
         stats->row_begin = plan->block_begin;
         stats->row_end = plan->block_end;
     } else {

@@ -15,6 +15,7 @@
 
 #include "ff_backend.h"
 #include "ff_limits.h"
+#include "rad_cpu.h"
 #include "ff_links.h"
 #include "ff_load.h"
 #include "ff_setup.h"
@@ -241,7 +242,7 @@ rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
     hier_run h;
     memset(&h, 0, sizeof h);
     h.opt = opt;
-    h.threads = ff_limits_threads(opt->threads, ff_comm_node_size(comm));
+    h.threads = rad_cpu_threads_per_rank(opt->threads, ff_comm_node_size(comm));
     double t0 = rad_clock_seconds();
     rad_status st = RAD_OK;
     if (rank == 0) {

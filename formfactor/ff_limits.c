@@ -1,11 +1,9 @@
 /* ff_limits.c - this machine's cores, memory and disk, and the refusal of
  * a run that does not fit them (ff_limits.h). */
-#define _GNU_SOURCE /* sched_getaffinity */
 #include "ff_limits.h"
 
 #include <inttypes.h>
 #include <math.h>
-#include <sched.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/statvfs.h>
@@ -14,16 +12,6 @@
 #include "ff_output.h"
 #include "ff_progress.h"
 #include "rad_log.h"
-
-int ff_limits_threads(int threads, int node_ranks)
-{
-    if (threads > 0) return threads;
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    long t = cores / node_ranks;
-    cpu_set_t mask;
-    if (sched_getaffinity(0, sizeof mask, &mask) == 0 && CPU_COUNT(&mask) < t) t = CPU_COUNT(&mask);
-    return t > 0 ? (int)t : 1;
-}
 
 double ff_limits_memory_per_rank(int node_ranks)
 {

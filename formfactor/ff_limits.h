@@ -1,5 +1,5 @@
-/* ff_limits.h - what this machine gives a run: threads and memory per
- * rank, the free space of the output's file system; and rank 0's check,
+/* ff_limits.h - what this machine gives a run: memory per rank (threads:
+ * rad_cpu.h), the free space of the output's file system; and rank 0's check,
  * before the mesh is built, that a run fits them (ff_plan.h decides,
  * this says why not, with the numbers).
  *
@@ -14,11 +14,6 @@
 #include "ff_plan.h"
 #include "rad_status.h"
 
-/* The threads of one rank: `threads` where positive (--threads, or
- * OMP_NUM_THREADS: ff_options.h), else the cores this process may run on
- * (mpirun binds ranks to cores by default), no more than its share of the
- * node's; at least 1. */
-int ff_limits_threads(int threads, int node_ranks);
 
 /* Physical memory of this node divided among the ranks on it (bytes);
  * INFINITY where unknown. */

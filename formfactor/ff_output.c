@@ -57,16 +57,32 @@ uint32_t ff_output_max_rows(uint64_t patch_count, ff_format format, rad_element_
     return rows ? (uint32_t)rows : 1;
 }
 
-rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, const rad_ff_info *info,
-                          const rad_mesh *mesh, const ff_output_options *options, ff_output **out_output)
+/* Everything an output owns (NULL is fine); its file is closed or
+ * committed first. */
+static void output_free(ff_output *o)
 {
-    rad_status status = RAD_OK;
+    if (!o) return;
+    ff_handoff_close(o->handoff);
+    free(o->prologue);
+    free(o->convert[0]);
+    free(o->convert[1]);
+    free(o->row_checksums);
+    free(o->row_offsets);
+    free(o->row_numbers);
+    free(o->record_at[0]);
+    free(o->record_at[1]);
+    free(o);
+}
+
+/* An output's common part (the file's and the held one's): its info and
+ * layout for `format`, and the two encode buffers, sized by the first
+ * write (ff_output_write_rows), not by the largest write allowed: that
+ * could be 256 MiB more than needed. NULL (logged) when out of memory. */
+static ff_output *output_new(ff_comm *comm, const char *path, ff_format format, const rad_ff_info *info,
+                             const ff_output_options *options)
+{
     ff_output *o = calloc(1, sizeof *o);
-    if (!o) {
-        rad_error("%s: out of memory", path);
-        status = RAD_ERR_NOMEM;
-    }
-    if (status == RAD_OK) {
+    if (o) {
         o->comm = comm;
         o->format = format;
         o->threads = options && options->threads > 0 ? options->threads : 1;
@@ -77,6 +93,25 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
         o->layout = rad_ff_layout_of(&o->info);
         o->record_max = record_max_of(info->patch_count, format, (rad_element_type)info->element_type);
         snprintf(o->path, sizeof o->path, "%s", path);
+        for (int k = 0; k < 2; k++) {
+            o->convert[k] = malloc(RAD_FF_ALIGN);
+            o->convert_bytes[k] = RAD_FF_ALIGN;
+        }
+    }
+    if (!o || !o->convert[0] || !o->convert[1]) {
+        rad_error("%s: out of memory", path);
+        output_free(o);
+        return NULL;
+    }
+    return o;
+}
+
+rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, const rad_ff_info *info,
+                          const rad_mesh *mesh, const ff_output_options *options, ff_output **out_output)
+{
+    ff_output *o = output_new(comm, path, format, info, options);
+    rad_status status = o ? RAD_OK : RAD_ERR_NOMEM;
+    if (status == RAD_OK) {
         if (ff_comm_rank(comm) == 0) status = rad_fs_check_output("-o", path);
         /* Rank 0 creates the temporary (exclusively, guarded); the others
          * learn its name below and guard it too: a rank that is
@@ -85,16 +120,6 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
         if (status == RAD_OK && ff_comm_rank(comm) == 0) status = rad_fs_temp_create(path, o->temp, sizeof o->temp);
         if (status == RAD_OK && ff_comm_rank(comm) == 0 && format != FF_FORMAT_PAPER)
             status = rad_ff_prologue_encode(&o->info, mesh, &o->prologue, &o->prologue_size);
-        /* Sized by the first write (ff_output_write_rows), not by the
-         * largest write allowed: that could be 256 MiB more than needed. */
-        for (int k = 0; k < 2; k++) {
-            o->convert[k] = malloc(RAD_FF_ALIGN);
-            o->convert_bytes[k] = RAD_FF_ALIGN;
-        }
-        if (!o->convert[0] || !o->convert[1]) {
-            rad_error("%s: out of memory", path);
-            status = RAD_ERR_NOMEM;
-        }
     }
     status = ff_comm_agree(comm, status);
     if (status == RAD_OK) {
@@ -118,12 +143,7 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
         rad_fs_discard(o->temp);
     }
     if (status != RAD_OK) {
-        if (o) {
-            free(o->prologue);
-            free(o->convert[0]);
-            free(o->convert[1]);
-        }
-        free(o);
+        output_free(o);
         return status;
     }
     *out_output = o;
@@ -133,33 +153,11 @@ rad_status ff_output_open(ff_comm *comm, const char *path, ff_format format, con
 rad_status ff_output_open_held(ff_comm *comm, const rad_ff_info *info, ff_handoff_consume consume, void *user,
                                const ff_output_options *options, ff_output **out_output)
 {
-    ff_output *o = calloc(1, sizeof *o);
-    rad_status status = o ? RAD_OK : RAD_ERR_NOMEM;
-    if (o) {
-        o->comm = comm;
-        o->format = FF_FORMAT_SPARSE;
-        o->threads = options && options->threads > 0 ? options->threads : 1;
-        o->info = *info;
-        o->info.layout = RAD_FF_LAYOUT_SPARSE;
-        o->info.matrix_bytes = 0;
-        o->layout = rad_ff_layout_of(&o->info);
-        o->record_max = record_max_of(info->patch_count, FF_FORMAT_SPARSE, (rad_element_type)info->element_type);
-        snprintf(o->path, sizeof o->path, "(in memory)");
-        for (int k = 0; k < 2; k++) {
-            o->convert[k] = malloc(RAD_FF_ALIGN);
-            o->convert_bytes[k] = RAD_FF_ALIGN;
-        }
-        status = o->convert[0] && o->convert[1] ? ff_handoff_open(consume, user, &o->handoff) : RAD_ERR_NOMEM;
-    }
-    if (status == RAD_ERR_NOMEM) rad_error("out of memory for the form factors handed over in memory");
+    ff_output *o = output_new(comm, "(in memory)", FF_FORMAT_SPARSE, info, options);
+    rad_status status = o ? ff_handoff_open(consume, user, &o->handoff) : RAD_ERR_NOMEM;
     status = ff_comm_agree(comm, status);
     if (status != RAD_OK) {
-        if (o) {
-            ff_handoff_close(o->handoff);
-            free(o->convert[0]);
-            free(o->convert[1]);
-        }
-        free(o);
+        output_free(o);
         return status;
     }
     *out_output = o;
@@ -433,15 +431,6 @@ rad_status ff_output_commit(ff_output *o, rad_status status)
     }
     status = ff_comm_agree(o->comm, status);
     if (ff_comm_rank(o->comm) != 0 && !o->handoff) rad_fs_unguard(o->temp);
-    ff_handoff_close(o->handoff);
-    free(o->prologue);
-    free(o->convert[0]);
-    free(o->convert[1]);
-    free(o->row_checksums);
-    free(o->row_offsets);
-    free(o->row_numbers);
-    free(o->record_at[0]);
-    free(o->record_at[1]);
-    free(o);
+    output_free(o);
     return status;
 }

@@ -39,7 +39,7 @@ static void plan_rows(const ff_plan_limits *limits, uint64_t rank_rows, uint64_t
 {
     uint64_t n = limits->patch_count, ranks = (uint64_t)plan->ranks, rank = (uint64_t)plan->rank;
     uint64_t per_round = plan->rows_per_round;
-    if (!plan->pairs_once && !plan->blocks) {
+    if (!plan->blocks) {
         uint64_t share = (n + ranks - 1) / ranks; /* every rank a block where N >= P */
         if (share > 0 && share < per_round) per_round = plan->rows_per_round = (uint32_t)share;
         /* Several ranks: at least FF_CYCLIC_MIN_ROUNDS blocks each, so that
@@ -156,7 +156,7 @@ void ff_plan_make(const ff_plan_limits *limits, const ff_plan_choices *choices, 
     plan.device_records = plan.gpu && !plan.pairs_once && choices->format == FF_FORMAT_SPARSE;
     plan.rows_per_round = rows_per_round(n, plan.device_records ? FF_DEVICE_ROUND_BYTES : FF_ROUND_BYTES,
                                          limits->max_rows_per_write);
-    plan.blocks = choices->held && !plan.pairs_once;
+    plan.blocks = plan.pairs_once || choices->held;
     plan.patch_count = n;
     plan.ranks = ranks;
     plan.rank = limits->rank;
@@ -169,7 +169,7 @@ void ff_plan_make(const ff_plan_limits *limits, const ff_plan_choices *choices, 
 uint32_t ff_plan_round_rows(const ff_plan *plan, uint64_t round, uint32_t *out_first)
 {
     uint64_t per_round = plan->rows_per_round, first, end;
-    if (plan->pairs_once || plan->blocks) {
+    if (plan->blocks) {
         first = plan->block_begin + round * per_round;
         end = plan->block_end;
     } else {

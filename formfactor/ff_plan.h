@@ -147,9 +147,10 @@ typedef struct ff_plan {
      *     (the bytes do not depend on R: the records lie in row order). */
     uint32_t rows_per_round;
     uint64_t rounds;
-    /* Streamed, but each rank's rows one block, the split's, rows_per_round
-     * at a time (as pairs_once): a matrix held in memory (choices.held),
-     * which the solve takes as the ranks' contiguous row blocks. */
+    /* Each rank's rows one block, the split's, rows_per_round at a time:
+     * with pairs_once, and for a matrix handed to the solve in memory
+     * (choices.held), which takes the ranks' contiguous row blocks; else
+     * block-cyclic (below). */
     int blocks;
     uint32_t block_begin, block_end; /* pairs_once: this rank's block of the split (an even share before it) */
     uint32_t rank_rows;              /* rows this rank computes in all */

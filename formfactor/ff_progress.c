@@ -136,13 +136,13 @@ static uint32_t calibration_row(uint32_t n, uint32_t chunks, uint32_t chunk, uin
     return r0 + chunk > n ? n - chunk : r0;
 }
 
-/* The rows whose time is the run's: with pairs_once (or blocks) a block of the split,
+/* The rows whose time is the run's: in blocks (pairs_once, --radiosity) a block of the split,
  * which balances the ranks' work (not their rows), so N / ranks; streamed,
  * the most rows a rank takes in blocks of rows_per_round (one block more than
  * another rank's where the blocks do not divide evenly). */
 static double busiest_rows(const ff_progress *p, const ff_plan *plan)
 {
-    if (plan->pairs_once || plan->blocks) return (double)p->patch_count / ff_comm_size(p->comm);
+    if (plan->blocks) return (double)p->patch_count / ff_comm_size(p->comm);
     return plan->most_rows;
 }
 

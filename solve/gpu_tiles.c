@@ -4,9 +4,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "rad_mem.h"
 #include "gpu.h"
 #include "rad_log.h"
+#include "rad_mem.h"
 
 void solve_gpu_tiles_free(solve_gpu_tiles *tiles)
 {

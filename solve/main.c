@@ -7,8 +7,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
+#include "rad_cpu.h"
 #include "rad_log.h"
 #include "rad_fs.h"
 #include "groups.h"
@@ -184,14 +184,11 @@ static rad_status run(int argc, char **argv, solve_comm *comm)
     if (c.quiet) rad_log_set_level(RAD_LOG_WARN);
     if (rank != 0) rad_log_set_level(RAD_LOG_ERROR); /* the stage decides when other ranks speak */
     c.options.comm = comm;
-    /* Ranks sharing a node share its cores (as formfactor's do): without
-     * OMP_NUM_THREADS each would start a thread per core, K times too many
-     * while the rows are decoded and checked. */
+    /* Ranks sharing a node share its cores (rad_cpu.h); OMP_NUM_THREADS,
+     * where set, stays OpenMP's to apply. */
     int node_ranks = solve_comm_node_size(comm);
     const char *omp = getenv("OMP_NUM_THREADS");
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    if (node_ranks > 1 && !(omp && *omp) && cores > 0)
-        c.options.threads = cores / node_ranks > 0 ? (int)(cores / node_ranks) : 1;
+    if (node_ranks > 1 && !(omp && *omp)) c.options.threads = rad_cpu_threads_per_rank(0, node_ranks);
     return solve_stage_run(&c.options);
 }
 

@@ -56,9 +56,15 @@ static rad_status check_row(const char *path, const solve_rows *rows, size_t i, 
     return RAD_OK;
 }
 
-/* Room for `tiles` more tiles and `values` more entries in m's arrays. */
+/* Room for `tiles` more tiles and `values` more entries in m's arrays
+ * (reserved ones, solve_matrix_begin's, hold their bound and never move). */
 static rad_status grow_sparse(solve_matrix *m, size_t tiles, size_t values)
 {
+    if ((m->tiles_reserved || m->values_reserved) &&
+        (m->tile_count + tiles > m->tile_cap || m->value_count + values > m->value_cap)) {
+        rad_error("internal: rows holding more than their room");
+        return RAD_ERR_INVALID;
+    }
     if (m->tile_count + tiles > m->tile_cap) {
         size_t cap = m->tile_cap ? 2 * m->tile_cap : 4096;
         while (cap < m->tile_count + tiles) cap *= 2;
@@ -87,15 +93,17 @@ static rad_status grow_sparse(solve_matrix *m, size_t tiles, size_t values)
 /* Records read per rad_ff_read_records call: about 64 MiB at a time. */
 #define MATRIX_RECORD_BYTES (64u << 20)
 
-/* Rows [begin, end) of a sparse file, as read into `records`: verified and
- * decoded on the OpenMP threads, appended to m's tiles. A damaged row is
- * named (the first, whatever the threads). `counts` holds 2 (end - begin)
- * + 1 values of scratch. */
-static rad_status load_records(rad_ff_file *file, const char *path, solve_matrix *m, size_t begin, size_t end,
-                               const unsigned char *records, uint64_t *counts)
+/* Rows [row, row + rows) from their records (record r: at[r + 1] - at[r]
+ * bytes at records + at[r] - at[0]): counted (and, read from `file`,
+ * checksummed: NULL for records handed over in memory), decoded on the
+ * OpenMP threads and appended to m's tiles. A damaged row is named (the
+ * first, whatever the threads). `counts` holds 2 rows + 1 values of
+ * scratch. */
+static rad_status place_records(solve_matrix *m, const rad_ff_file *file, const char *name, size_t row, size_t rows,
+                                const unsigned char *records, const uint64_t *at, uint64_t *counts)
 {
-    const size_t rows = end - begin;
-    const uint64_t base = rad_ff_record_offset(file, begin);
+    const size_t n = m->patch_count;
+    const uint64_t base = at[0];
     uint64_t *tiles = counts, *values = counts + rows + 1;
     size_t bad = SIZE_MAX;
     /* Quiet on the threads; the first damaged row is named once, after. */
@@ -105,9 +113,10 @@ static rad_status load_records(rad_ff_file *file, const char *path, solve_matrix
     for (size_t r = 0; r < rows; r++) {
         uint32_t t = 0;
         uint64_t v = 0;
-        if (rad_ff_record_counts(file, begin + r, records + (rad_ff_record_offset(file, begin + r) - base), &t, &v) !=
-            RAD_OK)
-            bad = r < bad ? r : bad;
+        const unsigned char *record = records + (at[r] - base);
+        int ok = file ? rad_ff_record_counts(file, row + r, record, &t, &v) == RAD_OK
+                      : !rad_ff_record_sizes(record, at[r + 1] - at[r], n, &t, &v);
+        if (!ok) bad = r < bad ? r : bad;
         tiles[r + 1] = t;
         values[r] = v;
     }
@@ -115,8 +124,10 @@ static rad_status load_records(rad_ff_file *file, const char *path, solve_matrix
     if (bad != SIZE_MAX) {
         uint32_t t;
         uint64_t v;
-        return rad_ff_record_counts(file, begin + bad, records + (rad_ff_record_offset(file, begin + bad) - base), &t,
-                                    &v);
+        const unsigned char *record = records + (at[bad] - base);
+        if (file) return rad_ff_record_counts(file, row + bad, record, &t, &v);
+        rad_error("%s: row %zu: %s", name, row + bad, rad_ff_record_sizes(record, at[bad + 1] - at[bad], n, &t, &v));
+        return RAD_ERR_FORMAT;
     }
     tiles[0] = 0;
     for (size_t r = 0; r < rows; r++) tiles[r + 1] += tiles[r];
@@ -126,38 +137,66 @@ static rad_status load_records(rad_ff_file *file, const char *path, solve_matrix
         values[r] = total;
         total += v;
     }
-    if (grow_sparse(m, tiles[rows], total) != RAD_OK) {
-        rad_error("%s: out of memory for the stored tiles of %zu rows (%zu entries so far)", path, m->patch_count,
-                  m->value_count);
-        return RAD_ERR_NOMEM;
+    rad_status grown = grow_sparse(m, tiles[rows], total);
+    if (grown != RAD_OK) {
+        if (grown == RAD_ERR_NOMEM)
+            rad_error("%s: out of memory for the stored tiles of %zu rows (%zu entries so far)", name, m->patch_count,
+                      m->value_count);
+        return grown;
     }
-    const size_t n = m->patch_count;
-    rad_log_set_level(RAD_LOG_NONE);
 #pragma omp parallel for schedule(dynamic, 64) reduction(min : bad)
     for (size_t r = 0; r < rows; r++) {
-        uint32_t *column = m->tile_column + m->tile_count + tiles[r];
-        uint64_t *at = m->tile_value + m->tile_count + tiles[r];
+        uint32_t *column = m->tile_column + m->tile_count + tiles[r], count = 0;
+        uint64_t *where = m->tile_value + m->tile_count + tiles[r], stored = 0;
         uint64_t v = m->value_count + values[r];
-        if (rad_ff_decode_record(file, begin + r, records + (rad_ff_record_offset(file, begin + r) - base), column,
-                                 m->values + v) != RAD_OK) {
+        if (rad_ff_record_decode(records + (at[r] - base), at[r + 1] - at[r], n, m->element_type, column, &count,
+                                 m->values + v, &stored)) {
             bad = r < bad ? r : bad;
             continue;
         }
-        for (uint64_t k = 0; k < tiles[r + 1] - tiles[r]; k++) { /* tile numbers -> first columns, entries */
+        for (uint64_t k = 0; k < count; k++) { /* tile numbers -> first columns, entries */
             size_t first = (size_t)column[k] * RAD_FF_TILE_COLUMNS;
             column[k] = (uint32_t)first;
-            at[k] = v;
+            where[k] = v;
             v += first + RAD_FF_TILE_COLUMNS < n ? RAD_FF_TILE_COLUMNS : n - first;
         }
     }
-    rad_log_set_level(level);
-    if (bad != SIZE_MAX)
-        return rad_ff_decode_record(file, begin + bad, records + (rad_ff_record_offset(file, begin + bad) - base),
-                                    m->tile_column + m->tile_count + tiles[bad],
-                                    m->values + m->value_count + values[bad]);
-    for (size_t r = 0; r < rows; r++) m->row_tiles[begin - m->row_begin + r + 1] = m->tile_count + tiles[r + 1];
+    if (bad != SIZE_MAX) {
+        uint32_t count;
+        uint64_t stored;
+        const char *why = rad_ff_record_decode(records + (at[bad] - base), at[bad + 1] - at[bad], n, m->element_type,
+                                   m->tile_column + m->tile_count + tiles[bad],
+                                   &count, m->values + m->value_count + values[bad], &stored);
+        rad_error("%s: row %zu: %s", name, row + bad, why);
+        return RAD_ERR_FORMAT;
+    }
+    for (size_t r = 0; r < rows; r++) m->row_tiles[row - m->row_begin + r + 1] = m->tile_count + tiles[r + 1];
     m->tile_count += tiles[rows];
     m->value_count += total;
+    return RAD_OK;
+}
+
+/* Rows [first, last) of m: every entry and the sum, on the threads, into
+ * m->row_sum; the first bad row named (check_row). */
+static rad_status check_rows(solve_matrix *m, const char *name, size_t first, size_t last)
+{
+    size_t bad = SIZE_MAX;
+#pragma omp parallel for schedule(dynamic, 64) reduction(min : bad)
+    for (size_t i = first; i < last; i++) {
+        double sum = 0;
+        int ok = 1;
+        for (size_t k = 0; k < solve_row_span_count(&m->rows, i); k++) {
+            solve_span sp = solve_row_span(&m->rows, i, k);
+            for (size_t j = sp.begin; j < sp.end; j++) {
+                double f = sp.values[j - sp.begin];
+                ok &= isfinite(f) && f >= -SOLVE_NEGATIVE_TOLERANCE;
+                sum += f;
+            }
+        }
+        m->row_sum[i] = sum;
+        if (!ok || !(sum <= SOLVE_ROW_SUM_LIMIT)) bad = i < bad ? i : bad;
+    }
+    if (bad != SIZE_MAX) return check_row(name, &m->rows, bad, &m->row_sum[bad]);
     return RAD_OK;
 }
 
@@ -168,7 +207,7 @@ static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix 
     const size_t n = m->patch_count, first = m->row_begin, last = m->row_end;
     rad_status status = RAD_OK;
     unsigned char *records = NULL;
-    uint64_t *counts = NULL;
+    uint64_t *counts = NULL, *at;
     size_t records_cap = 0, counts_cap = 0;
     m->row_tiles = malloc((last - first + 1) * sizeof *m->row_tiles);
     if (!m->row_tiles) {
@@ -191,11 +230,11 @@ static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix 
         for (end = begin + 1; end < last && rad_ff_record_offset(file, end + 1) - start <= MATRIX_RECORD_BYTES; end++) {
         }
         size_t bytes = (size_t)(rad_ff_record_offset(file, end) - start), rows = end - begin;
-        if (bytes > records_cap || 2 * rows + 1 > counts_cap) {
+        if (bytes > records_cap || 3 * rows + 2 > counts_cap) {
             free(records);
             free(counts);
             records_cap = bytes > records_cap ? bytes : records_cap;
-            counts_cap = 2 * rows + 1 > counts_cap ? 2 * rows + 1 : counts_cap;
+            counts_cap = 3 * rows + 2 > counts_cap ? 3 * rows + 2 : counts_cap;
             records = malloc(records_cap ? records_cap : 1);
             counts = malloc(counts_cap * sizeof *counts);
             if (!records || !counts) {
@@ -205,32 +244,16 @@ static rad_status load_sparse(rad_ff_file *file, const char *path, solve_matrix 
             }
         }
         status = rad_ff_read_records(file, begin, rows, records);
-        if (status == RAD_OK) status = load_records(file, path, m, begin, end, records, counts);
+        at = counts + 2 * rows + 1; /* the records' offsets, for place_records */
+        for (size_t r = 0; r <= rows; r++) at[r] = rad_ff_record_offset(file, begin + r);
+        if (status == RAD_OK) status = place_records(m, file, path, begin, rows, records, at, counts);
     }
     free(records);
     free(counts);
     if (status != RAD_OK) return status;
     m->rows = (solve_rows){.n = n, .row_tiles = m->row_tiles, .tile_column = m->tile_column,
                            .tile_value = m->tile_value, .values = m->values, .first_row = first};
-    /* Every row's entries and sum, on the threads; the first bad row named. */
-    size_t bad = SIZE_MAX;
-#pragma omp parallel for schedule(dynamic, 64) reduction(min : bad)
-    for (size_t i = first; i < last; i++) {
-        double sum = 0;
-        int ok = 1;
-        for (size_t k = 0; k < solve_row_span_count(&m->rows, i); k++) {
-            solve_span sp = solve_row_span(&m->rows, i, k);
-            for (size_t j = sp.begin; j < sp.end; j++) {
-                double f = sp.values[j - sp.begin];
-                ok &= isfinite(f) && f >= -SOLVE_NEGATIVE_TOLERANCE;
-                sum += f;
-            }
-        }
-        m->row_sum[i] = sum;
-        if (!ok || !(sum <= SOLVE_ROW_SUM_LIMIT)) bad = i < bad ? i : bad;
-    }
-    if (bad != SIZE_MAX) return check_row(path, &m->rows, bad, &m->row_sum[bad]);
-    return RAD_OK;
+    return check_rows(m, path, first, last); /* every row's entries and sum; the first bad row named */
 }
 
 /* The cost of rows [0, i) for solve_matrix_split_rows. */
@@ -296,6 +319,7 @@ rad_status solve_matrix_load(rad_ff_file *file, const char *path, size_t row_beg
     }
     m.patch_count = n;
     m.reciprocity_bound = solve_reciprocity_bound(info);
+    m.element_type = info->element_type;
     m.row_begin = row_begin < n ? row_begin : n;
     m.row_end = row_end <= n ? row_end : n;
     if (m.row_begin > m.row_end) m.row_begin = m.row_end;
@@ -394,119 +418,25 @@ rad_status solve_matrix_begin(const rad_ff_info *info, const rad_mesh *mesh, siz
     return RAD_OK;
 }
 
-/* Row i's record, found wanting by solve_matrix_append: decoded on its
- * own and its first problem named as the file's loader names it. */
-static rad_status report_record(const char *name, size_t i, const unsigned char *record, uint64_t size, size_t n,
-                                uint32_t element)
-{
-    uint32_t *tiles = malloc(((n + RAD_FF_TILE_COLUMNS - 1) / RAD_FF_TILE_COLUMNS + 1) * sizeof *tiles), count = 0;
-    double *values = malloc((n ? n : 1) * sizeof *values);
-    uint64_t t64 = 0, stored = 0;
-    uint32_t listed = 0;
-    rad_status status = tiles && values ? RAD_ERR_FORMAT : RAD_ERR_NOMEM;
-    const char *why = !tiles || !values ? "out of memory" : rad_ff_record_sizes(record, size, n, &listed, &t64);
-    if (!why) why = rad_ff_record_decode(record, size, n, element, tiles, &count, values, &stored);
-    if (why) {
-        rad_error("%s: row %zu: %s", name, i, why);
-    } else {
-        double sum = 0;
-        status = RAD_OK;
-        for (uint32_t k = 0, v = 0; k < count && status == RAD_OK; k++) {
-            size_t first = (size_t)tiles[k] * RAD_FF_TILE_COLUMNS;
-            for (size_t j = first; j < first + RAD_FF_TILE_COLUMNS && j < n && status == RAD_OK; j++, v++) {
-                status = check_entry(name, i, j, values[v]);
-                sum += values[v];
-            }
-        }
-        if (status == RAD_OK) {
-            rad_error("%s: row %zu: form factors sum to %.6g, more than %g (a closed scene sums to 1)", name, i,
-                      sum, SOLVE_ROW_SUM_LIMIT);
-            status = RAD_ERR_INVALID;
-        }
-    }
-    free(tiles);
-    free(values);
-    return status;
-}
-
 rad_status solve_matrix_append(solve_matrix *m, const char *name, size_t row, size_t rows,
                                const unsigned char *records, const uint64_t *at)
 {
-    const size_t n = m->patch_count;
     if (row != m->row_begin + m->appended || row + rows > m->row_end) {
         rad_error("internal: %s: rows %zu..%zu appended after %zu of [%zu, %zu)", name, row, row + rows,
                   m->appended, m->row_begin, m->row_end);
         return RAD_ERR_INVALID;
     }
     if (rows == 0) return RAD_OK;
-    uint64_t *counts = malloc((2 * rows + 1) * sizeof *counts), *tiles = counts, *values = counts + rows + 1;
+    uint64_t *counts = malloc((2 * rows + 1) * sizeof *counts);
     if (!counts) {
         rad_error("%s: out of memory", name);
         return RAD_ERR_NOMEM;
     }
-    const uint64_t base = at[0];
-    size_t bad = SIZE_MAX;
-#pragma omp parallel for schedule(dynamic, 64) reduction(min : bad)
-    for (size_t r = 0; r < rows; r++) {
-        uint32_t t = 0;
-        uint64_t v = 0;
-        if (rad_ff_record_sizes(records + (at[r] - base), at[r + 1] - at[r], n, &t, &v)) bad = r < bad ? r : bad;
-        tiles[r + 1] = t;
-        values[r] = v;
-    }
-    tiles[0] = 0;
-    for (size_t r = 0; r < rows; r++) tiles[r + 1] += tiles[r];
-    size_t total = 0;
-    for (size_t r = 0; r < rows && bad == SIZE_MAX; r++) {
-        uint64_t v = values[r];
-        values[r] = total;
-        total += v;
-    }
-    if (bad == SIZE_MAX && (m->tile_count + tiles[rows] > m->tile_cap || m->value_count + total > m->value_cap)) {
-        rad_error("internal: %s: rows %zu..%zu hold more than their room", name, row, row + rows);
-        free(counts);
-        return RAD_ERR_INVALID;
-    }
-    if (bad == SIZE_MAX) {
-        const unsigned element = m->element_type;
-#pragma omp parallel for schedule(dynamic, 64) reduction(min : bad)
-        for (size_t r = 0; r < rows; r++) {
-            uint32_t *column = m->tile_column + m->tile_count + tiles[r], count = 0;
-            uint64_t *where = m->tile_value + m->tile_count + tiles[r], stored = 0;
-            uint64_t v = m->value_count + values[r];
-            if (rad_ff_record_decode(records + (at[r] - base), at[r + 1] - at[r], n, element, column, &count,
-                                     m->values + v, &stored)) {
-                bad = r < bad ? r : bad;
-                continue;
-            }
-            double sum = 0;
-            int ok = 1;
-            for (uint64_t k = 0; k < count; k++) { /* tile numbers -> first columns, entries; the row's sum */
-                size_t first = (size_t)column[k] * RAD_FF_TILE_COLUMNS;
-                size_t width = first + RAD_FF_TILE_COLUMNS < n ? RAD_FF_TILE_COLUMNS : n - first;
-                column[k] = (uint32_t)first;
-                where[k] = v;
-                for (size_t e = 0; e < width; e++) {
-                    double f = m->values[v + e];
-                    ok &= isfinite(f) && f >= -SOLVE_NEGATIVE_TOLERANCE;
-                    sum += f;
-                }
-                v += width;
-            }
-            m->row_sum[row + r] = sum;
-            if (!ok || !(sum <= SOLVE_ROW_SUM_LIMIT)) bad = r < bad ? r : bad;
-        }
-    }
-    if (bad != SIZE_MAX) {
-        free(counts);
-        return report_record(name, row + bad, records + (at[bad] - base), at[bad + 1] - at[bad], n, m->element_type);
-    }
-    for (size_t r = 0; r < rows; r++) m->row_tiles[row - m->row_begin + r + 1] = m->tile_count + tiles[r + 1];
-    m->tile_count += tiles[rows];
-    m->value_count += total;
-    m->appended += rows;
+    rad_status status = place_records(m, NULL, name, row, rows, records, at, counts);
     free(counts);
-    return RAD_OK;
+    if (status == RAD_OK) status = check_rows(m, name, row, row + rows);
+    if (status == RAD_OK) m->appended += rows;
+    return status;
 }
 
 rad_status solve_matrix_end(solve_matrix *m, const char *name)
