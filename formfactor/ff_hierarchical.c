@@ -84,7 +84,7 @@ static rad_status build_links(hier_run *h)
     if ((st = ff_backend_cpu.create(&su, &h->backend_state)) != RAD_OK) return st;
     double total_area = 0;
     for (size_t k = 0; k < h->base.patch_count; k++) total_area += h->base.patches[k].area;
-    ff_links_config config = {.link_tol = opt->link_tol, .oracle = (ff_oracle)opt->oracle,
+    ff_links_config config = {.link_tol = opt->link_tol, .oracle = ff_oracle_resolve(opt->oracle, opt->uniform_leaves),
                               .max_level = opt->subdiv_given ? (uint32_t)opt->subdiv : FF_HIER_MAX_LEVEL,
                               .min_area = opt->min_area * total_area, .uniform_leaves = opt->uniform_leaves};
     if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, &ff_backend_cpu, h->backend_state)) !=

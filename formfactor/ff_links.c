@@ -15,6 +15,7 @@ const char *ff_oracle_name(ff_oracle oracle)
     case FF_ORACLE_ERROR: return "error";
     case FF_ORACLE_POWER: return "power";
     case FF_ORACLE_FACTOR: return "factor";
+    case FF_ORACLE_GATHER: return "gather";
     }
     return "unknown";
 }
@@ -34,7 +35,9 @@ static rad_status elements_added(ff_links *L, size_t from)
         if (k) L->keys = k;
         double *b = realloc(L->radiosity, 3 * cap * sizeof *b);
         if (b) L->radiosity = b;
-        if (!p || !k || !b) {
+        double *d = realloc(L->spread, cap * sizeof *d);
+        if (d) L->spread = d;
+        if (!p || !k || !b || !d) {
             rad_error("hierarchy: out of memory for %zu elements", h->element_count);
             return RAD_ERR_NOMEM;
         }
@@ -56,11 +59,13 @@ static rad_status elements_added(ff_links *L, size_t from)
         if (el->parent == RAD_NO_ELEMENT) {
             L->keys[e] = L->exact_keys ? el->root << (2 * depth) : (uint32_t)e;
             memcpy(&L->radiosity[3 * e], root->emission, 3 * sizeof(double));
+            L->spread[e] = 0;
         } else {
             /* child k of parent p: p's key + k 4^(depth - level) */
             uint32_t k = (uint32_t)e - h->elements[el->parent].first_child;
             L->keys[e] = L->exact_keys ? L->keys[el->parent] + (k << (2 * (depth - el->level))) : (uint32_t)e;
             memcpy(&L->radiosity[3 * e], &L->radiosity[3 * (size_t)el->parent], 3 * sizeof(double));
+            L->spread[e] = L->spread[el->parent];
         }
     }
     return RAD_OK;
@@ -114,6 +119,7 @@ void ff_links_free(ff_links *L)
     free(L->patches);
     free(L->keys);
     free(L->radiosity);
+    free(L->spread);
     free(L->links);
     memset(L, 0, sizeof *L);
 }
@@ -129,7 +135,8 @@ void ff_links_free(ff_links *L)
  * kept at the mean, sum to 1.3 there (Cornell box). A corner on `to`'s
  * plane (an edge the two share) counts 0. The mean is over the centres. A
  * spread that is not a number is infinite (refine). */
-static void factor_spread(const rad_ff_patch *from, const rad_ff_patch *to, double *mean, double *spread)
+static void factor_spread(const rad_ff_patch *from, const rad_ff_patch *to, double *mean, double *spread,
+                          double *curvature)
 {
     rad_vec3 x[9];
     const rad_vec3 *p = from->p;
@@ -150,15 +157,24 @@ static void factor_spread(const rad_ff_patch *from, const rad_ff_patch *to, doub
     x[m++] = from->centre;
     const int centres = m;
     for (uint32_t k = 0; k < from->vertex_count; k++) x[m++] = p[k];
-    double lo = INFINITY, hi = -INFINITY, sum = 0;
+    double lo = INFINITY, hi = -INFINITY, sum = 0, parts = 0, centre = 0, corner_lo = INFINITY, corner_hi = 0;
     for (int k = 0; k < m; k++) {
         double f = rad_ff_point_polygon(x[k], from->normal, to);
         lo = f < lo ? f : lo;
         hi = f > hi ? f : hi;
         if (k < centres) sum += f;
+        if (k < centres - 1) parts += f;
+        if (k == centres - 1) centre = f;
+        if (k >= centres) corner_lo = fmin(corner_lo, f), corner_hi = fmax(corner_hi, f);
     }
     *mean = sum / centres;
     *spread = isfinite(hi - lo) ? hi - lo : INFINITY;
+    /* The parts' mean against the centre: the second difference, what a
+     * quadratic's curvature gives over half the element. A corner that
+     * sees nothing of `to` while another sees it (a shared edge, `to`'s
+     * plane crossing `from`) is a kink no curvature describes: the spread. */
+    double c = fabs(parts / (centres - 1) - centre);
+    *curvature = corner_lo == 0 && corner_hi > 0 ? *spread : isfinite(c) ? fmin(c, *spread) : INFINITY;
 }
 
 /* Error of F_rs (F units) from a pair's outcome: the factor's spread over
@@ -171,6 +187,28 @@ static double factor_error(const ff_pair_outcome *o, double spread, double mean,
     double V = o->rays ? 1.0 - (double)o->rays_blocked / o->rays : 1.0;
     double partial = 4.0 * fmin(V, 1.0 - V);
     return spread * V + mean * (partial < 1.0 ? partial : 1.0) + o->error * area_s;
+}
+
+/* What the final gather leaves of that error where r's leaves lie `depth`
+ * levels below r: the spread becomes what a leaf's centre misses of the
+ * leaf's mean, a quadratic's (4/3) curvature 4^-depth; depth 0 (r is its
+ * own leaf: nothing to spread over) leaves the error whole. */
+static double gather_error(const ff_pair_outcome *o, double spread, double curvature, double mean, double area_s,
+                           uint32_t depth)
+{
+    if (depth == 0) return factor_error(o, spread, mean, area_s);
+    double V = o->rays ? 1.0 - (double)o->rays_blocked / o->rays : 1.0;
+    double partial = 4.0 * fmin(V, 1.0 - V);
+    double left = fmin(spread, curvature * (4.0 / 3.0) * ldexp(1.0, -2 * (int)depth));
+    return left * V + mean * (partial < 1.0 ? partial : 1.0) + o->error * area_s;
+}
+
+/* Levels from element e down to its leaves where the leaves are known in
+ * advance (uniform leaves), else 0. */
+static uint32_t leaf_depth(const ff_links *L, uint32_t e)
+{
+    const uint32_t level = L->tree.elements[e].level;
+    return L->config.uniform_leaves && L->config.max_level > level ? L->config.max_level - level : 0;
 }
 
 /* How much the oracle weighs r <- s: in radiosity (error: what the link's
@@ -188,12 +226,31 @@ static double weight(const ff_links *L, uint32_t r, uint32_t s, double F_rs, dou
     return rb * e_rs;
 }
 
+/* The gather oracle's weight of r <- s: what the shaped solve leaves of
+ * the factor's error at r's leaves (g_rs, B_s), plus what it cannot
+ * shape, the part of s's spread dB_s that the factor's variation over s
+ * (e_sr of F_sr) lets differ between r's leaves. */
+static double gather_weight(const ff_links *L, uint32_t r, uint32_t s, double F_rs, double g_rs, double F_sr,
+                            double e_sr)
+{
+    const double *rho = L->tree.base->patches[L->tree.elements[r].root].rho, *B = &L->radiosity[3 * (size_t)s];
+    const double rho_max = fmax(rho[0], fmax(rho[1], rho[2]));
+    double rb = fmax(rho[0] * B[0], fmax(rho[1] * B[1], rho[2] * B[2]));
+    double varies = F_sr > 0 ? fmin(1.0, e_sr / F_sr) : 1.0;
+    return rb * g_rs + rho_max * F_rs * L->spread[s] * varies;
+}
+
 /* Does the pair (a, b) need finer elements? link_tol 0: always. */
 static int over_tolerance(const ff_links *L, const ff_link_pair *p)
 {
     if (L->config.link_tol <= 0) return 1;
     double Fab = p->coupling * L->tree.elements[p->b].area, Fba = p->coupling * L->tree.elements[p->a].area;
-    double w = fmax(weight(L, p->a, p->b, Fab, p->error_ab), weight(L, p->b, p->a, Fba, p->error_ba));
+    double w;
+    if (L->config.oracle == FF_ORACLE_GATHER)
+        w = fmax(gather_weight(L, p->a, p->b, Fab, p->left_ab, Fba, p->error_ba),
+                 gather_weight(L, p->b, p->a, Fba, p->left_ba, Fab, p->error_ab));
+    else
+        w = fmax(weight(L, p->a, p->b, Fab, p->error_ab), weight(L, p->b, p->a, Fba, p->error_ba));
     double scale = L->config.oracle == FF_ORACLE_FACTOR ? 1.0
                  : L->config.oracle == FF_ORACLE_POWER  ? L->emitted_power
                                                         : L->reflected;
@@ -268,7 +325,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
 {
     rad_status st = RAD_OK;
     ff_pair_outcome *out = NULL;
-    double *geometry = NULL; /* per job: mean, spread of a -> b and of b -> a */
+    double *geometry = NULL; /* per job: mean, spread, curvature of a -> b and of b -> a */
     size_t out_cap = 0;
     job_list next = {0};
     while (st == RAD_OK && list->count > 0) {
@@ -277,7 +334,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
             free(out);
             free(geometry);
             out = malloc(n * sizeof *out);
-            geometry = malloc(4 * n * sizeof *geometry);
+            geometry = malloc(6 * n * sizeof *geometry);
             out_cap = n;
             if (!out || !geometry) {
                 rad_error("hierarchy: out of memory for %zu candidate pairs", n);
@@ -293,8 +350,8 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         for (size_t k = 0; k < n; k++) {
             if (out[k].verdict == FF_PAIR_NOT_FACING) continue;
             const rad_ff_patch *pa = &patches[jobs[k].a], *pb = &patches[jobs[k].b];
-            factor_spread(pa, pb, &geometry[4 * k], &geometry[4 * k + 1]);
-            factor_spread(pb, pa, &geometry[4 * k + 2], &geometry[4 * k + 3]);
+            factor_spread(pa, pb, &geometry[6 * k], &geometry[6 * k + 1], &geometry[6 * k + 2]);
+            factor_spread(pb, pa, &geometry[6 * k + 3], &geometry[6 * k + 4], &geometry[6 * k + 5]);
         }
         L->candidates += n;
         L->rounds++;
@@ -303,10 +360,12 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
             if (out[k].verdict == FF_PAIR_NOT_FACING) continue;
             uint32_t a = list->jobs[k].a, b = list->jobs[k].b;
             double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
-            const double *g = &geometry[4 * k];
+            const double *g = &geometry[6 * k];
             ff_link_pair p = {.a = a, .b = b, .coupling = out[k].coupling,
                               .error_ab = (float)factor_error(&out[k], g[1], g[0], Ab),
-                              .error_ba = (float)factor_error(&out[k], g[3], g[2], Aa)};
+                              .error_ba = (float)factor_error(&out[k], g[4], g[3], Aa),
+                              .left_ab = (float)gather_error(&out[k], g[1], g[2], g[0], Ab, leaf_depth(L, a)),
+                              .left_ba = (float)gather_error(&out[k], g[4], g[5], g[3], Aa, leaf_depth(L, b))};
             if ((splittable(L, a) || splittable(L, b)) && over_tolerance(L, &p)) {
                 st = split_pair(L, a, b, &next);
                 (*refined)++;
@@ -361,16 +420,28 @@ static void set_radiosity(ff_links *L, const double *leaf_radiosity)
     for (size_t k = 0; k < h->leaf_count; k++)
         memcpy(&L->radiosity[3 * (size_t)leaves[k]], &leaf_radiosity[3 * k], 3 * sizeof(double));
     free(leaves);
+    double *lo = malloc(6 * (h->element_count ? h->element_count : 1) * sizeof *lo), *hi = lo ? lo + 3 * h->element_count : NULL;
     for (size_t e = h->element_count; e-- > 0;) {
         const rad_element *el = &h->elements[e];
-        if (el->first_child == RAD_NO_ELEMENT) continue;
-        for (int c = 0; c < 3; c++) {
-            double sum = 0;
-            for (uint32_t i = 0; i < 4; i++)
-                sum += h->elements[el->first_child + i].area * L->radiosity[3 * (size_t)(el->first_child + i) + c];
-            L->radiosity[3 * e + c] = sum / el->area;
+        if (el->first_child == RAD_NO_ELEMENT) {
+            if (lo) memcpy(&lo[3 * e], &L->radiosity[3 * e], 3 * sizeof *lo), memcpy(&hi[3 * e], &L->radiosity[3 * e], 3 * sizeof *hi);
+            L->spread[e] = 0;
+            continue;
         }
+        double d = 0;
+        for (int c = 0; c < 3; c++) {
+            double sum = 0, l = INFINITY, u = -INFINITY;
+            for (uint32_t i = 0; i < 4; i++) {
+                const size_t ch = el->first_child + i;
+                sum += h->elements[ch].area * L->radiosity[3 * ch + c];
+                if (lo) l = fmin(l, lo[3 * ch + c]), u = fmax(u, hi[3 * ch + c]);
+            }
+            L->radiosity[3 * e + c] = sum / el->area;
+            if (lo) lo[3 * e + c] = l, hi[3 * e + c] = u, d = fmax(d, u - l);
+        }
+        L->spread[e] = lo ? d : INFINITY; /* without memory for the spread: refine as if unknown */
     }
+    free(lo);
     /* The error oracle's scale: the mean radiosity of what does not emit
      * (brightest channel, area-weighted over the roots). */
     double sum = 0, area = 0, all = 0;

@@ -47,9 +47,32 @@
  *                                            radiosity by, against the scene's
  *                                            typical radiosity; the default)
  *   power: rho_r A_r B_s F_rs > link_tol P  (transported power, BF: HSA 1991)
- *   factor: F_rs > link_tol                 (form factor alone: the unweighted 1991 oracle) */
-typedef enum ff_oracle { FF_ORACLE_ERROR = 0, FF_ORACLE_POWER = 1, FF_ORACLE_FACTOR = 2 } ff_oracle;
+ *   factor: F_rs > link_tol                 (form factor alone: the unweighted 1991 oracle)
+ *   gather: rho_r B_s g_rs > link_tol B_mean (error's test on g_rs, what is left of e_rs after
+ *                                            solve's final gather, solve/final_gather.h: that
+ *                                            gather spreads a link over r's leaves by the point
+ *                                            factor, so of the factor's variation over r only
+ *                                            what a leaf's centre misses of the leaf remains,
+ *                                            estimated from the curvature over r's sample points
+ *                                            times 4^-d (d: levels from r down to its leaves, known
+ *                                            with uniform leaves; 0 otherwise: g = e); the
+ *                                            partial-visibility and quadrature terms stay whole) */
+typedef enum ff_oracle {
+    FF_ORACLE_ERROR = 0,
+    FF_ORACLE_POWER = 1,
+    FF_ORACLE_FACTOR = 2,
+    FF_ORACLE_GATHER = 3
+} ff_oracle;
 const char *ff_oracle_name(ff_oracle oracle);
+/* --oracle auto: gather where the leaves are known in advance (uniform
+ * leaves: the shaped solve spreads coarse links over them), else error
+ * (adaptive leaves: a coarse receiver is often its own leaf, with nothing
+ * to spread over, and the sender term costs links: docs/hierarchy.md). */
+#define FF_ORACLE_AUTO (-1)
+static inline ff_oracle ff_oracle_resolve(int asked, int uniform_leaves)
+{
+    return asked != FF_ORACLE_AUTO ? (ff_oracle)asked : uniform_leaves ? FF_ORACLE_GATHER : FF_ORACLE_ERROR;
+}
 
 typedef struct ff_links_config {
     double link_tol;    /* >= 0; 0: every pair to the finest elements */
@@ -65,6 +88,7 @@ typedef struct ff_link_pair {
     uint32_t a, b;           /* elements, a < b */
     double coupling;         /* c_ab = F_ab / A_b = F_ba / A_a */
     float error_ab, error_ba; /* e of F_ab, of F_ba (F units) */
+    float left_ab, left_ba;   /* g: what the final gather leaves of them (ff_oracle gather) */
 } ff_link_pair;
 
 typedef struct ff_links {
@@ -79,6 +103,7 @@ typedef struct ff_links {
     size_t patch_cap;
     int exact_keys;        /* roots x 4^max_level fit 32 bits: keys are those indices, else element indices */
     double *radiosity;     /* per element, RGB: the oracle's B (E until a solution is given) */
+    double *spread;        /* per element: max - min of B over its leaves, the largest channel's (0 until then) */
     double emitted_power;  /* P */
     double total_area;     /* of the roots */
     double reflected;      /* B_mean: the mean radiosity of what does not emit (area-weighted,

@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ff_links.h"
 #include "rad_ff_quad.h"
 #include "rad_fs.h"
 #include "rad_log.h"
@@ -41,10 +42,13 @@ const char ff_options_help[] =
     "                           may move its receiver by exceeds T times the scene's mean\n"
     "                           radiosity (default: 1e-2; 3e-3 for a finer picture; 0: every\n"
     "                           pair down to the finest level)\n"
-    "      --oracle O           error | power | factor (default: error): what a link's\n"
+    "      --oracle O           auto | error | gather | power | factor (default: auto =\n"
+    "                           gather with --uniform-leaves, else error): what a link's\n"
     "                           estimate is weighed by: rho B x the error of F (against\n"
-    "                           T x the mean radiosity), rho A B F (BF, against T x the\n"
-    "                           emitted power), or F alone (then T bounds F)\n"
+    "                           T x the mean radiosity); the same for what solve's shaped\n"
+    "                           solve leaves of that error, plus the source's spread of B\n"
+    "                           (gather; docs/hierarchy.md); rho A B F (BF, against T x\n"
+    "                           the emitted power); or F alone (then T bounds F)\n"
     "      --min-area A         hierarchical: no element smaller than A times the scene's\n"
     "                           area (default: 1e-7)\n"
     "      --passes P           hierarchical: refinement passes, each re-weighing the\n"
@@ -168,7 +172,7 @@ static const ff_name backend_names[] = {
     {FF_BACKEND_AUTO, "auto"}, {FF_BACKEND_CPU, "cpu"}, {FF_BACKEND_CUDA, "cuda"}};
 static const ff_name method_names[] = {
     {FF_METHOD_FULL, "full"}, {FF_METHOD_HIERARCHICAL, "hierarchical"}, {FF_METHOD_AUTO, "auto"}};
-static const ff_name oracle_names[] = {{0, "error"}, {1, "power"}, {2, "factor"}};
+static const ff_name oracle_names[] = {{FF_ORACLE_AUTO, "auto"}, {0, "error"}, {1, "power"}, {2, "factor"}, {3, "gather"}};
 
 const char *ff_method_name(ff_method method)
 {
@@ -525,7 +529,7 @@ rad_status ff_options_parse(int argc, char **argv, ff_options *out)
 {
     /* Zero is the default for the enums (auto, all, auto, sparse). */
     *out = (ff_options){.output = "formfactors", .samples = 512, .shadow_rays = 32, .seed = 1,
-                        .link_tol = FF_HIER_LINK_TOL, .min_area = FF_HIER_MIN_AREA, .passes = FF_HIER_PASSES,
+                        .oracle = FF_ORACLE_AUTO, .link_tol = FF_HIER_LINK_TOL, .min_area = FF_HIER_MIN_AREA, .passes = FF_HIER_PASSES,
                         .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE,
                         .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL};
     out->refine = rad_refine_defaults();

@@ -90,7 +90,8 @@ typedef struct ff_options {
                                 (rad_enclosure.h) as it is instead of refusing it */
     ff_method method;        /* --method */
     double link_tol;         /* --link-tol (hierarchical) */
-    int oracle;              /* --oracle: ff_oracle (ff_links.h) */
+    int oracle;              /* --oracle: ff_oracle (ff_links.h), or FF_ORACLE_AUTO: gather with
+                                uniform_leaves, else error */
     double min_area;         /* --min-area: fraction of the scene's total area */
     uint32_t passes;         /* --passes: refinement passes (hierarchical) */
     int uniform_leaves;      /* --uniform-leaves: every face split to --subdiv first (hierarchical) */

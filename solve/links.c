@@ -14,6 +14,7 @@
 #include "rad_log.h"
 #include "rad_lsolve.h"
 #include "rad_rfile.h"
+#include "shaped.h"
 #include "stats.h"
 
 rad_status solve_links_run(const solve_options *options, rad_ff_file *file)
@@ -106,6 +107,8 @@ typedef struct links_state {
     rad_lsolve_options solve;
     rad_lsolve_result result;
     rad_status solved; /* RAD_OK or RAD_ERR_NOT_CONVERGED */
+    int shaped;        /* the shaped solve ran (shaped.h) */
+    solve_shaped_result shape;
     solve_row_sum_summary row_sums;
     double *row_sum;   /* by leaf */
     double *radiosity; /* 3 per leaf */
@@ -161,6 +164,40 @@ static void fill_reports(links_state *s)
              s->grey ? "" : " (the channels summed)", r->emitted, r->absorbed, r->escaped, r->imbalance);
 }
 
+/* The shaped solve's gate (shaped.h): an end is shaped where that may
+ * move a leaf by a tenth of what the oracle let each link err by. */
+#define SHAPE_GATE_OF_LINK_TOL 0.1
+
+/* The shaped solve from the flat solution, unless --shape off. Its
+ * residual, sweeps and balance replace the flat ones in the outputs. */
+static rad_status shape(links_state *s)
+{
+    if (s->options->no_shape) return RAD_OK;
+    const solve_shaped_options o = {.threads = s->options->threads,
+                                    .gate = SHAPE_GATE_OF_LINK_TOL * s->in->links->link_tol,
+                                    .tolerance = s->solve.tolerance,
+                                    .max_iterations = s->solve.max_iterations,
+                                    .channels = s->grey ? 1 : 3};
+    rad_status status = solve_shaped(s->in->links, s->in->leaves, &o, s->radiosity, &s->shape);
+    if (status != RAD_OK && status != RAD_ERR_NOT_CONVERGED) return status;
+    s->shaped = 1;
+    const solve_shaped_result *r = &s->shape;
+    rad_info("%s: shaped: %llu link ends spread over their leaves (%llu point factors), %u iterations, residual "
+             "%.3g, B moved by up to %.3g of its largest value, %.3f s",
+             s->input, (unsigned long long)r->shaped_ends, (unsigned long long)r->weights, r->iterations, r->residual,
+             r->change, r->seconds);
+    for (int c = 0; c < 3; c++) {
+        s->result.iterations[c] += r->iterations;
+        s->result.residual[c] = r->residual;
+    }
+    s->result.converged = r->converged;
+    s->result.emitted = r->emitted;
+    s->result.absorbed = r->absorbed;
+    s->result.escaped = r->escaped;
+    s->result.imbalance = r->imbalance;
+    return status;
+}
+
 static rad_status write_outputs(const links_state *s)
 {
     const solve_links_input *in = s->in;
@@ -189,7 +226,14 @@ static rad_status write_outputs(const links_state *s)
                                      .link_tol = in->links->link_tol,
                                      .error_bound = in->links->error_bound,
                                      .balance = {s->result.emitted, s->result.absorbed, s->result.escaped,
-                                                 s->result.imbalance}};
+                                                 s->result.imbalance},
+                                     .shaped = s->shaped,
+                                     .shaped_ends = s->shape.shaped_ends,
+                                     .weights = s->shape.weights,
+                                     .shaped_iterations = s->shape.iterations,
+                                     .shaped_residual = s->shape.residual,
+                                     .shaped_change = s->shape.change,
+                                     .shaped_seconds = s->shape.seconds};
     solve_stats st = {
         .input = s->input,
         .output = s->output,
@@ -253,6 +297,7 @@ rad_status solve_links_solve(const solve_options *options, const solve_links_inp
                  links->leaf_count ? (double)links->link_count / links->leaf_count : 0.0,
                  s.grey ? "grey (solved once)" : "RGB", in->load_seconds);
         status = rad_lsolve(links, leaves, &s.solve, s.radiosity, &s.result);
+        if (status == RAD_OK) status = shape(&s);
     }
     if (status == RAD_OK || status == RAD_ERR_NOT_CONVERGED) {
         s.solved = status;

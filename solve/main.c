@@ -51,6 +51,8 @@ static const char usage_text[] =
     "                      power per channel; FILE.csv or FILE.npy (NumPy);\n"
     "                      needs a form-factor file with a group table\n"
     "                      (docs/solve.md, \"Results by surface\")\n"
+    "  --shape on|off      links only: spread each link over its elements'\n"
+    "                      leaves by the point factor (default: on)\n"
     "  -q, --quiet         only warnings and errors on stderr\n"
     "  -h, --help          this text\n"
     "      --version       print the version\n"
@@ -62,8 +64,10 @@ static const char usage_text[] =
     "is solved on its links, on the CPU: --method gauss-seidel (also auto) or\n"
     "jacobi sweeps gather along the links, push to the leaves and pull means\n"
     "up; --tol, --max-iter and --stats as above (the residual over ||E||inf);\n"
-    "cg, --errors and --by-group do not apply (exit 2). Threads: OMP_NUM_THREADS\n"
-    "(docs/solve.md, \"On links\").\n"
+    "cg, --errors and --by-group do not apply (exit 2). Then the links are\n"
+    "solved again, each spread over its elements' leaves by how well each leaf\n"
+    "sees the other end (--shape on, the default; off writes the flat\n"
+    "solution). Threads: OMP_NUM_THREADS (docs/solve.md, \"On links\").\n"
     "\n"
     "Matrices larger than one node: mpirun -n K solve [options] FORMFACTORS\n"
     "splits the rows over K ranks (balanced by stored entries); each rank\n"
@@ -98,14 +102,14 @@ static rad_status parse_count(const char *text, uint32_t *out)
  * "--name=VALUE", "-o VALUE"; options and the input in any order. */
 static rad_status parse_args(int argc, char **argv, cli *out)
 {
-    enum { O_METHOD = 256, O_TOL, O_MAX_ITER, O_STATS, O_ERRORS, O_BY_GROUP, O_VERSION, O_BACKEND };
+    enum { O_METHOD = 256, O_TOL, O_MAX_ITER, O_STATS, O_ERRORS, O_BY_GROUP, O_VERSION, O_BACKEND, O_SHAPE };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},       {"method", required_argument, 0, O_METHOD},
         {"tol", required_argument, 0, O_TOL},         {"max-iter", required_argument, 0, O_MAX_ITER},
         {"stats", required_argument, 0, O_STATS},     {"errors", required_argument, 0, O_ERRORS},
         {"by-group", required_argument, 0, O_BY_GROUP}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'},                {"version", no_argument, 0, O_VERSION},
-        {"backend", required_argument, 0, O_BACKEND},
+        {"backend", required_argument, 0, O_BACKEND}, {"shape", required_argument, 0, O_SHAPE},
         {0, 0, 0, 0}};
     cli c;
     memset(&c, 0, sizeof c);
@@ -126,6 +130,14 @@ static rad_status parse_args(int argc, char **argv, cli *out)
         case O_MAX_ITER: status = parse_count(value, &c.options.params.max_iterations); break;
         case O_STATS: c.options.stats = value; break;
         case O_ERRORS: c.options.errors = value; break;
+        case O_SHAPE:
+            if (strcmp(value, "on") == 0 || strcmp(value, "off") == 0) {
+                c.options.no_shape = strcmp(value, "off") == 0;
+            } else {
+                rad_error("--shape: '%s' is not on or off", value);
+                status = RAD_ERR_USAGE;
+            }
+            break;
         case O_BY_GROUP: {
             solve_groups_format format;
             status = solve_groups_format_of("--by-group", value, &format);

@@ -75,6 +75,10 @@ typedef struct solve_options {
      * solve_stage_align_split. NULL: the stage splits the rows itself. */
     const size_t *row_split;
     int threads; /* OpenMP threads of this rank; 0 = OpenMP's own default (OMP_NUM_THREADS, else every core) */
+    /* Links only: after the flat sweeps, solve again with every link
+     * spread over its elements' leaves (shaped.h). 0 = on (the default),
+     * 1 = off (--shape off: the flat solution). */
+    int no_shape;
 } solve_options;
 
 /* A row split (ranks + 1 entries, row_split[ranks] = n) moved to the

@@ -85,6 +85,19 @@ static void put_links(rad_json_writer *w, const solve_stats_links *l)
     put_number(w, "error_bound", l->error_bound);
     rad_json_key(w, "balance");
     put_balance(w, &l->balance);
+    rad_json_key(w, "shaped");
+    if (!l->shaped) {
+        rad_json_null(w);
+        return;
+    }
+    rad_json_begin_object(w, RAD_JSON_INLINE);
+    put_count(w, "ends", l->shaped_ends);
+    put_count(w, "weights", l->weights);
+    put_count(w, "iterations", l->shaped_iterations);
+    put_number(w, "residual", l->shaped_residual);
+    put_number(w, "change", l->shaped_change);
+    put_number(w, "seconds", l->shaped_seconds);
+    rad_json_end_object(w);
 }
 
 static void put_stats(rad_json_writer *w, const solve_stats *s)

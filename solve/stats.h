@@ -15,7 +15,12 @@ typedef struct solve_stats_links {
     uint64_t node_count, leaf_count, link_count;
     double link_tol;          /* the --link-tol formfactor refined to */
     double error_bound;       /* formfactor's bound on B's relative error from the links' errors; 0: unknown */
-    solve_balance balance;    /* over the leaves, summed over the channels solved (rad_lsolve_result) */
+    solve_balance balance;    /* over the leaves, summed over the channels solved (rad_lsolve_result),
+                                 of the shaped solve where it ran, else of the flat one */
+    int shaped;               /* 1: the shaped solve ran (shaped.h), with: */
+    uint64_t shaped_ends, weights;
+    uint32_t shaped_iterations;
+    double shaped_residual, shaped_change, shaped_seconds;
 } solve_stats_links;
 
 typedef struct solve_stats {

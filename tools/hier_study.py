@@ -73,11 +73,19 @@ def main(argv):
     p.add_argument("--scene", default=None, help="OBJ (default: the built-in Cornell box)")
     p.add_argument("--tols", default="1e-2,3e-3,1e-3,3e-4,1e-4")
     p.add_argument("--subdiv", type=int, default=None, help="finest level (formfactor --subdiv)")
-    p.add_argument("--oracle", default="error")
+    p.add_argument("--oracle", default="auto", help="formfactor --oracle [auto]")
     p.add_argument("--passes", type=int, default=None)
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--json", default=None)
     p.add_argument("--check", action="store_true")
+    p.add_argument("--shape-gain", type=float, default=None,
+                   help="with --flat: exit 1 unless the shaped solve's RMS error is below the flat one's by this "
+                        "factor at every tolerance")
+    p.add_argument("--max-imbalance", type=float, default=None,
+                   help="exit 1 unless solve's energy balance (--stats) is within this, relative, at every "
+                        "tolerance, and the shaped solve ran (a closed scene: emitted = absorbed)")
+    p.add_argument("--flat", action="store_true",
+                   help="also solve with --shape off and report that error beside (error_flat, rms_flat)")
     p.add_argument("--uniform", action="store_true",
                    help="formfactor --uniform-leaves: every tolerance on the same leaves (the --subdiv mesh), "
                         "whose full matrix is computed once")
@@ -103,19 +111,27 @@ def main(argv):
             if a.uniform:
                 cmd += ["--uniform-leaves"]
             t_links = run(cmd, env)
-            t_solve = run([solve, lk, "-q", "--tol", a.solve_tol, "-o", hr], env)
+            sst = os.path.join(work, "s.json")
+            t_solve = run([solve, lk, "-q", "--tol", a.solve_tol, "-o", hr, "--stats", sst], env)
+            sstats = json.load(open(sst))
+            if a.flat:
+                run([solve, lk, "-q", "--tol", a.solve_tol, "--shape", "off", "-o", hr + ".flat"], env)
             stats = json.load(open(st))
             if not (a.uniform and rows):
                 t_full = run([ff, *scene, "--refine", hr, "--refine-tol", "1e5", "-q", "-o", full], env)
                 t_full += run([solve, full, "-q", "--tol", a.solve_tol, "-o", fr], env)
             err, rms = errors(read_radiosity(hr), read_radiosity(fr))
+            flat = errors(read_radiosity(hr + ".flat"), read_radiosity(fr)) if a.flat else (None, None)
             rows.append({"link_tol": float(tol), "leaves": stats["leaves"], "elements": stats["elements"],
                          "links": stats["links"], "links_per_leaf": stats["links_per_leaf"],
                          "error": err, "rms": rms, "bound": stats["error_bound"], "seconds": t_links + t_solve,
-                         "seconds_full": t_full})
+                         "seconds_full": t_full, "error_flat": flat[0], "rms_flat": flat[1],
+                         "imbalance": sstats["balance"]["imbalance"], "shaped": sstats["shaped"]})
             r = rows[-1]
             print(f"link-tol {tol:>6}: {r['leaves']:7d} leaves {r['links']:9d} links ({r['links_per_leaf']:.1f}/leaf) "
-                  f"error {err:.3e} (rms {rms:.2e}) bound {r['bound']:.3e}  {r['seconds']:.2f} s (full {t_full:.2f} s)", flush=True)
+                  f"error {err:.3e} (rms {rms:.2e}) bound {r['bound']:.3e} imbalance {r['imbalance']:.1e}  {r['seconds']:.2f} s "
+                  f"(full {t_full:.2f} s)"
+                  + (f"  flat: error {flat[0]:.3e} (rms {flat[1]:.2e})" if a.flat else ""), flush=True)
     if a.json:
         json.dump(rows, open(a.json, "w"), indent=1)
     ok = True
@@ -123,6 +139,21 @@ def main(argv):
         for r in rows:
             if not r["error"] <= a.max_error:
                 print(f"FAIL: link-tol {r['link_tol']}: error {r['error']:.3e} above {a.max_error:.1e}")
+                ok = False
+    if a.max_imbalance is not None:
+        for r in rows:
+            ends = (r["shaped"] or {}).get("ends", 0)
+            if not (abs(r["imbalance"]) <= a.max_imbalance and ends > 0):
+                print(f"FAIL: link-tol {r['link_tol']}: imbalance {r['imbalance']:.2e} (at most {a.max_imbalance:.0e}), "
+                      f"{ends} shaped link ends (want some)")
+                ok = False
+    if a.shape_gain is not None:
+        if not a.flat:
+            raise SystemExit("--shape-gain needs --flat")
+        for r in rows:
+            if not r["rms_flat"] >= a.shape_gain * r["rms"]:
+                print(f"FAIL: link-tol {r['link_tol']}: the shaped solve's RMS error {r['rms']:.3e}, flat "
+                      f"{r['rms_flat']:.3e}: not {a.shape_gain}x lower")
                 ok = False
     if a.check:
         for x, y in zip(rows, rows[1:]):

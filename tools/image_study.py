@@ -59,7 +59,8 @@ Options of `run` / `reference` (defaults in brackets):
                         [--quad-rtol 1e-5 --shadow-rays 16]
   --refine-tols T,T     tolerances for scripts/refine.sh [0.05]; "" for none
   --hier-tols T,T       formfactor --method hierarchical at each --link-tol
-                        [1e-2,3e-3,1e-3]; "" for none (--hier-args: more flags)
+                        [1e-2,3e-3,1e-3]; "" for none (--hier-args: more flags,
+                        --hier-solve-args: solve's)
   --refine-budgets B,B  START:MAX_PATCHES[:GROWTH], each a refinement run from
                         --subdiv START to about MAX_PATCHES patches, passes
                         growing the mesh at most GROWTH times [per scene,
@@ -615,6 +616,9 @@ def run_ours(scene, cfg, args, cam):
            "camera": render_camera_args(cam), "render_args": shlex.split(args.render_args)}
     if cfg["kind"] == "refine":
         key["refine_script"] = os.path.abspath(args.refine_script)
+    if cfg["kind"] == "hierarchical":
+        key["hier_args"] = shlex.split(args.hier_args)
+        key["hier_solve_args"] = shlex.split(args.hier_solve_args)
     if not args.rerun and os.path.exists(img) and os.path.exists(meta):
         rec = json.load(open(meta))
         if rec.get("key") == key:
@@ -641,7 +645,8 @@ def run_ours(scene, cfg, args, cam):
         if not builtin:
             cmd.append(os.path.join(REPO, obj))
         rec["t_formfactor"] = timed(cmd, lg)
-        rec["t_solve"] = timed([os.path.join(build, "solve"), ff, "-o", rad, "-q"], lg)
+        rec["t_solve"] = timed([os.path.join(build, "solve"), ff, *shlex.split(args.hier_solve_args), "-o", rad, "-q"],
+                               lg)
         os.remove(ff)
     elif cfg["kind"] == "uniform":
         ff = os.path.join(wd, "formfactors")
@@ -884,6 +889,8 @@ def parse_args(argv):
         r.add_argument("--hier-tols", default="1e-2,3e-3,1e-3",
                        help="formfactor --method hierarchical at each --link-tol; \"\" for none")
         r.add_argument("--hier-args", default="", help="extra formfactor flags for the hierarchical runs")
+        r.add_argument("--hier-solve-args", default="",
+                       help="extra solve flags for the hierarchical runs (e.g. --shape off)")
         r.add_argument("--width", type=int, default=512)
         r.add_argument("--height", type=int, default=512)
         r.add_argument("--ref-spp", type=int, default=2048)

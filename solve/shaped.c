@@ -1,0 +1,504 @@
+/* shaped.c - links solved with their shape (shaped.h).
+ *
+ * The plan: every node's leaves as one range of a depth-first leaf list
+ * (children come after their parent, so one forward pass over the nodes
+ * places them); each link's pair (the link stored at its source); which
+ * receiver ends are shaped and their point factors, stored per link from
+ * `at`; per node the list of its shaped links. A sweep, every channel at
+ * once: the nodes' B (leaves', then area-weighted means up the trees);
+ * per receiver, in parallel, S of every link (a shaped source summed over
+ * its leaves with the weights stored at the pair's other link), the
+ * unshaped links gathered into the node's H, the shaped links' S kept;
+ * H pushed down the trees; per leaf, in parallel, H plus its and its
+ * ancestors' shaped links, F u_x S; B = E + rho H. Each sum is made by
+ * one thread in a fixed order, so the bytes do not depend on threads.
+ */
+#include "shaped.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "rad_clock.h"
+#include "rad_ff_kernel.h"
+#include "rad_log.h"
+
+#define NO_WEIGHTS UINT64_MAX
+#define SHAPED_PROGRESS_SECONDS 2.0
+
+typedef struct shaped_plan {
+    const rad_links *L;
+    const rad_mesh *leaves;
+    uint32_t *leaf_nodes;    /* leaf_count: the leaf nodes, each node's leaves consecutive */
+    uint32_t *first, *count; /* node_count: node i's leaves are leaf_nodes[first[i] .. first[i] + count[i]) */
+    double *leaf_area;       /* node_count: its leaves' areas summed */
+    uint64_t *reverse;       /* link_count: the pair's other link */
+    uint64_t *at;            /* link_count: the receiver end's point factors f[at .. at + count[r]), or NO_WEIGHTS */
+    double *inv_mean;        /* link_count: 1 / the area-weighted mean of those (shaped links) */
+    float *f;
+    uint64_t weight_count;
+    uint64_t *shaped_first;  /* node_count + 1: node r's shaped links are shaped[shaped_first[r] .. [r + 1]) */
+    uint64_t *shaped;
+    double *row_sum;         /* node_count (leaves): the leaf's row sum with the shape */
+    double *rho, *E;         /* node_count * 3: the node's material (its root's) */
+    int threads;
+} shaped_plan;
+
+static void plan_free(shaped_plan *p)
+{
+    free(p->leaf_nodes);
+    free(p->first);
+    free(p->count);
+    free(p->leaf_area);
+    free(p->reverse);
+    free(p->at);
+    free(p->inv_mean);
+    free(p->f);
+    free(p->shaped_first);
+    free(p->shaped);
+    free(p->row_sum);
+    free(p->rho);
+    free(p->E);
+}
+
+static inline int is_leaf(const rad_links *L, uint32_t i) { return L->nodes[i].first_child == RAD_NO_ELEMENT; }
+static inline double max3(const double *v) { return fmax(v[0], fmax(v[1], v[2])); }
+
+/* Node i's polygon as the point factor takes it: corners from the leaves
+ * mesh's vertex table, the plane's normal (its leaves'). */
+static void node_polygon(const shaped_plan *p, uint32_t i, rad_ff_patch *out)
+{
+    const rad_link_node *e = &p->L->nodes[i];
+    const double *pos = p->leaves->positions;
+    memset(out, 0, sizeof *out);
+    for (uint32_t k = 0; k < e->vertex_count; k++)
+        out->p[k] = (rad_vec3){pos[3 * (size_t)e->v[k]], pos[3 * (size_t)e->v[k] + 1], pos[3 * (size_t)e->v[k] + 2]};
+    if (e->vertex_count == 3) out->p[3] = out->p[2];
+    out->normal = p->leaves->patches[p->L->nodes[p->leaf_nodes[p->first[i]]].leaf].normal;
+    out->vertex_count = e->vertex_count;
+}
+
+/* The leaves' ranges, areas and materials; node B (3 per node) from the
+ * leaves' B (3 per leaf patch) pulled up, and each node's spread of B
+ * (largest max - min over the channels). */
+static void plan_trees(shaped_plan *p, const double *B, double *node_B, double *spread, double *lo)
+{
+    const rad_links *L = p->L;
+    const uint32_t n = L->node_count;
+    double *hi = lo + 3 * (size_t)n;
+    for (uint32_t i = n; i-- > 0;) {
+        const rad_link_node *e = &L->nodes[i];
+        double *b = &node_B[3 * (size_t)i], *bl = &lo[3 * (size_t)i], *bh = &hi[3 * (size_t)i];
+        if (e->first_child == RAD_NO_ELEMENT) {
+            const rad_patch *patch = &p->leaves->patches[e->leaf];
+            p->count[i] = 1;
+            p->leaf_area[i] = e->area;
+            for (int c = 0; c < 3; c++) {
+                b[c] = bl[c] = bh[c] = B[3 * (size_t)e->leaf + c];
+                p->rho[3 * (size_t)i + c] = patch->rho[c];
+                p->E[3 * (size_t)i + c] = patch->emission[c];
+            }
+            spread[i] = 0;
+            continue;
+        }
+        const uint32_t f = e->first_child;
+        p->count[i] = 0;
+        p->leaf_area[i] = 0;
+        double sum[3] = {0, 0, 0}, area = 0;
+        for (int c = 0; c < 3; c++) bl[c] = INFINITY, bh[c] = -INFINITY;
+        for (uint32_t k = 0; k < 4; k++) {
+            p->count[i] += p->count[f + k];
+            p->leaf_area[i] += p->leaf_area[f + k];
+            area += L->nodes[f + k].area;
+            for (int c = 0; c < 3; c++) {
+                sum[c] += L->nodes[f + k].area * node_B[3 * (size_t)(f + k) + c];
+                bl[c] = fmin(bl[c], lo[3 * (size_t)(f + k) + c]);
+                bh[c] = fmax(bh[c], hi[3 * (size_t)(f + k) + c]);
+            }
+        }
+        for (int c = 0; c < 3; c++) {
+            b[c] = sum[c] / area;
+            p->rho[3 * (size_t)i + c] = p->rho[3 * (size_t)f + c];
+            p->E[3 * (size_t)i + c] = 0;
+        }
+        spread[i] = fmax(bh[0] - bl[0], fmax(bh[1] - bl[1], bh[2] - bl[2]));
+    }
+    uint32_t at = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        const rad_link_node *e = &L->nodes[i];
+        if (e->parent == RAD_NO_ELEMENT) {
+            p->first[i] = at;
+            at += p->count[i];
+        }
+        if (e->first_child == RAD_NO_ELEMENT) {
+            p->leaf_nodes[p->first[i]] = i;
+            continue;
+        }
+        uint32_t f = p->first[i];
+        for (uint32_t k = 0; k < 4; k++) {
+            p->first[e->first_child + k] = f;
+            f += p->count[e->first_child + k];
+        }
+    }
+}
+
+/* The pair of every link: the link at its source back to its receiver
+ * (sources ascend per receiver). RAD_ERR_INVALID for one without. */
+static rad_status plan_pairs(shaped_plan *p)
+{
+    const rad_links *L = p->L;
+    for (uint32_t r = 0; r < L->node_count; r++)
+        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
+            const uint32_t s = L->links[k].source;
+            uint64_t lo = L->first_link[s], hi = L->first_link[s + 1];
+            while (lo < hi) {
+                const uint64_t mid = lo + (hi - lo) / 2;
+                if (L->links[mid].source < r) lo = mid + 1;
+                else hi = mid;
+            }
+            if (lo == L->first_link[s + 1] || L->links[lo].source != r) {
+                rad_error("links: link %llu (node %u <- %u) has no link back: links come in pairs",
+                          (unsigned long long)k, r, s);
+                return RAD_ERR_INVALID;
+            }
+            p->reverse[k] = lo;
+        }
+    return RAD_OK;
+}
+
+/* Which receiver ends to shape (shaped.h, "Which ends"), their offsets. */
+static void plan_ends(shaped_plan *p, const double *node_B, const double *spread, double floor)
+{
+    const rad_links *L = p->L;
+    p->weight_count = 0;
+    for (uint32_t r = 0; r < L->node_count; r++)
+        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
+            const rad_link *l = &L->links[k], *back = &L->links[p->reverse[k]];
+            const double rho_r = max3(&p->rho[3 * (size_t)r]), rho_s = max3(&p->rho[3 * (size_t)l->source]);
+            const int shape = !is_leaf(L, r) && (rho_r * l->error * max3(&node_B[3 * (size_t)l->source]) >= floor ||
+                                                 rho_s * back->factor * spread[r] >= floor);
+            p->at[k] = shape ? p->weight_count : NO_WEIGHTS;
+            if (shape) p->weight_count += p->count[r];
+        }
+}
+
+/* The shaped ends' point factors (in parallel over receivers); an end
+ * whose factors sum to 0 is left flat. */
+static void plan_factors(shaped_plan *p)
+{
+    const rad_links *L = p->L;
+    const uint32_t n = L->node_count;
+#pragma omp parallel for schedule(dynamic, 16) num_threads(p->threads)
+    for (uint32_t r = 0; r < n; r++) {
+        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
+            if (p->at[k] == NO_WEIGHTS) continue;
+            rad_ff_patch P;
+            node_polygon(p, L->links[k].source, &P);
+            float *f = &p->f[p->at[k]];
+            double sum = 0;
+            for (uint32_t q = 0; q < p->count[r]; q++) {
+                const uint32_t x = p->leaf_nodes[p->first[r] + q];
+                const rad_patch *leaf = &p->leaves->patches[L->nodes[x].leaf];
+                f[q] = (float)rad_ff_point_polygon(leaf->centroid, leaf->normal, &P);
+                sum += L->nodes[x].area * (double)f[q];
+            }
+            p->inv_mean[k] = sum > 0 ? p->leaf_area[r] / sum : 0;
+            if (!(sum > 0)) p->at[k] = NO_WEIGHTS;
+        }
+    }
+}
+
+/* Node r's shaped links listed; every leaf's row sum with the shape. */
+static void plan_lists(shaped_plan *p)
+{
+    const rad_links *L = p->L;
+    const uint32_t n = L->node_count;
+    uint64_t m = 0;
+    for (uint32_t r = 0; r < n; r++) {
+        p->shaped_first[r] = m;
+        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
+            if (p->at[k] != NO_WEIGHTS) p->shaped[m++] = k;
+    }
+    p->shaped_first[n] = m;
+    for (uint32_t x = 0; x < n; x++) {
+        if (!is_leaf(L, x)) continue;
+        double s = 0;
+        for (uint32_t a = x; a != RAD_NO_ELEMENT; a = L->nodes[a].parent)
+            for (uint64_t k = L->first_link[a]; k < L->first_link[a + 1]; k++)
+                s += L->links[k].factor *
+                     (p->at[k] == NO_WEIGHTS ? 1.0 : p->inv_mean[k] * p->f[p->at[k] + p->first[x] - p->first[a]]);
+        p->row_sum[x] = s;
+    }
+}
+
+static rad_status plan_make(const rad_links *L, const rad_mesh *leaves, const double *B, double gate, int threads,
+                            shaped_plan *p, double *node_B)
+{
+    const uint32_t n = L->node_count;
+    const uint64_t links = L->link_count ? L->link_count : 1;
+    memset(p, 0, sizeof *p);
+    p->L = L;
+    p->leaves = leaves;
+    p->threads = threads;
+    p->leaf_nodes = malloc((L->leaf_count ? L->leaf_count : 1) * sizeof *p->leaf_nodes);
+    p->first = malloc((size_t)n * sizeof *p->first);
+    p->count = malloc((size_t)n * sizeof *p->count);
+    p->leaf_area = malloc((size_t)n * sizeof *p->leaf_area);
+    p->reverse = malloc(links * sizeof *p->reverse);
+    p->at = malloc(links * sizeof *p->at);
+    p->inv_mean = malloc(links * sizeof *p->inv_mean);
+    p->shaped_first = malloc(((size_t)n + 1) * sizeof *p->shaped_first);
+    p->row_sum = malloc((size_t)n * sizeof *p->row_sum);
+    p->rho = malloc(3 * (size_t)n * sizeof *p->rho);
+    p->E = malloc(3 * (size_t)n * sizeof *p->E);
+    double *spread = malloc((size_t)n * sizeof *spread), *lo = malloc(6 * (size_t)n * sizeof *lo);
+    rad_status status = RAD_OK;
+    if (!p->leaf_nodes || !p->first || !p->count || !p->leaf_area || !p->reverse || !p->at || !p->inv_mean ||
+        !p->shaped_first || !p->row_sum || !p->rho || !p->E || !spread || !lo) {
+        status = RAD_ERR_NOMEM;
+    } else {
+        plan_trees(p, B, node_B, spread, lo);
+        status = plan_pairs(p);
+    }
+    if (status == RAD_OK) {
+        double reflected = 0, area = 0, all = 0, all_area = 0;
+        for (uint32_t i = 0; i < n; i++) {
+            if (!is_leaf(L, i)) continue;
+            const double y = max3(&node_B[3 * (size_t)i]) * L->nodes[i].area;
+            all += y;
+            all_area += L->nodes[i].area;
+            if (max3(&p->E[3 * (size_t)i]) > 0) continue;
+            reflected += y;
+            area += L->nodes[i].area;
+        }
+        const double mean = area > 0 ? reflected / area : all_area > 0 ? all / all_area : 0;
+        plan_ends(p, node_B, spread, gate * mean);
+        p->f = malloc((p->weight_count ? p->weight_count : 1) * sizeof *p->f);
+        if (!p->f) status = RAD_ERR_NOMEM;
+    }
+    if (status == RAD_OK) {
+        plan_factors(p);
+        uint64_t m = 0;
+        for (uint64_t k = 0; k < L->link_count; k++) m += p->at[k] != NO_WEIGHTS;
+        p->shaped = malloc((m ? m : 1) * sizeof *p->shaped);
+        if (!p->shaped) status = RAD_ERR_NOMEM;
+    }
+    if (status == RAD_OK) plan_lists(p);
+    free(spread);
+    free(lo);
+    if (status == RAD_ERR_NOMEM)
+        rad_error("links: out of memory for the shaped solve over %u nodes and %llu links", n,
+                  (unsigned long long)L->link_count);
+    if (status != RAD_OK) plan_free(p);
+    return status;
+}
+
+/* ---- the sweep ---- */
+
+typedef struct shaped_vectors {
+    double *B;    /* node_count * 3: leaves' B, split nodes' means */
+    double *H;    /* node_count * 3: unshaped links gathered, pushed down; at leaves, all of H */
+    double *S;    /* shaped links * 3: what each shaped link's source sends */
+    double *next; /* node_count * 3 (leaves): E + rho H */
+} shaped_vectors;
+
+/* What source s sends along link k (receiver r): shaped towards r where the
+ * pair's other link shapes s. */
+static inline void source_value(const shaped_plan *p, const double *B, uint64_t k, double out[3])
+{
+    const rad_links *L = p->L;
+    const uint32_t s = L->links[k].source;
+    const uint64_t back = p->reverse[k];
+    if (p->at[back] == NO_WEIGHTS) {
+        for (int c = 0; c < 3; c++) out[c] = B[3 * (size_t)s + c];
+        return;
+    }
+    const float *f = &p->f[p->at[back]];
+    double sum[3] = {0, 0, 0};
+    for (uint32_t q = 0; q < p->count[s]; q++) {
+        const uint32_t y = p->leaf_nodes[p->first[s] + q];
+        const double w = L->nodes[y].area * (double)f[q];
+        for (int c = 0; c < 3; c++) sum[c] += w * B[3 * (size_t)y + c];
+    }
+    const double scale = p->inv_mean[back] / p->leaf_area[s];
+    for (int c = 0; c < 3; c++) out[c] = sum[c] * scale;
+}
+
+/* One Jacobi sweep from v->B: v->H and v->next at the leaves; returns the
+ * largest |next - B| per channel in r[3] (NaN if one is). */
+static void sweep(const shaped_plan *p, shaped_vectors *v, double r[3])
+{
+    const rad_links *L = p->L;
+    const uint32_t n = L->node_count, leaf_count = L->leaf_count;
+    const double *B = v->B;
+    double *H = v->H, *S = v->S;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(p->threads)
+    for (uint32_t i = 0; i < n; i++) {
+        double h[3] = {0, 0, 0};
+        uint64_t j = p->shaped_first[i];
+        for (uint64_t k = L->first_link[i]; k < L->first_link[i + 1]; k++) {
+            double s[3];
+            source_value(p, B, k, s);
+            if (p->at[k] != NO_WEIGHTS) {
+                memcpy(&S[3 * j++], s, sizeof s);
+                continue;
+            }
+            for (int c = 0; c < 3; c++) h[c] += L->links[k].factor * s[c];
+        }
+        memcpy(&H[3 * (size_t)i], h, sizeof h);
+    }
+    for (uint32_t i = 0; i < n; i++) { /* parents first: pushed down */
+        const uint32_t up = L->nodes[i].parent;
+        if (up != RAD_NO_ELEMENT)
+            for (int c = 0; c < 3; c++) H[3 * (size_t)i + c] += H[3 * (size_t)up + c];
+    }
+    double r0 = 0, r1 = 0, r2 = 0;
+#pragma omp parallel for schedule(dynamic, 256) num_threads(p->threads) reduction(max : r0, r1, r2)
+    for (uint32_t q = 0; q < leaf_count; q++) {
+        const uint32_t x = p->leaf_nodes[q];
+        double *h = &H[3 * (size_t)x];
+        for (uint32_t a = x; a != RAD_NO_ELEMENT; a = L->nodes[a].parent)
+            for (uint64_t j = p->shaped_first[a]; j < p->shaped_first[a + 1]; j++) {
+                const uint64_t k = p->shaped[j];
+                const double w = L->links[k].factor * p->inv_mean[k] * (double)p->f[p->at[k] + q - p->first[a]];
+                for (int c = 0; c < 3; c++) h[c] += w * S[3 * j + c];
+            }
+        double d[3];
+        for (int c = 0; c < 3; c++) {
+            const size_t i = 3 * (size_t)x + c;
+            v->next[i] = p->E[i] + p->rho[i] * h[c];
+            d[c] = fabs(v->next[i] - B[i]);
+            if (isnan(d[c])) d[c] = INFINITY;
+        }
+        r0 = fmax(r0, d[0]);
+        r1 = fmax(r1, d[1]);
+        r2 = fmax(r2, d[2]);
+    }
+    r[0] = r0, r[1] = r1, r[2] = r2;
+}
+
+/* v->B's leaves from v->next, split nodes pulled up. */
+static void take_next(const shaped_plan *p, shaped_vectors *v)
+{
+    const rad_links *L = p->L;
+    for (uint32_t i = L->node_count; i-- > 0;) {
+        const rad_link_node *e = &L->nodes[i];
+        double *b = &v->B[3 * (size_t)i];
+        if (e->first_child == RAD_NO_ELEMENT) {
+            memcpy(b, &v->next[3 * (size_t)i], 3 * sizeof *b);
+            continue;
+        }
+        double sum[3] = {0, 0, 0}, area = 0;
+        for (uint32_t k = 0; k < 4; k++) {
+            const uint32_t ch = e->first_child + k;
+            area += L->nodes[ch].area;
+            for (int c = 0; c < 3; c++) sum[c] += L->nodes[ch].area * v->B[3 * (size_t)ch + c];
+        }
+        for (int c = 0; c < 3; c++) b[c] = sum[c] / area;
+    }
+}
+
+rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const solve_shaped_options *options, double *B,
+                        solve_shaped_result *out)
+{
+    const double start = rad_clock_seconds();
+    if (links->leaf_count != leaves->patch_count || links->node_count == 0 || !(options->tolerance > 0) ||
+        options->max_iterations == 0) {
+        rad_error("links: %u leaves against %zu patches, or shaped solve options out of range", links->leaf_count,
+                  leaves->patch_count);
+        return RAD_ERR_INVALID;
+    }
+    int threads = options->threads;
+#ifdef _OPENMP
+    if (threads <= 0) threads = omp_get_max_threads();
+#else
+    threads = 1;
+#endif
+    const uint32_t n = links->node_count;
+    shaped_vectors v = {0};
+    double *block = malloc(9 * (size_t)n * sizeof *block);
+    if (!block) {
+        rad_error("links: out of memory for the shaped solve's vectors over %u nodes", n);
+        return RAD_ERR_NOMEM;
+    }
+    v.B = block, v.H = block + 3 * (size_t)n, v.next = block + 6 * (size_t)n;
+    shaped_plan p;
+    rad_status status = plan_make(links, leaves, B, options->gate, threads, &p, v.B);
+    if (status != RAD_OK) {
+        free(block);
+        return status;
+    }
+    const uint64_t shaped = p.shaped_first[n];
+    v.S = malloc(3 * (shaped ? shaped : 1) * sizeof *v.S);
+    if (!v.S) {
+        rad_error("links: out of memory for the shaped solve's %llu shaped links", (unsigned long long)shaped);
+        plan_free(&p);
+        free(block);
+        return RAD_ERR_NOMEM;
+    }
+    double e_norm[3] = {0, 0, 0};
+    for (uint32_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) e_norm[c] = fmax(e_norm[c], p.E[3 * (size_t)i + c]);
+    solve_shaped_result res = {.shaped_ends = shaped, .weights = p.weight_count};
+    double last_progress = start;
+    for (uint32_t it = 0;; it++) {
+        double r[3];
+        sweep(&p, &v, r);
+        double worst = 0;
+        for (int c = 0; c < 3; c++) worst = fmax(worst, e_norm[c] > 0 ? r[c] / e_norm[c] : 0);
+        if (!isfinite(worst)) {
+            rad_error("links: shaped solve: residual is not finite at iteration %u", it);
+            status = RAD_ERR_INVALID;
+            break;
+        }
+        const double now = rad_clock_seconds();
+        if (now - last_progress >= SHAPED_PROGRESS_SECONDS) {
+            rad_info("links: shaped solve: iteration %u, residual %.3g (target %.3g), %.0f s", it, worst,
+                     options->tolerance, now - start);
+            last_progress = now;
+        }
+        if (worst <= options->tolerance || it >= options->max_iterations) {
+            /* v.B is the iterate measured; v.H its gather */
+            res.iterations = it;
+            res.residual = worst;
+            res.converged = worst <= options->tolerance;
+            break;
+        }
+        take_next(&p, &v);
+    }
+    if (status == RAD_OK) {
+        double most = 0, moved = 0, sums[3] = {0, 0, 0};
+        for (uint32_t i = 0; i < n; i++) {
+            const rad_link_node *e = &links->nodes[i];
+            if (e->first_child != RAD_NO_ELEMENT) continue;
+            for (int c = 0; c < 3; c++) {
+                const size_t at = 3 * (size_t)i + c;
+                const double b = v.B[at], before = B[3 * (size_t)e->leaf + c];
+                most = fmax(most, fabs(before));
+                moved = fmax(moved, fabs(b - before));
+                if (options->channels == 1 && c > 0) continue;
+                sums[0] += e->area * p.E[at];
+                sums[1] += e->area * (1 - p.rho[at]) * v.H[at];
+                sums[2] += e->area * b * (1 - p.row_sum[i]);
+            }
+        }
+        for (uint32_t i = 0; i < n; i++)
+            if (links->nodes[i].first_child == RAD_NO_ELEMENT)
+                memcpy(&B[3 * (size_t)links->nodes[i].leaf], &v.B[3 * (size_t)i], 3 * sizeof *B);
+        res.change = most > 0 ? moved / most : 0;
+        res.emitted = sums[0];
+        res.absorbed = sums[1];
+        res.escaped = sums[2];
+        res.imbalance = sums[0] > 0 ? (sums[1] + sums[2] - sums[0]) / sums[0] : 0;
+        res.seconds = rad_clock_seconds() - start;
+        *out = res;
+        if (!res.converged) status = RAD_ERR_NOT_CONVERGED;
+    }
+    free(v.S);
+    free(block);
+    plan_free(&p);
+    return status;
+}

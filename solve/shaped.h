@@ -1,0 +1,88 @@
+/* shaped.h - hierarchical radiosity's links solved with their shape
+ * (issue 26): every link spread over the leaves of its two elements by the
+ * point factor, solved to a stated residual from the flat solution.
+ *
+ *     rad_lsolve(&links, leaves, &o, B, &r);         // the flat solution
+ *     solve_shaped_options so = {.tolerance = 1e-10, .gate = 1e-3};
+ *     solve_shaped_result sr;
+ *     solve_shaped(&links, leaves, &so, B, &sr);     // B: the shaped solution, in place
+ *
+ * Why. A link r <- s carries one form factor F_rs for all of r and one
+ * source value for all of s. The flat solve (rad_lsolve) therefore gives
+ * every leaf under a coarse receiver the same share of what s sends, and
+ * takes s's plain area mean as what s sends: an image shows r's outline as
+ * a step, and a leaf in a room's corner gets the room's mean view of a
+ * wall it sees at a half. The oracle must then refine every link whose
+ * factor varies over r, however smooth that variation.
+ *
+ * What. With f_x the unoccluded factor from leaf x's centroid (its normal)
+ * to the other element's polygon, in closed form (rad_ff_point_polygon),
+ * and u_x = f_x / (the area-weighted mean of f over the element's leaves),
+ * link r <- s gives leaf x under r
+ *
+ *     F_rs u_x S_rs,     S_rs = sum_{y under s} A_y u_y B_y / A_s
+ *
+ * (u over s's leaves taken towards r). The leaves under r share the
+ * link's power by how well each sees s (the mean of u over r is 1, so a
+ * uniform B moves what it moved flat), and the part of s that faces r
+ * counts more in what s sends. The operator stays reciprocal:
+ * A_x K_xy = c_rs A_x A_y u_x u_y = A_y K_yx, because each end of a pair
+ * is shaped or not for both of the pair's links. So a closed scene's
+ * energy balances as flat. The visible fraction stays the link's one
+ * number: shadows inside a link are the oracle's (it splits partly hidden
+ * pairs). A link between two leaves is unchanged (u = 1), so at
+ * --link-tol 0 the result is the flat solve's to the bit; so is an end
+ * whose point factors all vanish (a grazing link).
+ *
+ * Which ends. An element end of a pair is shaped where it is split and
+ * shaping may move a leaf by at least gate times the mean B of the leaves
+ * that do not emit: rho_r e_rs B_s (e_rs the link's bound on how far the
+ * factor from a leaf of r may lie from F_rs) or rho_s F_sr (max - min of B
+ * over r's leaves), for the pair's either direction.
+ *
+ * How. Jacobi sweeps over the leaves from the flat solution: the sources'
+ * S (shaped ends summed over their leaves), the unshaped receivers'
+ * gathers pushed down the trees as flat, the shaped receivers' added per
+ * leaf. The residual is rad_lsolve's: max |E + rho K B - B| over the
+ * leaves and channels, over ||E||_inf, of the iterate returned. The point
+ * factors are computed once and stored (4 bytes each). The bytes do not
+ * depend on the thread count.
+ */
+#ifndef SOLVE_SHAPED_H
+#define SOLVE_SHAPED_H
+
+#include <stdint.h>
+
+#include "rad_links.h"
+#include "rad_mesh.h"
+#include "rad_status.h"
+
+typedef struct solve_shaped_options {
+    int threads;             /* OpenMP threads; 0 = OpenMP's default */
+    double gate;             /* shape an end where it may move a leaf by gate x the mean reflected B */
+    double tolerance;        /* residual to reach (> 0) */
+    uint32_t max_iterations; /* > 0 */
+    int channels;            /* 1: a grey scene (the balance is channel 0's, as rad_lsolve's); else 3 */
+} solve_shaped_options;
+
+typedef struct solve_shaped_result {
+    uint64_t shaped_ends;   /* link ends spread over their leaves (each pair's end counted once per link) */
+    uint64_t weights;       /* point factors stored: one per leaf of a shaped end */
+    uint32_t iterations;
+    double residual;        /* the largest over the channels */
+    int converged;
+    double change;          /* max |B - B_flat| / max |B_flat| over leaves and channels */
+    double emitted, absorbed, escaped, imbalance; /* as rad_lsolve_result's, for the shaped operator */
+    double seconds;
+} solve_shaped_result;
+
+/* B: 3 values per leaf patch (RGB): the flat solution on entry, the
+ * shaped one on return (also when not converged: *out says so, and the
+ * status is RAD_ERR_NOT_CONVERGED); untouched on other failures.
+ * RAD_ERR_NOMEM (logged); RAD_ERR_INVALID for a leaves mesh that does
+ * not match the links, a link without its pair, or a residual that is
+ * not finite. The links must have passed rad_links_check. */
+rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const solve_shaped_options *options, double *B,
+                        solve_shaped_result *out);
+
+#endif
