@@ -7,7 +7,9 @@
 # hierarchical, then solve) at each tolerance and finest level below, on
 # THREADS (default "2 all") threads (the growth on GROWTH_THREADS, default 16), with peak memory; and the growth of time
 # with the leaves on cornell_sphere at a fixed tolerance (--uniform-leaves
-# off: the leaves the tolerance makes). Writes hier_bench.md and the stats
+# off: the leaves the tolerance makes); THREADS=none skips that table. Then
+# uniform leaves (UNIFORM_THREADS, UNIFORM_BOX_TOLS, UNIFORM_SPHERE_TOLS).
+# Writes hier_bench.md and the stats
 # JSON under $OUT (default ./hier-bench-out).
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -49,11 +51,25 @@ echo
 echo "| run | threads | leaves | elements | links | links/element | error bound | formfactor s | solve s | total s | MiB |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|"
 for t in $threads_list; do
+  [ "$t" = none ] && continue
   for tol in 3e-2 1e-2 3e-3; do
     run "cornell_box L5 tol $tol" "$t" --method hierarchical --subdiv 5 --link-tol "$tol"
   done
   for tol in 3e-2 1e-2 3e-3; do
     run "cornell_sphere L6 tol $tol" "$t" scenes/cornell_sphere.obj --method hierarchical --subdiv 6 --link-tol "$tol"
+  done
+done
+echo
+echo "## Uniform leaves (--uniform-leaves; --oracle auto = gather, solve's shaped solve)"
+echo
+echo "| run | threads | leaves | elements | links | links/element | error bound | formfactor s | solve s | total s | MiB |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|"
+for t in ${UNIFORM_THREADS:-16}; do
+  for tol in ${UNIFORM_BOX_TOLS:-3e-2 1e-2}; do
+    run "cornell_box uniform L5 tol $tol" "$t" --method hierarchical --subdiv 5 --uniform-leaves --link-tol "$tol"
+  done
+  for tol in ${UNIFORM_SPHERE_TOLS:-1e-2 3e-3 1e-3}; do
+    run "cornell_sphere uniform L6 tol $tol" "$t" scenes/cornell_sphere.obj --method hierarchical --subdiv 6 --uniform-leaves --link-tol "$tol"
   done
 done
 echo

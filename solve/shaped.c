@@ -28,6 +28,10 @@
 
 #define NO_WEIGHTS UINT64_MAX
 #define SHAPED_PROGRESS_SECONDS 2.0
+/* A Gauss-Seidel tree's gather and update go parallel from this many links
+ * and leaves up (waking the threads costs ~40 us, docs/solve.md "Threads"). */
+#define SHAPED_PARALLEL_MIN_LINKS 16384u
+#define SHAPED_PARALLEL_MIN_LEAVES 4096u
 
 typedef struct shaped_plan {
     const rad_links *L;
@@ -44,6 +48,10 @@ typedef struct shaped_plan {
     uint64_t *shaped;
     double *row_sum;         /* node_count (leaves): the leaf's row sum with the shape */
     double *rho, *E;         /* node_count * 3: the node's material (its root's) */
+    double *area_q;          /* leaf_count: leaf areas in leaf-list order (the sweeps stream them) */
+    uint32_t *tree_first;    /* root_count + 1: tree t's nodes are tree_nodes[tree_first[t] .. [t + 1]), */
+    uint32_t *tree_nodes;    /* in index order (parents first) */
+    uint64_t *tree_links;    /* root_count: the links the tree's nodes receive */
     int threads;
 } shaped_plan;
 
@@ -62,6 +70,10 @@ static void plan_free(shaped_plan *p)
     free(p->row_sum);
     free(p->rho);
     free(p->E);
+    free(p->area_q);
+    free(p->tree_first);
+    free(p->tree_nodes);
+    free(p->tree_links);
 }
 
 static inline int is_leaf(const rad_links *L, uint32_t i) { return L->nodes[i].first_child == RAD_NO_ELEMENT; }
@@ -143,6 +155,22 @@ static void plan_trees(shaped_plan *p, const double *B, double *node_B, double *
             f += p->count[e->first_child + k];
         }
     }
+}
+
+/* Every tree's nodes in index order, and the links they receive. */
+static void plan_tree_lists(shaped_plan *p)
+{
+    const rad_links *L = p->L;
+    const uint32_t n = L->node_count, roots = L->root_count;
+    for (uint32_t i = 0; i < n; i++) p->tree_first[L->nodes[i].root + 1]++;
+    for (uint32_t t = 0; t < roots; t++) p->tree_first[t + 1] += p->tree_first[t];
+    for (uint32_t i = 0; i < n; i++) {
+        const uint32_t t = L->nodes[i].root;
+        p->tree_nodes[p->tree_first[t]++] = i; /* counts up; set back below */
+        p->tree_links[t] += L->first_link[i + 1] - L->first_link[i];
+    }
+    for (uint32_t t = roots; t > 0; t--) p->tree_first[t] = p->tree_first[t - 1];
+    p->tree_first[0] = 0;
 }
 
 /* The pair of every link: the link at its source back to its receiver
@@ -254,13 +282,20 @@ static rad_status plan_make(const rad_links *L, const rad_mesh *leaves, const do
     p->row_sum = malloc((size_t)n * sizeof *p->row_sum);
     p->rho = malloc(3 * (size_t)n * sizeof *p->rho);
     p->E = malloc(3 * (size_t)n * sizeof *p->E);
+    p->area_q = malloc((L->leaf_count ? L->leaf_count : 1) * sizeof *p->area_q);
+    p->tree_first = calloc((size_t)L->root_count + 1, sizeof *p->tree_first);
+    p->tree_nodes = malloc((size_t)n * sizeof *p->tree_nodes);
+    p->tree_links = calloc(L->root_count ? L->root_count : 1, sizeof *p->tree_links);
     double *spread = malloc((size_t)n * sizeof *spread), *lo = malloc(6 * (size_t)n * sizeof *lo);
     rad_status status = RAD_OK;
     if (!p->leaf_nodes || !p->first || !p->count || !p->leaf_area || !p->reverse || !p->at || !p->inv_mean ||
-        !p->shaped_first || !p->row_sum || !p->rho || !p->E || !spread || !lo) {
+        !p->shaped_first || !p->row_sum || !p->rho || !p->E || !p->area_q || !p->tree_first ||
+        !p->tree_nodes || !p->tree_links || !spread || !lo) {
         status = RAD_ERR_NOMEM;
     } else {
         plan_trees(p, B, node_B, spread, lo);
+        for (uint32_t q = 0; q < L->leaf_count; q++) p->area_q[q] = L->nodes[p->leaf_nodes[q]].area;
+        plan_tree_lists(p);
         status = plan_pairs(p);
     }
     if (status == RAD_OK) {
@@ -300,14 +335,15 @@ static rad_status plan_make(const rad_links *L, const rad_mesh *leaves, const do
 
 typedef struct shaped_vectors {
     double *B;    /* node_count * 3: leaves' B, split nodes' means */
+    double *Q;    /* leaf_count * 3: the leaves' B in leaf-list order (what shaped sums stream) */
     double *H;    /* node_count * 3: unshaped links gathered, pushed down; at leaves, all of H */
     double *S;    /* shaped links * 3: what each shaped link's source sends */
-    double *next; /* node_count * 3 (leaves): E + rho H */
+    double *next; /* leaf_count * 3, leaf-list order: E + rho H */
 } shaped_vectors;
 
 /* What source s sends along link k (receiver r): shaped towards r where the
  * pair's other link shapes s. */
-static inline void source_value(const shaped_plan *p, const double *B, uint64_t k, double out[3])
+static inline void source_value(const shaped_plan *p, const double *B, const double *Q, uint64_t k, double out[3])
 {
     const rad_links *L = p->L;
     const uint32_t s = L->links[k].source;
@@ -317,39 +353,71 @@ static inline void source_value(const shaped_plan *p, const double *B, uint64_t 
         return;
     }
     const float *f = &p->f[p->at[back]];
-    double sum[3] = {0, 0, 0};
+    const double *area = &p->area_q[p->first[s]], *b = &Q[3 * (size_t)p->first[s]];
+    double s0 = 0, s1 = 0, s2 = 0;
     for (uint32_t q = 0; q < p->count[s]; q++) {
-        const uint32_t y = p->leaf_nodes[p->first[s] + q];
-        const double w = L->nodes[y].area * (double)f[q];
-        for (int c = 0; c < 3; c++) sum[c] += w * B[3 * (size_t)y + c];
+        const double w = area[q] * (double)f[q];
+        s0 += w * b[3 * q];
+        s1 += w * b[3 * q + 1];
+        s2 += w * b[3 * q + 2];
     }
+    const double sum[3] = {s0, s1, s2};
     const double scale = p->inv_mean[back] / p->leaf_area[s];
     for (int c = 0; c < 3; c++) out[c] = sum[c] * scale;
 }
 
-/* One Jacobi sweep from v->B: v->H and v->next at the leaves; returns the
- * largest |next - B| per channel in r[3] (NaN if one is). */
+/* Node i's links: the unshaped ones gathered into H[i], the shaped ones'
+ * S kept, from v->B and v->Q. */
+static inline void gather_node(const shaped_plan *p, shaped_vectors *v, uint32_t i)
+{
+    const rad_links *L = p->L;
+    double h[3] = {0, 0, 0};
+    uint64_t j = p->shaped_first[i];
+    for (uint64_t k = L->first_link[i]; k < L->first_link[i + 1]; k++) {
+        double s[3];
+        source_value(p, v->B, v->Q, k, s);
+        if (p->at[k] != NO_WEIGHTS) {
+            memcpy(&v->S[3 * j++], s, sizeof s);
+            continue;
+        }
+        for (int c = 0; c < 3; c++) h[c] += L->links[k].factor * s[c];
+    }
+    memcpy(&v->H[3 * (size_t)i], h, sizeof h);
+}
+
+/* Leaf q (node x): H[x] (pushed down) plus its and its ancestors' shaped
+ * links, then out = E + rho H; d: |out - Q[q]| per channel. H[x] keeps
+ * the whole gather (the balance's). */
+static inline void update_leaf(const shaped_plan *p, shaped_vectors *v, uint32_t q, double *out, double d[3])
+{
+    const rad_links *L = p->L;
+    const uint32_t x = p->leaf_nodes[q];
+    double *h = &v->H[3 * (size_t)x];
+    for (uint32_t a = x; a != RAD_NO_ELEMENT; a = L->nodes[a].parent)
+        for (uint64_t j = p->shaped_first[a]; j < p->shaped_first[a + 1]; j++) {
+            const uint64_t k = p->shaped[j];
+            const double w = L->links[k].factor * p->inv_mean[k] * (double)p->f[p->at[k] + q - p->first[a]];
+            for (int c = 0; c < 3; c++) h[c] += w * v->S[3 * j + c];
+        }
+    for (int c = 0; c < 3; c++) {
+        const size_t i = 3 * (size_t)x + c;
+        const double b = p->E[i] + p->rho[i] * h[c];
+        d[c] = fabs(b - v->Q[3 * (size_t)q + c]);
+        if (isnan(d[c])) d[c] = INFINITY;
+        out[c] = b;
+    }
+}
+
+/* One Jacobi sweep from v->B: v->H and v->next at the leaves; the largest
+ * |next - B| per channel in r[3] (the residual of v->B; infinite where one
+ * is not a number). */
 static void sweep(const shaped_plan *p, shaped_vectors *v, double r[3])
 {
     const rad_links *L = p->L;
     const uint32_t n = L->node_count, leaf_count = L->leaf_count;
-    const double *B = v->B;
-    double *H = v->H, *S = v->S;
+    double *H = v->H;
 #pragma omp parallel for schedule(dynamic, 64) num_threads(p->threads)
-    for (uint32_t i = 0; i < n; i++) {
-        double h[3] = {0, 0, 0};
-        uint64_t j = p->shaped_first[i];
-        for (uint64_t k = L->first_link[i]; k < L->first_link[i + 1]; k++) {
-            double s[3];
-            source_value(p, B, k, s);
-            if (p->at[k] != NO_WEIGHTS) {
-                memcpy(&S[3 * j++], s, sizeof s);
-                continue;
-            }
-            for (int c = 0; c < 3; c++) h[c] += L->links[k].factor * s[c];
-        }
-        memcpy(&H[3 * (size_t)i], h, sizeof h);
-    }
+    for (uint32_t i = 0; i < n; i++) gather_node(p, v, i);
     for (uint32_t i = 0; i < n; i++) { /* parents first: pushed down */
         const uint32_t up = L->nodes[i].parent;
         if (up != RAD_NO_ELEMENT)
@@ -358,21 +426,8 @@ static void sweep(const shaped_plan *p, shaped_vectors *v, double r[3])
     double r0 = 0, r1 = 0, r2 = 0;
 #pragma omp parallel for schedule(dynamic, 256) num_threads(p->threads) reduction(max : r0, r1, r2)
     for (uint32_t q = 0; q < leaf_count; q++) {
-        const uint32_t x = p->leaf_nodes[q];
-        double *h = &H[3 * (size_t)x];
-        for (uint32_t a = x; a != RAD_NO_ELEMENT; a = L->nodes[a].parent)
-            for (uint64_t j = p->shaped_first[a]; j < p->shaped_first[a + 1]; j++) {
-                const uint64_t k = p->shaped[j];
-                const double w = L->links[k].factor * p->inv_mean[k] * (double)p->f[p->at[k] + q - p->first[a]];
-                for (int c = 0; c < 3; c++) h[c] += w * S[3 * j + c];
-            }
         double d[3];
-        for (int c = 0; c < 3; c++) {
-            const size_t i = 3 * (size_t)x + c;
-            v->next[i] = p->E[i] + p->rho[i] * h[c];
-            d[c] = fabs(v->next[i] - B[i]);
-            if (isnan(d[c])) d[c] = INFINITY;
-        }
+        update_leaf(p, v, q, &v->next[3 * (size_t)q], d);
         r0 = fmax(r0, d[0]);
         r1 = fmax(r1, d[1]);
         r2 = fmax(r2, d[2]);
@@ -380,25 +435,59 @@ static void sweep(const shaped_plan *p, shaped_vectors *v, double r[3])
     r[0] = r0, r[1] = r1, r[2] = r2;
 }
 
-/* v->B's leaves from v->next, split nodes pulled up. */
-static void take_next(const shaped_plan *p, shaped_vectors *v)
+/* Tree t's split nodes' B pulled up from its leaves' (v->Q). */
+static void pull_tree(const shaped_plan *p, shaped_vectors *v, uint32_t t)
 {
     const rad_links *L = p->L;
-    for (uint32_t i = L->node_count; i-- > 0;) {
+    for (uint32_t k = p->tree_first[t + 1]; k-- > p->tree_first[t];) {
+        const uint32_t i = p->tree_nodes[k];
         const rad_link_node *e = &L->nodes[i];
         double *b = &v->B[3 * (size_t)i];
         if (e->first_child == RAD_NO_ELEMENT) {
-            memcpy(b, &v->next[3 * (size_t)i], 3 * sizeof *b);
+            memcpy(b, &v->Q[3 * (size_t)p->first[i]], 3 * sizeof *b);
             continue;
         }
         double sum[3] = {0, 0, 0}, area = 0;
-        for (uint32_t k = 0; k < 4; k++) {
-            const uint32_t ch = e->first_child + k;
+        for (uint32_t c4 = 0; c4 < 4; c4++) {
+            const uint32_t ch = e->first_child + c4;
             area += L->nodes[ch].area;
             for (int c = 0; c < 3; c++) sum[c] += L->nodes[ch].area * v->B[3 * (size_t)ch + c];
         }
         for (int c = 0; c < 3; c++) b[c] = sum[c] / area;
     }
+}
+
+/* One Gauss-Seidel sweep, tree by tree in root order: each tree gathers
+ * from the newest B (the trees before it already updated), updates its
+ * leaves in place and pulls its nodes. r[3]: the largest change per
+ * channel (infinite where one is not a number). */
+static void gauss_seidel_sweep(const shaped_plan *p, shaped_vectors *v, double r[3])
+{
+    const rad_links *L = p->L;
+    double r0 = 0, r1 = 0, r2 = 0;
+    for (uint32_t t = 0; t < L->root_count; t++) {
+        const uint32_t *list = p->tree_nodes + p->tree_first[t];
+        const uint32_t count = p->tree_first[t + 1] - p->tree_first[t], root = list[0];
+        const int wide = p->tree_links[t] >= SHAPED_PARALLEL_MIN_LINKS;
+#pragma omp parallel for schedule(dynamic, 16) num_threads(p->threads) if (wide)
+        for (uint32_t k = 0; k < count; k++) gather_node(p, v, list[k]);
+        for (uint32_t k = 1; k < count; k++) { /* parents first: pushed down */
+            const uint32_t i = list[k], up = L->nodes[i].parent;
+            for (int c = 0; c < 3; c++) v->H[3 * (size_t)i + c] += v->H[3 * (size_t)up + c];
+        }
+        const uint32_t q0 = p->first[root], q1 = q0 + p->count[root];
+#pragma omp parallel for schedule(dynamic, 256) num_threads(p->threads) reduction(max : r0, r1, r2) \
+    if (q1 - q0 >= SHAPED_PARALLEL_MIN_LEAVES)
+        for (uint32_t q = q0; q < q1; q++) {
+            double d[3];
+            update_leaf(p, v, q, &v->Q[3 * (size_t)q], d); /* in place: this tree's S and H are made */
+            r0 = fmax(r0, d[0]);
+            r1 = fmax(r1, d[1]);
+            r2 = fmax(r2, d[2]);
+        }
+        pull_tree(p, v, t);
+    }
+    r[0] = r0, r[1] = r1, r[2] = r2;
 }
 
 rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const solve_shaped_options *options, double *B,
@@ -419,18 +508,20 @@ rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const so
 #endif
     const uint32_t n = links->node_count;
     shaped_vectors v = {0};
-    double *block = malloc(9 * (size_t)n * sizeof *block);
+    const size_t m = links->leaf_count;
+    double *block = malloc((6 * (size_t)n + 6 * m) * sizeof *block);
     if (!block) {
         rad_error("links: out of memory for the shaped solve's vectors over %u nodes", n);
         return RAD_ERR_NOMEM;
     }
-    v.B = block, v.H = block + 3 * (size_t)n, v.next = block + 6 * (size_t)n;
+    v.B = block, v.H = block + 3 * (size_t)n, v.Q = block + 6 * (size_t)n, v.next = v.Q + 3 * m;
     shaped_plan p;
     rad_status status = plan_make(links, leaves, B, options->gate, threads, &p, v.B);
     if (status != RAD_OK) {
         free(block);
         return status;
     }
+    for (size_t q = 0; q < m; q++) memcpy(&v.Q[3 * q], &v.B[3 * (size_t)p.leaf_nodes[q]], 3 * sizeof *v.Q);
     const uint64_t shaped = p.shaped_first[n];
     v.S = malloc(3 * (shaped ? shaped : 1) * sizeof *v.S);
     if (!v.S) {
@@ -444,11 +535,25 @@ rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const so
         for (int c = 0; c < 3; c++) e_norm[c] = fmax(e_norm[c], p.E[3 * (size_t)i + c]);
     solve_shaped_result res = {.shaped_ends = shaped, .weights = p.weight_count};
     double last_progress = start;
+    /* Gauss-Seidel sweeps until their change meets the tolerance, then a
+     * Jacobi sweep measures the residual of the iterate to return (as the
+     * flat solve returns a measured iterate); short of it, on. */
     for (uint32_t it = 0;; it++) {
-        double r[3];
-        sweep(&p, &v, r);
-        double worst = 0;
+        double r[3], worst = 0;
+        gauss_seidel_sweep(&p, &v, r);
         for (int c = 0; c < 3; c++) worst = fmax(worst, e_norm[c] > 0 ? r[c] / e_norm[c] : 0);
+        const int last = it + 1 >= options->max_iterations;
+        if (isfinite(worst) && (worst <= options->tolerance || last)) {
+            sweep(&p, &v, r); /* v.H: the gather of v.B, kept for the balance */
+            worst = 0;
+            for (int c = 0; c < 3; c++) worst = fmax(worst, e_norm[c] > 0 ? r[c] / e_norm[c] : 0);
+            if (isfinite(worst) && (worst <= options->tolerance || last)) {
+                res.iterations = it + 2;
+                res.residual = worst;
+                res.converged = worst <= options->tolerance;
+                break;
+            }
+        }
         if (!isfinite(worst)) {
             rad_error("links: shaped solve: residual is not finite at iteration %u", it);
             status = RAD_ERR_INVALID;
@@ -456,18 +561,10 @@ rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const so
         }
         const double now = rad_clock_seconds();
         if (now - last_progress >= SHAPED_PROGRESS_SECONDS) {
-            rad_info("links: shaped solve: iteration %u, residual %.3g (target %.3g), %.0f s", it, worst,
+            rad_info("links: shaped solve: iteration %u, change %.3g (target %.3g), %.0f s", it, worst,
                      options->tolerance, now - start);
             last_progress = now;
         }
-        if (worst <= options->tolerance || it >= options->max_iterations) {
-            /* v.B is the iterate measured; v.H its gather */
-            res.iterations = it;
-            res.residual = worst;
-            res.converged = worst <= options->tolerance;
-            break;
-        }
-        take_next(&p, &v);
     }
     if (status == RAD_OK) {
         double most = 0, moved = 0, sums[3] = {0, 0, 0};
