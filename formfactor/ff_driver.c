@@ -80,7 +80,8 @@ static rad_status load(ff_run *run)
     } else {
         uint64_t n = st == RAD_OK ? rad_mesh_count_patches(&run->scene, &mo) : 0;
         /* 0: nothing left after contact cutting, which rad_mesh_build explains */
-        if (st == RAD_OK && n > 0 && rank == 0) st = ff_limits_check(&run->opt, n, ranks, node_ranks, &run->plan);
+        if (st == RAD_OK && n > 0 && rank == 0 && !run->opt.dry_run)
+            st = ff_limits_check(&run->opt, n, ranks, node_ranks, &run->plan);
         if (st == RAD_OK) st = rad_mesh_build(&run->scene, &mo, &run->mesh);
     }
     if (st == RAD_OK && run->mesh.patch_count == 0) {
@@ -478,6 +479,14 @@ static rad_status run_formfactor(ff_run *run)
                  run->opt.scene_path ? run->opt.scene_path : rad_default_scene_name, run->mesh.patch_count,
                  run->scene.face_count, run->opt.samples, run->opt.shadow_rays, ff_comm_size(run->comm),
                  run->stats.threads, run->backend->name);
+    if (run->opt.dry_run) {
+        if (rank == 0)
+            rad_info("dry run: load %.3f s, contacts and mesh %.3f s, patches and occluders' BVH %.3f s; %zu faces, "
+                     "%zu patches; nothing computed or written",
+                     run->stats.load, run->stats.subdivide, run->stats.setup, run->scene.face_count,
+                     run->mesh.patch_count);
+        return RAD_OK;
+    }
     double t_estimate = rad_clock_seconds();
     /* Under -q only for --max-seconds, which needs the time (the line is not shown). */
     if (rank == 0 && (rad_log_get_level() >= RAD_LOG_INFO || run->opt.max_seconds > 0)) {
@@ -557,7 +566,9 @@ static ff_method resolve_method(ff_comm *comm, const ff_options *options)
 
 rad_status ff_driver_run(ff_comm *comm, const ff_options *options)
 {
-    if (resolve_method(comm, options) == FF_METHOD_HIERARCHICAL) return ff_hierarchical_run(comm, options);
+    /* --dry-run: the stages both methods share (load, contacts, mesh, BVH), the full path's way */
+    if (!options->dry_run && resolve_method(comm, options) == FF_METHOD_HIERARCHICAL)
+        return ff_hierarchical_run(comm, options);
     ff_run run = {.comm = comm, .opt = *options};
     rad_status status = run_formfactor(&run);
     run_free(&run);

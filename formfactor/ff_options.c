@@ -154,6 +154,10 @@ const char ff_options_help[] =
     "      --max-seconds S      refuse, before writing anything, a run whose calibrated\n"
     "                           estimate (the estimate line) is longer than S seconds;\n"
     "                           runs under 256 patches are not calibrated and pass\n"
+    "      --dry-run            load the scene, cut contacts, build the --subdiv mesh, the\n"
+    "                           patches and the occluders' BVH, say what each took, and\n"
+    "                           stop: nothing computed or written (a large scene's cost\n"
+    "                           before its run; no limits or estimate)\n"
     "  -q, --quiet              only errors on stderr\n"
     "  -h, --help               this help\n"
     "      --version            print the version\n"
@@ -275,7 +279,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
            O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT, O_KE,
-           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES, O_RADIOSITY };
+           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES, O_RADIOSITY, O_DRY_RUN };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -294,6 +298,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"refine-tol", required_argument, 0, O_REFINE_TOL}, {"refine-min-size", required_argument, 0, O_REFINE_MIN_SIZE},
         {"refine-max-patches", required_argument, 0, O_REFINE_MAX_PATCHES}, {"reuse", required_argument, 0, O_REUSE},
         {"contacts", required_argument, 0, O_CONTACTS}, {"max-seconds", required_argument, 0, O_MAX_SECONDS},
+        {"dry-run", no_argument, 0, O_DRY_RUN},
         {"allow-disk-overcommit", no_argument, 0, O_OVERCOMMIT}, {"ke", required_argument, 0, O_KE},
         {"flip-group", required_argument, 0, O_FLIP_GROUP}, {"keep-normals", no_argument, 0, O_KEEP_NORMALS},
         {"preset", required_argument, 0, O_PRESET}, {"method", required_argument, 0, O_METHOD},
@@ -358,6 +363,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_KE: st = parse_name("--ke", optarg, ke_names, FF_NAMES_COUNT(ke_names), &o->ke_radiance); break;
         case O_MAX_BYTES: st = rad_parse_bytes("--max-bytes", optarg, &o->max_bytes); break;
         case O_MAX_SECONDS: st = rad_parse_real("--max-seconds", optarg, 0, 0, 1e12, 1, &o->max_seconds); break;
+        case O_DRY_RUN: o->dry_run = 1; break;
         case O_OVERCOMMIT: o->allow_disk_overcommit = 1; break;
         case O_REFINE: o->refine_path = optarg; break;
         case O_REUSE: o->reuse_path = optarg; break;

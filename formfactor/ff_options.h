@@ -82,6 +82,7 @@ typedef struct ff_options {
     double clamp_rho;        /* --clamp-rho: Kd above it set to it; 0 = refuse Kd >= 1 */
     double max_bytes;        /* --max-bytes: refuse a larger output; 0 = only the disk's free space */
     double max_seconds;      /* --max-seconds: refuse a run estimated to take longer; 0 = no limit */
+    int dry_run;             /* --dry-run: load, mesh and set up, report the stages' times, stop */
     int allow_disk_overcommit; /* --allow-disk-overcommit: run a sparse file whose bound is over 10x the free space */
     int flip_normals;        /* --flip-normals: every face wound the other way */
     const char *flip_groups; /* --flip-group NAME[,NAME...]: those OBJ objects/groups' faces wound
