@@ -12,9 +12,10 @@
  * higher one, so the two pieces that share the edge get the same bits and
  * so the same vertex; a point within the tolerance of a cut segment's
  * end is that end (a footprint's corner stays the scene's vertex).
- * Every pair of faces is looked at (their bounding boxes first), and the
- * inside test traces its rays against every face: fine for scenes of
- * thousands of faces, not millions.
+ * The faces near a face come from a uniform grid over the faces' boxes
+ * (rad_face_grid.h), looked at in face order as if every face were; the
+ * inside test's rays walk the same grid cell by cell and stop at the
+ * first cell that holds their nearest hit.
  */
 #include "rad_contact.h"
 
@@ -24,6 +25,7 @@
 #include <string.h>
 
 #include "rad_box.h"
+#include "rad_face_grid.h"
 #include "rad_log.h"
 #include "rad_math.h"
 #include "rad_polygon.h"
@@ -81,6 +83,11 @@ typedef struct cutter {
     size_t out_count, out_cap;
     size_t faces_cut, hidden;
     const int *face_level; /* NULL = 0 */
+    rad_face_grid grid;    /* the faces' boxes grown by `near` */
+    uint32_t *stamp;       /* per face: the cut_face call that last listed it */
+    uint32_t stamp_now;
+    uint32_t *cand;        /* the faces near the face being cut, ascending */
+    size_t cand_count, cand_cap;
     int failed;
 } cutter;
 
@@ -429,6 +436,39 @@ static double polygon_area(const cutter *C, const uint32_t *v, uint32_t n, rad_v
     return area;
 }
 
+/* A ray of inside_solid on its walk through the grid. */
+typedef struct solid_ray {
+    const cutter *C;
+    uint32_t f;
+    rad_vec3 p, dir;
+    double nearest;
+    int nearest_back;
+} solid_ray;
+
+/* The faces of one cell: the nearest hit so far; done once it lies in a
+ * cell already walked. */
+static int solid_ray_cell(void *user, const uint32_t *faces, uint32_t count, double t_exit)
+{
+    solid_ray *r = user;
+    const cutter *C = r->C;
+    for (uint32_t i = 0; i < count; i++) {
+        const uint32_t g = faces[i];
+        if (g == r->f) continue;
+        const rad_face *G = &C->scene->faces[g];
+        rad_vec3 ng = C->normal[g], q0 = face_corner(C, g, 0);
+        double den = rad_v3_dot(ng, r->dir);
+        if (fabs(den) < 1e-12) continue;
+        double t = rad_v3_dot(ng, rad_v3_sub(q0, r->p)) / den;
+        if (!(t > 0) || t >= r->nearest) continue;
+        rad_vec3 h = rad_v3_add(r->p, rad_v3_scale(r->dir, t));
+        int in = 1;
+        for (uint32_t k = 0; k < G->vertex_count && in; k++)
+            in = inside_edge(ng, face_corner(C, g, k), face_corner(C, g, (k + 1) % G->vertex_count), h) >= -C->tol;
+        if (in) r->nearest = t, r->nearest_back = den > 0;
+    }
+    return r->nearest <= t_exit;
+}
+
 /* Is p, a point just off face f, inside a solid: do most rays into the
  * hemisphere about n first hit a back face? */
 static int inside_solid(const cutter *C, uint32_t f, rad_vec3 p, rad_vec3 n)
@@ -443,23 +483,10 @@ static int inside_solid(const cutter *C, uint32_t f, rad_vec3 p, rad_vec3 n)
             rad_vec3 t = rad_v3_add(rad_v3_scale(t1, cos(phi)), rad_v3_scale(t2, sin(phi)));
             dir = rad_v3_add(rad_v3_scale(n, cos(INSIDE_RAY_ANGLE)), rad_v3_scale(t, sin(INSIDE_RAY_ANGLE)));
         }
-        double nearest = INFINITY;
-        int nearest_back = 0;
-        for (uint32_t g = 0; g < C->scene->face_count; g++) {
-            if (g == f) continue;
-            const rad_face *G = &C->scene->faces[g];
-            rad_vec3 ng = C->normal[g], q0 = face_corner(C, g, 0);
-            double den = rad_v3_dot(ng, dir);
-            if (fabs(den) < 1e-12) continue;
-            double t = rad_v3_dot(ng, rad_v3_sub(q0, p)) / den;
-            if (!(t > 0) || t >= nearest) continue;
-            rad_vec3 h = rad_v3_add(p, rad_v3_scale(dir, t));
-            int in = 1;
-            for (uint32_t k = 0; k < G->vertex_count && in; k++)
-                in = inside_edge(ng, face_corner(C, g, k), face_corner(C, g, (k + 1) % G->vertex_count), h) >= -C->tol;
-            if (in) nearest = t, nearest_back = den > 0;
-        }
-        back += nearest < INFINITY && nearest_back;
+        solid_ray ray = {.C = C, .f = f, .p = p, .dir = dir, .nearest = INFINITY, .nearest_back = 0};
+        const double o[3] = {p.x, p.y, p.z}, d[3] = {dir.x, dir.y, dir.z};
+        rad_face_grid_ray(&C->grid, o, d, solid_ray_cell, &ray);
+        back += ray.nearest < INFINITY && ray.nearest_back;
     }
     return 2 * back > RAD_CONTACT_RAYS;
 }
@@ -568,14 +595,49 @@ static void near_miss(cutter *C, uint32_t f, uint32_t g)
     if (C->near_count++ == 0) C->near_face = f, C->near_cover = g, C->near_distance = far;
 }
 
+static int ascending(const void *a, const void *b)
+{
+    const uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* C->cand: the faces whose boxes may come within `near` of f's, once
+ * each, ascending (what a loop over every face would reach). */
+static void near_faces(cutter *C, uint32_t f)
+{
+    uint32_t lo[3], hi[3];
+    rad_face_grid_cells(&C->grid, &C->box[f], lo, hi);
+    C->cand_count = 0;
+    C->stamp_now++;
+    for (uint32_t z = lo[2]; z <= hi[2]; z++)
+        for (uint32_t y = lo[1]; y <= hi[1]; y++)
+            for (uint32_t x = lo[0]; x <= hi[0]; x++) {
+                uint32_t count;
+                const uint32_t *faces = rad_face_grid_cell(&C->grid, x, y, z, &count);
+                for (uint32_t i = 0; i < count; i++) {
+                    const uint32_t g = faces[i];
+                    if (C->stamp[g] == C->stamp_now) continue;
+                    C->stamp[g] = C->stamp_now;
+                    if (!GROW(C, cand, cand_cap, C->cand_count + 1)) return;
+                    C->cand[C->cand_count++] = g;
+                }
+            }
+    qsort(C->cand, C->cand_count, sizeof *C->cand, ascending);
+}
+
 static void cut_face(cutter *C, uint32_t f)
 {
     const rad_face *F = &C->scene->faces[f];
     C->seg_count = C->opposite_count = C->covering_count = C->pool_count = C->piece_count = 0;
-    for (uint32_t g = 0; g < C->scene->face_count && !C->failed; g++)
+    near_faces(C, f);
+    for (size_t i = 0; i < C->cand_count && !C->failed; i++) {
+        const uint32_t g = C->cand[i];
         if (g != f && boxes_meet(&C->box[f], &C->box[g], C->gap)) meet(C, f, g);
-    for (uint32_t g = 0; g < C->scene->face_count; g++)
+    }
+    for (size_t i = 0; i < C->cand_count && !C->failed; i++) {
+        const uint32_t g = C->cand[i];
         if (g != f && boxes_meet(&C->box[f], &C->box[g], C->near)) near_miss(C, f, g);
+    }
     if (C->failed) return;
     double diameter = rad_box_diagonal(&C->box[f]);
     if (C->seg_count == 0 && C->opposite_count == 0 && C->covering_count == 0) {
@@ -630,6 +692,8 @@ rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, 
     C.near = RAD_CONTACT_NEAR * scene_diameter;
     C.min_length = RAD_CONTACT_MIN_LENGTH * scene_diameter;
     C.offset = RAD_CONTACT_OFFSET * scene_diameter;
+    C.stamp = calloc(nf ? nf : 1, sizeof *C.stamp);
+    if (!C.stamp || rad_face_grid_build(C.box, (uint32_t)nf, fmax(C.near, C.gap), &C.grid) != RAD_OK) goto done;
     for (uint32_t f = 0; f < nf && !C.failed; f++) cut_face(&C, f);
     if (C.failed) goto done;
     double *shrunk = realloc(C.pos, (C.vertex_count ? C.vertex_count : 1) * 3 * sizeof *shrunk);
@@ -647,6 +711,9 @@ done:
                   C.vertex_count, C.out_count);
     free(C.normal);
     free(C.box);
+    free(C.stamp);
+    free(C.cand);
+    rad_face_grid_free(&C.grid);
     free(C.pos);
     free(C.pool);
     free(C.line);
