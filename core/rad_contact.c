@@ -595,14 +595,24 @@ static void near_miss(cutter *C, uint32_t f, uint32_t g)
     if (C->near_count++ == 0) C->near_face = f, C->near_cover = g, C->near_distance = far;
 }
 
+/* near_miss's first tests (parallel, same facing; g's first corner
+ * between the gap and `near` in front of f), which it returns on. */
+static int may_near_miss(const cutter *C, uint32_t f, uint32_t g)
+{
+    if (!(rad_v3_dot(C->normal[f], C->normal[g]) > 1.0 - 1e-9)) return 0;
+    const double d = rad_v3_dot(C->normal[f], rad_v3_sub(face_corner(C, g, 0), face_corner(C, f, 0)));
+    return d > C->gap && d <= C->near && boxes_meet(&C->box[f], &C->box[g], C->near);
+}
+
 static int ascending(const void *a, const void *b)
 {
     const uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
     return (x > y) - (x < y);
 }
 
-/* C->cand: the faces whose boxes may come within `near` of f's, once
- * each, ascending (what a loop over every face would reach). */
+/* C->cand: the faces cut_face's loops act on - boxes within the gap of
+ * f's, or parallel and within `near` - once each, ascending (what a loop
+ * over every face would reach, in its order). */
 static void near_faces(cutter *C, uint32_t f)
 {
     uint32_t lo[3], hi[3];
@@ -618,6 +628,9 @@ static void near_faces(cutter *C, uint32_t f)
                     const uint32_t g = faces[i];
                     if (C->stamp[g] == C->stamp_now) continue;
                     C->stamp[g] = C->stamp_now;
+                    /* what cut_face's two loops act on: a face within the gap (meet),
+                     * or a parallel one within `near` (near_miss looks at no other) */
+                    if (!boxes_meet(&C->box[f], &C->box[g], C->gap) && !may_near_miss(C, f, g)) continue;
                     if (!GROW(C, cand, cand_cap, C->cand_count + 1)) return;
                     C->cand[C->cand_count++] = g;
                 }
