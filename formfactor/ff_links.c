@@ -189,18 +189,15 @@ static double factor_error(const ff_pair_outcome *o, double spread, double mean,
     return spread * V + mean * (partial < 1.0 ? partial : 1.0) + o->error * area_s;
 }
 
-/* What the final gather leaves of that error where r's leaves lie `depth`
+/* What the shaped solve leaves of that error where r's leaves lie `depth`
  * levels below r: the spread becomes what a leaf's centre misses of the
  * leaf's mean, a quadratic's (4/3) curvature 4^-depth; depth 0 (r is its
  * own leaf: nothing to spread over) leaves the error whole. */
 static double gather_error(const ff_pair_outcome *o, double spread, double curvature, double mean, double area_s,
                            uint32_t depth)
 {
-    if (depth == 0) return factor_error(o, spread, mean, area_s);
-    double V = o->rays ? 1.0 - (double)o->rays_blocked / o->rays : 1.0;
-    double partial = 4.0 * fmin(V, 1.0 - V);
-    double left = fmin(spread, curvature * (4.0 / 3.0) * ldexp(1.0, -2 * (int)depth));
-    return left * V + mean * (partial < 1.0 ? partial : 1.0) + o->error * area_s;
+    if (depth > 0) spread = fmin(spread, curvature * (4.0 / 3.0) * ldexp(1.0, -2 * (int)depth));
+    return factor_error(o, spread, mean, area_s);
 }
 
 /* Levels from element e down to its leaves where the leaves are known in
@@ -233,11 +230,9 @@ static double weight(const ff_links *L, uint32_t r, uint32_t s, double F_rs, dou
 static double gather_weight(const ff_links *L, uint32_t r, uint32_t s, double F_rs, double g_rs, double F_sr,
                             double e_sr)
 {
-    const double *rho = L->tree.base->patches[L->tree.elements[r].root].rho, *B = &L->radiosity[3 * (size_t)s];
-    const double rho_max = fmax(rho[0], fmax(rho[1], rho[2]));
-    double rb = fmax(rho[0] * B[0], fmax(rho[1] * B[1], rho[2] * B[2]));
-    double varies = F_sr > 0 ? fmin(1.0, e_sr / F_sr) : 1.0;
-    return rb * g_rs + rho_max * F_rs * L->spread[s] * varies;
+    const double *rho = L->tree.base->patches[L->tree.elements[r].root].rho;
+    const double varies = F_sr > 0 ? fmin(1.0, e_sr / F_sr) : 1.0;
+    return weight(L, r, s, F_rs, g_rs) + fmax(rho[0], fmax(rho[1], rho[2])) * F_rs * L->spread[s] * varies;
 }
 
 /* Does the pair (a, b) need finer elements? link_tol 0: always. */
@@ -424,7 +419,10 @@ static void set_radiosity(ff_links *L, const double *leaf_radiosity)
     for (size_t e = h->element_count; e-- > 0;) {
         const rad_element *el = &h->elements[e];
         if (el->first_child == RAD_NO_ELEMENT) {
-            if (lo) memcpy(&lo[3 * e], &L->radiosity[3 * e], 3 * sizeof *lo), memcpy(&hi[3 * e], &L->radiosity[3 * e], 3 * sizeof *hi);
+            if (lo) {
+                memcpy(&lo[3 * e], &L->radiosity[3 * e], 3 * sizeof *lo);
+                memcpy(&hi[3 * e], &L->radiosity[3 * e], 3 * sizeof *hi);
+            }
             L->spread[e] = 0;
             continue;
         }

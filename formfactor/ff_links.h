@@ -45,18 +45,21 @@
  * (above), both directions of a pair taken.
  *   error: rho_r B_s e_rs > link_tol B_mean (what the link's error may move r's
  *                                            radiosity by, against the scene's
- *                                            typical radiosity; the default)
+ *                                            typical radiosity; auto's pick
+ *                                            with adaptive leaves)
  *   power: rho_r A_r B_s F_rs > link_tol P  (transported power, BF: HSA 1991)
  *   factor: F_rs > link_tol                 (form factor alone: the unweighted 1991 oracle)
  *   gather: rho_r B_s g_rs > link_tol B_mean (error's test on g_rs, what is left of e_rs after
- *                                            solve's final gather, solve/final_gather.h: that
- *                                            gather spreads a link over r's leaves by the point
+ *                                            solve's shaped solve, solve/shaped.h: that
+ *                                            solve spreads a link over r's leaves by the point
  *                                            factor, so of the factor's variation over r only
  *                                            what a leaf's centre misses of the leaf remains,
  *                                            estimated from the curvature over r's sample points
  *                                            times 4^-d (d: levels from r down to its leaves, known
  *                                            with uniform leaves; 0 otherwise: g = e); the
- *                                            partial-visibility and quadrature terms stay whole) */
+ *                                            partial-visibility and quadrature terms stay whole;
+ *                                            plus rho_r F_rs dB_s min(1, e_sr / F_sr), the
+ *                                            source's spread of B, which no shape removes) */
 typedef enum ff_oracle {
     FF_ORACLE_ERROR = 0,
     FF_ORACLE_POWER = 1,
@@ -88,7 +91,7 @@ typedef struct ff_link_pair {
     uint32_t a, b;           /* elements, a < b */
     double coupling;         /* c_ab = F_ab / A_b = F_ba / A_a */
     float error_ab, error_ba; /* e of F_ab, of F_ba (F units) */
-    float left_ab, left_ba;   /* g: what the final gather leaves of them (ff_oracle gather) */
+    float left_ab, left_ba;   /* g: what solve's shaped solve leaves of them (ff_oracle gather) */
 } ff_link_pair;
 
 typedef struct ff_links {

@@ -227,13 +227,7 @@ static rad_status write_outputs(const links_state *s)
                                      .error_bound = in->links->error_bound,
                                      .balance = {s->result.emitted, s->result.absorbed, s->result.escaped,
                                                  s->result.imbalance},
-                                     .shaped = s->shaped,
-                                     .shaped_ends = s->shape.shaped_ends,
-                                     .weights = s->shape.weights,
-                                     .shaped_iterations = s->shape.iterations,
-                                     .shaped_residual = s->shape.residual,
-                                     .shaped_change = s->shape.change,
-                                     .shaped_seconds = s->shape.seconds};
+                                     .shaped = s->shaped ? &s->shape : NULL};
     solve_stats st = {
         .input = s->input,
         .output = s->output,

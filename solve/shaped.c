@@ -79,6 +79,18 @@ static void plan_free(shaped_plan *p)
 static inline int is_leaf(const rad_links *L, uint32_t i) { return L->nodes[i].first_child == RAD_NO_ELEMENT; }
 static inline double max3(const double *v) { return fmax(v[0], fmax(v[1], v[2])); }
 
+/* Split node i's B (3 values): the area-weighted mean of its children's. */
+static void pull_node(const rad_links *L, uint32_t i, double *B)
+{
+    const uint32_t f = L->nodes[i].first_child;
+    double sum[3] = {0, 0, 0}, area = 0;
+    for (uint32_t k = 0; k < 4; k++) {
+        area += L->nodes[f + k].area;
+        for (int c = 0; c < 3; c++) sum[c] += L->nodes[f + k].area * B[3 * (size_t)(f + k) + c];
+    }
+    for (int c = 0; c < 3; c++) B[3 * (size_t)i + c] = sum[c] / area;
+}
+
 /* Node i's polygon as the point factor takes it: corners from the leaves
  * mesh's vertex table, the plane's normal (its leaves'). */
 static void node_polygon(const shaped_plan *p, uint32_t i, rad_ff_patch *out)
@@ -119,20 +131,17 @@ static void plan_trees(shaped_plan *p, const double *B, double *node_B, double *
         const uint32_t f = e->first_child;
         p->count[i] = 0;
         p->leaf_area[i] = 0;
-        double sum[3] = {0, 0, 0}, area = 0;
         for (int c = 0; c < 3; c++) bl[c] = INFINITY, bh[c] = -INFINITY;
         for (uint32_t k = 0; k < 4; k++) {
             p->count[i] += p->count[f + k];
             p->leaf_area[i] += p->leaf_area[f + k];
-            area += L->nodes[f + k].area;
             for (int c = 0; c < 3; c++) {
-                sum[c] += L->nodes[f + k].area * node_B[3 * (size_t)(f + k) + c];
                 bl[c] = fmin(bl[c], lo[3 * (size_t)(f + k) + c]);
                 bh[c] = fmax(bh[c], hi[3 * (size_t)(f + k) + c]);
             }
         }
+        pull_node(L, i, node_B);
         for (int c = 0; c < 3; c++) {
-            b[c] = sum[c] / area;
             p->rho[3 * (size_t)i + c] = p->rho[3 * (size_t)f + c];
             p->E[3 * (size_t)i + c] = 0;
         }
@@ -441,19 +450,10 @@ static void pull_tree(const shaped_plan *p, shaped_vectors *v, uint32_t t)
     const rad_links *L = p->L;
     for (uint32_t k = p->tree_first[t + 1]; k-- > p->tree_first[t];) {
         const uint32_t i = p->tree_nodes[k];
-        const rad_link_node *e = &L->nodes[i];
-        double *b = &v->B[3 * (size_t)i];
-        if (e->first_child == RAD_NO_ELEMENT) {
-            memcpy(b, &v->Q[3 * (size_t)p->first[i]], 3 * sizeof *b);
-            continue;
-        }
-        double sum[3] = {0, 0, 0}, area = 0;
-        for (uint32_t c4 = 0; c4 < 4; c4++) {
-            const uint32_t ch = e->first_child + c4;
-            area += L->nodes[ch].area;
-            for (int c = 0; c < 3; c++) sum[c] += L->nodes[ch].area * v->B[3 * (size_t)ch + c];
-        }
-        for (int c = 0; c < 3; c++) b[c] = sum[c] / area;
+        if (is_leaf(L, i))
+            memcpy(&v->B[3 * (size_t)i], &v->Q[3 * (size_t)p->first[i]], 3 * sizeof *v->B);
+        else
+            pull_node(L, i, v->B);
     }
 }
 

@@ -86,17 +86,18 @@ static void put_links(rad_json_writer *w, const solve_stats_links *l)
     rad_json_key(w, "balance");
     put_balance(w, &l->balance);
     rad_json_key(w, "shaped");
-    if (!l->shaped) {
+    const solve_shaped_result *r = l->shaped;
+    if (!r) {
         rad_json_null(w);
         return;
     }
     rad_json_begin_object(w, RAD_JSON_INLINE);
-    put_count(w, "ends", l->shaped_ends);
-    put_count(w, "weights", l->weights);
-    put_count(w, "iterations", l->shaped_iterations);
-    put_number(w, "residual", l->shaped_residual);
-    put_number(w, "change", l->shaped_change);
-    put_number(w, "seconds", l->shaped_seconds);
+    put_count(w, "ends", r->shaped_ends);
+    put_count(w, "weights", r->weights);
+    put_count(w, "iterations", r->iterations);
+    put_number(w, "residual", r->residual);
+    put_number(w, "change", r->change);
+    put_number(w, "seconds", r->seconds);
     rad_json_end_object(w);
 }
 

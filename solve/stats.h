@@ -8,6 +8,7 @@
 
 #include "matrix.h"
 #include "rad_status.h"
+#include "shaped.h"
 #include "solver.h"
 
 /* A file of links (links.c): what it held and the balance of its solve. */
@@ -17,10 +18,7 @@ typedef struct solve_stats_links {
     double error_bound;       /* formfactor's bound on B's relative error from the links' errors; 0: unknown */
     solve_balance balance;    /* over the leaves, summed over the channels solved (rad_lsolve_result),
                                  of the shaped solve where it ran, else of the flat one */
-    int shaped;               /* 1: the shaped solve ran (shaped.h), with: */
-    uint64_t shaped_ends, weights;
-    uint32_t shaped_iterations;
-    double shaped_residual, shaped_change, shaped_seconds;
+    const solve_shaped_result *shaped; /* the shaped solve's (shaped.h); NULL where it did not run */
 } solve_stats_links;
 
 typedef struct solve_stats {
