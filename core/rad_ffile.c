@@ -40,7 +40,8 @@ enum {
     H_FILE_BYTES = 104,
     H_TABLES_CHECKSUM = 112,
     H_ROW_CHECKSUMS_DIGEST = 120,
-    H_SCENE_NAME = 128, /* 96 bytes, NUL-padded; 64 in the links layout */
+    H_SCENE_NAME = 128, /* 96 bytes, NUL-padded; 64 in the links layout, 60 in version 5's */
+    H_CLUSTER_COUNT = 188, /* links layout, version 5: the name's last 4 of its 64 bytes */
     H_NODE_COUNT = 192, /* links layout (version 4): the rest of the name's 96 bytes */
     H_ROOT_COUNT = 196,
     H_LINK_COUNT = 200,
@@ -53,8 +54,10 @@ enum {
     H_HEADER_CHECKSUM = 248
 };
 
-/* The scene name's bytes in the links layout (the link counts follow). */
+/* The scene name's bytes in the links layout (the link counts follow),
+ * and in version 5's (the cluster count follows). */
 #define RAD_FF_LINKS_NAME_BYTES (H_NODE_COUNT - H_SCENE_NAME)
+#define RAD_FF_CLUSTERS_NAME_BYTES (H_CLUSTER_COUNT - H_SCENE_NAME)
 
 /* Largest N the format allows: patch indices are uint32 in the mesh. */
 #define RAD_FF_MAX_PATCHES (UINT64_C(1) << 31)
@@ -82,14 +85,23 @@ rad_ff_layout rad_ff_layout_of(const rad_ff_info *info)
     }
     uint64_t matrix_bytes = info->layout == RAD_FF_LAYOUT_SPARSE ? info->matrix_bytes : n * l.row_bytes;
     l.index_bytes = info->layout == RAD_FF_LAYOUT_SPARSE ? (2 * n + 1) * 8 : n * 8;
-    l.first_link_offset = l.link_offset = 0;
+    l.first_link_offset = l.link_offset = l.cluster_offset = l.cluster_root_offset = 0;
     if (info->layout == RAD_FF_LAYOUT_LINKS) {
-        /* node table at the matrix offset, then first_link, then the links */
-        l.first_link_offset =
+        /* node table at the matrix offset, then (with clusters) the cluster
+         * table and the cluster roots, then first_link, then the links */
+        uint64_t ids = (uint64_t)info->node_count + info->cluster_count;
+        uint64_t after =
             rad_align_up(l.matrix_offset + (uint64_t)info->node_count * RAD_LFILE_NODE_BYTES, RAD_FF_ALIGN);
-        l.link_offset = rad_align_up(l.first_link_offset + ((uint64_t)info->node_count + 1) * 8, RAD_FF_ALIGN);
+        if (info->cluster_count) {
+            l.cluster_offset = after;
+            l.cluster_root_offset =
+                rad_align_up(l.cluster_offset + (uint64_t)info->cluster_count * RAD_LFILE_CLUSTER_BYTES, RAD_FF_ALIGN);
+            after = rad_align_up(l.cluster_root_offset + (uint64_t)info->root_count * 4, RAD_FF_ALIGN);
+        }
+        l.first_link_offset = after;
+        l.link_offset = rad_align_up(l.first_link_offset + (ids + 1) * 8, RAD_FF_ALIGN);
         matrix_bytes = l.link_offset + info->link_count * RAD_LFILE_LINK_BYTES - l.matrix_offset;
-        l.index_bytes = rad_lfile_checksum_count(info->link_count) * 8;
+        l.index_bytes = rad_lfile_checksum_count(info->cluster_count, info->link_count) * 8;
     }
     l.row_checksum_offset = rad_align_up(l.matrix_offset + matrix_bytes, RAD_FF_ALIGN);
     l.file_bytes = l.row_checksum_offset + l.index_bytes;
@@ -226,9 +238,13 @@ static void encode_header(const rad_ff_info *info, const rad_ff_layout *l, uint6
                           unsigned char *h)
 {
     int sparse = info->layout == RAD_FF_LAYOUT_SPARSE, links = info->layout == RAD_FF_LAYOUT_LINKS;
+    int clusters = links && info->cluster_count > 0;
     memset(h, 0, RAD_FF_HEADER_BYTES);
     memcpy(h + H_MAGIC, RAD_FF_MAGIC, 8);
-    rad_put_u32(h + H_VERSION, links ? RAD_FF_VERSION_LINKS : sparse ? RAD_FF_VERSION_SPARSE : RAD_FF_VERSION_DENSE);
+    rad_put_u32(h + H_VERSION, clusters ? RAD_FF_VERSION_CLUSTERS
+                               : links  ? RAD_FF_VERSION_LINKS
+                               : sparse ? RAD_FF_VERSION_SPARSE
+                                        : RAD_FF_VERSION_DENSE);
     rad_put_u32(h + H_HEADER_BYTES, RAD_FF_HEADER_BYTES);
     rad_put_u64(h + H_PATCH_COUNT, info->patch_count);
     rad_put_u64(h + H_VERTEX_COUNT, info->vertex_count);
@@ -246,7 +262,9 @@ static void encode_header(const rad_ff_info *info, const rad_ff_layout *l, uint6
     rad_put_u64(h + H_ROW_CHECKSUM_OFFSET, l->row_checksum_offset);
     rad_put_u64(h + H_FILE_BYTES, l->file_bytes);
     rad_put_u64(h + H_TABLES_CHECKSUM, tables_checksum);
-    size_t name_len = strnlen(info->scene_name, links ? RAD_FF_LINKS_NAME_BYTES - 1 : sizeof info->scene_name - 1);
+    size_t name_len = strnlen(info->scene_name, clusters ? RAD_FF_CLUSTERS_NAME_BYTES - 1
+                                                : links  ? RAD_FF_LINKS_NAME_BYTES - 1
+                                                         : sizeof info->scene_name - 1);
     memcpy(h + H_SCENE_NAME, info->scene_name, name_len);
     rad_put_u64(h + H_GROUP_OFFSET, l->group_offset);
     rad_put_u32(h + H_GROUP_COUNT, info->group_count);
@@ -263,6 +281,7 @@ static void encode_header(const rad_ff_info *info, const rad_ff_layout *l, uint6
         rad_put_u32(h + H_LAYOUT, info->layout);
         rad_put_u64(h + H_MATRIX_BYTES, l->link_offset + info->link_count * RAD_LFILE_LINK_BYTES - l->matrix_offset);
     }
+    if (clusters) rad_put_u32(h + H_CLUSTER_COUNT, info->cluster_count);
     rad_put_u64(h + H_HEADER_CHECKSUM, rad_hash64(RAD_HASH_SEED, h, H_HEADER_CHECKSUM));
 }
 
@@ -294,6 +313,12 @@ static void decode_header(const unsigned char *h, rad_ff_info *info)
         info->link_count = rad_get_u64(h + H_LINK_COUNT);
         info->link_tol = rad_get_f64(h + H_LINK_TOL);
         info->error_bound = rad_get_f64(h + H_ERROR_BOUND);
+    }
+    /* version 4 keeps name bytes where version 5 has the cluster count */
+    if (version >= RAD_FF_VERSION_CLUSTERS && info->layout == RAD_FF_LAYOUT_LINKS) {
+        memset(info->scene_name + RAD_FF_CLUSTERS_NAME_BYTES - 1, 0,
+               sizeof info->scene_name - (RAD_FF_CLUSTERS_NAME_BYTES - 1));
+        info->cluster_count = rad_get_u32(h + H_CLUSTER_COUNT);
     }
 }
 
@@ -507,10 +532,16 @@ static rad_status check_links_header(const char *path, uint32_t version, const r
         rad_error("%s: element type %u in the links layout (its factors are float64, 2)", path, info->element_type);
         return RAD_ERR_FORMAT;
     }
+    if (version >= RAD_FF_VERSION_CLUSTERS && info->cluster_count == 0) {
+        rad_error("%s: a version-%u links file without clusters (those are version %u)", path, version,
+                  RAD_FF_VERSION_LINKS);
+        return RAD_ERR_FORMAT;
+    }
     const char *why = rad_lfile_counts_fault(info);
     if (why) {
-        rad_error("%s: implausible sizes (%u nodes, %u roots, %llu leaves, %llu links): %s", path, info->node_count,
-                  info->root_count, (unsigned long long)info->patch_count, (unsigned long long)info->link_count, why);
+        rad_error("%s: implausible sizes (%u nodes, %u roots, %u clusters, %llu leaves, %llu links): %s", path,
+                  info->node_count, info->root_count, info->cluster_count, (unsigned long long)info->patch_count,
+                  (unsigned long long)info->link_count, why);
         return RAD_ERR_FORMAT;
     }
     return RAD_OK;
@@ -755,7 +786,8 @@ static rad_status refuse_links(const rad_ff_file *file)
     if (file->info.layout != RAD_FF_LAYOUT_LINKS) return RAD_OK;
     rad_error("%s: holds links, not a matrix: hierarchical radiosity's nodes and links (form-factor layout %u, "
               "version %u), read with rad_ff_read_links",
-              file->path, RAD_FF_LAYOUT_LINKS, RAD_FF_VERSION_LINKS);
+              file->path, RAD_FF_LAYOUT_LINKS,
+              file->info.cluster_count ? RAD_FF_VERSION_CLUSTERS : RAD_FF_VERSION_LINKS);
     return RAD_ERR_INVALID;
 }
 

@@ -18,7 +18,8 @@
  * The links layout (version 4, hierarchical radiosity, rad_links.h) has,
  * instead of the matrix and its row checksums, the node table, the
  * first_link table, the links and their checksum table (rad_lfile.h);
- * its patch table is the leaves mesh.
+ * its patch table is the leaves mesh. With clusters (version 5) the
+ * cluster table and the cluster roots lie between the nodes and first_link.
  * The header carries a checksum of itself, of the vertex + patch tables and
  * of the row-checksum table, so a reader detects truncation, corruption and
  * foreign files before trusting any number.
@@ -46,16 +47,19 @@
 #include "rad_status.h"
 
 #define RAD_FF_MAGIC "RADFF\r\n\x1a" /* 8 bytes; catches text-mode mangling */
-/* Version 2 added the group table; readers take 1 to 4 (a version-1 file
+/* Version 2 added the group table; readers take 1 to 5 (a version-1 file
  * reads as one without groups: rad_mesh.group_count 0). Version 3 added
  * the sparse layout; dense files are still written as version 2, which
  * they are byte for byte, so that version-2 readers keep reading them. */
-#define RAD_FF_VERSION 4u /* the newest version readers take */
+#define RAD_FF_VERSION 5u /* the newest version readers take */
 #define RAD_FF_VERSION_DENSE 2u
 #define RAD_FF_VERSION_SPARSE 3u
 /* Version 4 added the links layout; links files are version 4, dense and
  * sparse files stay versions 2 and 3, byte for byte. */
 #define RAD_FF_VERSION_LINKS 4u
+/* Version 5 added clusters to the links layout (issue 27): a links file
+ * with clusters is version 5, one without stays version 4, byte for byte. */
+#define RAD_FF_VERSION_CLUSTERS 5u
 #define RAD_FF_VERSION_OLDEST 1u
 /* Columns per tile of a sparse row record. */
 #define RAD_FF_TILE_COLUMNS 64u
@@ -66,8 +70,8 @@ typedef enum rad_ff_layout_kind {
     RAD_FF_LAYOUT_DENSE = 0,  /* every entry stored (versions 1-3) */
     RAD_FF_LAYOUT_SPARSE = 1, /* row records of non-zero tiles (version 3) */
     RAD_FF_LAYOUT_LINKS = 2   /* hierarchical radiosity's nodes and links, no
-                                 matrix (version 4): rad_ff_write_links,
-                                 rad_ff_read_links */
+                                 matrix (version 4; with clusters, 5):
+                                 rad_ff_write_links, rad_ff_read_links */
 } rad_ff_layout_kind;
 
 typedef enum rad_element_type {
@@ -101,6 +105,7 @@ typedef struct rad_ff_info {
     uint32_t node_count, root_count;
     uint64_t link_count;
     double link_tol, error_bound;
+    uint32_t cluster_count; /* 0: no clusters (version 4); else version 5 */
 } rad_ff_info;
 
 #define RAD_FF_FLAG_PARTIAL_SUBDIV 1u /* only one group was subdivided */
@@ -117,7 +122,7 @@ typedef struct rad_ff_info {
 #define RAD_FF_FLAG_KE_RADIANCE 8u
 
 /* Byte offsets of each section, derived from N, V, G and the element type
- * (links: node_count and link_count). */
+ * (links: node_count, root_count, cluster_count and link_count). */
 typedef struct rad_ff_layout {
     uint64_t vertex_offset, patch_offset, matrix_offset, row_checksum_offset, file_bytes;
     uint64_t group_offset;       /* group names (G * 64 bytes); 0 when G = 0 */
@@ -129,6 +134,7 @@ typedef struct rad_ff_layout {
     /* Links layout: the node table is at matrix_offset, these follow it
      * (64-byte aligned); 0 in the other layouts. */
     uint64_t first_link_offset, link_offset;
+    uint64_t cluster_offset, cluster_root_offset; /* before first_link; 0 without clusters */
 } rad_ff_layout;
 
 rad_ff_layout rad_ff_layout_of(const rad_ff_info *info);
@@ -176,15 +182,18 @@ rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info, const 
 
 /* Writes a file of the links layout from one process: header, the tables
  * of the leaves mesh (the patches solve writes and render draws), then
- * the node table, first_link, the links and their checksums (rad_lfile.h).
+ * the node table, (with clusters) the cluster table and cluster roots,
+ * first_link, the links and their checksums (rad_lfile.h).
  * info->layout must be RAD_FF_LAYOUT_LINKS and its counts match `leaves`
  * (patch_count, vertex_count, group_count); its node_count, root_count,
- * link_count, link_tol and error_bound are taken from `links`, which must
- * pass rad_links_check and match the leaves (RAD_ERR_INVALID, logged, and
- * nothing written, if not). element_type is stored as RAD_ELEMENT_F64 (the
- * factors' type) and the scene name cut at 63 bytes (the link counts take
- * the name field's last 32 bytes). Deterministic bytes, padding zeroed;
- * temporary name + rename, as every output. */
+ * cluster_count, link_count, link_tol and error_bound are taken from
+ * `links`, which must pass rad_links_check and match the leaves
+ * (RAD_ERR_INVALID, logged, and nothing written, if not). Version 4
+ * without clusters, 5 with them. element_type is stored as
+ * RAD_ELEMENT_F64 (the factors' type) and the scene name cut at 63 bytes
+ * (the link counts take the name field's last 32 bytes; with clusters, at
+ * 59: the cluster count takes 4 more). Deterministic bytes, padding
+ * zeroed; temporary name + rename, as every output. */
 rad_status rad_ff_write_links(const char *path, const rad_ff_info *info, const rad_mesh *leaves,
                               const rad_links *links);
 
@@ -197,7 +206,8 @@ typedef struct rad_ff_file rad_ff_file; /* opaque */
  * (finite, unit normals, rho in [0,1), E >= 0, vertex indices in range),
  * the group table (names NUL-terminated, not empty, zero-padded; every
  * patch's group in range); in the links layout the link counts (trees of
- * quadtrees over the patches) and the sections' sizes and offsets
+ * quadtrees over the patches; version 5: 1 to 2 R - 1 clusters over the
+ * R roots, ids below RAD_NO_ELEMENT) and the sections' sizes and offsets
  * against the file size, and the digest of the links' checksum table.
  * rad_ff_file_info(file)->layout tells the kinds apart: a links file is
  * read with rad_ff_read_links, the others with rad_ff_read_rows (or
@@ -226,7 +236,8 @@ const rad_mesh *rad_ff_file_mesh(const rad_ff_file *file);
  * RAD_ERR_INVALID for a links file ("holds links, not a matrix"). */
 rad_status rad_ff_read_rows(rad_ff_file *file, uint64_t row_begin, uint64_t row_count, double *out);
 
-/* Links layout: reads the node table, first_link and the links into *out
+/* Links layout: reads the node table, (version 5) the cluster table and
+ * cluster roots, first_link and the links into *out
  * (rad_links_free frees it), verifying each section's and each block's
  * checksum, then rad_links_check (the file's vertex count, the file's
  * name) and that every leaf is its patch (corners; the rho and E of its

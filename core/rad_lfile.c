@@ -18,15 +18,17 @@
 
 _Static_assert(sizeof(rad_link_node) == RAD_LFILE_NODE_BYTES, "a node record is 48 bytes");
 _Static_assert(sizeof(rad_link) == RAD_LFILE_LINK_BYTES, "a link record is 16 bytes");
+_Static_assert(sizeof(rad_link_cluster) == RAD_LFILE_CLUSTER_BYTES, "a cluster record is 32 bytes");
 _Static_assert((uint64_t)RAD_LFILE_BLOCK_LINKS * RAD_LFILE_LINK_BYTES % RAD_FF_ALIGN == 0,
                "a full block of links ends on a section boundary");
 
-/* Checksum table entries before the link blocks'. */
-enum { SUM_NODES = 0, SUM_FIRST_LINK = 1, SUM_BLOCKS = 2 };
+/* Checksum table entries before the link blocks': node table and
+ * first_link, and with clusters the cluster table and cluster roots. */
+static uint64_t sections_before_blocks(uint32_t cluster_count) { return cluster_count ? 4 : 2; }
 
-uint64_t rad_lfile_checksum_count(uint64_t link_count)
+uint64_t rad_lfile_checksum_count(uint32_t cluster_count, uint64_t link_count)
 {
-    return SUM_BLOCKS + (link_count + RAD_LFILE_BLOCK_LINKS - 1) / RAD_LFILE_BLOCK_LINKS;
+    return sections_before_blocks(cluster_count) + (link_count + RAD_LFILE_BLOCK_LINKS - 1) / RAD_LFILE_BLOCK_LINKS;
 }
 
 const char *rad_lfile_counts_fault(const rad_ff_info *info)
@@ -36,6 +38,10 @@ const char *rad_lfile_counts_fault(const rad_ff_info *info)
     /* every split adds 4 nodes, of which 3 more leaves than before */
     if ((nodes - roots) % 4 != 0 || info->patch_count != roots + (nodes - roots) / 4 * 3)
         return "node, root and leaf counts do not make trees of quadtrees";
+    /* a cluster tree over R roots: at most R leaf clusters, each inner one
+     * with 2 children or more, so at most 2 R - 1 clusters */
+    if ((uint64_t)info->cluster_count >= 2 * roots) return "more clusters than a cluster tree over the roots has";
+    if (nodes + info->cluster_count >= RAD_NO_ELEMENT) return "more nodes and clusters than link ids";
     if (info->link_count > RAD_LFILE_MAX_LINKS) return "link count beyond the format's limit";
     if (!(isfinite(info->link_tol) && info->link_tol >= 0)) return "link tolerance not finite and >= 0";
     if (!(isfinite(info->error_bound) && info->error_bound >= 0)) return "error bound not finite and >= 0";
@@ -52,33 +58,50 @@ typedef struct section {
 
 static const unsigned char zero_padding[RAD_FF_ALIGN];
 
-/* The sections in file order: node table, first_link, link blocks; their
- * data pointers into `links`. Returns how many (checksum_count). */
+/* Section k in file order: node table, (with clusters) cluster table
+ * and cluster roots, first_link, then the link blocks; its data pointer
+ * into `links`. Returns how many there are (rad_lfile_checksum_count). */
 static uint64_t section_at(const rad_ff_layout *l, const rad_links *links, uint64_t k, section *out)
 {
-    uint64_t n = links->node_count, count = links->link_count;
-    if (k == SUM_NODES) {
-        *out = (section){"node table", l->matrix_offset, n * RAD_LFILE_NODE_BYTES, l->first_link_offset,
-                         links->nodes};
-    } else if (k == SUM_FIRST_LINK) {
-        *out = (section){"first_link table", l->first_link_offset, (n + 1) * 8, l->link_offset, links->first_link};
+    uint64_t n = links->node_count, count = links->link_count, ids = rad_links_id_count(links);
+    uint32_t clusters = links->cluster_count;
+    uint64_t before = sections_before_blocks(clusters);
+    if (k + 1 < before) {
+        /* the sections before first_link */
+        const section fixed[] = {
+            {"node table", l->matrix_offset, n * RAD_LFILE_NODE_BYTES,
+             clusters ? l->cluster_offset : l->first_link_offset, links->nodes},
+            {"cluster table", l->cluster_offset, (uint64_t)clusters * RAD_LFILE_CLUSTER_BYTES, l->cluster_root_offset,
+             links->clusters},
+            {"cluster roots", l->cluster_root_offset, (uint64_t)links->root_count * 4, l->first_link_offset,
+             links->cluster_roots},
+        };
+        *out = fixed[k];
+    } else if (k + 1 == before) {
+        *out = (section){"first_link table", l->first_link_offset, (ids + 1) * 8, l->link_offset, links->first_link};
     } else {
-        uint64_t b = k - SUM_BLOCKS, first = b * RAD_LFILE_BLOCK_LINKS;
+        uint64_t b = k - before, first = b * RAD_LFILE_BLOCK_LINKS;
         uint64_t last = count - first < RAD_LFILE_BLOCK_LINKS ? count : first + RAD_LFILE_BLOCK_LINKS;
         uint64_t offset = l->link_offset + first * RAD_LFILE_LINK_BYTES;
         *out = (section){"links", offset, (last - first) * RAD_LFILE_LINK_BYTES,
                          last == count ? l->row_checksum_offset : l->link_offset + last * RAD_LFILE_LINK_BYTES,
                          links->links + first};
     }
-    return rad_lfile_checksum_count(count);
+    return rad_lfile_checksum_count(clusters, count);
 }
 
-/* rad_hash64 of a section's data and padding (data sizes are multiples of
- * 8, so hashing the two in turn is hashing them together). */
-static uint64_t section_checksum(const section *s)
+/* rad_hash64 of a section's data followed by its padding (`pad`, zeros
+ * where written), as one run of bytes: the data's whole 8-byte words,
+ * then its tail (the cluster roots' last u32 where root_count is odd)
+ * with the padding. */
+static uint64_t section_checksum(const section *s, const unsigned char *pad)
 {
-    return rad_hash64(rad_hash64(RAD_HASH_SEED, s->data, (size_t)s->size), zero_padding,
-                      (size_t)(s->end - s->offset - s->size));
+    size_t whole = (size_t)(s->size / 8 * 8), tail = (size_t)(s->size - whole);
+    size_t pad_size = (size_t)(s->end - s->offset - s->size);
+    unsigned char rest[8 + RAD_FF_ALIGN];
+    if (tail) memcpy(rest, (const unsigned char *)s->data + whole, tail);
+    if (pad_size) memcpy(rest + tail, pad, pad_size);
+    return rad_hash64(rad_hash64(RAD_HASH_SEED, s->data, whole), rest, tail + pad_size);
 }
 
 rad_status rad_lfile_write(FILE *f, const char *what, const rad_ff_layout *layout, const rad_links *links,
@@ -94,7 +117,7 @@ rad_status rad_lfile_write(FILE *f, const char *what, const rad_ff_layout *layou
             rad_error("%s: write failed (%s): %s", what, s.what, strerror(errno));
             return RAD_ERR_IO;
         }
-        checksums[k] = section_checksum(&s);
+        checksums[k] = section_checksum(&s, zero_padding);
     }
     return RAD_OK;
 }
@@ -104,22 +127,28 @@ rad_status rad_lfile_read(FILE *f, const char *path, const rad_ff_info *info, co
 {
     rad_status status = RAD_OK;
     rad_links links = {.node_count = info->node_count, .root_count = info->root_count,
-                       .leaf_count = (uint32_t)info->patch_count, .link_count = info->link_count,
-                       .link_tol = info->link_tol, .error_bound = info->error_bound};
+                       .leaf_count = (uint32_t)info->patch_count, .cluster_count = info->cluster_count,
+                       .link_count = info->link_count, .link_tol = info->link_tol,
+                       .error_bound = info->error_bound};
     memset(out, 0, sizeof *out);
     /* the file's size matched these counts at rad_ff_open: no allocation
      * here is larger than the file */
+    int clusters = links.cluster_count > 0;
     links.nodes = malloc((size_t)links.node_count * sizeof *links.nodes + 1);
-    links.first_link = malloc(((size_t)links.node_count + 1) * sizeof *links.first_link);
+    if (clusters) {
+        links.clusters = malloc((size_t)links.cluster_count * sizeof *links.clusters);
+        links.cluster_roots = malloc((size_t)links.root_count * sizeof *links.cluster_roots);
+    }
+    links.first_link = malloc(((size_t)rad_links_id_count(&links) + 1) * sizeof *links.first_link);
     links.links = malloc((size_t)links.link_count * sizeof *links.links + 1);
-    if (!links.nodes || !links.first_link || !links.links) {
-        rad_error("%s: out of memory for %u nodes and %llu links", path, links.node_count,
-                  (unsigned long long)links.link_count);
+    if (!links.nodes || !links.first_link || !links.links || (clusters && (!links.clusters || !links.cluster_roots))) {
+        rad_error("%s: out of memory for %u nodes, %u clusters and %llu links", path, links.node_count,
+                  links.cluster_count, (unsigned long long)links.link_count);
         status = RAD_ERR_NOMEM;
         goto done;
     }
     section s;
-    uint64_t count = section_at(layout, &links, 0, &s);
+    uint64_t count = section_at(layout, &links, 0, &s), blocks_at = sections_before_blocks(links.cluster_count);
     for (uint64_t k = 0; k < count; k++) {
         section_at(layout, &links, k, &s);
         unsigned char pad[RAD_FF_ALIGN];
@@ -130,12 +159,11 @@ rad_status rad_lfile_read(FILE *f, const char *path, const rad_ff_info *info, co
             status = RAD_ERR_IO;
             goto done;
         }
-        uint64_t sum = rad_hash64(rad_hash64(RAD_HASH_SEED, s.data, (size_t)s.size), pad, pad_size);
-        if (sum != checksums[k]) {
-            if (k >= SUM_BLOCKS)
+        if (section_checksum(&s, pad) != checksums[k]) {
+            if (k >= blocks_at)
                 rad_error("%s: links %llu..%llu: checksum mismatch: the file is corrupted", path,
-                          (unsigned long long)((k - SUM_BLOCKS) * RAD_LFILE_BLOCK_LINKS),
-                          (unsigned long long)((k - SUM_BLOCKS) * RAD_LFILE_BLOCK_LINKS +
+                          (unsigned long long)((k - blocks_at) * RAD_LFILE_BLOCK_LINKS),
+                          (unsigned long long)((k - blocks_at) * RAD_LFILE_BLOCK_LINKS +
                                                s.size / RAD_LFILE_LINK_BYTES - 1));
             else
                 rad_error("%s: %s: checksum mismatch: the file is corrupted", path, s.what);
@@ -204,6 +232,7 @@ static rad_status links_info(const char *path, const rad_ff_info *info_in, const
     info.element_type = RAD_ELEMENT_F64;
     info.node_count = links->node_count;
     info.root_count = links->root_count;
+    info.cluster_count = links->cluster_count;
     info.link_count = links->link_count;
     info.link_tol = links->link_tol;
     info.error_bound = links->error_bound;

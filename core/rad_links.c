@@ -12,6 +12,8 @@
 
 _Static_assert(sizeof(rad_link_node) == 48 && offsetof(rad_link_node, area) == 40,
                "a node is the file's 48-byte record (docs/formats.md)");
+_Static_assert(sizeof(rad_link_cluster) == 32 && offsetof(rad_link_cluster, area) == 24,
+               "a cluster is the file's 32-byte record (docs/formats.md)");
 _Static_assert(sizeof(rad_link) == 16 && offsetof(rad_link, error) == 4 && offsetof(rad_link, factor) == 8,
                "a link is the file's 16-byte record (docs/formats.md)");
 
@@ -19,6 +21,8 @@ void rad_links_free(rad_links *links)
 {
     if (!links) return;
     free(links->nodes);
+    free(links->clusters);
+    free(links->cluster_roots);
     free(links->first_link);
     free(links->links);
     memset(links, 0, sizeof *links);
@@ -63,7 +67,86 @@ static const char *node_fault(const rad_links *links, uint32_t k, size_t vertex_
     return NULL;
 }
 
-/* What is wrong with node r's links (range, sources, factors, errors);
+/* Relative difference allowed between a cluster's area and the sum of
+ * its roots' (summed in another order than the writer's). */
+#define CLUSTER_AREA_TOLERANCE 1e-9
+
+/* What is wrong with cluster c's own fields and its place in the cluster
+ * tree (parent, children, root range, area); NULL if nothing. Its area
+ * against its roots' is checked later (cluster_areas_fault). */
+static const char *cluster_fault(const rad_links *links, uint32_t c)
+{
+    const rad_link_cluster *cluster = &links->clusters[c];
+    if (c == 0) {
+        if (cluster->parent != RAD_NO_ELEMENT) return "a parent, but cluster 0 is the tree's root";
+        if (cluster->root_begin != 0 || cluster->root_end != links->root_count)
+            return "not every root, but cluster 0 holds them all (root range 0 .. root count)";
+    } else {
+        if (cluster->parent == RAD_NO_ELEMENT) return "no parent, but not cluster 0";
+        if (cluster->parent >= c) return "parent not before its child";
+        const rad_link_cluster *parent = &links->clusters[cluster->parent];
+        if (parent->child_count == 0 || c < parent->first_child || c - parent->first_child >= parent->child_count)
+            return "not among its parent's children";
+    }
+    if (cluster->pad != 0) return "pad not zero";
+    if (cluster->root_begin >= cluster->root_end || cluster->root_end > links->root_count)
+        return "root range empty or beyond the root count";
+    if (cluster->child_count == 0) {
+        if (cluster->first_child != RAD_NO_ELEMENT) return "a leaf cluster (no children) with a first child";
+    } else {
+        if (cluster->child_count < 2) return "an inner cluster with one child (at least 2)";
+        if (cluster->first_child == RAD_NO_ELEMENT || cluster->first_child <= c)
+            return "children not after their parent";
+        if ((uint64_t)cluster->first_child + cluster->child_count > links->cluster_count)
+            return "children beyond the cluster table";
+        uint32_t at = cluster->root_begin; /* where the next child's roots must begin */
+        for (uint32_t k = 0; k < cluster->child_count; k++) {
+            const rad_link_cluster *child = &links->clusters[cluster->first_child + k];
+            if (child->parent != c) return "a child whose parent is another cluster";
+            if (child->root_begin != at || child->root_end <= at || child->root_end > cluster->root_end)
+                return "its children's root ranges do not partition its own in order";
+            at = child->root_end;
+        }
+        if (at != cluster->root_end) return "its children's root ranges do not partition its own in order";
+    }
+    if (!(isfinite(cluster->area) && cluster->area > 0)) return "area not finite and positive";
+    return NULL;
+}
+
+/* Which entry of cluster_roots is not a root, or a root listed before
+ * (*out_why says which); UINT32_MAX if they are a permutation of the
+ * roots. */
+static uint32_t cluster_roots_fault(const rad_links *links, unsigned char *root_seen, const char **out_why)
+{
+    for (uint32_t i = 0; i < links->root_count; i++) {
+        uint32_t root = links->cluster_roots[i];
+        *out_why = root >= links->root_count ? "not a root (beyond the root count)" : "a root listed twice";
+        if (root >= links->root_count || root_seen[root]) return i;
+        root_seen[root] = 1;
+    }
+    return UINT32_MAX;
+}
+
+/* The first cluster whose area is not the sum of its roots' areas
+ * (relative CLUSTER_AREA_TOLERANCE); UINT32_MAX if none. Run once the
+ * tree and the cluster roots are valid. sum[] (cluster_count) gets the
+ * sums, from the leaf clusters up (children come after their parent). */
+static uint32_t cluster_areas_fault(const rad_links *links, double *sum)
+{
+    for (uint32_t c = links->cluster_count; c-- > 0;) {
+        const rad_link_cluster *cluster = &links->clusters[c];
+        sum[c] = 0;
+        if (cluster->child_count == 0)
+            for (uint32_t i = cluster->root_begin; i < cluster->root_end; i++)
+                sum[c] += links->nodes[links->cluster_roots[i]].area;
+        else
+            for (uint32_t k = 0; k < cluster->child_count; k++) sum[c] += sum[cluster->first_child + k];
+        if (!(fabs(cluster->area - sum[c]) <= CLUSTER_AREA_TOLERANCE * sum[c])) return c;
+    }
+    return UINT32_MAX;
+}
+
+/* What is wrong with id r's links (range, sources, factors, errors);
  * NULL if nothing. *out_bad gets the first bad link's index. */
 static const char *links_fault(const rad_links *links, uint32_t r, uint64_t *out_bad)
 {
@@ -73,7 +156,8 @@ static const char *links_fault(const rad_links *links, uint32_t r, uint64_t *out
     for (uint64_t i = begin; i < end; i++) {
         const rad_link *link = &links->links[i];
         *out_bad = i;
-        if (link->source >= links->node_count) return "source beyond the node table";
+        if (link->source >= rad_links_id_count(links))
+            return links->cluster_count ? "source beyond the node and cluster tables" : "source beyond the node table";
         if (i > begin && link->source <= links->links[i - 1].source) return "sources not strictly ascending";
         if (!(isfinite(link->factor) && link->factor >= 0)) return "factor not finite and >= 0";
         if (!(isfinite(link->error) && link->error >= 0)) return "error not finite and >= 0";
@@ -81,21 +165,72 @@ static const char *links_fault(const rad_links *links, uint32_t r, uint64_t *out
     return NULL;
 }
 
+/* The clusters (after the nodes): the permutation of the roots, each
+ * cluster's fields and place in the tree, its links, then the areas. */
+static rad_status check_clusters(const rad_links *links, const char *what)
+{
+    rad_status status = RAD_ERR_FORMAT;
+    unsigned char *root_seen = calloc(links->root_count, 1);
+    double *sum = malloc((size_t)links->cluster_count * sizeof *sum);
+    if (!root_seen || !sum) {
+        rad_error("%s: out of memory checking %u clusters", what, links->cluster_count);
+        status = RAD_ERR_NOMEM;
+        goto done;
+    }
+    const char *why;
+    uint32_t bad = cluster_roots_fault(links, root_seen, &why);
+    if (bad != UINT32_MAX) {
+        rad_error("%s: cluster roots: entry %u (%u): %s", what, bad, links->cluster_roots[bad], why);
+        goto done;
+    }
+    for (uint32_t c = 0; c < links->cluster_count; c++) {
+        why = cluster_fault(links, c);
+        if (why) {
+            rad_error("%s: cluster %u: %s", what, c, why);
+            goto done;
+        }
+        uint64_t bad_link;
+        why = links_fault(links, links->node_count + c, &bad_link);
+        if (why) {
+            rad_error("%s: cluster %u: link %llu: %s", what, c, (unsigned long long)bad_link, why);
+            goto done;
+        }
+    }
+    bad = cluster_areas_fault(links, sum);
+    if (bad != UINT32_MAX) {
+        rad_error("%s: cluster %u: area %.17g is not its roots' %.17g", what, bad, links->clusters[bad].area,
+                  sum[bad]);
+        goto done;
+    }
+    status = RAD_OK;
+done:
+    free(root_seen);
+    free(sum);
+    return status;
+}
+
 rad_status rad_links_check(const rad_links *links, size_t vertex_count, const char *what)
 {
+    uint64_t ids = rad_links_id_count(links);
     if (links->root_count == 0 || links->root_count > links->node_count || links->node_count == RAD_NO_ELEMENT ||
         links->leaf_count == 0 || links->leaf_count > links->node_count) {
         rad_error("%s: %u roots, %u leaves among %u nodes: implausible", what, links->root_count, links->leaf_count,
                   links->node_count);
         return RAD_ERR_FORMAT;
     }
-    if (!links->nodes || !links->first_link || (links->link_count && !links->links)) {
+    if ((uint64_t)links->cluster_count >= 2 * (uint64_t)links->root_count || ids >= RAD_NO_ELEMENT) {
+        rad_error("%s: %u clusters over %u roots (%u nodes): implausible", what, links->cluster_count,
+                  links->root_count, links->node_count);
+        return RAD_ERR_FORMAT;
+    }
+    if (!links->nodes || !links->first_link || (links->link_count && !links->links) ||
+        (links->cluster_count && (!links->clusters || !links->cluster_roots))) {
         rad_error("%s: links without their tables", what);
         return RAD_ERR_FORMAT;
     }
-    if (links->first_link[0] != 0 || links->first_link[links->node_count] != links->link_count) {
+    if (links->first_link[0] != 0 || links->first_link[ids] != links->link_count) {
         rad_error("%s: first_link runs from %llu to %llu, not from 0 to the link count %llu", what,
-                  (unsigned long long)links->first_link[0], (unsigned long long)links->first_link[links->node_count],
+                  (unsigned long long)links->first_link[0], (unsigned long long)links->first_link[ids],
                   (unsigned long long)links->link_count);
         return RAD_ERR_FORMAT;
     }
@@ -125,7 +260,7 @@ rad_status rad_links_check(const rad_links *links, size_t vertex_count, const ch
                   links->leaf_count);
         goto done;
     }
-    status = RAD_OK;
+    status = links->cluster_count ? check_clusters(links, what) : RAD_OK;
 done:
     free(leaf_seen);
     return status;

@@ -53,19 +53,48 @@ typedef struct rad_link_node {
     double area;
 } rad_link_node;
 
+/* One cluster as the file stores it (32 bytes): clustering (issue 27,
+ * docs/hierarchy.md "Clusters"). Clusters form one tree above the roots:
+ * cluster 0 holds every root, a cluster's parent comes before it, an inner
+ * cluster's children are the consecutive clusters first_child ..
+ * first_child + child_count - 1 (>= 2 of them), and a leaf cluster
+ * (child_count 0, first_child RAD_NO_ELEMENT) has as its children the roots
+ * cluster_roots[root_begin .. root_end). Every cluster, inner ones too,
+ * holds the roots cluster_roots[root_begin .. root_end), its children's
+ * ranges partitioning its own in child order, so that the leaf clusters'
+ * ranges partition 0 .. root_count. area is the sum of its roots' areas. */
+typedef struct rad_link_cluster {
+    uint32_t parent;      /* RAD_NO_ELEMENT for cluster 0 */
+    uint32_t first_child; /* inner: the first child cluster; leaf cluster: RAD_NO_ELEMENT */
+    uint32_t child_count; /* inner: >= 2; leaf cluster: 0 */
+    uint32_t root_begin, root_end; /* cluster_roots[root_begin .. root_end), root_end > root_begin */
+    uint32_t pad;         /* 0 */
+    double area;
+} rad_link_cluster;
+
 /* One link as the file stores it (16 bytes). */
 typedef struct rad_link {
-    uint32_t source; /* node */
+    uint32_t source; /* id: a node, or node_count + a cluster (rad_links_id_count) */
     float error;     /* bound on |F(leaf under receiver -> source) - factor|, F units */
     double factor;   /* F_rs, receiver -> source */
 } rad_link;
 
+/* Links address nodes and clusters alike: ids 0 .. node_count - 1 are the
+ * nodes, id node_count + c is cluster c (rad_links_id_count ids in all).
+ * A link at a cluster receiver c is gathered by every leaf under c's
+ * roots (B_leaf = E + rho_leaf * (... + F_cs B_s)), as a split node's
+ * links are by its leaves; a cluster's B is the area-weighted mean of its
+ * roots' B. Reciprocity holds with the cluster's area. Without clusters
+ * (cluster_count 0) the ids are the nodes' and nothing changes. */
 typedef struct rad_links {
     rad_link_node *nodes;
     uint32_t node_count;
     uint32_t root_count;  /* nodes 0 .. root_count - 1 */
     uint32_t leaf_count;  /* = the leaves mesh's patch_count */
-    uint64_t *first_link; /* node_count + 1 */
+    uint32_t cluster_count;          /* 0: no clusters */
+    rad_link_cluster *clusters;      /* cluster_count; NULL without clusters */
+    uint32_t *cluster_roots;         /* root_count: the roots in cluster order; NULL without clusters */
+    uint64_t *first_link; /* rad_links_id_count + 1 */
     rad_link *links;
     uint64_t link_count;
     double link_tol;      /* the --link-tol they were refined to (informational) */
@@ -73,16 +102,26 @@ typedef struct rad_links {
                              links' errors (docs/hierarchy.md); 0 where unknown */
 } rad_links;
 
+/* Receivers and sources: the nodes, then the clusters. */
+static inline uint64_t rad_links_id_count(const rad_links *links)
+{
+    return (uint64_t)links->node_count + links->cluster_count;
+}
+
 void rad_links_free(rad_links *links); /* safe on zeroed */
 
 /* Structural checks a reader makes before trusting the links: roots
  * first, parents and children consistent, children after their parent,
  * levels, every leaf one patch and every patch one leaf (leaf_count
  * patches), corners in range (vertex_count vertices), areas finite and
- * > 0, first_link non-decreasing from 0 to link_count, sources in range
- * and strictly ascending per receiver, factors finite and >= 0, errors
- * finite and >= 0. RAD_ERR_FORMAT with a message naming `what` (a file
- * name) and the first bad node or link. */
+ * > 0, first_link non-decreasing from 0 to link_count over all ids,
+ * sources below rad_links_id_count and strictly ascending per receiver,
+ * factors finite and >= 0, errors finite and >= 0. With clusters: fewer
+ * than 2 root_count of them, cluster_roots a permutation of the roots,
+ * the cluster tree as rad_link_cluster describes it (pad 0), each
+ * cluster's area finite, > 0 and its roots' sum to a relative 1e-9, and
+ * its links as a node's. RAD_ERR_FORMAT with a message naming `what` (a
+ * file name) and the first bad node, cluster or link. */
 rad_status rad_links_check(const rad_links *links, size_t vertex_count, const char *what);
 
 #endif

@@ -1,28 +1,40 @@
 /* rad_lsolve.c - the radiosity solve on links (rad_lsolve.h): Jacobi and
- * Gauss-Seidel sweeps of gather, push and pull over the element trees.
+ * Gauss-Seidel sweeps of gather, push and pull over the element trees and
+ * the clusters above their roots.
  *
- * The plan, made once per call, is what makes a sweep O(nodes + links):
- * every tree's nodes in index order (a parent comes before its children,
- * rad_links.h, so that order pushes down and its reverse pulls up), a leaf
- * patch under every node (whose material is the node's), each split node's
- * children's area sum, and the row sum of every node's links and its
- * ancestors' (for the energy balance). Per channel the vectors run over the
- * nodes: B (the leaves' values; split nodes hold the area-weighted mean of
- * their children), `old` (the iterate the sweep started from) and the
- * gathered G = rho sum F B, pushed down in place into D.
+ * The plan, made once per call, is what makes a sweep O(nodes + clusters +
+ * links): every tree's nodes in index order (a parent comes before its
+ * children, rad_links.h, so that order pushes down and its reverse pulls
+ * up), a leaf patch under every node (whose material is the node's), each
+ * split node's children's area sum, and the row sum of every node's links
+ * and its ancestors' (for the energy balance). With clusters (rad_links.h)
+ * also each root's leaf cluster and each cluster's pull weights summed;
+ * clusters too come after their parent, so index order pushes down the
+ * cluster tree and its reverse pulls up, and a root's "parent" for pushes
+ * and row sums is its leaf cluster. Per channel the vectors run over the
+ * ids (nodes, then clusters): B (the leaves' values; split nodes and
+ * clusters hold the area-weighted mean of their children), `old` (the
+ * iterate the sweep started from) and the gathered G, pushed down in place
+ * into D. A node's G is rho sum F B; a cluster's is the irradiance
+ * H = sum F B alone (its roots' rho differ), pushed down the cluster tree
+ * and into each root as rho_root H.
  *
  * The residual of the iterate a sweep starts from comes with the sweep, as
  * in solve/stationary.c: Jacobi gathers from `old` alone, so its D gives
  * r = E + D - old at the leaves; Gauss-Seidel gathers from the newest B
  * and, in the same pass over the links, from `old`. A sweep whose measured
  * iterate meets the tolerance returns that iterate, not the newer one.
+ * Gauss-Seidel gathers the clusters first, when the newest B is still
+ * `old` (so one H serves both), and pulls them last: within a sweep a
+ * cluster's B is the sweep's start value, which is its value in `old` too.
  *
  * Threads do not change the bytes: each receiver's gather is summed by one
- * thread in link order, each tree is pushed and pulled by one thread, and
- * the residual is a maximum. Jacobi gathers every node in parallel, then
- * pushes and pulls the trees in parallel; Gauss-Seidel goes tree by tree
- * and gathers a tree's nodes in parallel where the tree receives enough
- * links.
+ * thread in link order, each tree is pushed and pulled by one thread, the
+ * cluster tree by one, and the residual is a maximum. Jacobi gathers every
+ * node and cluster in parallel, then pushes and pulls the trees in
+ * parallel; Gauss-Seidel gathers the clusters in parallel where they
+ * receive enough links, then goes tree by tree and gathers a tree's nodes
+ * in parallel where the tree receives enough links.
  */
 #include "rad_lsolve.h"
 
@@ -66,15 +78,20 @@ typedef struct lsolve_plan {
     uint64_t *tree_links; /* root_count: the links the tree's nodes receive */
     uint32_t *patch_of;   /* node_count: a leaf patch under the node (the node's material) */
     double *child_area;   /* node_count: a split node's 4 children's areas summed; 0 for a leaf */
-    double *row_sum;      /* node_count: sum of F over the links of the node and of its ancestors */
+    double *row_sum;      /* ids: sum of F over the links of the node (cluster) and of its ancestors,
+                             a root's ancestors being the clusters that hold it */
+    uint32_t *root_cluster; /* root_count: the leaf cluster holding the root; NULL without clusters */
+    double *cluster_area; /* cluster_count: the areas a cluster's pull weighs, summed */
+    uint64_t cluster_links; /* the links the clusters receive */
     int threads;          /* >= 1 */
 } lsolve_plan;
 
-/* One channel's vectors over the nodes. */
+/* One channel's vectors over the ids (nodes, then clusters). */
 typedef struct lsolve_vectors {
-    double *rho, *E;  /* the node's material; E is read at leaves only */
+    double *rho, *E;  /* the node's material; E is read at leaves only; unused at clusters */
     double *B, *old;  /* the iterate, and the one the sweep started from */
-    double *G, *G_old; /* rho sum F B gathered from B and from old, then pushed down (D) */
+    double *G, *G_old; /* rho sum F B (clusters: sum F B) gathered from B and from old, then pushed down (D);
+                          G_old is not used at clusters: Gauss-Seidel's G there is gathered from old */
     double e_norm;    /* ||E||_inf over the leaves, > 0 while iterating */
 } lsolve_vectors;
 
@@ -87,6 +104,17 @@ static int lsolve_threads(int asked)
     return 1;
 #endif
 }
+
+#ifdef _OPENMP /* only the parallel loops' num_threads clauses ask */
+/* Threads for `links` links of work: one per LSOLVE_PARALLEL_MIN_LINKS at
+ * most (64 threads woken for a tree of 20 000 links cost more than the
+ * gather: 2.3 s instead of 0.05 s for 17 sweeps on 64 cores). */
+static int threads_for(const lsolve_plan *p, uint64_t links)
+{
+    uint64_t most = 1 + links / LSOLVE_PARALLEL_MIN_LINKS;
+    return most < (uint64_t)p->threads ? (int)most : p->threads;
+}
+#endif
 
 /* sum over r's links of F_rs x_s, in link order. */
 static inline double gather_one(const rad_links *L, uint32_t r, const double *x)
@@ -120,12 +148,105 @@ static inline void pull_node(const lsolve_plan *p, uint32_t i, double *B)
            p->child_area[i];
 }
 
+/* Cluster c's B (id node_count + c): the area-weighted mean of its child
+ * clusters', or of its roots' for a leaf cluster. */
+static inline void pull_cluster(const lsolve_plan *p, uint32_t c, double *B)
+{
+    const rad_links *L = p->links;
+    const rad_link_cluster *k = &L->clusters[c];
+    const uint32_t n = L->node_count;
+    double s = 0;
+    if (k->child_count == 0) {
+        for (uint32_t q = k->root_begin; q < k->root_end; q++) {
+            const uint32_t r = L->cluster_roots[q];
+            s += L->nodes[r].area * B[r];
+        }
+    } else {
+        for (uint32_t j = k->first_child; j < k->first_child + k->child_count; j++) s += L->clusters[j].area * B[n + j];
+    }
+    B[n + c] = s / p->cluster_area[c];
+}
+
+/* Every cluster's B from the roots' B, children before parents. */
+static void pull_clusters(const lsolve_plan *p, double *B)
+{
+    for (uint32_t c = p->links->cluster_count; c-- > 0;) pull_cluster(p, c, B);
+}
+
+/* G at the clusters = sum F x over their links (in parallel where they
+ * receive enough links), then pushed down the cluster tree: each cluster's
+ * G becomes the sum over it and the clusters above it. */
+static void gather_clusters(const lsolve_plan *p, const double *x, double *G)
+{
+    const rad_links *L = p->links;
+    const uint32_t n = L->node_count, count = L->cluster_count;
+#pragma omp parallel for schedule(dynamic, 16) num_threads(threads_for(p, p->cluster_links)) \
+    if (p->cluster_links >= LSOLVE_PARALLEL_MIN_LINKS)
+    for (uint32_t c = 0; c < count; c++) G[n + c] = gather_one(L, n + c, x);
+    for (uint32_t c = 1; c < count; c++) G[n + c] += G[n + L->clusters[c].parent];
+}
+
 /* ---- checks and the plan ---- */
 
 static rad_status bad_node(uint32_t i, const char *what)
 {
     rad_error("links: node %u: %s", i, what);
     return RAD_ERR_INVALID;
+}
+
+static rad_status bad_cluster(uint32_t c, const char *what)
+{
+    rad_error("links: cluster %u: %s", c, what);
+    return RAD_ERR_INVALID;
+}
+
+/* The cluster tree (rad_links.h): cluster 0 holds every root, a cluster
+ * comes after its parent and among its children, an inner cluster's
+ * children's root ranges partition its own in order, every root is in
+ * cluster_roots once, areas finite and > 0. So the leaf clusters' ranges
+ * partition the roots and every root has one leaf cluster. */
+static rad_status check_clusters(const rad_links *L)
+{
+    const uint32_t count = L->cluster_count, roots = L->root_count;
+    if (!L->clusters || !L->cluster_roots || rad_links_id_count(L) > UINT32_MAX) {
+        rad_error("links: %u clusters without their table, or more ids than a link's source can name", count);
+        return RAD_ERR_INVALID;
+    }
+    for (uint32_t c = 0; c < count; c++) {
+        const rad_link_cluster *k = &L->clusters[c];
+        if (c == 0 ? k->parent != RAD_NO_ELEMENT || k->root_begin != 0 || k->root_end != roots
+                   : k->parent >= c || c < L->clusters[k->parent].first_child ||
+                         c - L->clusters[k->parent].first_child >= L->clusters[k->parent].child_count)
+            return bad_cluster(c, "not cluster 0 over every root, nor among the children of a cluster before it");
+        if (k->root_begin >= k->root_end || k->root_end > roots || !(k->area > 0 && isfinite(k->area)))
+            return bad_cluster(c, "its roots' range is empty or out of range, or its area not finite and > 0");
+        if (k->child_count == 0) {
+            if (k->first_child != RAD_NO_ELEMENT) return bad_cluster(c, "a leaf cluster that names a first child");
+            continue;
+        }
+        if (k->child_count < 2 || k->first_child <= c || (uint64_t)k->first_child + k->child_count > count)
+            return bad_cluster(c, "its children are fewer than 2, or out of range");
+        uint32_t at = k->root_begin;
+        for (uint32_t j = k->first_child; j < k->first_child + k->child_count; j++) {
+            if (L->clusters[j].parent != c || L->clusters[j].root_begin != at)
+                return bad_cluster(c, "a child names another parent, or the children's roots do not follow on");
+            at = L->clusters[j].root_end;
+        }
+        if (at != k->root_end) return bad_cluster(c, "its children's roots do not make up its own");
+    }
+    unsigned char *seen = calloc(roots, 1);
+    if (!seen) {
+        rad_error("links: out of memory checking %u roots' clusters", roots);
+        return RAD_ERR_NOMEM;
+    }
+    rad_status status = RAD_OK;
+    for (uint32_t q = 0; q < roots && status == RAD_OK; q++)
+        if (L->cluster_roots[q] >= roots || seen[L->cluster_roots[q]]++) {
+            rad_error("links: cluster_roots[%u] = %u: out of range or twice", q, L->cluster_roots[q]);
+            status = RAD_ERR_INVALID;
+        }
+    free(seen);
+    return status;
 }
 
 /* What the sweeps index, and the match with the leaves mesh. The rest of
@@ -179,12 +300,17 @@ static rad_status check_links(const rad_links *L, const rad_mesh *leaves)
         rad_error("links: %u leaf nodes for %u leaf patches", leaf_nodes, L->leaf_count);
         return RAD_ERR_INVALID;
     }
-    if (L->first_link[0] != 0 || L->first_link[n] != L->link_count) {
+    if (L->cluster_count && (status = check_clusters(L)) != RAD_OK) return status;
+    const uint64_t ids = rad_links_id_count(L);
+    for (uint64_t i = n; i < ids; i++)
+        if (L->first_link[i + 1] < L->first_link[i])
+            return bad_cluster((uint32_t)(i - n), "its links end before they begin");
+    if (L->first_link[0] != 0 || L->first_link[ids] != L->link_count) {
         rad_error("links: the link table does not span the %llu links", (unsigned long long)L->link_count);
         return RAD_ERR_INVALID;
     }
     for (uint64_t k = 0; k < L->link_count; k++) {
-        if (L->links[k].source >= n || !isfinite(L->links[k].factor)) {
+        if (L->links[k].source >= ids || !isfinite(L->links[k].factor)) {
             rad_error("links: link %llu: source out of range or form factor not finite", (unsigned long long)k);
             return RAD_ERR_INVALID;
         }
@@ -200,22 +326,60 @@ static void plan_free(lsolve_plan *p)
     free(p->patch_of);
     free(p->child_area);
     free(p->row_sum);
+    free(p->root_cluster);
+    free(p->cluster_area);
+}
+
+/* The id above node i: its parent; for a root its leaf cluster (with
+ * clusters), else RAD_NO_ELEMENT. */
+static inline uint32_t node_up(const lsolve_plan *p, uint32_t i)
+{
+    const uint32_t up = p->links->nodes[i].parent;
+    if (up != RAD_NO_ELEMENT || !p->root_cluster) return up;
+    return p->links->node_count + p->root_cluster[i];
+}
+
+/* The clusters' part of the plan: each root's leaf cluster, each
+ * cluster's pull weights summed, the links they receive. */
+static void plan_clusters(const rad_links *L, lsolve_plan *p)
+{
+    const uint32_t n = L->node_count;
+    for (uint32_t c = L->cluster_count; c-- > 0;) {
+        const rad_link_cluster *k = &L->clusters[c];
+        double area = 0;
+        if (k->child_count == 0) {
+            for (uint32_t q = k->root_begin; q < k->root_end; q++) {
+                p->root_cluster[L->cluster_roots[q]] = c;
+                area += L->nodes[L->cluster_roots[q]].area;
+            }
+        } else {
+            for (uint32_t j = k->first_child; j < k->first_child + k->child_count; j++) area += L->clusters[j].area;
+        }
+        p->cluster_area[c] = area;
+        p->cluster_links += L->first_link[n + c + 1] - L->first_link[n + c];
+    }
 }
 
 static rad_status plan_make(const rad_links *L, int threads, lsolve_plan *p)
 {
-    const uint32_t n = L->node_count, roots = L->root_count;
+    const uint32_t n = L->node_count, roots = L->root_count, clusters = L->cluster_count;
+    const size_t ids = rad_links_id_count(L);
     memset(p, 0, sizeof *p);
     p->links = L;
     p->threads = lsolve_threads(threads);
+    if (clusters) {
+        p->root_cluster = malloc((size_t)roots * sizeof *p->root_cluster);
+        p->cluster_area = malloc((size_t)clusters * sizeof *p->cluster_area);
+    }
     p->tree_first = calloc((size_t)roots + 1, sizeof *p->tree_first);
     p->tree_nodes = malloc((size_t)n * sizeof *p->tree_nodes);
     p->tree_links = calloc(roots, sizeof *p->tree_links);
     p->patch_of = malloc((size_t)n * sizeof *p->patch_of);
     p->child_area = malloc((size_t)n * sizeof *p->child_area);
-    p->row_sum = malloc((size_t)n * sizeof *p->row_sum);
-    if (!p->tree_first || !p->tree_nodes || !p->tree_links || !p->patch_of || !p->child_area || !p->row_sum) {
-        rad_error("links: out of memory for the solve's plan of %u nodes", n);
+    p->row_sum = malloc(ids * sizeof *p->row_sum);
+    if (!p->tree_first || !p->tree_nodes || !p->tree_links || !p->patch_of || !p->child_area || !p->row_sum ||
+        (clusters && (!p->root_cluster || !p->cluster_area))) {
+        rad_error("links: out of memory for the solve's plan of %u nodes and %u clusters", n, clusters);
         plan_free(p);
         return RAD_ERR_NOMEM;
     }
@@ -243,10 +407,18 @@ static rad_status plan_make(const rad_links *L, int threads, lsolve_plan *p)
             p->child_area[i] = c[0].area + c[1].area + c[2].area + c[3].area;
         }
     }
+    plan_clusters(L, p);
+    /* row sums down from cluster 0, then down every tree from its root's leaf cluster */
+    for (uint32_t c = 0; c < clusters; c++) {
+        double s = 0;
+        for (uint64_t k = L->first_link[n + c]; k < L->first_link[n + c + 1]; k++) s += L->links[k].factor;
+        const uint32_t up = L->clusters[c].parent;
+        p->row_sum[n + c] = s + (up != RAD_NO_ELEMENT ? p->row_sum[n + up] : 0);
+    }
     for (uint32_t i = 0; i < n; i++) {
         double s = 0;
         for (uint64_t k = L->first_link[i]; k < L->first_link[i + 1]; k++) s += L->links[k].factor;
-        uint32_t up = L->nodes[i].parent;
+        uint32_t up = node_up(p, i);
         p->row_sum[i] = s + (up != RAD_NO_ELEMENT ? p->row_sum[up] : 0);
     }
     return RAD_OK;
@@ -254,13 +426,15 @@ static rad_status plan_make(const rad_links *L, int threads, lsolve_plan *p)
 
 /* ---- the sweeps ---- */
 
-/* Tree t once its nodes have gathered: G (from the newest B) and G_old
- * (from old; the same array for Jacobi) pushed down, the leaves' B =
+/* Tree t once its nodes and the clusters have gathered: G (from the
+ * newest B) and G_old (from old; the same array for Jacobi) pushed down,
+ * the root taking rho times its clusters' G into both, the leaves' B =
  * E + D and their residual E + D_old - old, the split nodes pulled up.
  * Returns the tree's largest |residual|, NaN if one is NaN. */
 static double tree_update(const lsolve_plan *p, const lsolve_vectors *v, double *G_old, uint32_t t)
 {
     const rad_link_node *nodes = p->links->nodes;
+    const uint32_t n = p->links->node_count;
     const uint32_t *list = p->tree_nodes + p->tree_first[t];
     const uint32_t count = p->tree_first[t + 1] - p->tree_first[t];
     const int both = G_old != v->G;
@@ -271,6 +445,10 @@ static double tree_update(const lsolve_plan *p, const lsolve_vectors *v, double 
         if (up != RAD_NO_ELEMENT) {
             v->G[i] += v->G[up];
             if (both) G_old[i] += G_old[up];
+        } else if (p->root_cluster && v->rho[i] != 0) { /* the root, under clusters */
+            const double h = v->rho[i] * v->G[n + p->root_cluster[i]];
+            v->G[i] += h;
+            if (both) G_old[i] += h;
         }
         if (nodes[i].first_child != RAD_NO_ELEMENT) continue;
         v->B[i] = v->E[i] + v->G[i];
@@ -283,19 +461,8 @@ static double tree_update(const lsolve_plan *p, const lsolve_vectors *v, double 
     return not_a_number ? NAN : rmax;
 }
 
-#ifdef _OPENMP /* only the parallel loops' num_threads clauses ask */
-/* Threads for `links` links of work: one per LSOLVE_PARALLEL_MIN_LINKS at
- * most (64 threads woken for a tree of 20 000 links cost more than the
- * gather: 2.3 s instead of 0.05 s for 17 sweeps on 64 cores). */
-static int threads_for(const lsolve_plan *p, uint64_t links)
-{
-    uint64_t most = 1 + links / LSOLVE_PARALLEL_MIN_LINKS;
-    return most < (uint64_t)p->threads ? (int)most : p->threads;
-}
-#endif
-
-/* One Jacobi sweep: old <- B, then B <- the next iterate. Returns the
- * largest |residual| of old. */
+/* One Jacobi sweep: old <- B, then B <- the next iterate (clusters
+ * pulled last). Returns the largest |residual| of old. */
 static double jacobi_sweep(const lsolve_plan *p, lsolve_vectors *v)
 {
     const rad_links *L = p->links;
@@ -308,6 +475,7 @@ static double jacobi_sweep(const lsolve_plan *p, lsolve_vectors *v)
 #pragma omp parallel for schedule(dynamic, 64) num_threads(threads_for(p, L->link_count)) \
     if (L->link_count >= LSOLVE_PARALLEL_MIN_LINKS)
     for (uint32_t r = 0; r < n; r++) G[r] = rho[r] != 0 ? rho[r] * gather_one(L, r, old) : 0;
+    gather_clusters(p, old, G);
     double rmax = 0;
     int not_a_number = 0;
 #pragma omp parallel for schedule(dynamic, 16) num_threads(p->threads) reduction(max : rmax) \
@@ -317,19 +485,23 @@ static double jacobi_sweep(const lsolve_plan *p, lsolve_vectors *v)
         if (r > rmax) rmax = r;
         not_a_number |= isnan(r);
     }
+    pull_clusters(p, v->B);
     return not_a_number ? NAN : rmax;
 }
 
-/* One Gauss-Seidel sweep, tree by tree in root order, each gathering from
- * the newest B (the trees before it already swept) and publishing its new
- * B at once. Returns the largest |residual| of the iterate it started from
- * (left in old). */
+/* One Gauss-Seidel sweep: the clusters gathered first (from B, which is
+ * still old), then tree by tree in root order, each gathering from the
+ * newest B (the trees before it already swept; a cluster source at its
+ * start value) and publishing its new B at once; the clusters pulled last.
+ * Returns the largest |residual| of the iterate it started from (left in
+ * old). */
 static double gauss_seidel_sweep(const lsolve_plan *p, lsolve_vectors *v)
 {
     const rad_links *L = p->links;
-    memcpy(v->old, v->B, (size_t)L->node_count * sizeof(double));
+    memcpy(v->old, v->B, (size_t)rad_links_id_count(L) * sizeof(double));
     const double *old = v->old, *B = v->B, *rho = v->rho;
     double *G = v->G, *G_old = v->G_old;
+    gather_clusters(p, old, G);
     double rmax = 0;
     int not_a_number = 0;
     for (uint32_t tree = 0; tree < L->root_count; tree++) {
@@ -348,13 +520,14 @@ static double gauss_seidel_sweep(const lsolve_plan *p, lsolve_vectors *v)
         if (r > rmax) rmax = r;
         not_a_number |= isnan(r);
     }
+    pull_clusters(p, v->B);
     return not_a_number ? NAN : rmax;
 }
 
 /* ---- one channel ---- */
 
 /* The channel's material and start: B = E at the leaves (or the caller's
- * B), pulled up. */
+ * B), pulled up the trees and the clusters. */
 static void channel_start(const lsolve_plan *p, const rad_mesh *leaves, int c, int warm_start, const double *B_in,
                           lsolve_vectors *v)
 {
@@ -372,6 +545,7 @@ static void channel_start(const lsolve_plan *p, const rad_mesh *leaves, int c, i
         for (uint32_t i = 0; i < L->node_count; i++) v->B[i] = 0;
     for (uint32_t i = L->node_count; i-- > 0;)
         if (L->nodes[i].first_child != RAD_NO_ELEMENT) pull_node(p, i, v->B);
+    pull_clusters(p, v->B);
 }
 
 typedef struct lsolve_channel_run {
@@ -419,7 +593,7 @@ static rad_status channel_iterate(const lsolve_plan *p, lsolve_vectors *v, const
 }
 
 /* Adds the channel's emitted, absorbed and escaped power (rad_lsolve.h)
- * to sums[0..2]; `scratch` holds node_count doubles. */
+ * to sums[0..2]; `scratch` holds one double per id. */
 static void channel_balance(const lsolve_plan *p, const lsolve_vectors *v, double *scratch, double sums[3])
 {
     const rad_links *L = p->links;
@@ -428,9 +602,11 @@ static void channel_balance(const lsolve_plan *p, const lsolve_vectors *v, doubl
 #pragma omp parallel for schedule(dynamic, 64) num_threads(threads_for(p, L->link_count)) \
     if (L->link_count >= LSOLVE_PARALLEL_MIN_LINKS)
     for (uint32_t r = 0; r < n; r++) scratch[r] = gather_one(L, r, B);
+    gather_clusters(p, B, scratch);
     for (uint32_t i = 0; i < n; i++) {
         const rad_link_node *e = &L->nodes[i];
-        if (e->parent != RAD_NO_ELEMENT) scratch[i] += scratch[e->parent]; /* H: pushed down */
+        const uint32_t up = node_up(p, i);
+        if (up != RAD_NO_ELEMENT) scratch[i] += scratch[up]; /* H: pushed down */
         if (e->first_child != RAD_NO_ELEMENT) continue;
         sums[0] += e->area * v->E[i];
         sums[1] += e->area * (1 - v->rho[i]) * scratch[i];
@@ -470,11 +646,11 @@ rad_status rad_lsolve(const rad_links *links, const rad_mesh *leaves, const rad_
     lsolve_plan plan;
     status = plan_make(links, o.threads, &plan);
     if (status != RAD_OK) return status;
-    const size_t n = links->node_count, leaf_count = links->leaf_count;
+    const size_t n = rad_links_id_count(links), leaf_count = links->leaf_count; /* vectors over the ids */
     double *block = malloc(6 * n * sizeof(double));
     double *solved = malloc((leaf_count ? 3 * leaf_count : 1) * sizeof(double)); /* B is written on success only */
     if (!block || !solved) {
-        rad_error("links: out of memory for the solve's vectors over %zu nodes", n);
+        rad_error("links: out of memory for the solve's vectors over %zu nodes and clusters", n);
         status = RAD_ERR_NOMEM;
     }
     rad_lsolve_result result;

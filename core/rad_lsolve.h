@@ -11,12 +11,20 @@
  * One sweep, per channel c (rho, E: the leaf patches' values; a split
  * node's are its root's, which all its leaves share):
  *   gather  G_r = rho_r * sum over r's links of F_rs * B_s   (every node r)
- *   push    down each tree: D_leaf = sum of G over the leaf and its ancestors
+ *           H_c = sum over c's links of F_cs * B_s           (every cluster c)
+ *   push    down the cluster tree: H_c summed over c and the clusters above;
+ *           into each root: G_root += rho_root * H of its leaf cluster;
+ *           down each tree: D_leaf = sum of G over the leaf and its ancestors
  *           B_leaf = E_leaf + D_leaf
- *   pull    up each tree: B_node = area-weighted mean of its children's B
- * Jacobi gathers every G from the previous sweep's B; Gauss-Seidel goes
- * tree by tree (roots in order) and gathers from the newest B, the trees
- * already swept included. The residual is today's solve's: the largest
+ *   pull    up each tree: B_node = area-weighted mean of its children's B;
+ *           up the cluster tree: B_c = area-weighted mean of its roots' B
+ * (sources s range over nodes and clusters; without clusters their lines
+ * do nothing and the bytes are those of a solve that has none). Jacobi
+ * gathers every G and H from the previous sweep's B; Gauss-Seidel gathers
+ * the clusters' H from the sweep's start, then goes tree by tree (roots in
+ * order) and gathers from the newest B, the trees already swept included
+ * (a cluster's B stays its start value until the sweep's end, where the
+ * clusters are pulled). The residual is today's solve's: the largest
  * |E + rho sum F B - B| over the leaves, scaled by ||E||_inf, of the
  * iterate returned (docs/solve.md). At --link-tol 0 on a uniform
  * hierarchy every link joins two leaves and this is the full matrix's
@@ -50,15 +58,16 @@ typedef struct rad_lsolve_result {
     int converged;             /* every channel met the tolerance */
     /* The energy balance over the leaves (as solve's, docs/solve.md):
      * emitted = sum A E, absorbed = sum A (1 - rho) H, escaped =
-     * sum A B (1 - s) with s a leaf's row sum (its and its ancestors'
-     * links' F), summed over the channels; imbalance = (absorbed +
-     * escaped - emitted) / emitted. */
+     * sum A B (1 - s) with s a leaf's row sum (its, its ancestors' and
+     * its root's clusters' links' F), summed over the channels;
+     * imbalance = (absorbed + escaped - emitted) / emitted. */
     double emitted, absorbed, escaped, imbalance;
     double seconds;
 } rad_lsolve_result;
 
 /* Solves into B (3 values per leaf, RGB). RAD_ERR_NOMEM; RAD_ERR_INVALID
- * for a leaves mesh that does not match the links. Logs progress (info)
+ * for a leaves mesh that does not match the links, or trees, clusters or
+ * a link table it cannot index (rad_links.h). Logs progress (info)
  * on long runs. Zero fields of options (options NULL: all) are the
  * defaults. A channel that stops at max_iterations gives
  * RAD_ERR_NOT_CONVERGED with B and *out filled (the last iterate

@@ -221,5 +221,12 @@ static rad_status cpu_compute_pairs(void *state, const rad_ff_patch *patches, co
     return RAD_OK;
 }
 
+int ff_backend_cpu_occluded(void *state, rad_vec3 x, rad_vec3 nx, uint32_t fx, rad_vec3 y, rad_vec3 ny, uint32_t fy)
+{
+    const cpu_state *s = state;
+    cpu_tracer tracer = {&s->bvh, s->setup.ray_delta};
+    return cpu_occluded(&tracer, x, nx, fx, y, ny, fy);
+}
+
 const ff_backend ff_backend_cpu = {"cpu",          cpu_create,    cpu_compute_rows, cpu_destroy,
                                    cpu_alloc_rows, cpu_free_rows, NULL,             cpu_compute_pairs};

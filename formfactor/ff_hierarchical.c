@@ -86,7 +86,12 @@ static rad_status build_links(hier_run *h)
     for (size_t k = 0; k < h->base.patch_count; k++) total_area += h->base.patches[k].area;
     ff_links_config config = {.link_tol = opt->link_tol, .oracle = ff_oracle_resolve(opt->oracle, opt->uniform_leaves),
                               .max_level = opt->subdiv_given ? (uint32_t)opt->subdiv : FF_HIER_MAX_LEVEL,
-                              .min_area = opt->min_area * total_area, .uniform_leaves = opt->uniform_leaves};
+                              .min_area = opt->min_area * total_area, .uniform_leaves = opt->uniform_leaves,
+                              .clusters = opt->clusters >= 0 ? opt->clusters
+                                                             : h->base.patch_count >= FF_CLUSTERS_AUTO_ROOTS};
+    if (opt->clusters < 0)
+        rad_info("--clusters auto: %s (%zu faces; on from %u)", config.clusters ? "on" : "off", h->base.patch_count,
+                 FF_CLUSTERS_AUTO_ROOTS);
     if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, &ff_backend_cpu, h->backend_state)) !=
         RAD_OK)
         return st;
@@ -200,6 +205,12 @@ static rad_status write_stats(const hier_run *h)
     rad_json_number(&w, (double)x->link_count / x->leaf_count);
     rad_json_key(&w, "links_per_element");
     rad_json_number(&w, (double)x->link_count / x->node_count);
+    rad_json_key(&w, "clusters");
+    rad_json_uint(&w, x->cluster_count);
+    rad_json_key(&w, "cluster_pairs");
+    rad_json_uint(&w, h->links.cluster_pairs);
+    rad_json_key(&w, "cluster_rays");
+    rad_json_uint(&w, h->links.cluster_rays);
     rad_json_key(&w, "candidate_pairs");
     rad_json_uint(&w, h->links.candidates);
     rad_json_key(&w, "rounds");

@@ -7,6 +7,7 @@
 
 #include "ff_pair_class.h" /* ff_pair_verdict */
 #include "ff_setup.h"
+#include "rad_clock.h"
 #include "rad_log.h"
 
 const char *ff_oracle_name(ff_oracle oracle)
@@ -73,8 +74,39 @@ static rad_status elements_added(ff_links *L, size_t from)
 
 static int splittable(const ff_links *L, uint32_t e)
 {
+    if (ff_is_cluster(e)) return 1; /* into its child clusters or its roots */
     const rad_element *el = &L->tree.elements[e];
     return el->level < L->config.max_level && 0.25 * el->area >= L->config.min_area;
+}
+
+/* The cluster tree over the roots (their patches are elements 0 .. roots - 1),
+ * each cluster's largest rho, and its oracle B from the roots' E. */
+static void cluster_values(ff_links *L, const double *lo, const double *hi);
+
+static rad_status clusters_init(ff_links *L)
+{
+    if (L->backend != &ff_backend_cpu) {
+        rad_error("clusters: the %s backend cannot trace cluster links (use the CPU backend or --clusters off)",
+                  L->backend->name);
+        return RAD_ERR_UNSUPPORTED;
+    }
+    if (L->tree.base->patch_count >= FF_CLUSTER_BIT / 2) {
+        rad_error("clusters: %zu faces, more than a hierarchy with clusters numbers", L->tree.base->patch_count);
+        return RAD_ERR_UNSUPPORTED;
+    }
+    rad_status st = ff_clusters_build(L->patches, (uint32_t)L->tree.base->patch_count, &L->clusters);
+    if (st != RAD_OK) return st;
+    size_t n = L->clusters.count;
+    L->cluster_radiosity = malloc(3 * n * sizeof *L->cluster_radiosity);
+    L->cluster_rho = malloc(3 * n * sizeof *L->cluster_rho);
+    L->cluster_spread = calloc(n, sizeof *L->cluster_spread);
+    if (!L->cluster_radiosity || !L->cluster_rho || !L->cluster_spread) {
+        rad_error("clusters: out of memory for %zu clusters", n);
+        return RAD_ERR_NOMEM;
+    }
+    cluster_values(L, NULL, NULL);
+    rad_info("clusters: %zu over %zu faces", n, L->tree.base->patch_count);
+    return RAD_OK;
 }
 
 rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *base, const double centre[3],
@@ -110,6 +142,7 @@ rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *ba
         st = rad_hierarchy_split_to(&L->tree, (uint32_t)r, config->max_level);
         if (st == RAD_OK) st = elements_added(L, before);
     }
+    if (st == RAD_OK && config->clusters) st = clusters_init(L);
     return st;
 }
 
@@ -121,7 +154,71 @@ void ff_links_free(ff_links *L)
     free(L->radiosity);
     free(L->spread);
     free(L->links);
+    ff_clusters_free(&L->clusters);
+    free(L->cluster_radiosity);
+    free(L->cluster_rho);
+    free(L->cluster_spread);
     memset(L, 0, sizeof *L);
+}
+
+/* ---- what the oracle reads of an element or a cluster ---- */
+
+static double node_area(const ff_links *L, uint32_t id)
+{
+    return ff_is_cluster(id) ? L->clusters.clusters[ff_cluster_of(id)].link.area : L->tree.elements[id].area;
+}
+
+static const double *node_rho(const ff_links *L, uint32_t id)
+{
+    return ff_is_cluster(id) ? &L->cluster_rho[3 * (size_t)ff_cluster_of(id)]
+                             : L->tree.base->patches[L->tree.elements[id].root].rho;
+}
+
+static const double *node_radiosity(const ff_links *L, uint32_t id)
+{
+    return ff_is_cluster(id) ? &L->cluster_radiosity[3 * (size_t)ff_cluster_of(id)] : &L->radiosity[3 * (size_t)id];
+}
+
+static double node_spread(const ff_links *L, uint32_t id)
+{
+    return ff_is_cluster(id) ? L->cluster_spread[ff_cluster_of(id)] : L->spread[id];
+}
+
+static ff_cluster_bound node_bound(const ff_links *L, uint32_t id)
+{
+    return ff_is_cluster(id) ? L->clusters.clusters[ff_cluster_of(id)].bound : ff_element_bound(&L->patches[id]);
+}
+
+/* Per cluster (children after parents: one pass from the end): the
+ * largest rho and B of its roots, and the spread of B over their leaves
+ * (lo, hi: per element, RGB; NULL before a solution: 0). Before a
+ * solution a cluster's B is at least the scene's mean radiosity
+ * (reflected, P / area then): a cluster that emits nothing still sends
+ * what it reflects, and pass 1 weighing its links by 0 would take every
+ * cluster link the bounds allow, however poor (an element pair's estimate
+ * is good enough for that; a cluster's bounds are not). */
+static void cluster_values(ff_links *L, const double *lo, const double *hi)
+{
+    const ff_cluster_tree *t = &L->clusters;
+    for (uint32_t c = t->count; c-- > 0;) {
+        const rad_link_cluster *l = &t->clusters[c].link;
+        double *rho = &L->cluster_rho[3 * (size_t)c], *B = &L->cluster_radiosity[3 * (size_t)c];
+        double low[3] = {INFINITY, INFINITY, INFINITY}, high[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (int k = 0; k < 3; k++) rho[k] = B[k] = 0;
+        for (uint32_t i = l->root_begin; i < l->root_end; i++) {
+            uint32_t r = t->roots[i];
+            const double *root_rho = L->tree.base->patches[r].rho, *root_B = &L->radiosity[3 * (size_t)r];
+            for (int k = 0; k < 3; k++) {
+                rho[k] = fmax(rho[k], root_rho[k]);
+                B[k] = fmax(B[k], root_B[k]);
+                if (lo) low[k] = fmin(low[k], lo[3 * (size_t)r + k]), high[k] = fmax(high[k], hi[3 * (size_t)r + k]);
+            }
+        }
+        double d = 0;
+        for (int k = 0; lo && k < 3; k++) d = fmax(d, high[k] - low[k]);
+        L->cluster_spread[c] = d;
+        for (int k = 0; !lo && k < 3; k++) B[k] = fmax(B[k], L->reflected);
+    }
 }
 
 /* ---- the oracle ---- */
@@ -204,6 +301,7 @@ static double gather_error(const ff_pair_outcome *o, double spread, double curva
  * advance (uniform leaves), else 0. */
 static uint32_t leaf_depth(const ff_links *L, uint32_t e)
 {
+    if (ff_is_cluster(e)) return 0;
     const uint32_t level = L->tree.elements[e].level;
     return L->config.uniform_leaves && L->config.max_level > level ? L->config.max_level - level : 0;
 }
@@ -217,9 +315,9 @@ static uint32_t leaf_depth(const ff_links *L, uint32_t e)
 static double weight(const ff_links *L, uint32_t r, uint32_t s, double F_rs, double e_rs)
 {
     if (L->config.oracle == FF_ORACLE_FACTOR) return F_rs;
-    const double *rho = L->tree.base->patches[L->tree.elements[r].root].rho, *B = &L->radiosity[3 * (size_t)s];
+    const double *rho = node_rho(L, r), *B = node_radiosity(L, s);
     double rb = fmax(rho[0] * B[0], fmax(rho[1] * B[1], rho[2] * B[2]));
-    if (L->config.oracle == FF_ORACLE_POWER) return rb * L->tree.elements[r].area * F_rs;
+    if (L->config.oracle == FF_ORACLE_POWER) return rb * node_area(L, r) * F_rs;
     return rb * e_rs;
 }
 
@@ -230,16 +328,16 @@ static double weight(const ff_links *L, uint32_t r, uint32_t s, double F_rs, dou
 static double gather_weight(const ff_links *L, uint32_t r, uint32_t s, double F_rs, double g_rs, double F_sr,
                             double e_sr)
 {
-    const double *rho = L->tree.base->patches[L->tree.elements[r].root].rho;
+    const double *rho = node_rho(L, r);
     const double varies = F_sr > 0 ? fmin(1.0, e_sr / F_sr) : 1.0;
-    return weight(L, r, s, F_rs, g_rs) + fmax(rho[0], fmax(rho[1], rho[2])) * F_rs * L->spread[s] * varies;
+    return weight(L, r, s, F_rs, g_rs) + fmax(rho[0], fmax(rho[1], rho[2])) * F_rs * node_spread(L, s) * varies;
 }
 
 /* Does the pair (a, b) need finer elements? link_tol 0: always. */
 static int over_tolerance(const ff_links *L, const ff_link_pair *p)
 {
     if (L->config.link_tol <= 0) return 1;
-    double Fab = p->coupling * L->tree.elements[p->b].area, Fba = p->coupling * L->tree.elements[p->a].area;
+    double Fab = p->coupling * node_area(L, p->b), Fba = p->coupling * node_area(L, p->a);
     double w;
     if (L->config.oracle == FF_ORACLE_GATHER)
         w = fmax(gather_weight(L, p->a, p->b, Fab, p->left_ab, Fba, p->error_ba),
@@ -291,10 +389,60 @@ static rad_status link_push(ff_links *L, const ff_link_pair *p)
     return RAD_OK;
 }
 
+/* A pair with a cluster at an end: a cluster's self-link becomes the
+ * pairs of its children (each with itself too) or of its roots (a flat
+ * face does not see itself); another pair the pairs of its cluster's parts
+ * (the wider cluster's, by bounding sphere, where both ends are clusters)
+ * with the other end, a cluster's parts being its child clusters or its
+ * roots. An element is not split against a cluster: what a cluster link
+ * cannot resolve is the cluster's faces (their orientations, their
+ * distances), and cutting a wall into its finest elements around every
+ * object in front of it (measured: 15x the elements of the interior at
+ * 5 000 faces) resolves nothing; face pairs are computed exactly, and
+ * their own estimates split elements where the light varies. */
+static rad_status split_cluster_pair(ff_links *L, uint32_t a, uint32_t b, job_list *next)
+{
+    rad_status st = RAD_OK;
+    if (a == b) {
+        const rad_link_cluster *c = &L->clusters.clusters[ff_cluster_of(a)].link;
+        if (c->child_count) {
+            for (uint32_t i = 0; i < c->child_count && st == RAD_OK; i++)
+                for (uint32_t j = i; j < c->child_count && st == RAD_OK; j++)
+                    st = job_push(next, FF_CLUSTER_ID(c->first_child + i), FF_CLUSTER_ID(c->first_child + j));
+        } else {
+            for (uint32_t i = c->root_begin; i < c->root_end && st == RAD_OK; i++)
+                for (uint32_t j = i + 1; j < c->root_end && st == RAD_OK; j++)
+                    st = job_push(next, L->clusters.roots[i], L->clusters.roots[j]);
+        }
+        return st;
+    }
+    ff_cluster_bound ba = node_bound(L, a), bb = node_bound(L, b);
+    int sa = splittable(L, a), sb = splittable(L, b);
+    if (ff_is_cluster(a) != ff_is_cluster(b)) sa = ff_is_cluster(a), sb = !sa;
+    uint32_t side = sa && (!sb || ba.radius >= bb.radius) ? a : b, other = side == a ? b : a;
+    if (ff_is_cluster(side)) {
+        const rad_link_cluster *c = &L->clusters.clusters[ff_cluster_of(side)].link;
+        if (c->child_count)
+            for (uint32_t i = 0; i < c->child_count && st == RAD_OK; i++)
+                st = job_push(next, FF_CLUSTER_ID(c->first_child + i), other);
+        else
+            for (uint32_t i = c->root_begin; i < c->root_end && st == RAD_OK; i++)
+                st = job_push(next, L->clusters.roots[i], other);
+        return st;
+    }
+    size_t before = L->tree.element_count;
+    uint32_t first;
+    st = rad_hierarchy_split(&L->tree, side, &first);
+    if (st == RAD_OK && L->tree.element_count > before) st = elements_added(L, before);
+    for (uint32_t i = 0; i < 4 && st == RAD_OK; i++) st = job_push(next, first + i, other);
+    return st;
+}
+
 /* Replaces pair (a, b) by its children's pairs in `next`: the larger
  * element split, both where their areas are within 2x (and both can be). */
 static rad_status split_pair(ff_links *L, uint32_t a, uint32_t b, job_list *next)
 {
+    if (ff_is_cluster(a) || ff_is_cluster(b)) return split_cluster_pair(L, a, b, next);
     double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
     int sa = splittable(L, a), sb = splittable(L, b);
     int both = sa && sb && Aa <= 2 * Ab && Ab <= 2 * Aa;
@@ -315,66 +463,206 @@ static rad_status split_pair(ff_links *L, uint32_t a, uint32_t b, job_list *next
     return st;
 }
 
+/* ---- pairs with a cluster at an end ---- */
+
+/* What a pair with a cluster at an end came to (cluster_pair). */
+typedef struct cluster_outcome {
+    double coupling;      /* c_ab, visibility included */
+    double error_ab, error_ba;
+    uint32_t rays, blocked;
+    int facing;           /* 0: no link */
+    int must_split;       /* a self-link, or ends too close for a cluster link */
+} cluster_outcome;
+
+static uint64_t mix64(uint64_t x)
+{
+    x += 0x9E3779B97F4A7C15ull;
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+    return x ^ (x >> 31);
+}
+
+static double unit_of(uint64_t h) { return (double)(h >> 11) * 0x1.0p-53; }
+
+/* A point on side id for the draw h: on the element, or on a face of the
+ * cluster drawn in proportion to its area. */
+static const rad_ff_patch *side_point(const ff_links *L, uint32_t id, uint64_t h, rad_vec3 *x)
+{
+    uint64_t h1 = mix64(h), h2 = mix64(h1), h3 = mix64(h2);
+    const rad_ff_patch *p =
+        ff_is_cluster(id) ? &L->patches[ff_cluster_pick_root(&L->clusters, ff_cluster_of(id), unit_of(h1))]
+                          : &L->patches[id];
+    *x = rad_ff_sample_point(p, unit_of(h2), unit_of(h3));
+    return p;
+}
+
+/* A cluster link is made only between ends whose bounding spheres' radii
+ * sum to less than this fraction of their centres' distance: nearer, the
+ * bounds say nothing (their distance goes to 0). Between, the oracle
+ * weighs the bounds' error. */
+#define FF_CLUSTER_ADMISSIBLE 0.9
+
+/* The pair (a, b), a cluster at one end at least: the bounds' estimate
+ * (ff_cluster_pair_estimate) times the visible fraction of FF_CLUSTER_RAYS
+ * segments between points drawn on the two ends, facing each other. The
+ * error of F_ab is what the bounds allow a point of a's faces to see of b
+ * beyond F_ab, the lower bound taken only where every segment was clear. */
+static void cluster_pair(const ff_links *L, uint32_t a, uint32_t b, cluster_outcome *o)
+{
+    memset(o, 0, sizeof *o);
+    if (a == b) {
+        o->facing = o->must_split = 1;
+        return;
+    }
+    ff_cluster_bound ba = node_bound(L, a), bb = node_bound(L, b);
+    ff_cluster_pair_bound pb = ff_cluster_pair_estimate(&ba, &bb);
+    if (!pb.facing) return;
+    o->facing = 1;
+    if (ba.radius + bb.radius >= FF_CLUSTER_ADMISSIBLE * rad_v3_length(rad_v3_sub(ba.centre, bb.centre))) {
+        o->must_split = 1;
+        return;
+    }
+    uint32_t valid = 0, blocked = 0;
+    const uint64_t seed = mix64(((uint64_t)a << 32) | b);
+    for (uint32_t k = 0; k < 4 * FF_CLUSTER_RAYS && valid < FF_CLUSTER_RAYS; k++) {
+        rad_vec3 x, y;
+        const rad_ff_patch *px = side_point(L, a, seed + 2 * k, &x), *py = side_point(L, b, seed + 2 * k + 1, &y);
+        rad_vec3 d = rad_v3_sub(y, x);
+        if (rad_v3_dot(px->normal, d) <= 0 || rad_v3_dot(py->normal, d) >= 0) continue;
+        valid++;
+        blocked += (uint32_t)ff_backend_cpu_occluded(L->backend_state, x, px->normal, px->face, y, py->normal,
+                                                     py->face);
+    }
+    const double V = valid ? 1.0 - (double)blocked / valid : 1.0;
+    const int clear = valid == FF_CLUSTER_RAYS && blocked == 0;
+    o->coupling = V * pb.coupling;
+    o->rays = valid;
+    o->blocked = blocked;
+    double Fab = o->coupling * bb.area, Fba = o->coupling * ba.area;
+    o->error_ab = fmax(pb.hi_rs - Fab, Fab - (clear ? pb.lo_rs : 0.0));
+    o->error_ba = fmax(pb.hi_sr - Fba, Fba - (clear ? pb.lo_sr : 0.0));
+}
+
 /* Candidates through the backend, then decided in order. */
 static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters, uint64_t *refined)
 {
     rad_status st = RAD_OK;
-    ff_pair_outcome *out = NULL;
-    double *geometry = NULL; /* per job: mean, spread, curvature of a -> b and of b -> a */
+    ff_pair_outcome *out = NULL;  /* per element pair, in list order */
+    double *geometry = NULL;      /* per element pair: mean, spread, curvature of a -> b and of b -> a */
+    cluster_outcome *cout = NULL; /* per pair with a cluster at an end, in list order */
     size_t out_cap = 0;
-    job_list next = {0};
+    job_list next = {0}, pairs = {0}, cpairs = {0}; /* this round's element pairs (the backend's), cluster pairs */
     while (st == RAD_OK && list->count > 0) {
         size_t n = list->count;
         if (n > out_cap) {
             free(out);
             free(geometry);
+            free(cout);
             out = malloc(n * sizeof *out);
             geometry = malloc(6 * n * sizeof *geometry);
+            cout = malloc(n * sizeof *cout);
             out_cap = n;
-            if (!out || !geometry) {
+            if (!out || !geometry || !cout) {
                 rad_error("hierarchy: out of memory for %zu candidate pairs", n);
                 st = RAD_ERR_NOMEM;
                 break;
             }
         }
-        st = L->backend->compute_pairs(L->backend_state, L->patches, L->keys, list->jobs, n, out, counters);
+        pairs.count = 0;
+        size_t clustered = 0;
+        for (size_t k = 0; k < n && st == RAD_OK; k++) {
+            const ff_pair_job *j = &list->jobs[k];
+            if (ff_is_cluster(j->a) || ff_is_cluster(j->b))
+                clustered++;
+            else
+                st = job_push(&pairs, j->a, j->b);
+        }
+        if (st != RAD_OK) break;
+        if (pairs.count) st = L->backend->compute_pairs(L->backend_state, L->patches, L->keys, pairs.jobs,
+                                                        pairs.count, out, counters);
         if (st != RAD_OK) break;
         const rad_ff_patch *patches = L->patches;
-        const ff_pair_job *jobs = list->jobs;
+        const ff_pair_job *jobs = pairs.jobs;
 #pragma omp parallel for schedule(dynamic, 64)
-        for (size_t k = 0; k < n; k++) {
+        for (size_t k = 0; k < pairs.count; k++) {
             if (out[k].verdict == FF_PAIR_NOT_FACING) continue;
             const rad_ff_patch *pa = &patches[jobs[k].a], *pb = &patches[jobs[k].b];
             factor_spread(pa, pb, &geometry[6 * k], &geometry[6 * k + 1], &geometry[6 * k + 2]);
             factor_spread(pb, pa, &geometry[6 * k + 3], &geometry[6 * k + 4], &geometry[6 * k + 5]);
         }
+        if (clustered) {
+            /* the cluster pairs, in list order */
+            cpairs.count = 0;
+            for (size_t k = 0; k < n && st == RAD_OK; k++) {
+                const ff_pair_job *j = &list->jobs[k];
+                if (ff_is_cluster(j->a) || ff_is_cluster(j->b)) st = job_push(&cpairs, j->a, j->b);
+            }
+            if (st != RAD_OK) break;
+            const size_t m = cpairs.count;
+            const ff_pair_job *cj = cpairs.jobs;
+            long long t0 = rad_clock_ns();
+#pragma omp parallel for schedule(dynamic, 16)
+            for (size_t i = 0; i < m; i++) cluster_pair(L, cj[i].a, cj[i].b, &cout[i]);
+            counters->visibility_seconds += 1e-9 * (double)(rad_clock_ns() - t0);
+            L->cluster_pairs += m;
+            for (size_t i = 0; i < m; i++) L->cluster_rays += cout[i].rays;
+        }
         L->candidates += n;
         L->rounds++;
+        const size_t links_before = L->link_count;
+        size_t near = 0, cluster_links = 0, element_splits = 0;
         next.count = 0;
+        size_t ke = 0, kc = 0;
         for (size_t k = 0; k < n && st == RAD_OK; k++) {
-            if (out[k].verdict == FF_PAIR_NOT_FACING) continue;
             uint32_t a = list->jobs[k].a, b = list->jobs[k].b;
-            double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
-            const double *g = &geometry[6 * k];
-            ff_link_pair p = {.a = a, .b = b, .coupling = out[k].coupling,
-                              .error_ab = (float)factor_error(&out[k], g[1], g[0], Ab),
-                              .error_ba = (float)factor_error(&out[k], g[4], g[3], Aa),
-                              .left_ab = (float)gather_error(&out[k], g[1], g[2], g[0], Ab, leaf_depth(L, a)),
-                              .left_ba = (float)gather_error(&out[k], g[4], g[5], g[3], Aa, leaf_depth(L, b))};
+            ff_link_pair p = {.a = a, .b = b};
+            if (ff_is_cluster(a) || ff_is_cluster(b)) {
+                const cluster_outcome *c = &cout[kc++];
+                if (!c->facing) continue;
+                if (c->must_split) {
+                    near++;
+                    st = split_cluster_pair(L, a, b, &next);
+                    (*refined)++;
+                    continue;
+                }
+                p.coupling = c->coupling;
+                p.error_ab = p.left_ab = (float)c->error_ab;
+                p.error_ba = p.left_ba = (float)c->error_ba;
+            } else {
+                const ff_pair_outcome *o = &out[ke];
+                const double *g = &geometry[6 * ke++];
+                if (o->verdict == FF_PAIR_NOT_FACING) continue;
+                double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
+                p.coupling = o->coupling;
+                p.error_ab = (float)factor_error(o, g[1], g[0], Ab);
+                p.error_ba = (float)factor_error(o, g[4], g[3], Aa);
+                p.left_ab = (float)gather_error(o, g[1], g[2], g[0], Ab, leaf_depth(L, a));
+                p.left_ba = (float)gather_error(o, g[4], g[5], g[3], Aa, leaf_depth(L, b));
+            }
             if ((splittable(L, a) || splittable(L, b)) && over_tolerance(L, &p)) {
+                element_splits += !ff_is_cluster(a) && !ff_is_cluster(b);
                 st = split_pair(L, a, b, &next);
                 (*refined)++;
             } else {
+                cluster_links += ff_is_cluster(a) || ff_is_cluster(b);
                 st = link_push(L, &p);
             }
         }
+        if (clustered && n >= 100000) /* progress, where rounds take seconds */
+            rad_info("round %llu: %zu candidates: %zu element pairs (%zu refined), %zu with a cluster (%zu too near, "
+                     "%zu linked); %zu links, %zu elements",
+                     (unsigned long long)L->rounds, n, n - clustered, element_splits, clustered, near, cluster_links,
+                     L->link_count - links_before, L->tree.element_count);
         job_list t = *list;
         *list = next;
         next = t;
     }
     free(out);
     free(geometry);
+    free(cout);
     free(next.jobs);
+    free(pairs.jobs);
+    free(cpairs.jobs);
     return st;
 }
 
@@ -439,6 +727,7 @@ static void set_radiosity(ff_links *L, const double *leaf_radiosity)
         }
         L->spread[e] = lo ? d : INFINITY; /* without memory for the spread: refine as if unknown */
     }
+    if (L->config.clusters) cluster_values(L, lo, hi);
     free(lo);
     /* The error oracle's scale: the mean radiosity of what does not emit
      * (brightest channel, area-weighted over the roots). */
@@ -461,7 +750,9 @@ rad_status ff_links_refine(ff_links *L, const double *leaf_radiosity, ff_counter
     job_list list = {0};
     rad_status st = RAD_OK;
     uint64_t refined = 0;
-    if (L->passes == 0) {
+    if (L->passes == 0 && L->config.clusters) {
+        st = job_push(&list, FF_CLUSTER_ID(0), FF_CLUSTER_ID(0));
+    } else if (L->passes == 0) {
         uint32_t roots = (uint32_t)L->tree.base->patch_count;
         for (uint32_t a = 0; a < roots && st == RAD_OK; a++)
             for (uint32_t b = a + 1; b < roots && st == RAD_OK; b++) st = job_push(&list, a, b);
@@ -502,12 +793,16 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     memset(out, 0, sizeof *out);
     rad_status st = rad_hierarchy_leaves(h, leaves);
     if (st != RAD_OK) return st;
-    size_t n = h->element_count;
+    size_t n = h->element_count, C = L->clusters.count, ids = n + C;
     out->nodes = malloc(n * sizeof *out->nodes);
-    out->first_link = calloc(n + 1, sizeof *out->first_link);
+    out->first_link = calloc(ids + 1, sizeof *out->first_link);
     out->links = malloc((L->link_count ? 2 * L->link_count : 1) * sizeof *out->links);
+    if (C) {
+        out->clusters = malloc(C * sizeof *out->clusters);
+        out->cluster_roots = malloc(L->clusters.root_count * sizeof *out->cluster_roots);
+    }
     uint32_t *order = leaf_elements(h);
-    if (!out->nodes || !out->first_link || !out->links || !order) {
+    if (!out->nodes || !out->first_link || !out->links || !order || (C && (!out->clusters || !out->cluster_roots))) {
         free(order);
         rad_links_free(out);
         rad_mesh_free(leaves);
@@ -532,28 +827,33 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     }
     for (uint32_t k = 0; k < out->leaf_count; k++) out->nodes[order[k]].leaf = k;
     free(order);
+    out->cluster_count = (uint32_t)C;
+    for (size_t c = 0; c < C; c++) out->clusters[c] = L->clusters.clusters[c].link;
+    if (C) memcpy(out->cluster_roots, L->clusters.roots, L->clusters.root_count * sizeof *out->cluster_roots);
+    /* pair ids -> the file's: clusters after the nodes */
+#define EXPORT_ID(id) (ff_is_cluster(id) ? (uint32_t)n + ff_cluster_of(id) : (id))
     for (size_t k = 0; k < L->link_count; k++) {
-        out->first_link[L->links[k].a + 1]++;
-        out->first_link[L->links[k].b + 1]++;
+        out->first_link[EXPORT_ID(L->links[k].a) + 1]++;
+        out->first_link[EXPORT_ID(L->links[k].b) + 1]++;
     }
-    for (size_t e = 0; e < n; e++) out->first_link[e + 1] += out->first_link[e];
-    out->link_count = out->first_link[n];
-    uint64_t *fill = malloc((n ? n : 1) * sizeof *fill);
+    for (size_t e = 0; e < ids; e++) out->first_link[e + 1] += out->first_link[e];
+    out->link_count = out->first_link[ids];
+    uint64_t *fill = malloc((ids ? ids : 1) * sizeof *fill);
     if (!fill) {
         rad_links_free(out);
         rad_mesh_free(leaves);
         return RAD_ERR_NOMEM;
     }
-    memcpy(fill, out->first_link, n * sizeof *fill);
+    memcpy(fill, out->first_link, ids * sizeof *fill);
     for (size_t k = 0; k < L->link_count; k++) {
         const ff_link_pair *p = &L->links[k];
-        out->links[fill[p->a]++] =
-            (rad_link){.source = p->b, .error = p->error_ab, .factor = p->coupling * h->elements[p->b].area};
-        out->links[fill[p->b]++] =
-            (rad_link){.source = p->a, .error = p->error_ba, .factor = p->coupling * h->elements[p->a].area};
+        uint32_t a = EXPORT_ID(p->a), b = EXPORT_ID(p->b);
+        out->links[fill[a]++] = (rad_link){.source = b, .error = p->error_ab, .factor = p->coupling * node_area(L, p->b)};
+        out->links[fill[b]++] = (rad_link){.source = a, .error = p->error_ba, .factor = p->coupling * node_area(L, p->a)};
     }
+#undef EXPORT_ID
     free(fill);
-    for (size_t e = 0; e < n; e++)
+    for (size_t e = 0; e < ids; e++)
         qsort(out->links + out->first_link[e], out->first_link[e + 1] - out->first_link[e], sizeof *out->links,
               by_source);
     return RAD_OK;
@@ -576,11 +876,12 @@ static const rad_link *find_link(const rad_links *x, uint32_t receiver, uint32_t
 
 double ff_links_error_bound(const ff_links *L, const rad_links *x, const double *leaf_radiosity)
 {
-    size_t n = x->node_count;
-    double *mean = calloc(3 * n, sizeof *mean), *lo = malloc(3 * n * sizeof *lo), *hi = malloc(3 * n * sizeof *hi);
-    double *beta = calloc(3 * n, sizeof *beta);
+    size_t n = x->node_count, ids = (size_t)rad_links_id_count(x);
+    double *mean = calloc(3 * ids, sizeof *mean), *lo = malloc(3 * ids * sizeof *lo), *hi = malloc(3 * ids * sizeof *hi);
+    double *beta = calloc(3 * ids, sizeof *beta);
+    uint32_t *leaf_cluster = x->cluster_count ? malloc(x->root_count * sizeof *leaf_cluster) : NULL;
     double bound = INFINITY;
-    if (!mean || !lo || !hi || !beta) goto done;
+    if (!mean || !lo || !hi || !beta || (x->cluster_count && !leaf_cluster)) goto done;
     /* B's mean, least and largest over each node's leaves (children after parents). */
     for (size_t e = n; e-- > 0;) {
         const rad_link_node *d = &x->nodes[e];
@@ -599,14 +900,50 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
             mean[3 * e + c] = s / d->area, lo[3 * e + c] = l, hi[3 * e + c] = h;
         }
     }
+    /* Clusters: B over their roots (children after parents), then their
+     * links' beta, each cluster's parent's added (parents first), and each
+     * root's leaf cluster, whose beta it takes before its own links. */
+    for (size_t c = x->cluster_count; c-- > 0;) {
+        const rad_link_cluster *k = &x->clusters[c];
+        double *m = &mean[3 * (n + c)], *l = &lo[3 * (n + c)], *h = &hi[3 * (n + c)];
+        for (int ch = 0; ch < 3; ch++) m[ch] = 0, l[ch] = INFINITY, h[ch] = -INFINITY;
+        for (uint32_t i = k->root_begin; i < k->root_end; i++) {
+            uint32_t r = x->cluster_roots[i];
+            if (!k->child_count) leaf_cluster[r] = (uint32_t)c;
+            for (int ch = 0; ch < 3; ch++) {
+                m[ch] += x->nodes[r].area * mean[3 * r + ch];
+                l[ch] = fmin(l[ch], lo[3 * r + ch]);
+                h[ch] = fmax(h[ch], hi[3 * r + ch]);
+            }
+        }
+        for (int ch = 0; ch < 3; ch++) m[ch] /= k->area;
+    }
+    for (size_t c = 0; c < x->cluster_count; c++) {
+        const size_t id = n + c;
+        const double *rho = &L->cluster_rho[3 * c];
+        for (uint64_t k = x->first_link[id]; k < x->first_link[id + 1]; k++) {
+            const rad_link *l = &x->links[k];
+            const rad_link *back = find_link(x, l->source, (uint32_t)id);
+            double rel = back && back->factor > 0 ? fmin(1.0, back->error / back->factor) : 1.0;
+            for (int ch = 0; ch < 3; ch++) {
+                size_t s = l->source;
+                double dB = fmax(hi[3 * s + ch] - mean[3 * s + ch], mean[3 * s + ch] - lo[3 * s + ch]);
+                beta[3 * id + ch] += rho[ch] * (l->error * hi[3 * s + ch] + rel * (l->factor + l->error) * dB);
+            }
+        }
+        if (x->clusters[c].parent != RAD_NO_ELEMENT)
+            for (int ch = 0; ch < 3; ch++) beta[3 * id + ch] += beta[3 * (n + x->clusters[c].parent) + ch];
+    }
     /* Each node's own links, then what its ancestors' add (parents first). */
     double q = 0, bmean = 0, area = 0, all_mean = 0, all_area = 0, worst = 0;
     for (size_t r = 0; r < n; r++) {
         const double *rho = L->tree.base->patches[x->nodes[r].root].rho;
+        if (leaf_cluster && r < x->root_count)
+            for (int c = 0; c < 3; c++) beta[3 * r + c] += beta[3 * (n + leaf_cluster[r]) + c];
         for (uint64_t k = x->first_link[r]; k < x->first_link[r + 1]; k++) {
             const rad_link *l = &x->links[k];
             const rad_link *back = find_link(x, l->source, (uint32_t)r);
-            double rel = back && back->factor > 0 ? back->error / back->factor : 1.0;
+            double rel = back && back->factor > 0 ? fmin(1.0, back->error / back->factor) : 1.0;
             /* A leaf receiver's F_rs is the sum of its leaves' F over s (the
              * factor adds up over the source): only the spread of B over s
              * is left; a leaf source has none. */
@@ -643,5 +980,6 @@ done:
     free(lo);
     free(hi);
     free(beta);
+    free(leaf_cluster);
     return bound;
 }

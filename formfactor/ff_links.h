@@ -30,6 +30,7 @@
 #include <stdint.h>
 
 #include "ff_backend.h"
+#include "ff_clusters.h"
 #include "ff_counters.h"
 #include "rad_hierarchy.h"
 #include "rad_links.h"
@@ -84,11 +85,27 @@ typedef struct ff_links_config {
     double min_area;    /* scene units^2: no element is split into children smaller than this */
     int uniform_leaves; /* every root split to max_level first: the leaves of the full matrix at
                            --subdiv max_level, whatever the tolerance (to compare the two) */
+    int clusters;       /* refinement starts from the self-link of a cluster tree over the roots
+                           (ff_clusters.h) instead of every pair of roots */
 } ff_links_config;
+
+/* --clusters auto turns clusters on from this many roots up: below, the
+ * k^2 pairs of roots cost less than the cluster links' rays (measured,
+ * docs/hierarchy.md "Clusters"). */
+#define FF_CLUSTERS_AUTO_ROOTS 2048u
+
+/* Pair ids: elements are 0 .. 2^31 - 1, cluster c is FF_CLUSTER_ID(c). */
+#define FF_CLUSTER_BIT 0x80000000u
+#define FF_CLUSTER_ID(c) (FF_CLUSTER_BIT | (uint32_t)(c))
+static inline int ff_is_cluster(uint32_t id) { return (id & FF_CLUSTER_BIT) != 0; }
+static inline uint32_t ff_cluster_of(uint32_t id) { return id & ~FF_CLUSTER_BIT; }
+
+/* Shadow segments per link with a cluster at an end (ff_links.c). */
+#define FF_CLUSTER_RAYS 8u
 
 /* A link as refinement holds it: both directions of one pair. */
 typedef struct ff_link_pair {
-    uint32_t a, b;           /* elements, a < b */
+    uint32_t a, b;           /* pair ids (elements or clusters), a < b */
     double coupling;         /* c_ab = F_ab / A_b = F_ba / A_a */
     float error_ab, error_ba; /* e of F_ab, of F_ba (F units) */
     float left_ab, left_ba;   /* g: what solve's shaped solve leaves of them (ff_oracle gather) */
@@ -111,8 +128,13 @@ typedef struct ff_links {
     double total_area;     /* of the roots */
     double reflected;      /* B_mean: the mean radiosity of what does not emit (area-weighted,
                               brightest channel): P / area until a solution is given */
+    ff_cluster_tree clusters;  /* config.clusters: the tree over the roots */
+    double *cluster_radiosity; /* per cluster, RGB: the largest B of its roots (the oracle's B_s) */
+    double *cluster_rho;       /* per cluster, RGB: the largest rho of its roots */
+    double *cluster_spread;    /* per cluster: largest - smallest B of its roots' leaves (gather oracle) */
     ff_link_pair *links;
     size_t link_count, link_cap;
+    uint64_t cluster_pairs, cluster_rays; /* candidates with a cluster at an end, their segments */
     /* what refinement did, all passes */
     uint64_t candidates, refined_pairs, rounds;
     uint32_t passes;
@@ -124,15 +146,17 @@ typedef struct ff_links {
 rad_status ff_links_init(ff_links *links, const rad_scene *scene, const rad_mesh *base, const double centre[3],
                          const ff_links_config *config, const ff_backend *backend, void *backend_state);
 
-/* One pass of refinement. The first pass starts from every pair of roots;
+/* One pass of refinement. The first pass starts from every pair of roots
+ * (from the root cluster's self-link with config.clusters);
  * later ones re-weigh the links made so far with `leaf_radiosity` (3 per
  * leaf of the last ff_links_export, in its order; NULL keeps the previous
  * B) and refine those now over the tolerance. *out_refined: the pairs
  * this pass refined (0: nothing changed). */
 rad_status ff_links_refine(ff_links *links, const double *leaf_radiosity, ff_counters *counters, uint64_t *out_refined);
 
-/* The links as rad_links (nodes in element order, links sorted by
- * receiver then source) and the leaves mesh (rad_hierarchy_leaves). */
+/* The links as rad_links (nodes in element order, then the clusters;
+ * links sorted by receiver then source) and the leaves mesh
+ * (rad_hierarchy_leaves). */
 rad_status ff_links_export(const ff_links *links, rad_links *out_links, rad_mesh *out_leaves);
 
 /* A bound on the solution's error against the full matrix of the same
@@ -143,9 +167,12 @@ rad_status ff_links_export(const ff_links *links, rad_links *out_links, rad_mesh
  * most 1, so the bound is max over leaves x of beta_x / (1 - rho_max), where
  * beta_x = rho_x sum over the links of x's ancestors (a split receiver r)
  * of e_rs B_s,max, plus over every link of x and its ancestors with a split
- * source s of (e_sr / F_sr)(F_rs + e_rs) dB_s: e_rs bounds how far the
- * factor from x may lie from F_rs, and the second term what the spread dB_s
- * of B over s's leaves adds where the factor varies over s. */
+ * source s of min(1, e_sr / F_sr)(F_rs + e_rs) dB_s: e_rs bounds how far
+ * the factor from x may lie from F_rs, and the second term what the spread
+ * dB_s of B over s's leaves adds where the factor varies over s (at most
+ * (F_rs + e_rs) dB_s, the factors to s's leaves being >= 0: a cluster
+ * link's F can be far below its error). Links at clusters count for every
+ * leaf under the cluster's roots. */
 double ff_links_error_bound(const ff_links *links, const rad_links *exported, const double *leaf_radiosity);
 
 void ff_links_free(ff_links *links);

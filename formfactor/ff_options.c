@@ -53,6 +53,9 @@ const char ff_options_help[] =
     "                           area (default: 1e-7)\n"
     "      --passes P           hierarchical: refinement passes, each re-weighing the\n"
     "                           links by the last solution's B (default: 3)\n"
+    "      --clusters C         auto | on | off (default: auto = on from 2048 faces):\n"
+    "                           hierarchical: start from one link of a cluster tree over\n"
+    "                           the faces instead of every pair of faces (docs/hierarchy.md)\n"
     "      --uniform-leaves     hierarchical: split every face to --subdiv first, so that\n"
     "                           the leaves are the full matrix's at --subdiv whatever\n"
     "                           --link-tol (to compare the two: tools/hier_study.py)\n"
@@ -176,6 +179,7 @@ static const ff_name backend_names[] = {
     {FF_BACKEND_AUTO, "auto"}, {FF_BACKEND_CPU, "cpu"}, {FF_BACKEND_CUDA, "cuda"}};
 static const ff_name method_names[] = {
     {FF_METHOD_FULL, "full"}, {FF_METHOD_HIERARCHICAL, "hierarchical"}, {FF_METHOD_AUTO, "auto"}};
+static const ff_name switch_names[] = {{-1, "auto"}, {0, "off"}, {1, "on"}};
 static const ff_name oracle_names[] = {{FF_ORACLE_AUTO, "auto"}, {0, "error"}, {1, "power"}, {2, "factor"}, {3, "gather"}};
 
 const char *ff_method_name(ff_method method)
@@ -279,7 +283,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
            O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT, O_KE,
-           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES, O_RADIOSITY, O_DRY_RUN };
+           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES, O_RADIOSITY, O_DRY_RUN, O_CLUSTERS };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -304,7 +308,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"preset", required_argument, 0, O_PRESET}, {"method", required_argument, 0, O_METHOD},
         {"link-tol", required_argument, 0, O_LINK_TOL}, {"oracle", required_argument, 0, O_ORACLE},
         {"min-area", required_argument, 0, O_MIN_AREA}, {"passes", required_argument, 0, O_PASSES},
-        {"uniform-leaves", no_argument, 0, O_UNIFORM_LEAVES}, {"radiosity", required_argument, 0, O_RADIOSITY},
+        {"uniform-leaves", no_argument, 0, O_UNIFORM_LEAVES}, {"clusters", required_argument, 0, O_CLUSTERS}, {"radiosity", required_argument, 0, O_RADIOSITY},
         {0, 0, 0, 0}};
     int rays_given = 0, rtol_given = 0;
     uint64_t v = 0;
@@ -356,6 +360,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_ORACLE: st = parse_name("--oracle", optarg, oracle_names, FF_NAMES_COUNT(oracle_names), &o->oracle); break;
         case O_MIN_AREA: st = rad_parse_real("--min-area", optarg, 0, 1, 1, 0, &o->min_area); break;
         case O_UNIFORM_LEAVES: o->uniform_leaves = 1; break;
+        case O_CLUSTERS: st = parse_name("--clusters", optarg, switch_names, FF_NAMES_COUNT(switch_names), &o->clusters); break;
         case O_PASSES: st = rad_parse_uint("--passes", optarg, 1, 100, &v); o->passes = (uint32_t)v; break;
         case O_PRESET: st = parse_name("--preset", optarg, preset_names, FF_NAMES_COUNT(preset_names), &o->preset); break;
         case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
@@ -535,7 +540,7 @@ rad_status ff_options_parse(int argc, char **argv, ff_options *out)
 {
     /* Zero is the default for the enums (auto, all, auto, sparse). */
     *out = (ff_options){.output = "formfactors", .samples = 512, .shadow_rays = 32, .seed = 1,
-                        .oracle = FF_ORACLE_AUTO, .link_tol = FF_HIER_LINK_TOL, .min_area = FF_HIER_MIN_AREA, .passes = FF_HIER_PASSES,
+                        .oracle = FF_ORACLE_AUTO, .clusters = -1, .link_tol = FF_HIER_LINK_TOL, .min_area = FF_HIER_MIN_AREA, .passes = FF_HIER_PASSES,
                         .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE,
                         .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL};
     out->refine = rad_refine_defaults();

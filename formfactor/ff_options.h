@@ -96,6 +96,7 @@ typedef struct ff_options {
     double min_area;         /* --min-area: fraction of the scene's total area */
     uint32_t passes;         /* --passes: refinement passes (hierarchical) */
     int uniform_leaves;      /* --uniform-leaves: every face split to --subdiv first (hierarchical) */
+    int clusters;            /* --clusters: 1 on, 0 off, -1 auto (on from FF_CLUSTERS_AUTO_ROOTS faces) */
     int preset;              /* --preset: FF_PRESET_FINAL (default) or FF_PRESET_PREVIEW */
     int ke_radiance;         /* --ke radiance: Ke is emitted radiance, E = pi Ke
                                 (rad_scene_options.ke_radiance); 0 = --ke radiosity */

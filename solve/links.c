@@ -58,27 +58,52 @@ static rad_status check_options(const solve_options *options, const char *input,
     return RAD_OK;
 }
 
-/* Each leaf's row sum, the F of its links and of its ancestors' (leaf_count
- * values, by leaf); NULL when out of memory. The links are as
- * rad_links_check passes them: parents before children, leaves in range. */
+/* Each leaf's row sum, the F of its links, of its ancestors' and of the
+ * clusters' that hold its root (leaf_count values, by leaf); NULL when out
+ * of memory. The links are as rad_links_check passes them: parents before
+ * children (clusters too), leaves in range, every root in one leaf
+ * cluster. */
 static double *leaf_row_sums(const rad_links *L)
 {
-    double *node = malloc((L->node_count ? L->node_count : 1) * sizeof *node);
+    const uint32_t n = L->node_count;
+    const uint64_t ids = rad_links_id_count(L);
+    double *id = malloc((ids ? ids : 1) * sizeof *id);
     double *leaf = malloc((L->leaf_count ? L->leaf_count : 1) * sizeof *leaf);
-    if (!node || !leaf) {
-        free(node);
+    uint32_t *root_cluster = L->cluster_count ? malloc((size_t)L->root_count * sizeof *root_cluster) : NULL;
+    if (!id || !leaf || (L->cluster_count && !root_cluster)) {
+        free(id);
         free(leaf);
+        free(root_cluster);
         return NULL;
     }
-    for (uint32_t i = 0; i < L->node_count; i++) {
+    for (uint32_t c = 0; c < L->cluster_count; c++) { /* down the cluster tree */
+        const rad_link_cluster *k = &L->clusters[c];
+        double s = 0;
+        for (uint64_t j = L->first_link[n + c]; j < L->first_link[n + c + 1]; j++) s += L->links[j].factor;
+        id[n + c] = s + (k->parent != RAD_NO_ELEMENT ? id[n + k->parent] : 0);
+        if (k->child_count == 0)
+            for (uint32_t q = k->root_begin; q < k->root_end; q++) root_cluster[L->cluster_roots[q]] = c;
+    }
+    for (uint32_t i = 0; i < n; i++) {
         double s = 0;
         for (uint64_t k = L->first_link[i]; k < L->first_link[i + 1]; k++) s += L->links[k].factor;
-        const uint32_t up = L->nodes[i].parent;
-        node[i] = s + (up != RAD_NO_ELEMENT ? node[up] : 0);
-        if (L->nodes[i].first_child == RAD_NO_ELEMENT) leaf[L->nodes[i].leaf] = node[i];
+        uint32_t up = L->nodes[i].parent;
+        if (up == RAD_NO_ELEMENT && root_cluster) up = n + root_cluster[i];
+        id[i] = s + (up != RAD_NO_ELEMENT ? id[up] : 0);
+        if (L->nodes[i].first_child == RAD_NO_ELEMENT) leaf[L->nodes[i].leaf] = id[i];
     }
-    free(node);
+    free(id);
+    free(root_cluster);
     return leaf;
+}
+
+/* The links at a cluster or from one. */
+static uint64_t cluster_link_count(const rad_links *L)
+{
+    const uint32_t n = L->node_count;
+    uint64_t count = L->first_link[rad_links_id_count(L)] - L->first_link[n];
+    for (uint64_t k = 0; k < L->first_link[n]; k++) count += L->links[k].source >= n;
+    return count;
 }
 
 /* The bound on ||B - B_exact||_inf of a channel (solver.h's): residual
@@ -290,6 +315,9 @@ rad_status solve_links_solve(const solve_options *options, const solve_links_inp
                  links->node_count, links->root_count, links->leaf_count, (unsigned long long)links->link_count,
                  links->leaf_count ? (double)links->link_count / links->leaf_count : 0.0,
                  s.grey ? "grey (solved once)" : "RGB", in->load_seconds);
+        if (links->cluster_count)
+            rad_info("%s: %u clusters above the roots, %llu links at or from a cluster (solved flat)", s.input,
+                     links->cluster_count, (unsigned long long)cluster_link_count(links));
         status = rad_lsolve(links, leaves, &s.solve, s.radiosity, &s.result);
         if (status == RAD_OK) status = shape(&s);
     }

@@ -12,6 +12,14 @@
  * H pushed down the trees; per leaf, in parallel, H plus its and its
  * ancestors' shaped links, F u_x S; B = E + rho H. Each sum is made by
  * one thread in a fixed order, so the bytes do not depend on threads.
+ *
+ * Clusters (rad_links.h) take part flat, as in rad_lsolve: B and H run
+ * over the ids (nodes, then clusters), a cluster's B is the area-weighted
+ * mean of its roots', a link at or from a cluster is never shaped, a
+ * cluster gathers its links into its H, which is pushed down the cluster
+ * tree and into each root's H (a root's "parent" is its leaf cluster).
+ * A Gauss-Seidel sweep gathers the clusters first (from the B it starts
+ * from) and pulls them last.
  */
 #include "shaped.h"
 
@@ -44,7 +52,8 @@ typedef struct shaped_plan {
     double *inv_mean;        /* link_count: 1 / the area-weighted mean of those (shaped links) */
     float *f;
     uint64_t weight_count;
-    uint64_t *shaped_first;  /* node_count + 1: node r's shaped links are shaped[shaped_first[r] .. [r + 1]) */
+    uint64_t *shaped_first;  /* ids + 1: receiver r's shaped links are shaped[shaped_first[r] .. [r + 1]); none
+                                at clusters */
     uint64_t *shaped;
     double *row_sum;         /* node_count (leaves): the leaf's row sum with the shape */
     double *rho, *E;         /* node_count * 3: the node's material (its root's) */
@@ -52,6 +61,8 @@ typedef struct shaped_plan {
     uint32_t *tree_first;    /* root_count + 1: tree t's nodes are tree_nodes[tree_first[t] .. [t + 1]), */
     uint32_t *tree_nodes;    /* in index order (parents first) */
     uint64_t *tree_links;    /* root_count: the links the tree's nodes receive */
+    uint32_t *root_cluster;  /* root_count: the leaf cluster holding the root; NULL without clusters */
+    uint64_t cluster_links;  /* the links the clusters receive */
     int threads;
 } shaped_plan;
 
@@ -74,6 +85,7 @@ static void plan_free(shaped_plan *p)
     free(p->tree_first);
     free(p->tree_nodes);
     free(p->tree_links);
+    free(p->root_cluster);
 }
 
 static inline int is_leaf(const rad_links *L, uint32_t i) { return L->nodes[i].first_child == RAD_NO_ELEMENT; }
@@ -91,6 +103,43 @@ static void pull_node(const rad_links *L, uint32_t i, double *B)
     for (int c = 0; c < 3; c++) B[3 * (size_t)i + c] = sum[c] / area;
 }
 
+/* Every cluster's B (3 values; id node_count + c), children before
+ * parents: the area-weighted mean of its child clusters', or of its roots'
+ * for a leaf cluster. */
+static void pull_clusters(const rad_links *L, double *B)
+{
+    const uint32_t n = L->node_count;
+    for (uint32_t c = L->cluster_count; c-- > 0;) {
+        const rad_link_cluster *k = &L->clusters[c];
+        double sum[3] = {0, 0, 0}, area = 0;
+        if (k->child_count == 0) {
+            for (uint32_t q = k->root_begin; q < k->root_end; q++) {
+                const uint32_t r = L->cluster_roots[q];
+                area += L->nodes[r].area;
+                for (int ch = 0; ch < 3; ch++) sum[ch] += L->nodes[r].area * B[3 * (size_t)r + ch];
+            }
+        } else {
+            for (uint32_t j = k->first_child; j < k->first_child + k->child_count; j++) {
+                area += L->clusters[j].area;
+                for (int ch = 0; ch < 3; ch++) sum[ch] += L->clusters[j].area * B[3 * ((size_t)n + j) + ch];
+            }
+        }
+        for (int ch = 0; ch < 3; ch++) B[3 * ((size_t)n + c) + ch] = sum[ch] / area;
+    }
+}
+
+/* Each root's leaf cluster, and the links the clusters receive. */
+static void plan_clusters(shaped_plan *p)
+{
+    const rad_links *L = p->L;
+    for (uint32_t c = 0; c < L->cluster_count; c++) {
+        const rad_link_cluster *k = &L->clusters[c];
+        if (k->child_count == 0)
+            for (uint32_t q = k->root_begin; q < k->root_end; q++) p->root_cluster[L->cluster_roots[q]] = c;
+        p->cluster_links += L->first_link[L->node_count + c + 1] - L->first_link[L->node_count + c];
+    }
+}
+
 /* Node i's polygon as the point factor takes it: corners from the leaves
  * mesh's vertex table, the plane's normal (its leaves'). */
 static void node_polygon(const shaped_plan *p, uint32_t i, rad_ff_patch *out)
@@ -105,9 +154,9 @@ static void node_polygon(const shaped_plan *p, uint32_t i, rad_ff_patch *out)
     out->vertex_count = e->vertex_count;
 }
 
-/* The leaves' ranges, areas and materials; node B (3 per node) from the
- * leaves' B (3 per leaf patch) pulled up, and each node's spread of B
- * (largest max - min over the channels). */
+/* The leaves' ranges, areas and materials; node B (3 per id) from the
+ * leaves' B (3 per leaf patch) pulled up the trees and the clusters, and
+ * each node's spread of B (largest max - min over the channels). */
 static void plan_trees(shaped_plan *p, const double *B, double *node_B, double *spread, double *lo)
 {
     const rad_links *L = p->L;
@@ -164,6 +213,7 @@ static void plan_trees(shaped_plan *p, const double *B, double *node_B, double *
             f += p->count[e->first_child + k];
         }
     }
+    pull_clusters(L, node_B);
 }
 
 /* Every tree's nodes in index order, and the links they receive. */
@@ -183,11 +233,13 @@ static void plan_tree_lists(shaped_plan *p)
 }
 
 /* The pair of every link: the link at its source back to its receiver
- * (sources ascend per receiver). RAD_ERR_INVALID for one without. */
+ * (sources ascend per receiver; receivers and sources are ids).
+ * RAD_ERR_INVALID for one without. */
 static rad_status plan_pairs(shaped_plan *p)
 {
     const rad_links *L = p->L;
-    for (uint32_t r = 0; r < L->node_count; r++)
+    const uint32_t ids = (uint32_t)rad_links_id_count(L);
+    for (uint32_t r = 0; r < ids; r++)
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
             const uint32_t s = L->links[k].source;
             uint64_t lo = L->first_link[s], hi = L->first_link[s + 1];
@@ -197,7 +249,7 @@ static rad_status plan_pairs(shaped_plan *p)
                 else hi = mid;
             }
             if (lo == L->first_link[s + 1] || L->links[lo].source != r) {
-                rad_error("links: link %llu (node %u <- %u) has no link back: links come in pairs",
+                rad_error("links: link %llu (id %u <- %u) has no link back: links come in pairs",
                           (unsigned long long)k, r, s);
                 return RAD_ERR_INVALID;
             }
@@ -206,14 +258,20 @@ static rad_status plan_pairs(shaped_plan *p)
     return RAD_OK;
 }
 
-/* Which receiver ends to shape (shaped.h, "Which ends"), their offsets. */
+/* Which receiver ends to shape (shaped.h, "Which ends"), their offsets.
+ * A link at or from a cluster stays flat (so does its pair). */
 static void plan_ends(shaped_plan *p, const double *node_B, const double *spread, double floor)
 {
     const rad_links *L = p->L;
+    const uint64_t ids = rad_links_id_count(L);
     p->weight_count = 0;
-    for (uint32_t r = 0; r < L->node_count; r++)
+    for (uint32_t r = 0; r < ids; r++)
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
             const rad_link *l = &L->links[k], *back = &L->links[p->reverse[k]];
+            if (r >= L->node_count || l->source >= L->node_count) {
+                p->at[k] = NO_WEIGHTS;
+                continue;
+            }
             const double rho_r = max3(&p->rho[3 * (size_t)r]), rho_s = max3(&p->rho[3 * (size_t)l->source]);
             const int shape = !is_leaf(L, r) && (rho_r * l->error * max3(&node_B[3 * (size_t)l->source]) >= floor ||
                                                  rho_s * back->factor * spread[r] >= floor);
@@ -248,18 +306,20 @@ static void plan_factors(shaped_plan *p)
     }
 }
 
-/* Node r's shaped links listed; every leaf's row sum with the shape. */
+/* Every receiver's shaped links listed; every leaf's row sum with the
+ * shape (its root's clusters' links flat). */
 static void plan_lists(shaped_plan *p)
 {
     const rad_links *L = p->L;
     const uint32_t n = L->node_count;
+    const uint64_t ids = rad_links_id_count(L);
     uint64_t m = 0;
-    for (uint32_t r = 0; r < n; r++) {
+    for (uint64_t r = 0; r < ids; r++) {
         p->shaped_first[r] = m;
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
             if (p->at[k] != NO_WEIGHTS) p->shaped[m++] = k;
     }
-    p->shaped_first[n] = m;
+    p->shaped_first[ids] = m;
     for (uint32_t x = 0; x < n; x++) {
         if (!is_leaf(L, x)) continue;
         double s = 0;
@@ -267,6 +327,9 @@ static void plan_lists(shaped_plan *p)
             for (uint64_t k = L->first_link[a]; k < L->first_link[a + 1]; k++)
                 s += L->links[k].factor *
                      (p->at[k] == NO_WEIGHTS ? 1.0 : p->inv_mean[k] * p->f[p->at[k] + p->first[x] - p->first[a]]);
+        if (p->root_cluster)
+            for (uint32_t c = p->root_cluster[L->nodes[x].root]; c != RAD_NO_ELEMENT; c = L->clusters[c].parent)
+                for (uint64_t k = L->first_link[n + c]; k < L->first_link[n + c + 1]; k++) s += L->links[k].factor;
         p->row_sum[x] = s;
     }
 }
@@ -287,7 +350,8 @@ static rad_status plan_make(const rad_links *L, const rad_mesh *leaves, const do
     p->reverse = malloc(links * sizeof *p->reverse);
     p->at = malloc(links * sizeof *p->at);
     p->inv_mean = malloc(links * sizeof *p->inv_mean);
-    p->shaped_first = malloc(((size_t)n + 1) * sizeof *p->shaped_first);
+    p->shaped_first = malloc(((size_t)rad_links_id_count(L) + 1) * sizeof *p->shaped_first);
+    if (L->cluster_count) p->root_cluster = malloc((size_t)L->root_count * sizeof *p->root_cluster);
     p->row_sum = malloc((size_t)n * sizeof *p->row_sum);
     p->rho = malloc(3 * (size_t)n * sizeof *p->rho);
     p->E = malloc(3 * (size_t)n * sizeof *p->E);
@@ -299,9 +363,10 @@ static rad_status plan_make(const rad_links *L, const rad_mesh *leaves, const do
     rad_status status = RAD_OK;
     if (!p->leaf_nodes || !p->first || !p->count || !p->leaf_area || !p->reverse || !p->at || !p->inv_mean ||
         !p->shaped_first || !p->row_sum || !p->rho || !p->E || !p->area_q || !p->tree_first ||
-        !p->tree_nodes || !p->tree_links || !spread || !lo) {
+        !p->tree_nodes || !p->tree_links || !spread || !lo || (L->cluster_count && !p->root_cluster)) {
         status = RAD_ERR_NOMEM;
     } else {
+        if (L->cluster_count) plan_clusters(p);
         plan_trees(p, B, node_B, spread, lo);
         for (uint32_t q = 0; q < L->leaf_count; q++) p->area_q[q] = L->nodes[p->leaf_nodes[q]].area;
         plan_tree_lists(p);
@@ -343,9 +408,9 @@ static rad_status plan_make(const rad_links *L, const rad_mesh *leaves, const do
 /* ---- the sweep ---- */
 
 typedef struct shaped_vectors {
-    double *B;    /* node_count * 3: leaves' B, split nodes' means */
+    double *B;    /* ids * 3: leaves' B, split nodes' and clusters' means */
     double *Q;    /* leaf_count * 3: the leaves' B in leaf-list order (what shaped sums stream) */
-    double *H;    /* node_count * 3: unshaped links gathered, pushed down; at leaves, all of H */
+    double *H;    /* ids * 3: unshaped links gathered, pushed down (clusters' into their roots); at leaves, all of H */
     double *S;    /* shaped links * 3: what each shaped link's source sends */
     double *next; /* leaf_count * 3, leaf-list order: E + rho H */
 } shaped_vectors;
@@ -375,8 +440,8 @@ static inline void source_value(const shaped_plan *p, const double *B, const dou
     for (int c = 0; c < 3; c++) out[c] = sum[c] * scale;
 }
 
-/* Node i's links: the unshaped ones gathered into H[i], the shaped ones'
- * S kept, from v->B and v->Q. */
+/* Receiver i's links (a node's or a cluster's): the unshaped ones gathered
+ * into H[i], the shaped ones' S kept, from v->B and v->Q. */
 static inline void gather_node(const shaped_plan *p, shaped_vectors *v, uint32_t i)
 {
     const rad_links *L = p->L;
@@ -417,19 +482,42 @@ static inline void update_leaf(const shaped_plan *p, shaped_vectors *v, uint32_t
     }
 }
 
+/* The clusters' H pushed down the cluster tree (parents first): each
+ * cluster's H becomes the sum over it and the clusters above it. */
+static void push_clusters(const shaped_plan *p, double *H)
+{
+    const rad_links *L = p->L;
+    const size_t n = L->node_count;
+    for (uint32_t c = 1; c < L->cluster_count; c++) {
+        const size_t up = n + L->clusters[c].parent;
+        for (int ch = 0; ch < 3; ch++) H[3 * (n + c) + ch] += H[3 * up + ch];
+    }
+}
+
+/* Root i's H plus its leaf cluster's (pushed down the cluster tree). */
+static inline void push_into_root(const shaped_plan *p, double *H, uint32_t i)
+{
+    if (!p->root_cluster) return;
+    const size_t c = (size_t)p->L->node_count + p->root_cluster[i];
+    for (int ch = 0; ch < 3; ch++) H[3 * (size_t)i + ch] += H[3 * c + ch];
+}
+
 /* One Jacobi sweep from v->B: v->H and v->next at the leaves; the largest
  * |next - B| per channel in r[3] (the residual of v->B; infinite where one
  * is not a number). */
 static void sweep(const shaped_plan *p, shaped_vectors *v, double r[3])
 {
     const rad_links *L = p->L;
-    const uint32_t n = L->node_count, leaf_count = L->leaf_count;
+    const uint32_t n = L->node_count, leaf_count = L->leaf_count, ids = (uint32_t)rad_links_id_count(L);
     double *H = v->H;
 #pragma omp parallel for schedule(dynamic, 64) num_threads(p->threads)
-    for (uint32_t i = 0; i < n; i++) gather_node(p, v, i);
+    for (uint32_t i = 0; i < ids; i++) gather_node(p, v, i);
+    push_clusters(p, H);
     for (uint32_t i = 0; i < n; i++) { /* parents first: pushed down */
         const uint32_t up = L->nodes[i].parent;
-        if (up != RAD_NO_ELEMENT)
+        if (up == RAD_NO_ELEMENT)
+            push_into_root(p, H, i);
+        else
             for (int c = 0; c < 3; c++) H[3 * (size_t)i + c] += H[3 * (size_t)up + c];
     }
     double r0 = 0, r1 = 0, r2 = 0;
@@ -457,20 +545,28 @@ static void pull_tree(const shaped_plan *p, shaped_vectors *v, uint32_t t)
     }
 }
 
-/* One Gauss-Seidel sweep, tree by tree in root order: each tree gathers
- * from the newest B (the trees before it already updated), updates its
- * leaves in place and pulls its nodes. r[3]: the largest change per
+/* One Gauss-Seidel sweep: the clusters gathered and pushed down their
+ * tree from the B it starts from, then tree by tree in root order: each
+ * tree gathers from the newest B (the trees before it already updated; a
+ * cluster source at its start value), updates its leaves in place and
+ * pulls its nodes; the clusters pulled last. r[3]: the largest change per
  * channel (infinite where one is not a number). */
 static void gauss_seidel_sweep(const shaped_plan *p, shaped_vectors *v, double r[3])
 {
     const rad_links *L = p->L;
+    const uint32_t n = L->node_count, clusters = L->cluster_count;
     double r0 = 0, r1 = 0, r2 = 0;
+#pragma omp parallel for schedule(dynamic, 16) num_threads(p->threads) \
+    if (p->cluster_links >= SHAPED_PARALLEL_MIN_LINKS)
+    for (uint32_t c = 0; c < clusters; c++) gather_node(p, v, n + c);
+    push_clusters(p, v->H);
     for (uint32_t t = 0; t < L->root_count; t++) {
         const uint32_t *list = p->tree_nodes + p->tree_first[t];
         const uint32_t count = p->tree_first[t + 1] - p->tree_first[t], root = list[0];
         const int wide = p->tree_links[t] >= SHAPED_PARALLEL_MIN_LINKS;
 #pragma omp parallel for schedule(dynamic, 16) num_threads(p->threads) if (wide)
         for (uint32_t k = 0; k < count; k++) gather_node(p, v, list[k]);
+        push_into_root(p, v->H, root);
         for (uint32_t k = 1; k < count; k++) { /* parents first: pushed down */
             const uint32_t i = list[k], up = L->nodes[i].parent;
             for (int c = 0; c < 3; c++) v->H[3 * (size_t)i + c] += v->H[3 * (size_t)up + c];
@@ -487,6 +583,7 @@ static void gauss_seidel_sweep(const shaped_plan *p, shaped_vectors *v, double r
         }
         pull_tree(p, v, t);
     }
+    pull_clusters(L, v->B);
     r[0] = r0, r[1] = r1, r[2] = r2;
 }
 
@@ -507,14 +604,15 @@ rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const so
     threads = 1;
 #endif
     const uint32_t n = links->node_count;
+    const size_t ids = rad_links_id_count(links); /* B and H run over the nodes, then the clusters */
     shaped_vectors v = {0};
     const size_t m = links->leaf_count;
-    double *block = malloc((6 * (size_t)n + 6 * m) * sizeof *block);
+    double *block = malloc((6 * ids + 6 * m) * sizeof *block);
     if (!block) {
-        rad_error("links: out of memory for the shaped solve's vectors over %u nodes", n);
+        rad_error("links: out of memory for the shaped solve's vectors over %zu nodes and clusters", ids);
         return RAD_ERR_NOMEM;
     }
-    v.B = block, v.H = block + 3 * (size_t)n, v.Q = block + 6 * (size_t)n, v.next = v.Q + 3 * m;
+    v.B = block, v.H = block + 3 * ids, v.Q = block + 6 * ids, v.next = v.Q + 3 * m;
     shaped_plan p;
     rad_status status = plan_make(links, leaves, B, options->gate, threads, &p, v.B);
     if (status != RAD_OK) {
@@ -522,7 +620,7 @@ rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const so
         return status;
     }
     for (size_t q = 0; q < m; q++) memcpy(&v.Q[3 * q], &v.B[3 * (size_t)p.leaf_nodes[q]], 3 * sizeof *v.Q);
-    const uint64_t shaped = p.shaped_first[n];
+    const uint64_t shaped = p.shaped_first[ids];
     v.S = malloc(3 * (shaped ? shaped : 1) * sizeof *v.S);
     if (!v.S) {
         rad_error("links: out of memory for the shaped solve's %llu shaped links", (unsigned long long)shaped);

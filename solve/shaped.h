@@ -40,6 +40,15 @@
  * factor from a leaf of r may lie from F_rs) or rho_s F_sr (max - min of B
  * over r's leaves), for the pair's either direction.
  *
+ * Clusters (rad_links.h, issue 27). A link at or from a cluster is not
+ * shaped: its receiver side spreads uniformly over the cluster's leaves
+ * and a cluster source sends its area-weighted mean, as in rad_lsolve.
+ * Its pair touches the same cluster, so it is flat too, and the flat
+ * cluster links are reciprocal with the cluster's area (A_x K_xy =
+ * c_rs A_x A_y for x, y under the pair's ends): the operator stays
+ * reciprocal and a closed scene still balances. Element-element links
+ * are shaped as above.
+ *
  * How. Jacobi sweeps over the leaves from the flat solution: the sources'
  * S (shaped ends summed over their leaves), the unshaped receivers'
  * gathers pushed down the trees as flat, the shaped receivers' added per

@@ -2,13 +2,16 @@
 # Hierarchical links files (issue 26) are the same bytes for any thread and
 # rank count: formfactor --method hierarchical on cornell_sphere with 1 and
 # 2 threads, and under mpirun -n 2, then solve's radiosity files too.
-#   hier_identical.sh FORMFACTOR SOLVE SCENE WORKDIR
+#   hier_identical.sh FORMFACTOR SOLVE SCENE WORKDIR [FORMFACTOR OPTIONS]
+# (the options replace --subdiv 4 --link-tol 3e-2; with --clusters on the
+# file also holds clusters: version 5)
 set -u
 ff=$1 solve=$2 scene=$3 dir=$4
+options=${5:---subdiv 4 --link-tol 3e-2}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 mkdir -p "$dir" && cd "$dir" || exit 1
 rm -f ./*.ff ./*.rad
-args="$scene --method hierarchical --subdiv 4 --link-tol 3e-2 -q"
+args="$scene --method hierarchical $options -q"
 # shellcheck disable=SC2086 # args is a list of words
 OMP_NUM_THREADS=1 "$ff" $args -o t1.ff || exit 1
 # shellcheck disable=SC2086

@@ -178,11 +178,11 @@ static void test_form_factor_header_limits(void)
 
     /* The next version with a valid header checksum. */
     memcpy(h, bytes, sizeof h);
-    rad_put_u32(h + 8, RAD_FF_VERSION + 1); /* 5 */
+    rad_put_u32(h + 8, RAD_FF_VERSION + 1); /* 6 */
     ff_reseal(h);
     memcpy(bytes, h, sizeof h);
     rad_test_write_file(damaged, bytes, size);
-    RAD_CHECK(ff_open_status(damaged) == RAD_ERR_FORMAT && rad_test_log_contains("format version 5"));
+    RAD_CHECK(ff_open_status(damaged) == RAD_ERR_FORMAT && rad_test_log_contains("format version 6"));
 
     /* N = 2^31 (the format's limit) with float64: N^2 * 8 = 2^65 bytes
      * wraps around 64 bits, and the wrapped layout asks for a file of

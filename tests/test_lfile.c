@@ -15,10 +15,19 @@
  * of structural fault; a matrix file and a links file refuse each
  * other's reader.
  *
- *     test_lfile [KEEP [SEED]]
+ * Clusters (issue 27, version 5): a strip of 5 plates (5 roots, the first
+ * split once: 9 nodes, 8 leaves, 25 vertices) under a cluster tree of 5
+ * clusters (0 over {1, 2}, 2 over {3, 4}; the roots in the order 3 0 4 1 2),
+ * with links at and from clusters. The same round trip, damage and
+ * structural checks; without clusters the file stays version 4, the very
+ * bytes of the seed below.
+ *
+ *     test_lfile [KEEP [SEED [KEEP_CLUSTERS]]]
  * KEEP: where to leave a copy of the valid file (the tools' and solve's
- * tests read it); SEED: a links file that must read as valid (the fuzz
- * regressions' seed, tests/fuzz/regressions/ffile/links-small).
+ * tests read it); SEED: a links file that must read as valid and equal
+ * KEEP byte for byte (the fuzz regressions' seed,
+ * tests/fuzz/regressions/ffile/links-small); KEEP_CLUSTERS: where to
+ * leave the valid file with clusters.
  */
 #define _POSIX_C_SOURCE 200809L
 #include <stdlib.h>
@@ -84,20 +93,53 @@ static rad_mesh leaves_mesh(void)
                       .patch_group = patch_group};
 }
 
+/* A symmetric coupling between ids a and b: F_ab = c A_b, F_ba = c A_a. */
+typedef struct coupling {
+    uint32_t a, b;
+    double c;
+} coupling;
+
+static double id_area(const rad_links *l, uint32_t id)
+{
+    return id < l->node_count ? l->nodes[id].area : l->clusters[id - l->node_count].area;
+}
+
+/* l's first_link and links from `count` couplings: CSR by receiver,
+ * sources ascending; each link's error from its place in the list. */
+static void fill_links(rad_links *l, const coupling *couplings, size_t count)
+{
+    uint64_t ids = rad_links_id_count(l);
+    l->link_count = 2 * count;
+    l->first_link = calloc(ids + 1, sizeof *l->first_link);
+    l->links = calloc(2 * count, sizeof *l->links);
+    if (!l->first_link || !l->links) abort();
+    uint64_t at = 0;
+    for (uint32_t r = 0; r < ids; r++) {
+        l->first_link[r] = at;
+        for (uint32_t s = 0; s < ids; s++)
+            for (size_t k = 0; k < 2 * count; k++) {
+                const coupling *c = &couplings[k / 2];
+                uint32_t receiver = k % 2 ? c->b : c->a, source = k % 2 ? c->a : c->b;
+                if (receiver == r && source == s)
+                    l->links[at++] = (rad_link){.source = s, .error = (float)(1e-3 * (k + 1)),
+                                                .factor = c->c * id_area(l, s)};
+            }
+    }
+    l->first_link[ids] = at;
+}
+
 /* Symmetric couplings (r, s, c): F_rs = c A_s and F_sr = c A_r. */
-static const struct { uint32_t a, b; double c; } pairs[] = {
+static const coupling pairs[] = {
     {0, 1, 0.2}, {2, 6, 0.3}, {2, 7, 0.1}, {3, 8, 0.25}, {4, 1, 0.05}, {5, 9, 0.15}, {0, 9, 0.02},
 };
 #define PAIRS (sizeof pairs / sizeof pairs[0])
 
 static rad_links make_links(void)
 {
-    rad_links l = {.node_count = NODES, .root_count = ROOTS, .leaf_count = LEAVES, .link_count = 2 * PAIRS,
+    rad_links l = {.node_count = NODES, .root_count = ROOTS, .leaf_count = LEAVES,
                    .link_tol = 0.0625, .error_bound = 1.5e-3};
     l.nodes = calloc(NODES, sizeof *l.nodes);
-    l.first_link = calloc(NODES + 1, sizeof *l.first_link);
-    l.links = calloc(2 * PAIRS, sizeof *l.links);
-    if (!l.nodes || !l.first_link || !l.links) abort();
+    if (!l.nodes) abort();
     for (uint32_t p = 0; p < ROOTS; p++) {
         rad_link_node *root = &l.nodes[p];
         *root = (rad_link_node){.parent = RAD_NO_ELEMENT, .first_child = 2 + 4 * p, .leaf = RAD_NO_ELEMENT,
@@ -110,45 +152,162 @@ static rad_links make_links(void)
             corners(p, k % 2, k / 2, 1, child->v);
         }
     }
-    /* CSR by receiver, sources ascending: count, place, then sort each row */
-    uint32_t receiver[2 * PAIRS], source[2 * PAIRS];
-    for (size_t k = 0; k < PAIRS; k++) {
-        receiver[2 * k] = pairs[k].a, source[2 * k] = pairs[k].b;
-        receiver[2 * k + 1] = pairs[k].b, source[2 * k + 1] = pairs[k].a;
-    }
-    uint64_t at = 0;
-    for (uint32_t r = 0; r < NODES; r++) {
-        l.first_link[r] = at;
-        for (uint32_t s = 0; s < NODES; s++)
-            for (size_t k = 0; k < 2 * PAIRS; k++)
-                if (receiver[k] == r && source[k] == s)
-                    l.links[at++] = (rad_link){.source = s, .error = (float)(1e-3 * (k + 1)),
-                                               .factor = pairs[k / 2].c * l.nodes[s].area};
-    }
-    l.first_link[NODES] = at;
+    fill_links(&l, pairs, PAIRS);
     return l;
+}
+
+/* ---- the strip with clusters ---- */
+
+#define S_NODES 9u
+#define S_ROOTS 5u
+#define S_LEAVES 8u
+#define S_VERTICES 25u
+#define S_CLUSTERS 5u
+
+static double s_positions[3 * S_VERTICES];
+static rad_patch s_patches[S_LEAVES];
+static char s_group_names[2][RAD_NAME_MAX] = {"wide", "narrow"};
+static uint32_t s_patch_group[S_LEAVES] = {0, 0, 0, 0, 1, 1, 1, 1};
+
+/* Plate p >= 1: x in [2p, 2p + 1], y in [0, its height]; plate 0 the unit
+ * square, split into 4 cells (grid vertices 3 j + i). */
+static double s_height(uint32_t p) { return 0.5 + 0.25 * p; }
+
+/* The corners of plate p >= 1, or of cell (ci, cj) (s = 1) or the whole
+ * (s = 2) of plate 0; counter-clockwise from +z. */
+static void s_corners(uint32_t p, uint32_t ci, uint32_t cj, uint32_t s, uint32_t v[4])
+{
+    if (p == 0) {
+        uint32_t ring[4] = {3 * cj + ci, 3 * cj + ci + s, 3 * (cj + s) + ci + s, 3 * (cj + s) + ci};
+        memcpy(v, ring, sizeof ring);
+    } else {
+        for (uint32_t k = 0; k < 4; k++) v[k] = 9 + 4 * (p - 1) + k;
+    }
+}
+
+static rad_mesh strip_mesh(void)
+{
+    for (uint32_t j = 0; j < 3; j++)
+        for (uint32_t i = 0; i < 3; i++) {
+            double *x = &s_positions[3 * (3 * j + i)];
+            x[0] = 0.5 * i, x[1] = 0.5 * j, x[2] = 0;
+        }
+    for (uint32_t p = 1; p < S_ROOTS; p++) {
+        const double corner[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+        for (uint32_t k = 0; k < 4; k++) {
+            double *x = &s_positions[3 * (9 + 4 * (p - 1) + k)];
+            x[0] = 2.0 * p + corner[k][0], x[1] = s_height(p) * corner[k][1], x[2] = 0;
+        }
+    }
+    memset(s_patches, 0, sizeof s_patches);
+    for (uint32_t k = 0; k < S_LEAVES; k++) {
+        rad_patch *q = &s_patches[k];
+        uint32_t p = k < 4 ? 0 : k - 3; /* patches 0-3: plate 0's cells; 4-7: plates 1-4 */
+        q->vertex_count = 4;
+        s_corners(p, k % 2, k / 2 % 2, 1, q->v);
+        q->source_face = p;
+        q->area = p == 0 ? 0.25 : s_height(p);
+        q->normal = rad_v3(0, 0, 1);
+        q->centroid = p == 0 ? rad_v3(0.25 + 0.5 * (k % 2), 0.25 + 0.5 * (k / 2), 0)
+                             : rad_v3(2.0 * p + 0.5, 0.5 * s_height(p), 0);
+        for (int c = 0; c < 3; c++) {
+            q->rho[c] = 0.125 * (p + 1);
+            q->emission[c] = p == 4 ? 2.0 : 0.0;
+        }
+    }
+    return (rad_mesh){.positions = s_positions, .vertex_count = S_VERTICES, .patches = s_patches,
+                      .patch_count = S_LEAVES, .group_names = s_group_names, .group_count = 2,
+                      .patch_group = s_patch_group};
+}
+
+/* Ids 0-8 the nodes, 9-13 clusters 0-4: links between nodes, from nodes to
+ * clusters, between clusters, and cluster 0 with a root inside it. */
+static const coupling s_pairs[] = {
+    {0, 1, 0.2}, {5, 10, 0.05}, {1, 12, 0.1}, {11, 10, 0.03}, {6, 13, 0.07}, {9, 4, 0.02}, {7, 8, 0.3}, {12, 13, 0.04},
+};
+#define S_PAIRS (sizeof s_pairs / sizeof s_pairs[0])
+
+static rad_links make_strip_links(void)
+{
+    rad_links l = {.node_count = S_NODES, .root_count = S_ROOTS, .leaf_count = S_LEAVES,
+                   .cluster_count = S_CLUSTERS, .link_tol = 0.125, .error_bound = 2.5e-3};
+    l.nodes = calloc(S_NODES, sizeof *l.nodes);
+    l.clusters = calloc(S_CLUSTERS, sizeof *l.clusters);
+    l.cluster_roots = calloc(S_ROOTS, sizeof *l.cluster_roots);
+    if (!l.nodes || !l.clusters || !l.cluster_roots) abort();
+    for (uint32_t p = 0; p < S_ROOTS; p++) {
+        rad_link_node *root = &l.nodes[p];
+        *root = (rad_link_node){.parent = RAD_NO_ELEMENT, .first_child = p == 0 ? 5 : RAD_NO_ELEMENT,
+                                .leaf = p == 0 ? RAD_NO_ELEMENT : 3 + p, .root = p, .level = 0, .vertex_count = 4,
+                                .area = p == 0 ? 1.0 : s_height(p)};
+        s_corners(p, 0, 0, 2, root->v);
+    }
+    for (uint32_t k = 0; k < 4; k++) {
+        rad_link_node *child = &l.nodes[5 + k];
+        *child = (rad_link_node){.parent = 0, .first_child = RAD_NO_ELEMENT, .leaf = k, .root = 0, .level = 1,
+                                 .vertex_count = 4, .area = 0.25};
+        s_corners(0, k % 2, k / 2, 1, child->v);
+    }
+    /* roots in cluster order 3 0 | 4 | 1 2: areas 1.25 + 1 | 1.5 | 0.75 + 1 */
+    static const uint32_t order[S_ROOTS] = {3, 0, 4, 1, 2};
+    memcpy(l.cluster_roots, order, sizeof order);
+    const rad_link_cluster clusters[S_CLUSTERS] = {
+        {.parent = RAD_NO_ELEMENT, .first_child = 1, .child_count = 2, .root_begin = 0, .root_end = 5, .area = 5.5},
+        {.parent = 0, .first_child = RAD_NO_ELEMENT, .root_begin = 0, .root_end = 2, .area = 2.25},
+        {.parent = 0, .first_child = 3, .child_count = 2, .root_begin = 2, .root_end = 5, .area = 3.25},
+        {.parent = 2, .first_child = RAD_NO_ELEMENT, .root_begin = 2, .root_end = 3, .area = 1.5},
+        {.parent = 2, .first_child = RAD_NO_ELEMENT, .root_begin = 3, .root_end = 5, .area = 1.75},
+    };
+    memcpy(l.clusters, clusters, sizeof clusters);
+    fill_links(&l, s_pairs, S_PAIRS);
+    return l;
+}
+
+static rad_ff_info strip_info(void)
+{
+    rad_ff_info info = {.patch_count = S_LEAVES, .vertex_count = S_VERTICES, .estimator = RAD_ESTIMATOR_QUADRATURE,
+                        .shadow_rays = 8, .seed = 12, .scene_fingerprint = 0x5151, .flags = RAD_FF_FLAG_RECIPROCAL,
+                        .group_count = 2, .layout = RAD_FF_LAYOUT_LINKS};
+    strcpy(info.scene_name, "strip of plates");
+    return info;
+}
+
+/* ---- both ---- */
+
+static void *copy_of(const void *data, size_t size)
+{
+    void *copy = malloc(size ? size : 1);
+    if (!copy) abort();
+    if (size) memcpy(copy, data, size);
+    return copy;
 }
 
 static rad_links copy_links(const rad_links *in)
 {
     rad_links l = *in;
-    l.nodes = malloc(NODES * sizeof *l.nodes);
-    l.first_link = malloc((NODES + 1) * sizeof *l.first_link);
-    l.links = malloc(in->link_count * sizeof *l.links);
-    if (!l.nodes || !l.first_link || !l.links) abort();
-    memcpy(l.nodes, in->nodes, NODES * sizeof *l.nodes);
-    memcpy(l.first_link, in->first_link, (NODES + 1) * sizeof *l.first_link);
-    memcpy(l.links, in->links, in->link_count * sizeof *l.links);
+    uint64_t ids = rad_links_id_count(in);
+    l.nodes = copy_of(in->nodes, in->node_count * sizeof *l.nodes);
+    l.clusters = in->cluster_count ? copy_of(in->clusters, in->cluster_count * sizeof *l.clusters) : NULL;
+    l.cluster_roots = in->cluster_count ? copy_of(in->cluster_roots, in->root_count * sizeof *l.cluster_roots) : NULL;
+    l.first_link = copy_of(in->first_link, (ids + 1) * sizeof *l.first_link);
+    l.links = copy_of(in->links, in->link_count * sizeof *l.links);
     return l;
 }
 
 static int same_links(const rad_links *a, const rad_links *b)
 {
+    uint64_t ids = rad_links_id_count(a);
+    int clusters = a->cluster_count > 0;
     return a->node_count == b->node_count && a->root_count == b->root_count && a->leaf_count == b->leaf_count &&
-           a->link_count == b->link_count && memcmp(&a->link_tol, &b->link_tol, sizeof a->link_tol) == 0 &&
+           a->cluster_count == b->cluster_count && a->link_count == b->link_count &&
+           memcmp(&a->link_tol, &b->link_tol, sizeof a->link_tol) == 0 &&
            memcmp(&a->error_bound, &b->error_bound, sizeof a->error_bound) == 0 &&
            memcmp(a->nodes, b->nodes, a->node_count * sizeof *a->nodes) == 0 &&
-           memcmp(a->first_link, b->first_link, (a->node_count + 1) * sizeof *a->first_link) == 0 &&
+           (clusters ? b->clusters && b->cluster_roots &&
+                           memcmp(a->clusters, b->clusters, a->cluster_count * sizeof *a->clusters) == 0 &&
+                           memcmp(a->cluster_roots, b->cluster_roots, a->root_count * sizeof *a->cluster_roots) == 0
+                     : !b->clusters && !b->cluster_roots) &&
+           memcmp(a->first_link, b->first_link, (ids + 1) * sizeof *a->first_link) == 0 &&
            memcmp(a->links, b->links, a->link_count * sizeof *a->links) == 0;
 }
 
@@ -204,16 +363,23 @@ static void expect_refused(const char *path, int *accepted, int *unnamed, int *o
 }
 
 /* Recomputes every checksum of a links file after an edit: sections and
- * blocks, their table's digest, tables, header. */
+ * blocks (each with its padding, as one run of bytes), their table's
+ * digest, tables, header. */
 static void reseal(unsigned char *bytes)
 {
     rad_ff_info info = {.patch_count = rad_get_u64(bytes + 16), .vertex_count = rad_get_u64(bytes + 24),
                         .element_type = rad_get_u32(bytes + 32), .group_count = rad_get_u32(bytes + 232),
                         .layout = rad_get_u32(bytes + 236), .node_count = rad_get_u32(bytes + 192),
-                        .root_count = rad_get_u32(bytes + 196), .link_count = rad_get_u64(bytes + 200)};
+                        .root_count = rad_get_u32(bytes + 196), .link_count = rad_get_u64(bytes + 200),
+                        .cluster_count = rad_get_u32(bytes + 8) >= 5 ? rad_get_u32(bytes + 188) : 0};
     rad_ff_layout l = rad_ff_layout_of(&info);
-    uint64_t starts[] = {l.matrix_offset, l.first_link_offset, l.link_offset, l.row_checksum_offset};
-    for (int k = 0; k < 3; k++) /* one block of links here */
+    uint64_t starts[6], count = 0; /* the sections' starts, then the checksum table's */
+    starts[count++] = l.matrix_offset;
+    if (info.cluster_count) starts[count++] = l.cluster_offset, starts[count++] = l.cluster_root_offset;
+    starts[count++] = l.first_link_offset;
+    starts[count++] = l.link_offset; /* one block of links here */
+    starts[count] = l.row_checksum_offset;
+    for (uint64_t k = 0; k < count; k++)
         rad_put_u64(bytes + l.row_checksum_offset + 8 * k,
                     rad_hash64(RAD_HASH_SEED, bytes + starts[k], (size_t)(starts[k + 1] - starts[k])));
     rad_put_u64(bytes + 112, rad_hash64(RAD_HASH_SEED, bytes + 256, (size_t)(l.matrix_offset - 256)));
@@ -276,7 +442,19 @@ static void test_round_trip(const char *path, const rad_mesh *mesh, const rad_li
     remove("test_lfile.again");
 }
 
-static void test_damage(const char *path)
+/* An edit behind valid checksums: `bits` at `offset` (wide: the high word
+ * of the double there), and what the refusal must say. */
+typedef struct edit {
+    uint64_t offset;
+    uint32_t bits;
+    int wide;
+    const char *message;
+} edit;
+
+/* Every truncation, single-byte change and trailing bytes of `path`
+ * refused; then each edit, resealed, refused with its message; the
+ * unedited bytes, resealed, read. */
+static void test_damage(const char *path, const edit *edits, size_t edit_count)
 {
     /* The 11,000 damaged copies go to a folder in /dev/shm where there is
      * one: on a busy disk they take half a minute, in memory half a second. */
@@ -328,22 +506,7 @@ static void test_damage(const char *path)
 
     /* Behind valid checksums: each edit resealed, refused by the checks of
      * structure, counts or leaves, with the message asked for. */
-    rad_ff_info info = links_info();
-    info.node_count = NODES, info.link_count = 2 * PAIRS, info.element_type = RAD_ELEMENT_F64;
-    rad_ff_layout l = rad_ff_layout_of(&info);
-    struct { uint64_t offset; uint32_t bits; int wide; const char *message; } edits[] = {
-        {l.link_offset + 16 * 3 + 8, 0xbff00000u, 1, "link 3: factor not finite and >= 0"}, /* -1.0 */
-        {l.link_offset + 16 * 5 + 4, 0x7fc00000u, 0, "link 5: error not finite and >= 0"},   /* NaN */
-        {l.link_offset + 16 * 0, 10, 0, "node 0: link 0: source beyond the node table"},
-        {l.matrix_offset + 48 * 3 + 0, 1, 0, "node 0: a child whose parent is another node"},
-        {l.matrix_offset + 48 * 7 + 24, 2, 0, "node 7 (leaf, patch 6): corners differ from its patch's"},
-        {l.first_link_offset + 8 * 10, 13, 0, "first_link runs from 0 to 13"},
-        {192, 11, 0, "implausible sizes (11 nodes"},
-        {196, 6, 0, "do not make trees of quadtrees"},
-        {32, RAD_ELEMENT_F32, 0, "element type 1 in the links layout"},
-        {8, 3, 0, "the links layout in a version-3 file"},
-    };
-    for (size_t e = 0; e < sizeof edits / sizeof edits[0]; e++) {
+    for (size_t e = 0; e < edit_count; e++) {
         unsigned char *copy = malloc(size);
         if (!copy) break;
         memcpy(copy, bytes, size);
@@ -476,26 +639,248 @@ static void test_kinds(const rad_mesh *mesh, const rad_links *links)
     rad_log_set_sink(NULL, NULL);
 }
 
+/* The two plates' file behind valid checksums. */
+static void test_damage_plates(const char *path)
+{
+    rad_ff_info info = links_info();
+    info.node_count = NODES, info.link_count = 2 * PAIRS, info.element_type = RAD_ELEMENT_F64;
+    rad_ff_layout l = rad_ff_layout_of(&info);
+    const edit edits[] = {
+        {l.link_offset + 16 * 3 + 8, 0xbff00000u, 1, "link 3: factor not finite and >= 0"}, /* -1.0 */
+        {l.link_offset + 16 * 5 + 4, 0x7fc00000u, 0, "link 5: error not finite and >= 0"},   /* NaN */
+        {l.link_offset + 16 * 0, 10, 0, "node 0: link 0: source beyond the node table"},
+        {l.matrix_offset + 48 * 3 + 0, 1, 0, "node 0: a child whose parent is another node"},
+        {l.matrix_offset + 48 * 7 + 24, 2, 0, "node 7 (leaf, patch 6): corners differ from its patch's"},
+        {l.first_link_offset + 8 * 10, 13, 0, "first_link runs from 0 to 13"},
+        {192, 11, 0, "implausible sizes (11 nodes"},
+        {196, 6, 0, "do not make trees of quadtrees"},
+        {32, RAD_ELEMENT_F32, 0, "element type 1 in the links layout"},
+        {8, 3, 0, "the links layout in a version-3 file"},
+        /* version 5 reads a cluster count where version 4 has the name's bytes (zero here) */
+        {8, 5, 0, "a version-5 links file without clusters"},
+    };
+    test_damage(path, edits, sizeof edits / sizeof edits[0]);
+}
+
+/* The strip with clusters: written as version 5 with the cluster count at
+ * byte 188, sections in place, read back whole, the same bytes on a
+ * rewrite; a changed byte of the cluster table, the cluster roots or the
+ * roots' padding refused by its section's checksum; then the damage of
+ * every byte and the edits behind valid checksums. */
+static void test_clusters_file(const char *path, const rad_mesh *mesh, const rad_links *links)
+{
+    rad_ff_info info = strip_info();
+    RAD_CHECK(rad_ff_write_links(path, &info, mesh, links) == RAD_OK);
+    rad_ff_file *ff = NULL;
+    RAD_CHECK(rad_ff_open(path, &ff) == RAD_OK);
+    if (!ff) return;
+    const rad_ff_info kept = *rad_ff_file_info(ff);
+    RAD_CHECK(kept.layout == RAD_FF_LAYOUT_LINKS && kept.cluster_count == S_CLUSTERS);
+    RAD_CHECK(kept.node_count == S_NODES && kept.root_count == S_ROOTS && kept.link_count == 2 * S_PAIRS);
+    RAD_CHECK(kept.link_tol == 0.125 && kept.error_bound == 2.5e-3 && strcmp(kept.scene_name, "strip of plates") == 0);
+    rad_links back;
+    RAD_CHECK(rad_ff_read_links(ff, &back) == RAD_OK && same_links(&back, links));
+    RAD_CHECK(rad_links_id_count(&back) == S_NODES + S_CLUSTERS);
+    rad_links_free(&back);
+    RAD_CHECK(back.clusters == NULL && back.cluster_roots == NULL && back.cluster_count == 0);
+    rad_ff_close(ff);
+
+    size_t size = 0, size2 = 0;
+    unsigned char *bytes = rad_test_read_file(path, &size);
+    RAD_CHECK(rad_ff_write_links("test_lfile.again", &info, mesh, links) == RAD_OK);
+    unsigned char *again = rad_test_read_file("test_lfile.again", &size2);
+    RAD_CHECK(bytes && again && size == size2 && memcmp(bytes, again, size) == 0);
+    free(again);
+    remove("test_lfile.again");
+    rad_ff_layout l = rad_ff_layout_of(&kept);
+    RAD_CHECK(l.file_bytes == size);
+    /* nodes 9 x 48 = 432, clusters 5 x 32 = 160, roots 5 x 4 = 20, first_link 15 x 8 = 120: each to 64 */
+    RAD_CHECK(l.cluster_offset == l.matrix_offset + 448 && l.cluster_root_offset == l.cluster_offset + 192 &&
+              l.first_link_offset == l.cluster_root_offset + 64 && l.link_offset == l.first_link_offset + 128);
+    RAD_CHECK(l.index_bytes == 5 * 8 && size == l.row_checksum_offset + 40);
+    if (!bytes) return;
+    RAD_CHECK(rad_get_u32(bytes + 8) == RAD_FF_VERSION_CLUSTERS && rad_get_u32(bytes + 188) == S_CLUSTERS);
+    RAD_CHECK(rad_get_u32(bytes + 236) == RAD_FF_LAYOUT_LINKS);
+
+    /* each section's checksum names it */
+    const struct { uint64_t offset; const char *message; } flips[] = {
+        {l.cluster_offset + 32 * 2 + 8, "cluster table: checksum mismatch"},
+        {l.cluster_root_offset + 4 * 3, "cluster roots: checksum mismatch"},
+        {l.cluster_root_offset + 4 * S_ROOTS + 1, "cluster roots: checksum mismatch"}, /* its padding */
+        {l.first_link_offset + 8 * 12, "first_link table: checksum mismatch"},
+    };
+    for (size_t k = 0; k < sizeof flips / sizeof flips[0]; k++) {
+        bytes[flips[k].offset] ^= 0x04;
+        rad_test_write_file("test_lfile.flipped", bytes, size);
+        bytes[flips[k].offset] ^= 0x04;
+        capture_quietly();
+        rad_links got;
+        RAD_CHECK(open_and_read("test_lfile.flipped", &got) == RAD_ERR_FORMAT);
+        RAD_CHECK(rad_test_log_contains("test_lfile.flipped") && rad_test_log_contains(flips[k].message));
+        rad_log_set_sink(NULL, NULL);
+    }
+    remove("test_lfile.flipped");
+    free(bytes);
+
+    uint64_t c1_links = links->first_link[S_NODES + 1]; /* cluster 1's first link */
+    const edit edits[] = {
+        {l.cluster_offset + 32 * 3 + 0, 0, 0, "cluster 2: a child whose parent is another cluster"},
+        {l.cluster_offset + 32 * 1 + 24, 0x40030000u, 1, "cluster 1: area 2.375 is not its roots' 2.25"},
+        {l.cluster_offset + 32 * 4 + 20, 1, 0, "cluster 4: pad not zero"},
+        {l.cluster_offset + 32 * 0 + 8, 1, 0, "cluster 0: an inner cluster with one child"},
+        {l.cluster_root_offset + 4 * 4, 3, 0, "cluster roots: entry 4 (3): a root listed twice"},
+        {l.cluster_root_offset + 4 * 1, 5, 0, "cluster roots: entry 1 (5): not a root"},
+        {l.link_offset + 16 * c1_links, 14, 0, "source beyond the node and cluster tables"},
+        {l.first_link_offset + 8 * (S_NODES + S_CLUSTERS), 15, 0, "first_link runs from 0 to 15"},
+        {188, 0, 0, "a version-5 links file without clusters"},
+        {188, 10, 0, "more clusters than a cluster tree over the roots has"},
+        {188, 4, 0, "section offsets disagree"},
+        {8, 4, 0, "section offsets disagree"}, /* read as version 4: no clusters, a shorter layout */
+    };
+    test_damage(path, edits, sizeof edits / sizeof edits[0]);
+}
+
+/* rad_links_check on clusters: the strip passes (and an area off by 1e-12
+ * relative); each kind of fault is refused, naming it, and the writer
+ * writes nothing for it. */
+static void test_check_clusters(const rad_links *good, const rad_mesh *mesh)
+{
+    RAD_CHECK(rad_links_check(good, S_VERTICES, "good") == RAD_OK);
+    rad_links near = copy_links(good);
+    near.clusters[2].area *= 1 + 1e-12;
+    RAD_CHECK(rad_links_check(&near, S_VERTICES, "near") == RAD_OK);
+    rad_links_free(&near);
+    enum { CHILD_PARENT, ROOT_TWICE, ROOT_BEYOND, SOURCE, AREA, ONE_CHILD, PAD, PARTITION, ROOT_PARENT, LEAF_CHILD,
+           ORPHAN, UNSORTED, NEGATIVE, FIRST_LINK_END, TOO_MANY, ROOT_RANGE, KINDS };
+    static const char *expect[KINDS] = {
+        "bad: cluster 2: a child whose parent is another cluster",
+        "bad: cluster roots: entry 4 (3): a root listed twice",
+        "bad: cluster roots: entry 1 (5): not a root (beyond the root count)",
+        "bad: cluster 3: link ", /* + "N: source beyond the node and cluster tables" */
+        "bad: cluster 2: area 3.2500000325 is not its roots' 3.25",
+        "bad: cluster 2: an inner cluster with one child (at least 2)",
+        "bad: cluster 1: pad not zero",
+        "bad: cluster 2: its children's root ranges do not partition its own in order",
+        "bad: cluster 0: a parent, but cluster 0 is the tree's root",
+        "bad: cluster 1: a leaf cluster (no children) with a first child",
+        "bad: cluster 3: not among its parent's children",
+        "bad: cluster 1: link ", /* + "N: sources not strictly ascending" */
+        "bad: cluster 4: link ", /* + "N: factor not finite and >= 0" */
+        "bad: first_link runs from 0 to 15, not from 0 to the link count 16",
+        "bad: 10 clusters over 5 roots (9 nodes): implausible",
+        "bad: cluster 0: not every root, but cluster 0 holds them all",
+    };
+    static const char *then[KINDS] = {[SOURCE] = "source beyond the node and cluster tables",
+                                      [UNSORTED] = "sources not strictly ascending",
+                                      [NEGATIVE] = "factor not finite and >= 0"};
+    for (int kind = 0; kind < KINDS; kind++) {
+        rad_links l = copy_links(good);
+        uint64_t c1 = l.first_link[S_NODES + 1], c3 = l.first_link[S_NODES + 3], c4 = l.first_link[S_NODES + 4];
+        switch (kind) {
+        case CHILD_PARENT: l.clusters[3].parent = 0; break;
+        case ROOT_TWICE: l.cluster_roots[4] = l.cluster_roots[0]; break;
+        case ROOT_BEYOND: l.cluster_roots[1] = S_ROOTS; break;
+        case SOURCE: l.links[c3].source = S_NODES + S_CLUSTERS; break;
+        case AREA: l.clusters[2].area = 3.25 * (1 + 1e-8); break;
+        case ONE_CHILD: l.clusters[2].child_count = 1; break;
+        case PAD: l.clusters[1].pad = 7; break;
+        case PARTITION: l.clusters[4].root_begin = 2; break;
+        case ROOT_PARENT: l.clusters[0].parent = 1; break;
+        case LEAF_CHILD: l.clusters[1].first_child = 3; break;
+        case ORPHAN: /* cluster 2 a leaf cluster: 3 and 4 in no cluster's children */
+            l.clusters[2].first_child = RAD_NO_ELEMENT, l.clusters[2].child_count = 0;
+            break;
+        case UNSORTED: {
+            RAD_CHECK(l.first_link[S_NODES + 2] - c1 == 2);
+            rad_link t = l.links[c1];
+            l.links[c1] = l.links[c1 + 1], l.links[c1 + 1] = t;
+            break;
+        }
+        case NEGATIVE: l.links[c4].factor = -1e-3; break;
+        case FIRST_LINK_END: l.first_link[S_NODES + S_CLUSTERS] = 15; break;
+        case TOO_MANY: l.cluster_count = 2 * S_ROOTS; break;
+        case ROOT_RANGE: l.clusters[0].root_end = S_ROOTS - 1; break;
+        }
+        capture_quietly();
+        RAD_CHECK(rad_links_check(&l, S_VERTICES, "bad") == RAD_ERR_FORMAT);
+        if (!rad_test_log_contains(expect[kind]) || (then[kind] && !rad_test_log_contains(then[kind]))) {
+            fprintf(stderr, "cluster kind %d: expected \"%s\"%s, got: %s", kind, expect[kind],
+                    then[kind] ? then[kind] : "", rad_test_log);
+            RAD_CHECK(0);
+        }
+        rad_ff_info info = strip_info();
+        remove("test_lfile.refused");
+        RAD_CHECK(rad_ff_write_links("test_lfile.refused", &info, mesh, &l) == RAD_ERR_INVALID);
+        RAD_CHECK(fopen("test_lfile.refused", "rb") == NULL);
+        rad_log_set_sink(NULL, NULL);
+        rad_links_free(&l);
+    }
+}
+
+/* The scene name: 63 bytes in a links file, 59 with clusters (the cluster
+ * count takes the name field's last 4 bytes). */
+static void test_long_names(const rad_mesh *plates, const rad_links *plain, const rad_mesh *strip,
+                            const rad_links *clustered)
+{
+    for (int with_clusters = 0; with_clusters < 2; with_clusters++) {
+        rad_ff_info info = with_clusters ? strip_info() : links_info();
+        memset(info.scene_name, 'n', sizeof info.scene_name - 1);
+        RAD_CHECK(rad_ff_write_links("test_lfile.named", &info, with_clusters ? strip : plates,
+                                     with_clusters ? clustered : plain) == RAD_OK);
+        rad_ff_file *ff = NULL;
+        RAD_CHECK(rad_ff_open("test_lfile.named", &ff) == RAD_OK);
+        if (ff) {
+            size_t len = strlen(rad_ff_file_info(ff)->scene_name);
+            RAD_CHECK(len == (with_clusters ? 59u : 63u));
+            RAD_CHECK(rad_ff_file_info(ff)->cluster_count == (with_clusters ? S_CLUSTERS : 0));
+            rad_links back;
+            RAD_CHECK(rad_ff_read_links(ff, &back) == RAD_OK);
+            rad_links_free(&back);
+        }
+        rad_ff_close(ff);
+    }
+    remove("test_lfile.named");
+}
+
 int main(int argc, char **argv)
 {
     const char *keep = argc > 1 ? argv[1] : NULL, *seed = argc > 2 ? argv[2] : NULL;
-    const char *path = "test_lfile.links";
+    const char *keep_clusters = argc > 3 ? argv[3] : NULL;
+    const char *path = "test_lfile.links", *clusters_path = "test_lfile.clusters";
     rad_mesh mesh = leaves_mesh();
     rad_links links = make_links();
     test_check(&links);
     test_round_trip(path, &mesh, &links);
-    test_damage(path);
+    test_damage_plates(path);
     test_kinds(&mesh, &links);
+
+    rad_mesh strip = strip_mesh();
+    rad_links clustered = make_strip_links();
+    test_check_clusters(&clustered, &strip);
+    test_clusters_file(clusters_path, &strip, &clustered);
+    test_long_names(&mesh, &links, &strip, &clustered);
     if (keep) {
         rad_ff_info info = links_info();
         RAD_CHECK(rad_ff_write_links(keep, &info, &mesh, &links) == RAD_OK);
     }
     if (seed) {
+        /* valid, and what the writer writes today: version 4, byte for byte */
         rad_links back;
         RAD_CHECK(open_and_read(seed, &back) == RAD_OK);
         rad_links_free(&back);
+        size_t size = 0, seed_size = 0;
+        unsigned char *bytes = rad_test_read_file(path, &size), *seed_bytes = rad_test_read_file(seed, &seed_size);
+        RAD_CHECK(bytes && seed_bytes && size == seed_size && memcmp(bytes, seed_bytes, size) == 0);
+        free(bytes);
+        free(seed_bytes);
+    }
+    if (keep_clusters) {
+        rad_ff_info info = strip_info();
+        RAD_CHECK(rad_ff_write_links(keep_clusters, &info, &strip, &clustered) == RAD_OK);
     }
     rad_links_free(&links);
+    rad_links_free(&clustered);
     remove(path);
+    remove(clusters_path);
     return rad_test_finish();
 }

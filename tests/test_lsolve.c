@@ -11,6 +11,12 @@
  * c (reciprocal by construction). A set of links is equivalent to the
  * dense leaf matrix F_lm = sum over the links (r, s) with l under r and m
  * under s of F_rs A_m / A_s, which the test solves directly.
+ *
+ * Clusters (issue 27): the faces grouped in a small cluster tree, with
+ * links at and from clusters, against the same links expanded to the
+ * roots (a cluster receiver's link at each of its roots, a cluster
+ * source's split over its roots by area); the furnace with clusters; the
+ * same bytes on 1 and 2 threads with clusters.
  */
 #include <math.h>
 #include <stdint.h>
@@ -28,6 +34,8 @@
 static void test_links_free(rad_links *links)
 {
     free(links->nodes);
+    free(links->clusters);
+    free(links->cluster_roots);
     free(links->first_link);
     free(links->links);
     memset(links, 0, sizeof *links);
@@ -142,13 +150,15 @@ static int triple_order(const void *a, const void *b)
     return x->source < y->source ? -1 : x->source > y->source;
 }
 
-/* The triples as the links' CSR table, sorted by receiver and source. */
+/* The triples as the links' CSR table over the ids (nodes, then
+ * clusters), sorted by receiver and source. */
 static int links_set(rad_links *L, link_triple *t, size_t count)
 {
+    const size_t ids = rad_links_id_count(L);
     qsort(t, count, sizeof *t, triple_order);
     free(L->first_link);
     free(L->links);
-    L->first_link = calloc((size_t)L->node_count + 1, sizeof *L->first_link);
+    L->first_link = calloc(ids + 1, sizeof *L->first_link);
     L->links = malloc((count ? count : 1) * sizeof *L->links);
     if (!L->first_link || !L->links) return 0;
     for (size_t k = 0; k < count; k++) {
@@ -157,7 +167,7 @@ static int links_set(rad_links *L, link_triple *t, size_t count)
         L->links[k].error = 0;
         L->links[k].factor = t[k].factor;
     }
-    for (uint32_t i = 0; i < L->node_count; i++) L->first_link[i + 1] += L->first_link[i];
+    for (size_t i = 0; i < ids; i++) L->first_link[i + 1] += L->first_link[i];
     L->link_count = count;
     return 1;
 }
@@ -201,55 +211,105 @@ static double coupling(const cube_case *cc, uint32_t a, uint32_t b)
     return ca * cb / (RAD_PI * r2);
 }
 
-/* Each leaf's row sum: its links' and its ancestors' F. */
+/* The leaf cluster holding root r (cluster_count: none). */
+static uint32_t leaf_cluster_of(const rad_links *L, uint32_t r)
+{
+    for (uint32_t c = 0; c < L->cluster_count; c++)
+        if (L->clusters[c].child_count == 0)
+            for (uint32_t q = L->clusters[c].root_begin; q < L->clusters[c].root_end; q++)
+                if (L->cluster_roots[q] == r) return c;
+    return L->cluster_count;
+}
+
+/* Each leaf's row sum: its links', its ancestors' and its root's
+ * clusters' F. */
 static double largest_row_sum(const rad_links *L)
 {
-    double *s = calloc(L->node_count, sizeof *s), largest = 0;
-    for (uint32_t i = 0; i < L->node_count; i++) {
+    const uint32_t n = L->node_count;
+    double *s = calloc(rad_links_id_count(L), sizeof *s), largest = 0;
+    for (uint32_t c = 0; c < L->cluster_count; c++) {
+        for (uint64_t k = L->first_link[n + c]; k < L->first_link[n + c + 1]; k++) s[n + c] += L->links[k].factor;
+        if (L->clusters[c].parent != RAD_NO_ELEMENT) s[n + c] += s[n + L->clusters[c].parent];
+    }
+    for (uint32_t i = 0; i < n; i++) {
         for (uint64_t k = L->first_link[i]; k < L->first_link[i + 1]; k++) s[i] += L->links[k].factor;
         if (L->nodes[i].parent != RAD_NO_ELEMENT) s[i] += s[L->nodes[i].parent];
+        else if (L->cluster_count) s[i] += s[n + leaf_cluster_of(L, i)];
         if (L->nodes[i].first_child == RAD_NO_ELEMENT && s[i] > largest) largest = s[i];
     }
     free(s);
     return largest;
 }
 
-/* Links between every two faces at the covers kind[f][g] (face f's side
- * of the pair f-g). furnace: F = the exact face-to-face factor spread by
- * area; else the point coupling, scaled so that the largest row sums to
- * 0.95. Reciprocal either way. */
-static int links_between_faces(cube_case *cc, int kind[FACES][FACES], int furnace)
+/* The area of id i: a node's or a cluster's. */
+static double id_area(const rad_links *L, uint32_t i)
+{
+    return i < L->node_count ? L->nodes[i].area : L->clusters[i - L->node_count].area;
+}
+
+/* A growing list of triples. */
+typedef struct triple_list {
+    link_triple *t;
+    size_t count, cap;
+} triple_list;
+
+static int triple_add(triple_list *l, uint32_t receiver, uint32_t source, double factor)
+{
+    if (l->count == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 1024;
+        link_triple *grown = realloc(l->t, cap * sizeof *grown);
+        if (!grown) return 0;
+        l->t = grown, l->cap = cap;
+    }
+    l->t[l->count++] = (link_triple){receiver, source, factor};
+    return 1;
+}
+
+/* The pair of links a <- b, b <- a of the symmetric coupling c:
+ * F_ab = c A_b, F_ba = c A_a (reciprocal by construction). */
+static int pair_add(triple_list *l, const rad_links *L, uint32_t a, uint32_t b, double c)
+{
+    return triple_add(l, a, b, c * id_area(L, b)) && triple_add(l, b, a, c * id_area(L, a));
+}
+
+/* Links between two faces at the covers kind[f][g] (face f's side of the
+ * pair f-g), for every two faces, or with `group` only for two of the
+ * same group. furnace: F = the exact face-to-face factor spread by area;
+ * else the point coupling. */
+static int face_triples(cube_case *cc, int kind[FACES][FACES], int furnace, const int *group, triple_list *out)
 {
     rad_links *L = &cc->links;
-    size_t cap = 1024, count = 0;
-    link_triple *t = malloc(cap * sizeof *t);
     uint32_t *a = malloc(L->node_count * sizeof *a), *b = malloc(L->node_count * sizeof *b);
-    int ok = t && a && b;
+    int ok = a && b;
     for (uint32_t f = 0; f < FACES && ok; f++)
         for (uint32_t g = f + 1; g < FACES && ok; g++) {
+            if (group && group[f] != group[g]) continue;
             size_t na = cover(L, f, kind[f][g], a), nb = cover(L, g, kind[g][f], b);
             double F = f / 2 == g / 2 ? CUBE_F_OPPOSITE : CUBE_F_ADJACENT; /* faces 2k, 2k+1 are opposite */
             for (size_t i = 0; i < na && ok; i++)
-                for (size_t j = 0; j < nb && ok; j++) {
-                    if (count + 2 > cap) {
-                        link_triple *grown = realloc(t, 2 * cap * sizeof *t);
-                        if (!(ok = grown != NULL)) break;
-                        t = grown, cap *= 2;
-                    }
-                    const double Aa = L->nodes[a[i]].area, Ab = L->nodes[b[j]].area;
-                    const double c = furnace ? F : coupling(cc, a[i], b[j]); /* faces have area 1 */
-                    t[count++] = (link_triple){a[i], b[j], c * Ab};
-                    t[count++] = (link_triple){b[j], a[i], c * Aa};
-                }
+                for (size_t j = 0; j < nb && ok; j++)
+                    ok = pair_add(out, L, a[i], b[j], furnace ? F : coupling(cc, a[i], b[j])); /* faces have area 1 */
         }
-    ok = ok && links_set(L, t, count);
-    if (ok && !furnace) {
-        double scale = 0.95 / largest_row_sum(L);
-        for (uint64_t k = 0; k < L->link_count; k++) L->links[k].factor *= scale;
-    }
-    free(t);
     free(a);
     free(b);
+    return ok;
+}
+
+/* Scales every link so that the largest row sum is `target`. */
+static void links_scale(rad_links *L, double target)
+{
+    double scale = target / largest_row_sum(L);
+    for (uint64_t k = 0; k < L->link_count; k++) L->links[k].factor *= scale;
+}
+
+/* Links between every two faces at the covers kind[f][g] (face_triples);
+ * without furnace scaled so that the largest row sums to 0.95. */
+static int links_between_faces(cube_case *cc, int kind[FACES][FACES], int furnace)
+{
+    triple_list list = {0};
+    int ok = face_triples(cc, kind, furnace, NULL, &list) && links_set(&cc->links, list.t, list.count);
+    if (ok && !furnace) links_scale(&cc->links, 0.95);
+    free(list.t);
     return ok;
 }
 
@@ -697,6 +757,307 @@ static void test_edges(void)
     cube_free(&cc);
 }
 
+/* ---- clusters (issue 27) ---- */
+
+/* The half of the cube holding face f in cube_clusters' tree. */
+static const int cube_half[FACES] = {0, 1, 0, 1, 0, 1};
+
+/* The cube's faces in a cluster tree: cluster 0 over all, its children 1
+ * (faces 0, 2, 4: x, y, z = 0; a leaf cluster) and 2 (faces 1, 3, 5),
+ * whose children are the leaf clusters 3 (face 1) and 4 (faces 3, 5).
+ * Each face of one half is opposite one face of the other and adjacent
+ * to the rest, and to the faces of its own half. */
+static int cube_clusters(rad_links *L)
+{
+    static const uint32_t order[FACES] = {0, 2, 4, 1, 3, 5};
+    static const rad_link_cluster tree[5] = {
+        {.parent = RAD_NO_ELEMENT, .first_child = 1, .child_count = 2, .root_begin = 0, .root_end = 6},
+        {.parent = 0, .first_child = RAD_NO_ELEMENT, .root_begin = 0, .root_end = 3},
+        {.parent = 0, .first_child = 3, .child_count = 2, .root_begin = 3, .root_end = 6},
+        {.parent = 2, .first_child = RAD_NO_ELEMENT, .root_begin = 3, .root_end = 4},
+        {.parent = 2, .first_child = RAD_NO_ELEMENT, .root_begin = 4, .root_end = 6}};
+    L->cluster_count = 5;
+    L->clusters = malloc(sizeof tree);
+    L->cluster_roots = malloc(sizeof order);
+    if (!L->clusters || !L->cluster_roots) return 0;
+    memcpy(L->clusters, tree, sizeof tree);
+    memcpy(L->cluster_roots, order, sizeof order);
+    for (uint32_t c = 0; c < 5; c++)
+        for (uint32_t q = tree[c].root_begin; q < tree[c].root_end; q++) L->clusters[c].area += L->nodes[order[q]].area;
+    return 1;
+}
+
+/* Links at and from cube_clusters' clusters, reciprocal pairs of coupling
+ * k: the halves (clusters 1 and 2), a leaf cluster and the other half (4
+ * and 1), cluster 0 with itself, face 0's first child with half 2, the
+ * last leaf with cluster 3; with every_leaf also every leaf node with
+ * clusters 0, 1 and 2. */
+static int cluster_triples(const rad_links *L, double k, int every_leaf, triple_list *out)
+{
+    const uint32_t n = L->node_count;
+    const uint32_t x = L->nodes[0].first_child != RAD_NO_ELEMENT ? L->nodes[0].first_child : 0;
+    uint32_t y = 0;
+    for (uint32_t i = 0; i < n; i++)
+        if (L->nodes[i].leaf == L->leaf_count - 1) y = i;
+    int ok = pair_add(out, L, n + 1, n + 2, k) && pair_add(out, L, n + 4, n + 1, k) &&
+             triple_add(out, n, n, k * id_area(L, n)) && pair_add(out, L, x, n + 2, k) && pair_add(out, L, y, n + 3, k);
+    for (uint32_t i = 0; i < n && ok && every_leaf; i++)
+        if (L->nodes[i].first_child == RAD_NO_ELEMENT)
+            for (uint32_t c = 0; c < 3 && ok; c++) ok = pair_add(out, L, i, n + c, k);
+    return ok;
+}
+
+/* L's links expanded to its roots, into flat (the same nodes, no
+ * clusters): a link at cluster c is at each root of c, a link from
+ * cluster s is one from each root j of s with F A_j / A_s; links that
+ * land on the same receiver and source are summed. */
+static int links_expand(const rad_links *L, rad_links *flat)
+{
+    const uint32_t n = L->node_count;
+    memset(flat, 0, sizeof *flat);
+    flat->node_count = n, flat->root_count = L->root_count, flat->leaf_count = L->leaf_count;
+    flat->nodes = malloc(n * sizeof *flat->nodes);
+    if (!flat->nodes) return 0;
+    memcpy(flat->nodes, L->nodes, n * sizeof *flat->nodes);
+    triple_list list = {0};
+    int ok = 1;
+    for (uint32_t r = 0; r < rad_links_id_count(L) && ok; r++) {
+        const rad_link_cluster *cr = r < n ? NULL : &L->clusters[r - n];
+        for (uint32_t qr = cr ? cr->root_begin : 0; qr < (cr ? cr->root_end : 1) && ok; qr++) {
+            const uint32_t receiver = cr ? L->cluster_roots[qr] : r;
+            for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1] && ok; k++) {
+                const uint32_t s = L->links[k].source;
+                const rad_link_cluster *cs = s < n ? NULL : &L->clusters[s - n];
+                for (uint32_t qs = cs ? cs->root_begin : 0; qs < (cs ? cs->root_end : 1) && ok; qs++) {
+                    const uint32_t source = cs ? L->cluster_roots[qs] : s;
+                    const double w = cs ? L->nodes[source].area / cs->area : 1;
+                    ok = triple_add(&list, receiver, source, L->links[k].factor * w);
+                }
+            }
+        }
+    }
+    size_t m = 0;
+    if (ok && list.count) {
+        qsort(list.t, list.count, sizeof *list.t, triple_order);
+        for (size_t k = 1; k < list.count; k++) {
+            if (list.t[k].receiver == list.t[m].receiver && list.t[k].source == list.t[m].source)
+                list.t[m].factor += list.t[k].factor;
+            else
+                list.t[++m] = list.t[k];
+        }
+        m++;
+    }
+    ok = ok && links_set(flat, list.t, m);
+    free(list.t);
+    return ok;
+}
+
+/* Every face lit a little and its own reflectances: B of one order
+ * everywhere, so that B is compared relatively at 1e-12. */
+static void cluster_materials(double rho[FACES][3], double emission[FACES][3])
+{
+    for (int f = 0; f < FACES; f++)
+        for (int c = 0; c < 3; c++) {
+            rho[f][c] = 0.3 + 0.1 * f + 0.05 * c;
+            emission[f][c] = 1.0 + 0.2 * f + 0.1 * c;
+        }
+}
+
+static double worst_relative(const double *a, const double *b, size_t count)
+{
+    double worst = 0;
+    for (size_t k = 0; k < count; k++) {
+        double d = fabs(a[k] - b[k]) / fabs(b[k]);
+        if (!(d <= worst)) worst = d;
+    }
+    return worst;
+}
+
+/* Links at mixed levels inside each half of the cube and links at and from
+ * clusters (cluster_triples) against the same links expanded to the roots;
+ * the expansion also against the direct solve. Then cluster tables the
+ * solve refuses. */
+static void test_cluster_links(void)
+{
+    static const int depth[FACES] = {2, 1, 2, 0, 2, 1};
+    double rho[FACES][3], emission[FACES][3];
+    cluster_materials(rho, emission);
+    int kind[FACES][FACES];
+    kinds_mixed(kind);
+    cube_case cc;
+    triple_list list = {0};
+    rad_links flat;
+    memset(&flat, 0, sizeof flat);
+    int made = cube_make(&cc, depth, 1, rho, emission) && cube_clusters(&cc.links) &&
+               face_triples(&cc, kind, 0, cube_half, &list) && cluster_triples(&cc.links, 0.1, 0, &list) &&
+               links_set(&cc.links, list.t, list.count);
+    free(list.t);
+    if (made) links_scale(&cc.links, 0.95);
+    made = made && links_expand(&cc.links, &flat);
+    RAD_CHECK(made);
+    if (!made) {
+        test_links_free(&flat);
+        cube_free(&cc);
+        return;
+    }
+    const size_t n = cc.leaves.patch_count;
+    double *B[2] = {malloc(3 * n * sizeof(double)), malloc(3 * n * sizeof(double))};
+    double *B_flat = malloc(3 * n * sizeof(double));
+    for (int m = 0; m < 2; m++) {
+        rad_lsolve_method method = m == 0 ? RAD_LSOLVE_JACOBI : RAD_LSOLVE_GAUSS_SEIDEL;
+        rad_lsolve_result r, rf;
+        RAD_CHECK(run_lsolve(&cc, method, 1e-14, 0, B[m], &r) == RAD_OK);
+        rad_links clustered = cc.links;
+        cc.links = flat; /* the expansion, solved and solved directly */
+        RAD_CHECK(run_lsolve(&cc, method, 1e-14, 0, B_flat, &rf) == RAD_OK);
+        double residual, dense = worst_against_dense(&cc, B_flat, &residual);
+        cc.links = clustered;
+        double worst = worst_relative(B[m], B_flat, 3 * n);
+        printf("clusters, %s: %zu leaves, %u nodes, %u clusters, %llu links (%llu expanded): iterations %u (%u "
+               "expanded), worst %.2g against the expansion (which is %.2g from the direct solve), imbalance %.2g\n",
+               m == 0 ? "jacobi" : "gauss-seidel", n, cc.links.node_count, cc.links.cluster_count,
+               (unsigned long long)cc.links.link_count, (unsigned long long)flat.link_count, r.iterations[0],
+               rf.iterations[0], worst, dense, r.imbalance);
+        RAD_CHECK(worst <= 1e-12);
+        RAD_CHECK(dense <= 1e-10);
+        for (int c = 0; c < 3; c++) RAD_CHECK(r.residual[c] <= 1e-14);
+        RAD_CHECK(fabs(r.imbalance) <= 1e-12 && fabs(rf.imbalance) <= 1e-12);
+        RAD_CHECK(r.emitted == rf.emitted);
+        RAD_CHECK_REL(r.absorbed, rf.absorbed, 1e-12);
+        RAD_CHECK_REL(r.escaped, rf.escaped, 1e-12);
+    }
+    RAD_CHECK(worst_relative(B[0], B[1], 3 * n) <= 1e-12); /* Jacobi and Gauss-Seidel agree */
+
+    /* cluster tables the solve cannot index: refused, B untouched */
+    rad_links *L = &cc.links;
+    rad_lsolve_result r;
+    B[0][0] = 42;
+    rad_test_capture_log();
+    L->cluster_roots[1] = L->cluster_roots[0];
+    RAD_CHECK(run_lsolve(&cc, RAD_LSOLVE_JACOBI, 1e-9, 0, B[0], &r) == RAD_ERR_INVALID);
+    RAD_CHECK(rad_test_log_contains("out of range or twice"));
+    L->cluster_roots[1] = 2;
+    L->clusters[4].root_begin = 5;
+    RAD_CHECK(run_lsolve(&cc, RAD_LSOLVE_JACOBI, 1e-9, 0, B[0], &r) == RAD_ERR_INVALID);
+    L->clusters[4].root_begin = 4;
+    L->clusters[3].parent = 1;
+    RAD_CHECK(run_lsolve(&cc, RAD_LSOLVE_JACOBI, 1e-9, 0, B[0], &r) == RAD_ERR_INVALID);
+    L->clusters[3].parent = 2;
+    const uint32_t source = L->links[0].source;
+    L->links[0].source = (uint32_t)rad_links_id_count(L);
+    RAD_CHECK(run_lsolve(&cc, RAD_LSOLVE_JACOBI, 1e-9, 0, B[0], &r) == RAD_ERR_INVALID);
+    L->links[0].source = source;
+    rad_log_set_sink(NULL, NULL);
+    RAD_CHECK(B[0][0] == 42);
+    RAD_CHECK(run_lsolve(&cc, RAD_LSOLVE_JACOBI, 1e-9, 0, B[0], &r) == RAD_OK); /* mended */
+
+    free(B[0]);
+    free(B[1]);
+    free(B_flat);
+    test_links_free(&flat);
+    cube_free(&cc);
+}
+
+/* The closed cube's furnace with the two halves joined by cluster links
+ * alone: halves 1 <-> 2 (a leaf cluster and an inner one), or half 1 with
+ * each of 2's leaf clusters 3 and 4. Every leaf then gathers 1 (each face
+ * sees the other half with F_opposite + 2 F_adjacent), so
+ * B = 1 / (1 - rho), nothing escapes and the energy balances. */
+static void test_cluster_furnace(void)
+{
+    static const int depth[FACES] = {2, 1, 2, 0, 2, 1};
+    static const double rhos[2] = {0.5, 0.9};
+    const double across = (CUBE_F_OPPOSITE + 2 * CUBE_F_ADJACENT) / 3; /* coupling of the halves (area 3 each) */
+    for (int variant = 0; variant < 2; variant++)
+        for (int k = 0; k < 2; k++) {
+            double rho[FACES][3], emission[FACES][3];
+            for (int f = 0; f < FACES; f++)
+                for (int c = 0; c < 3; c++) rho[f][c] = rhos[k], emission[f][c] = 1;
+            int kind[FACES][FACES];
+            kinds_mixed(kind);
+            cube_case cc;
+            triple_list list = {0};
+            int made = cube_make(&cc, depth, 1, rho, emission) && cube_clusters(&cc.links) &&
+                       face_triples(&cc, kind, 1, cube_half, &list);
+            const uint32_t n = cc.links.node_count;
+            if (made && variant == 0) made = pair_add(&list, &cc.links, n + 1, n + 2, across);
+            if (made && variant == 1)
+                made = pair_add(&list, &cc.links, n + 1, n + 3, across) &&
+                       pair_add(&list, &cc.links, n + 1, n + 4, across);
+            made = made && links_set(&cc.links, list.t, list.count);
+            free(list.t);
+            RAD_CHECK(made);
+            if (!made) {
+                cube_free(&cc);
+                return;
+            }
+            const size_t count = cc.leaves.patch_count;
+            double *B = malloc(3 * count * sizeof *B);
+            for (int m = 0; m < 2; m++) {
+                rad_lsolve_method method = m == 0 ? RAD_LSOLVE_JACOBI : RAD_LSOLVE_GAUSS_SEIDEL;
+                rad_lsolve_result r;
+                RAD_CHECK(run_lsolve(&cc, method, 1e-11, 0, B, &r) == RAD_OK);
+                double worst = 0;
+                for (size_t l = 0; l < 3 * count; l++) worst = fmax(worst, fabs(B[l] * (1 - rhos[k]) - 1));
+                printf("furnace with clusters %s, rho %g, %s: %u iterations, worst %.2g, imbalance %.2g, escaped %.2g "
+                       "of emitted\n",
+                       variant == 0 ? "1 <-> 2" : "1 <-> 3, 4", rhos[k], m == 0 ? "jacobi" : "gauss-seidel",
+                       r.iterations[0], worst, r.imbalance, r.escaped / r.emitted);
+                RAD_CHECK(worst <= 1e-9);
+                RAD_CHECK(fabs(r.imbalance) <= 1e-9);
+                RAD_CHECK(fabs(r.escaped) <= 1e-9 * r.emitted);
+                RAD_CHECK_REL(r.emitted, 3.0 * 6, 1e-12);
+            }
+            free(B);
+            cube_free(&cc);
+        }
+}
+
+/* 1 and 2 threads with clusters: the same bytes, both methods. Depth 5,
+ * links at mixed levels inside each half, every leaf linked with clusters
+ * 0, 1 and 2 (18,432 links at clusters: their gathers run in parallel). */
+static void test_cluster_threads(void)
+{
+    static const int depth5[FACES] = {5, 5, 5, 5, 5, 5};
+    double rho[FACES][3], emission[FACES][3];
+    rgb_materials(rho, emission);
+    int kind[FACES][FACES];
+    kinds_mixed(kind);
+    cube_case cc;
+    triple_list list = {0};
+    int made = cube_make(&cc, depth5, 0, rho, emission) && cube_clusters(&cc.links) &&
+               face_triples(&cc, kind, 0, cube_half, &list) && cluster_triples(&cc.links, 0.01, 1, &list) &&
+               links_set(&cc.links, list.t, list.count);
+    free(list.t);
+    RAD_CHECK(made);
+    if (!made) {
+        cube_free(&cc);
+        return;
+    }
+    links_scale(&cc.links, 0.95);
+    const uint32_t nodes = cc.links.node_count;
+    RAD_CHECK(cc.links.first_link[nodes + 5] - cc.links.first_link[nodes] >= 16384);
+    const size_t n = cc.leaves.patch_count;
+    double *one = malloc(3 * n * sizeof *one), *two = malloc(3 * n * sizeof *two);
+    for (int m = 0; m < 2; m++) {
+        rad_lsolve_method method = m == 0 ? RAD_LSOLVE_JACOBI : RAD_LSOLVE_GAUSS_SEIDEL;
+        rad_lsolve_result r1, r2;
+        RAD_CHECK(run_lsolve(&cc, method, 1e-9, 1, one, &r1) == RAD_OK);
+        RAD_CHECK(run_lsolve(&cc, method, 1e-9, 2, two, &r2) == RAD_OK);
+        printf("threads with clusters, %s: %zu leaves, %u nodes, %llu links: %u iterations, imbalance %.2g, %.3f s "
+               "on 1 thread, %.3f s on 2\n",
+               m == 0 ? "jacobi" : "gauss-seidel", n, nodes, (unsigned long long)cc.links.link_count,
+               r1.iterations[0], r1.imbalance, r1.seconds, r2.seconds);
+        RAD_CHECK(memcmp(one, two, 3 * n * sizeof *one) == 0);
+        RAD_CHECK(memcmp(r1.residual, r2.residual, sizeof r1.residual) == 0);
+        RAD_CHECK(r1.iterations[0] == r2.iterations[0] && r1.imbalance == r2.imbalance);
+        RAD_CHECK(fabs(r1.imbalance) <= 1e-8);
+    }
+    free(one);
+    free(two);
+    cube_free(&cc);
+}
+
 int main(void)
 {
     test_push_pull_by_hand();
@@ -705,5 +1066,8 @@ int main(void)
     test_furnace();
     test_threads();
     test_edges();
+    test_cluster_links();
+    test_cluster_furnace();
+    test_cluster_threads();
     return rad_test_finish();
 }

@@ -8,10 +8,13 @@ with one line. Damaged copies - every single-byte change (XOR 0xff) in
 process, truncations, header counts and sections through the programs -
 are refused: a FormatError (ValueError) in process, one line naming the
 file and exit 1 from the programs, never a traceback or a huge allocation
-(children run under a 4 GiB address space limit). Exit 77 (skipped) where
-numpy is missing.
+(children run under a 4 GiB address space limit). The file with clusters
+(version 5) test_lfile leaves, where given: read_links gives its clusters
+and cluster roots, every single-byte change and truncation is refused, and
+damage in its cluster sections through ffread.py names the section. Exit
+77 (skipped) where numpy is missing.
 
-    tools_lfile.py TOOLS_DIR LINKS_FILE WORK_DIR
+    tools_lfile.py TOOLS_DIR LINKS_FILE WORK_DIR [CLUSTERS_FILE]
 """
 import os
 import resource
@@ -28,6 +31,7 @@ except ImportError:
     sys.exit(77)
 
 tools, links_file, work = sys.argv[1], os.path.abspath(sys.argv[2]), sys.argv[3]
+clusters_file = os.path.abspath(sys.argv[4]) if len(sys.argv) > 4 else None
 os.makedirs(work, exist_ok=True)
 os.chdir(work)
 sys.path.insert(0, tools)
@@ -65,6 +69,8 @@ FFDUMP = os.path.join(tools, "ffdump.py")
 h = ffread.read_header(links_file)
 check(ffread.is_links(h) and not ffread.is_sparse(h) and int(h["version"]) == 4, "the header says links, version 4")
 info, nodes, first_link, links = ffread.read_links(links_file, h)
+check(info["cluster_count"] == 0 and all(len(a) == 0 for a in ffread.read_links(links_file, h, with_clusters=True)[4:]),
+      "no clusters in version 4: empty cluster arrays")
 check((info["node_count"], info["root_count"], info["leaf_count"], info["link_count"]) == (10, 2, 8, 14),
       f"counts: {info['node_count']} nodes, {info['root_count']} roots, {info['leaf_count']} leaves, "
       f"{info['link_count']} links")
@@ -102,7 +108,6 @@ for command in (["matrix", links_file, "-o", "out.npy"], ["group-matrix", links_
                    "holds links, not a matrix")
 
 # ---- damaged copies ----
-good = open(links_file, "rb").read()
 
 
 def refused_in_process(name):
@@ -122,22 +127,31 @@ def refused_copy(data):
     return refused_in_process(flip_path)
 
 
-scratch = tempfile.mkdtemp(prefix="tools_lfile.", dir="/dev/shm" if os.access("/dev/shm", os.W_OK) else ".")
-flip_path = os.path.join(scratch, "flip.links")
-try:
+def sweep(name, good):
+    """Every single-byte change and truncation of `good` refused in process."""
     accepted = [k for k in range(len(good))
                 if not refused_copy(good[:k] + bytes([good[k] ^ 0xFF]) + good[k + 1:])]
-    check(not accepted, f"every single-byte change of {len(good)} refused in process (accepted at {accepted[:10]})")
+    check(not accepted, f"{name}: every single-byte change of {len(good)} refused in process "
+          f"(accepted at {accepted[:10]})")
     accepted = [n for n in range(len(good)) if not refused_copy(good[:n])]
-    check(not accepted, f"every truncation refused in process (accepted at {accepted[:10]})")
+    check(not accepted, f"{name}: every truncation refused in process (accepted at {accepted[:10]})")
+
+
+scratch = tempfile.mkdtemp(prefix="tools_lfile.", dir="/dev/shm" if os.access("/dev/shm", os.W_OK) else ".")
+flip_path = os.path.join(scratch, "flip.links")
+good = open(links_file, "rb").read()
+try:
+    sweep("version 4", good)
+    if clusters_file:
+        sweep("version 5", open(clusters_file, "rb").read())
 finally:
     shutil.rmtree(scratch, ignore_errors=True)
 
 node_at, first_at, links_at, sums_at, _ = ffread.link_offsets(links_file, h)
 
 
-def damaged(name, edit):
-    data = bytearray(good)
+def damaged(name, edit, source=None):
+    data = bytearray(good if source is None else source)
     edit(data)
     with open(name, "wb") as f:
         f.write(data)
@@ -173,6 +187,41 @@ for name, edit, what in cases:
     one_line_error(run([FFREAD, name]), name, f"ffread.py, {what}")
     if name in ("half.links", "nodes_huge.links", "links_huge.links"):
         one_line_error(run([FFDUMP, "groups", name]), name, f"ffdump.py groups, {what}")
+
+# ---- with clusters (version 5) ----
+if clusters_file:
+    hc = ffread.read_header(clusters_file)
+    check(ffread.is_links(hc) and int(hc["version"]) == 5, "the clusters file says links, version 5")
+    info, nodes, first_link, links, clusters, cluster_roots = ffread.read_links(clusters_file, hc, with_clusters=True)
+    check((info["node_count"], info["root_count"], info["cluster_count"], info["leaf_count"], info["link_count"])
+          == (9, 5, 5, 8, 16) and info["scene_name"] == "strip of plates",
+          f"counts with clusters: {info}")
+    check(len(clusters) == 5 and cluster_roots.tolist() == [3, 0, 4, 1, 2] and len(first_link) == 15,
+          "cluster table, cluster roots (3 0 4 1 2) and first_link over 14 ids")
+    check(clusters["parent"].tolist() == [ffread.NO_ELEMENT, 0, 0, 2, 2] and
+          clusters["child_count"].tolist() == [2, 0, 2, 0, 0] and clusters["area"].tolist() == [5.5, 2.25, 3.25, 1.5, 1.75],
+          "clusters' parents, children and areas")
+    area = np.concatenate([nodes["area"], clusters["area"]])
+    receivers = np.repeat(np.arange(14), np.diff(first_link.astype(np.int64)))
+    pairs = {(int(r), int(s)): float(f) for r, s, f in zip(receivers, links["source"], links["factor"])}
+    check(any(s >= 9 for _, s in pairs) and any(r >= 9 for r, _ in pairs) and
+          all((s, r) in pairs and abs(area[r] * f - area[s] * pairs[(s, r)]) <= 1e-15 for (r, s), f in pairs.items()),
+          "links at and from clusters, reciprocal with the clusters' areas")
+    four = ffread.read_links(clusters_file, hc)
+    check(len(four) == 4 and np.array_equal(four[2], first_link), "read_links without with_clusters: 4 arrays")
+    p = run([FFREAD, clusters_file])
+    check(p.returncode == 0 and not p.stderr and "5 clusters" in p.stdout and "checksums verified" in p.stdout,
+          f"ffread.py summarises it: {p.stdout.splitlines()[:1]}")
+    lay = ffread.link_layout(clusters_file, hc)
+    source = open(clusters_file, "rb").read()
+    for name, edit, what, text in (
+            ("ctable.links", flip(lay["cluster_at"] + 32 + 8), "a cluster's field changed", "cluster table"),
+            ("croots.links", flip(lay["roots_at"] + 4), "a cluster root changed", "cluster roots"),
+            ("cpad.links", flip(lay["roots_at"] + 4 * 5 + 2), "the cluster roots' padding changed", "cluster roots"),
+            ("ccount.links", put("<I", 188, 0xFFFFFFF0), "a huge cluster count", "clusters"),
+            ("czero.links", put("<I", 188, 0), "no clusters in version 5", "clusters")):
+        damaged(name, edit, source)
+        one_line_error(run([FFREAD, name]), name, f"ffread.py, {what}", text)
 
 print(f"{failures} failures")
 sys.exit(1 if failures else 0)

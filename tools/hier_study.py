@@ -9,7 +9,7 @@ channels, held against the bound the links file records (--stats
 error_bound), with links, leaves and times.
 
     tools/hier_study.py --build BUILD [--scene S] [--tols 1e-2,1e-3,...] [--uniform]
-                        [--subdiv D] [--oracle O] [--passes P] [--json OUT]
+                        [--subdiv D] [--oracle O] [--passes P] [--clusters C] [--json OUT]
                         [--check]   (exit 1 unless the error falls monotonically
                                      and every bound covers its error)
 """
@@ -75,6 +75,7 @@ def main(argv):
     p.add_argument("--subdiv", type=int, default=None, help="finest level (formfactor --subdiv)")
     p.add_argument("--oracle", default="auto", help="formfactor --oracle [auto]")
     p.add_argument("--passes", type=int, default=None)
+    p.add_argument("--clusters", default=None, help="formfactor --clusters (auto, on, off)")
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--json", default=None)
     p.add_argument("--check", action="store_true")
@@ -110,6 +111,8 @@ def main(argv):
                 cmd += ["--passes", str(a.passes)]
             if a.uniform:
                 cmd += ["--uniform-leaves"]
+            if a.clusters:
+                cmd += ["--clusters", a.clusters]
             t_links = run(cmd, env)
             sst = os.path.join(work, "s.json")
             t_solve = run([solve, lk, "-q", "--tol", a.solve_tol, "-o", hr, "--stats", sst], env)

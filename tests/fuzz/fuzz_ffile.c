@@ -116,19 +116,26 @@ static int repair(uint8_t *b, size_t size)
     if (rad_get_u32(b + 8) >= 4 && rad_get_u32(b + 236) == RAD_FF_LAYOUT_LINKS) {
         info.layout = RAD_FF_LAYOUT_LINKS;
         info.node_count = rad_get_u32(b + 192);
+        info.root_count = rad_get_u32(b + 196);
         info.link_count = rad_get_u64(b + 200);
-        if (info.node_count > size || info.link_count > size) return 0;
+        info.cluster_count = rad_get_u32(b + 8) >= 5 ? rad_get_u32(b + 188) : 0;
+        if (info.node_count > size || info.root_count > size || info.cluster_count > size || info.link_count > size)
+            return 0;
     }
     rad_ff_layout l = rad_ff_layout_of(&info);
     if (l.file_bytes > size) return 0;
     uint64_t n = info.patch_count;
     if (info.layout == RAD_FF_LAYOUT_LINKS) {
-        /* node table, first_link, each block of links: each up to the next */
-        uint64_t sums = rad_lfile_checksum_count(info.link_count);
+        /* node table, (cluster table, cluster roots,) first_link, each
+         * block of links: each up to the next */
+        uint64_t starts[4], fixed = 0;
+        starts[fixed++] = l.matrix_offset;
+        if (info.cluster_count) starts[fixed++] = l.cluster_offset, starts[fixed++] = l.cluster_root_offset;
+        starts[fixed++] = l.first_link_offset;
+        uint64_t sums = rad_lfile_checksum_count(info.cluster_count, info.link_count);
         for (uint64_t k = 0; k < sums; k++) {
-            uint64_t at = k == 0 ? l.matrix_offset : k == 1 ? l.first_link_offset
-                                                            : l.link_offset + (k - 2) * RAD_LFILE_BLOCK_LINKS * 16;
-            uint64_t end = k == 0 ? l.first_link_offset : k == 1 ? l.link_offset
+            uint64_t at = k < fixed ? starts[k] : l.link_offset + (k - fixed) * RAD_LFILE_BLOCK_LINKS * 16;
+            uint64_t end = k + 1 < fixed ? starts[k + 1] : k + 1 == fixed ? l.link_offset
                          : k + 1 < sums ? at + RAD_LFILE_BLOCK_LINKS * 16 : l.row_checksum_offset;
             rad_put_u64(b + l.row_checksum_offset + 8 * k, rad_hash64(RAD_HASH_SEED, b + at, (size_t)(end - at)));
         }

@@ -1,0 +1,254 @@
+/* ff_clusters.c - clusters above the faces (ff_clusters.h). */
+#include "ff_clusters.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rad_log.h"
+
+/* ---- the median split ---- */
+
+typedef struct split_key {
+    double at;     /* the centre's coordinate on the split axis */
+    uint32_t root;
+} split_key;
+
+static int key_less(const split_key *a, const split_key *b)
+{
+    return a->at < b->at || (a->at == b->at && a->root < b->root);
+}
+
+/* Reorders keys[0 .. n) so that keys[k] is the k-th smallest, the smaller
+ * before it and the larger after (Hoare's selection; the order is a total
+ * one, so the result does not depend on anything but the keys). */
+static void select_kth(split_key *keys, size_t n, size_t k)
+{
+    size_t lo = 0, hi = n - 1;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        /* median of three as the pivot */
+        if (key_less(&keys[mid], &keys[lo])) { split_key t = keys[mid]; keys[mid] = keys[lo]; keys[lo] = t; }
+        if (key_less(&keys[hi], &keys[lo])) { split_key t = keys[hi]; keys[hi] = keys[lo]; keys[lo] = t; }
+        if (key_less(&keys[hi], &keys[mid])) { split_key t = keys[hi]; keys[hi] = keys[mid]; keys[mid] = t; }
+        split_key pivot = keys[mid];
+        size_t i = lo, j = hi;
+        while (i <= j) {
+            while (key_less(&keys[i], &pivot)) i++;
+            while (key_less(&pivot, &keys[j])) j--;
+            if (i <= j) {
+                split_key t = keys[i];
+                keys[i] = keys[j];
+                keys[j] = t;
+                i++;
+                if (j == 0) break;
+                j--;
+            }
+        }
+        if (k <= j)
+            hi = j;
+        else if (k >= i)
+            lo = i;
+        else
+            return;
+    }
+}
+
+/* ---- bounds ---- */
+
+ff_cluster_bound ff_element_bound(const rad_ff_patch *p)
+{
+    ff_cluster_bound b;
+    b.centre = p->centre;
+    b.radius = p->radius;
+    b.area = p->area;
+    b.vector_area = rad_v3_scale(p->normal, p->area);
+    b.axis = p->normal;
+    b.cone_angle = 0;
+    rad_vec3 n = p->normal;
+    const double A = p->area;
+    b.moment[0] = A * n.x * n.x, b.moment[1] = A * n.y * n.y, b.moment[2] = A * n.z * n.z;
+    b.moment[3] = A * n.x * n.y, b.moment[4] = A * n.x * n.z, b.moment[5] = A * n.y * n.z;
+    return b;
+}
+
+/* Cluster c's bound from its roots' patches. */
+static ff_cluster_bound bound_of_roots(const rad_ff_patch *patches, const uint32_t *roots, uint32_t begin,
+                                       uint32_t end)
+{
+    ff_cluster_bound b;
+    rad_vec3 lo = rad_v3(INFINITY, INFINITY, INFINITY), hi = rad_v3(-INFINITY, -INFINITY, -INFINITY);
+    rad_vec3 v = rad_v3(0, 0, 0);
+    double area = 0, m[6] = {0, 0, 0, 0, 0, 0};
+    for (uint32_t k = begin; k < end; k++) {
+        const rad_ff_patch *p = &patches[roots[k]];
+        for (uint32_t i = 0; i < p->vertex_count; i++) {
+            rad_vec3 x = p->p[i];
+            lo = rad_v3(fmin(lo.x, x.x), fmin(lo.y, x.y), fmin(lo.z, x.z));
+            hi = rad_v3(fmax(hi.x, x.x), fmax(hi.y, x.y), fmax(hi.z, x.z));
+        }
+        v = rad_v3_add(v, rad_v3_scale(p->normal, p->area));
+        area += p->area;
+        rad_vec3 n = p->normal;
+        m[0] += p->area * n.x * n.x, m[1] += p->area * n.y * n.y, m[2] += p->area * n.z * n.z;
+        m[3] += p->area * n.x * n.y, m[4] += p->area * n.x * n.z, m[5] += p->area * n.y * n.z;
+    }
+    memcpy(b.moment, m, sizeof m);
+    b.centre = rad_v3_scale(rad_v3_add(lo, hi), 0.5);
+    b.area = area;
+    b.vector_area = v;
+    double r = 0, len = rad_v3_length(v);
+    b.axis = len > 1e-12 * area ? rad_v3_scale(v, 1.0 / len) : rad_v3(0, 0, 1);
+    double cos_min = len > 1e-12 * area ? 1.0 : -1.0;
+    for (uint32_t k = begin; k < end; k++) {
+        const rad_ff_patch *p = &patches[roots[k]];
+        for (uint32_t i = 0; i < p->vertex_count; i++) r = fmax(r, rad_v3_length(rad_v3_sub(p->p[i], b.centre)));
+        cos_min = fmin(cos_min, rad_v3_dot(p->normal, b.axis));
+    }
+    /* a hair more, for the rounding of what is measured against it */
+    b.radius = r * (1 + 1e-12);
+    b.cone_angle = fmin(RAD_PI, acos(fmax(-1.0, fmin(1.0, cos_min))) + 1e-9);
+    return b;
+}
+
+/* The area b shows towards directions within beta of the unit w: an
+ * estimate and bounds (ff_clusters.h), and the range of cos between a
+ * face's normal and those directions. */
+typedef struct shown_area {
+    double est, lo, hi, cos_lo, cos_hi;
+} shown_area;
+
+static shown_area shown_towards(const ff_cluster_bound *b, rad_vec3 w, double beta)
+{
+    shown_area a;
+    double theta = acos(fmax(-1.0, fmin(1.0, rad_v3_dot(b->axis, w))));
+    double widest = theta + b->cone_angle + beta, narrowest = theta - b->cone_angle - beta;
+    a.cos_hi = narrowest <= 0 ? 1.0 : cos(narrowest);
+    a.cos_lo = widest >= RAD_PI ? -1.0 : cos(widest);
+    double vw = rad_v3_dot(b->vector_area, w), slack = rad_v3_length(b->vector_area) * beta, S = b->area;
+    a.hi = a.cos_hi <= 0 ? 0.0 : fmin(S * a.cos_hi, 0.5 * (vw + slack + S));
+    a.lo = a.cos_lo >= 0 ? fmax(S * a.cos_lo, vw - slack) : fmax(0.0, vw - slack);
+    if (a.lo > a.hi) a.lo = a.hi;
+    /* The estimate at w itself: every face in front, P(w) = V.w exactly;
+     * else (V.w + T) / 2, T between its moment bounds (ff_clusters.h). */
+    const double *M = b->moment;
+    double q = w.x * w.x * M[0] + w.y * w.y * M[1] + w.z * w.z * M[2] +
+               2 * (w.x * w.y * M[3] + w.x * w.z * M[4] + w.y * w.z * M[5]);
+    q = fmax(0.0, q);
+    double t_hi = sqrt(S * q), t_lo = fmin(t_hi, fmax(q, fabs(vw)));
+    int in_front = theta + b->cone_angle <= 0.5 * RAD_PI;
+    double est = in_front ? vw : 0.5 * (vw + sqrt(t_hi * t_lo));
+    a.est = fmin(a.hi, fmax(a.lo, est));
+    return a;
+}
+
+ff_cluster_pair_bound ff_cluster_pair_estimate(const ff_cluster_bound *r, const ff_cluster_bound *s)
+{
+    ff_cluster_pair_bound p = {0, 0, 0, 0, 0, 0};
+    rad_vec3 d = rad_v3_sub(s->centre, r->centre);
+    double dist = rad_v3_length(d), reach = r->radius + s->radius;
+    if (!(dist > 0)) {
+        p.facing = 1;
+        p.hi_rs = p.hi_sr = INFINITY;
+        return p;
+    }
+    rad_vec3 w = rad_v3_scale(d, 1.0 / dist);
+    double beta = reach >= dist ? RAD_PI : asin(reach / dist);
+    shown_area ar = shown_towards(r, w, beta), as = shown_towards(s, rad_v3_scale(w, -1.0), beta);
+    if (ar.hi <= 0 || as.hi <= 0) return p;
+    p.facing = 1;
+    p.coupling = ar.est * as.est / (r->area * s->area * RAD_PI * dist * dist);
+    double near = dist - reach, far = dist + reach;
+    if (near <= 0) {
+        p.hi_rs = p.hi_sr = INFINITY;
+    } else {
+        p.hi_rs = fmin(1.0, ar.cos_hi * as.hi / (RAD_PI * near * near));
+        p.hi_sr = fmin(1.0, as.cos_hi * ar.hi / (RAD_PI * near * near));
+    }
+    p.lo_rs = fmax(0.0, ar.cos_lo) * as.lo / (RAD_PI * far * far);
+    p.lo_sr = fmax(0.0, as.cos_lo) * ar.lo / (RAD_PI * far * far);
+    return p;
+}
+
+/* ---- the tree ---- */
+
+rad_status ff_clusters_build(const rad_ff_patch *patches, uint32_t root_count, ff_cluster_tree *out)
+{
+    memset(out, 0, sizeof *out);
+    size_t cap = root_count > 0 ? 2 * (size_t)root_count : 1;
+    out->clusters = malloc(cap * sizeof *out->clusters);
+    out->roots = malloc((root_count ? root_count : 1) * sizeof *out->roots);
+    out->area_before = malloc(((size_t)root_count + 1) * sizeof *out->area_before);
+    split_key *keys = malloc((root_count ? root_count : 1) * sizeof *keys);
+    if (!out->clusters || !out->roots || !out->area_before || !keys) {
+        free(keys);
+        ff_clusters_free(out);
+        rad_error("clusters: out of memory for %u faces", root_count);
+        return RAD_ERR_NOMEM;
+    }
+    out->root_count = root_count;
+    for (uint32_t k = 0; k < root_count; k++) out->roots[k] = k;
+    out->clusters[0].link = (rad_link_cluster){RAD_NO_ELEMENT, RAD_NO_ELEMENT, 0, 0, root_count, 0, 0};
+    out->count = 1;
+    /* Clusters are split in index order, so children come after parents
+     * and each one's two children are consecutive. */
+    for (uint32_t c = 0; c < out->count; c++) {
+        rad_link_cluster *l = &out->clusters[c].link;
+        uint32_t begin = l->root_begin, end = l->root_end, n = end - begin;
+        if (n <= FF_CLUSTER_LEAF_ROOTS) continue;
+        rad_vec3 lo = rad_v3(INFINITY, INFINITY, INFINITY), hi = rad_v3(-INFINITY, -INFINITY, -INFINITY);
+        for (uint32_t k = begin; k < end; k++) {
+            rad_vec3 x = patches[out->roots[k]].centre;
+            lo = rad_v3(fmin(lo.x, x.x), fmin(lo.y, x.y), fmin(lo.z, x.z));
+            hi = rad_v3(fmax(hi.x, x.x), fmax(hi.y, x.y), fmax(hi.z, x.z));
+        }
+        rad_vec3 d = rad_v3_sub(hi, lo);
+        int axis = d.x >= d.y && d.x >= d.z ? 0 : d.y >= d.z ? 1 : 2;
+        for (uint32_t k = begin; k < end; k++) {
+            rad_vec3 x = patches[out->roots[k]].centre;
+            keys[k - begin] = (split_key){axis == 0 ? x.x : axis == 1 ? x.y : x.z, out->roots[k]};
+        }
+        uint32_t half = n / 2;
+        select_kth(keys, n, half);
+        for (uint32_t k = 0; k < n; k++) out->roots[begin + k] = keys[k].root;
+        l->first_child = out->count;
+        l->child_count = 2;
+        out->clusters[out->count++].link = (rad_link_cluster){c, RAD_NO_ELEMENT, 0, begin, begin + half, 0, 0};
+        out->clusters[out->count++].link = (rad_link_cluster){c, RAD_NO_ELEMENT, 0, begin + half, end, 0, 0};
+    }
+    free(keys);
+    out->area_before[0] = 0;
+    for (uint32_t k = 0; k < root_count; k++) out->area_before[k + 1] = out->area_before[k] + patches[out->roots[k]].area;
+#pragma omp parallel for schedule(dynamic, 64)
+    for (uint32_t c = 0; c < out->count; c++) {
+        ff_cluster *cl = &out->clusters[c];
+        cl->bound = bound_of_roots(patches, out->roots, cl->link.root_begin, cl->link.root_end);
+        /* the file's area: the roots' own areas summed in order (the sum the reader checks) */
+        cl->link.area = cl->bound.area;
+    }
+    return RAD_OK;
+}
+
+uint32_t ff_cluster_pick_root(const ff_cluster_tree *t, uint32_t c, double u)
+{
+    const rad_link_cluster *l = &t->clusters[c].link;
+    double lo_area = t->area_before[l->root_begin], want = lo_area + u * (t->area_before[l->root_end] - lo_area);
+    uint32_t lo = l->root_begin, hi = l->root_end - 1; /* the last k with area_before[k] <= want */
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo + 1) / 2;
+        if (t->area_before[mid] <= want)
+            lo = mid;
+        else
+            hi = mid - 1;
+    }
+    return t->roots[lo];
+}
+
+void ff_clusters_free(ff_cluster_tree *t)
+{
+    if (!t) return;
+    free(t->clusters);
+    free(t->roots);
+    free(t->area_before);
+    memset(t, 0, sizeof *t);
+}

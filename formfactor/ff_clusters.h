@@ -1,0 +1,97 @@
+/* ff_clusters.h - clusters above the faces (issue 27, docs/hierarchy.md
+ * "Clusters"): a binary volume hierarchy over the roots of a hierarchical
+ * run, so that link refinement starts from one self-link of the whole
+ * scene instead of every pair of faces (Sillion 1995; Smits, Arvo and
+ * Greenberg 1994).
+ *
+ *     ff_cluster_tree t;
+ *     ff_clusters_build(root_patches, root_count, &t);
+ *     ... t.clusters[c], t.roots[t.clusters[c].root_begin .. root_end) ...
+ *     ff_cluster_bound b = ff_cluster_bound_of(&t.clusters[c]);
+ *     ff_clusters_free(&t);
+ *
+ * The tree is built top down: a cluster's roots are split at the median of
+ * their centres along the widest axis of the centres' box (ties by root
+ * index: the same tree for any thread count), until at most
+ * FF_CLUSTER_LEAF_ROOTS roots are left. A cluster's children are
+ * consecutive and come after it (rad_link_cluster's rules).
+ *
+ * What a link needs to know of a cluster (ff_cluster_bound) is what its
+ * faces can send and receive without looking at them one by one: the
+ * bounding sphere, the total area S, the vector area V = sum A n, and a
+ * cone holding every face normal. The area a cluster shows in direction w,
+ * P(w) = sum A max(n.w, 0), then lies in [max(V.w, 0), (V.w + S) / 2]
+ * (since P(w) - P(-w) = V.w and P(w) + P(-w) <= S), and equals V.w when
+ * the cone faces w entirely: a flat wall of many triangles is as exact as
+ * one polygon. The estimate in between takes P = (V.w + T) / 2 with T =
+ * sum A |n.w|, which the second moment M = sum A n n^T brackets: w.M.w <=
+ * T <= sqrt(S w.M.w) (Cauchy-Schwarz), and T >= |V.w|; the estimate is the
+ * geometric mean of the two ends (exact for a flat cluster, 12 % low for
+ * normals spread evenly over the sphere). */
+#ifndef FF_CLUSTERS_H
+#define FF_CLUSTERS_H
+
+#include <stdint.h>
+
+#include "rad_ff_kernel.h"
+#include "rad_links.h"
+#include "rad_math.h"
+#include "rad_status.h"
+
+/* Roots a leaf cluster holds at most. */
+#define FF_CLUSTER_LEAF_ROOTS 4u
+
+/* The geometry a link between clusters or elements is bounded with. */
+typedef struct ff_cluster_bound {
+    rad_vec3 centre;
+    double radius;     /* every point of every face lies within it of centre */
+    double area;       /* S */
+    rad_vec3 vector_area; /* V */
+    rad_vec3 axis;     /* unit; every face normal within cone_angle of it */
+    double cone_angle; /* radians, in [0, pi] */
+    double moment[6];  /* M = sum A n n^T: xx, yy, zz, xy, xz, yz */
+} ff_cluster_bound;
+
+typedef struct ff_cluster {
+    rad_link_cluster link; /* parent, children, root range, area: what the file stores */
+    ff_cluster_bound bound;
+} ff_cluster;
+
+typedef struct ff_cluster_tree {
+    ff_cluster *clusters;
+    uint32_t count;
+    uint32_t *roots;      /* root_count: the roots in cluster order */
+    double *area_before;  /* root_count + 1: the roots' areas summed in cluster order (sampling by area) */
+    uint32_t root_count;
+} ff_cluster_tree;
+
+/* The tree over roots 0 .. root_count - 1 (patches in the backend's frame).
+ * RAD_ERR_NOMEM (logged). */
+rad_status ff_clusters_build(const rad_ff_patch *root_patches, uint32_t root_count, ff_cluster_tree *out);
+
+/* One element's bound (a cluster of one face). */
+ff_cluster_bound ff_element_bound(const rad_ff_patch *patch);
+
+/* The root of cluster c that holds the area fraction u in [0, 1) of it,
+ * the roots taken in cluster order: a root drawn in proportion to its area. */
+uint32_t ff_cluster_pick_root(const ff_cluster_tree *t, uint32_t c, double u);
+
+/* The unoccluded coupling between two bounds r and s (clusters, or an
+ * element and a cluster), and per direction the range that the factor from
+ * any point of r's faces to s can take, visibility aside:
+ *   coupling = P_r(w) P_s(-w) / (S_r S_s pi d^2), w the unit vector from r's
+ *              centre to s's, d their distance (F_rs = coupling S_s);
+ *   lo_rs, hi_rs: cos_x P_s / (pi d^2) at its least and largest over the
+ *              faces' normals, the directions and the distances the two
+ *              spheres allow (hi at most 1; infinite where the spheres meet).
+ * facing 0: no face of r can face s, or none of s r (no link). */
+typedef struct ff_cluster_pair_bound {
+    double coupling;
+    double lo_rs, hi_rs, lo_sr, hi_sr;
+    int facing;
+} ff_cluster_pair_bound;
+ff_cluster_pair_bound ff_cluster_pair_estimate(const ff_cluster_bound *r, const ff_cluster_bound *s);
+
+void ff_clusters_free(ff_cluster_tree *t); /* safe on zeroed */
+
+#endif
