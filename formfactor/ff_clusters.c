@@ -125,7 +125,11 @@ static shown_area shown_towards(const ff_cluster_bound *b, rad_vec3 w, double be
     double widest = theta + b->cone_angle + beta, narrowest = theta - b->cone_angle - beta;
     a.cos_hi = narrowest <= 0 ? 1.0 : cos(narrowest);
     a.cos_lo = widest >= RAD_PI ? -1.0 : cos(widest);
-    double vw = rad_v3_dot(b->vector_area, w), slack = rad_v3_length(b->vector_area) * beta, S = b->area;
+    double vw = rad_v3_dot(b->vector_area, w), S = b->area;
+    /* Each point sees the faces from its own direction, within beta of w:
+     * sum A n.w(y) lies within S beta of V.w (not |V| beta: the faces'
+     * normals may disagree, and each face takes its own worst direction). */
+    double slack = S * beta;
     a.hi = a.cos_hi <= 0 ? 0.0 : fmin(S * a.cos_hi, 0.5 * (vw + slack + S));
     a.lo = a.cos_lo >= 0 ? fmax(S * a.cos_lo, vw - slack) : fmax(0.0, vw - slack);
     if (a.lo > a.hi) a.lo = a.hi;

@@ -187,6 +187,36 @@ int main(void)
     ns = wall(s, 8, rad_v3(0, 0, 10), 1.0, 1);
     ff_cluster_bound br = tree_bound(r, nr), bs = tree_bound(s, ns);
     RAD_CHECK(!ff_cluster_pair_estimate(&br, &bs).facing);
+    /* perpendicular walls of a closed room near their shared edge (the
+     * furnace cube's cluster links): floor cells against wall cells */
+    for (int k = 0; k < 4; k++) {
+        double off = 0.1 + 0.2 * k;
+        nr = wall(r, 2, rad_v3(off + 0.05, 0.5, 0), 0.1, 1);
+        int m = 0;
+        for (int i = 0; i < 2; i++)
+            for (int j = 0; j < 2; j++) {
+                double y0 = 0.45 + 0.05 * i, z0 = 0.1 + 0.05 * j + 0.1 * k;
+                rad_vec3 a = rad_v3(0, y0, z0), b = rad_v3(0, y0 + 0.05, z0), c = rad_v3(0, y0 + 0.05, z0 + 0.05),
+                         d = rad_v3(0, y0, z0 + 0.05);
+                s[m] = triangle(a, b, c, (uint32_t)m), m++;
+                s[m] = triangle(a, c, d, (uint32_t)m), m++;
+            }
+        exact = check_bounds("perpendicular walls", r, nr, s, m, &est);
+        fprintf(stderr, "perpendicular %d: estimate %.5g exact %.5g\n", k, est, exact);
+    }
+    /* a cluster around a room's corner (faces of two walls, normals 90
+     * degrees apart) and a floor triangle beside one wall: the furnace
+     * cube's worst case before each face took its own direction */
+    {
+        rad_vec3 q[8] = {rad_v3(0.917, 1, 0.25), rad_v3(1, 1, 0.25), rad_v3(1, 1, 0.333),
+                         rad_v3(1, 0.917, 0.25), rad_v3(1, 0.917, 0.333), rad_v3(1, 0.917, 0.167)};
+        s[0] = triangle(q[0], q[1], q[2], 0);
+        s[1] = triangle(q[3], q[2], q[1], 1);
+        s[2] = triangle(q[3], q[4], q[2], 2);
+        s[3] = triangle(q[5], q[3], q[1], 3);
+        r[0] = triangle(rad_v3(0.75, 0.917, 0), rad_v3(0.833, 1, 0), rad_v3(0.75, 1, 0), 0);
+        check_bounds("corner", r, 1, s, 4, &est);
+    }
     /* a wall and a blob */
     nr = wall(r, 8, rad_v3(0, 0, 0), 2.0, 1);
     blob(s, N, rad_v3(0.5, 0, 6), 0.3);
