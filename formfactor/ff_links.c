@@ -496,6 +496,50 @@ static const rad_ff_patch *side_point(const ff_links *L, uint32_t id, uint64_t h
     return p;
 }
 
+/* Levels below a cluster whose parts' shown areas are summed where their
+ * normals disagree (ff_cluster_shown_in): 2^3 parts at most. */
+#define FF_CLUSTER_SHOWN_DEPTH 3
+/* A cluster whose normals lie within this of their axis (radians) is flat
+ * enough to be one part of a link's coupling. */
+#define FF_CLUSTER_FLAT_ANGLE 0.2
+
+/* The area end id shows towards w: an element's A max(n.w, 0), a
+ * cluster's from its parts (ff_cluster_shown_in). */
+static double shown(const ff_links *L, uint32_t id, rad_vec3 w)
+{
+    if (ff_is_cluster(id)) return ff_cluster_shown_in(&L->clusters, L->patches, ff_cluster_of(id), w, FF_CLUSTER_SHOWN_DEPTH);
+    return L->patches[id].area * fmax(0.0, rad_v3_dot(L->patches[id].normal, w));
+}
+
+/* End id as the parts its coupling is summed over (FF_CLUSTER_PARTS at
+ * most): a cluster whose normals spread beyond FF_CLUSTER_FLAT_ANGLE is
+ * replaced by its child clusters, or a leaf cluster by its faces, twice
+ * at most; anything else is one part. */
+#define FF_CLUSTER_PARTS 16
+static int end_parts(const ff_links *L, uint32_t id, uint32_t parts[FF_CLUSTER_PARTS])
+{
+    int m = 1;
+    parts[0] = id;
+    for (int level = 0; level < 2; level++) {
+        uint32_t next[FF_CLUSTER_PARTS];
+        int k = 0;
+        for (int i = 0; i < m; i++) {
+            const ff_cluster *c = ff_is_cluster(parts[i]) ? &L->clusters.clusters[ff_cluster_of(parts[i])] : NULL;
+            if (c && c->bound.cone_angle > FF_CLUSTER_FLAT_ANGLE && c->link.child_count == 2) {
+                next[k++] = FF_CLUSTER_ID(c->link.first_child);
+                next[k++] = FF_CLUSTER_ID(c->link.first_child + 1);
+            } else if (c && c->bound.cone_angle > FF_CLUSTER_FLAT_ANGLE && c->link.child_count == 0) {
+                for (uint32_t r = c->link.root_begin; r < c->link.root_end; r++) next[k++] = L->clusters.roots[r];
+            } else {
+                next[k++] = parts[i];
+            }
+        }
+        memcpy(parts, next, (size_t)k * sizeof *parts);
+        m = k;
+    }
+    return m;
+}
+
 /* A cluster link is made only between ends whose bounding spheres' radii
  * sum to less than this fraction of their centres' distance: nearer, the
  * bounds say nothing (their distance goes to 0). Between, the oracle
@@ -535,7 +579,24 @@ static void cluster_pair(const ff_links *L, uint32_t a, uint32_t b, cluster_outc
     }
     const double V = valid ? 1.0 - (double)blocked / valid : 1.0;
     const int clear = valid == FF_CLUSTER_RAYS && blocked == 0;
-    o->coupling = V * pb.coupling;
+    /* The coupling part by part: an end whose normals spread comes apart
+     * into its child clusters or faces (two levels), each with its
+     * own centre and shown area (a room's corner is two walls, each exact;
+     * from the corner's one centre, which lies off both walls, the
+     * moments put it 7-10 % high). */
+    uint32_t pa[FF_CLUSTER_PARTS], pb_[FF_CLUSTER_PARTS];
+    int na = end_parts(L, a, pa), nb = end_parts(L, b, pb_);
+    double sum = 0;
+    for (int i = 0; i < na; i++)
+        for (int j = 0; j < nb; j++) {
+            ff_cluster_bound bi = node_bound(L, pa[i]), bj = node_bound(L, pb_[j]);
+            rad_vec3 d = rad_v3_sub(bj.centre, bi.centre);
+            double dist2 = rad_v3_dot(d, d);
+            if (!(dist2 > 0)) continue;
+            rad_vec3 w = rad_v3_scale(d, 1.0 / sqrt(dist2));
+            sum += shown(L, pa[i], w) * shown(L, pb_[j], rad_v3_scale(w, -1.0)) / (RAD_PI * dist2);
+        }
+    o->coupling = V * sum / (ba.area * bb.area);
     o->rays = valid;
     o->blocked = blocked;
     double Fab = o->coupling * bb.area, Fba = o->coupling * ba.area;

@@ -202,7 +202,7 @@ int main(void)
                 s[m] = triangle(a, c, d, (uint32_t)m), m++;
             }
         exact = check_bounds("perpendicular walls", r, nr, s, m, &est);
-        fprintf(stderr, "perpendicular %d: estimate %.5g exact %.5g\n", k, est, exact);
+        RAD_CHECK_REL(est, exact, 0.1); /* measured: +6 % at the edge, within 1 % from the next cells on */
     }
     /* a cluster around a room's corner (faces of two walls, normals 90
      * degrees apart) and a floor triangle beside one wall: the furnace
