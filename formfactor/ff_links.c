@@ -546,11 +546,12 @@ static int end_parts(const ff_links *L, uint32_t id, uint32_t parts[FF_CLUSTER_P
  * weighs the bounds' error. */
 #define FF_CLUSTER_ADMISSIBLE 0.9
 
-/* The pair (a, b), a cluster at one end at least: the bounds' estimate
- * (ff_cluster_pair_estimate) times the visible fraction of FF_CLUSTER_RAYS
- * segments between points drawn on the two ends, facing each other. The
- * error of F_ab is what the bounds allow a point of a's faces to see of b
- * beyond F_ab, the lower bound taken only where every segment was clear. */
+/* The pair (a, b), a cluster at one end at least: the coupling summed
+ * over the two ends' parts (end_parts, shown) times the visible fraction
+ * of FF_CLUSTER_RAYS segments between points drawn on the two ends, facing
+ * each other. The error of F_ab is what the bounds
+ * (ff_cluster_pair_estimate) allow a point of a's faces to see of b beyond
+ * F_ab, the lower bound taken only where every segment was clear. */
 static void cluster_pair(const ff_links *L, uint32_t a, uint32_t b, cluster_outcome *o)
 {
     memset(o, 0, sizeof *o);
