@@ -165,9 +165,7 @@ static const char *links_fault(const rad_links *links, uint32_t r, uint64_t *out
     return NULL;
 }
 
-/* The clusters (after the nodes): the permutation of the roots, each
- * cluster's fields and place in the tree, its links, then the areas. */
-static rad_status check_clusters(const rad_links *links, const char *what)
+rad_status rad_links_check_cluster_tree(const rad_links *links, const char *what)
 {
     rad_status status = RAD_ERR_FORMAT;
     unsigned char *root_seen = calloc(links->root_count, 1);
@@ -180,19 +178,14 @@ static rad_status check_clusters(const rad_links *links, const char *what)
     const char *why;
     uint32_t bad = cluster_roots_fault(links, root_seen, &why);
     if (bad != UINT32_MAX) {
-        rad_error("%s: cluster roots: entry %u (%u): %s", what, bad, links->cluster_roots[bad], why);
+        rad_error("%s: cluster roots: entry %u (%u): %s (each root once, none out of range or twice)", what, bad,
+                  links->cluster_roots[bad], why);
         goto done;
     }
     for (uint32_t c = 0; c < links->cluster_count; c++) {
         why = cluster_fault(links, c);
         if (why) {
             rad_error("%s: cluster %u: %s", what, c, why);
-            goto done;
-        }
-        uint64_t bad_link;
-        why = links_fault(links, links->node_count + c, &bad_link);
-        if (why) {
-            rad_error("%s: cluster %u: link %llu: %s", what, c, (unsigned long long)bad_link, why);
             goto done;
         }
     }
@@ -206,6 +199,21 @@ static rad_status check_clusters(const rad_links *links, const char *what)
 done:
     free(root_seen);
     free(sum);
+    return status;
+}
+
+/* The clusters (after the nodes): the tree, then each cluster's links. */
+static rad_status check_clusters(const rad_links *links, const char *what)
+{
+    rad_status status = rad_links_check_cluster_tree(links, what);
+    for (uint32_t c = 0; status == RAD_OK && c < links->cluster_count; c++) {
+        uint64_t bad_link;
+        const char *why = links_fault(links, links->node_count + c, &bad_link);
+        if (why) {
+            rad_error("%s: cluster %u: link %llu: %s", what, c, (unsigned long long)bad_link, why);
+            status = RAD_ERR_FORMAT;
+        }
+    }
     return status;
 }
 

@@ -124,4 +124,11 @@ void rad_links_free(rad_links *links); /* safe on zeroed */
  * file name) and the first bad node, cluster or link. */
 rad_status rad_links_check(const rad_links *links, size_t vertex_count, const char *what);
 
+/* The part of rad_links_check that the cluster tree's users index by:
+ * cluster_roots a permutation of the roots, every cluster's parent,
+ * children and root range (rad_link_cluster's rules), and its area the sum
+ * of its roots' (relative 1e-9). Needs cluster_count > 0 and both tables.
+ * RAD_ERR_FORMAT (logged, naming `what` and the cluster), RAD_ERR_NOMEM. */
+rad_status rad_links_check_cluster_tree(const rad_links *links, const char *what);
+
 #endif

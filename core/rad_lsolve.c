@@ -194,59 +194,18 @@ static rad_status bad_node(uint32_t i, const char *what)
     return RAD_ERR_INVALID;
 }
 
-static rad_status bad_cluster(uint32_t c, const char *what)
-{
-    rad_error("links: cluster %u: %s", c, what);
-    return RAD_ERR_INVALID;
-}
-
-/* The cluster tree (rad_links.h): cluster 0 holds every root, a cluster
- * comes after its parent and among its children, an inner cluster's
- * children's root ranges partition its own in order, every root is in
- * cluster_roots once, areas finite and > 0. So the leaf clusters' ranges
- * partition the roots and every root has one leaf cluster. */
+/* The cluster tree, as rad_links_check checks it (rad_links_check_cluster_tree):
+ * so the leaf clusters' ranges partition the roots and every root has
+ * one leaf cluster. */
 static rad_status check_clusters(const rad_links *L)
 {
-    const uint32_t count = L->cluster_count, roots = L->root_count;
     if (!L->clusters || !L->cluster_roots || rad_links_id_count(L) > UINT32_MAX) {
-        rad_error("links: %u clusters without their table, or more ids than a link's source can name", count);
+        rad_error("links: %u clusters without their table, or more ids than a link's source can name",
+                  L->cluster_count);
         return RAD_ERR_INVALID;
     }
-    for (uint32_t c = 0; c < count; c++) {
-        const rad_link_cluster *k = &L->clusters[c];
-        if (c == 0 ? k->parent != RAD_NO_ELEMENT || k->root_begin != 0 || k->root_end != roots
-                   : k->parent >= c || c < L->clusters[k->parent].first_child ||
-                         c - L->clusters[k->parent].first_child >= L->clusters[k->parent].child_count)
-            return bad_cluster(c, "not cluster 0 over every root, nor among the children of a cluster before it");
-        if (k->root_begin >= k->root_end || k->root_end > roots || !(k->area > 0 && isfinite(k->area)))
-            return bad_cluster(c, "its roots' range is empty or out of range, or its area not finite and > 0");
-        if (k->child_count == 0) {
-            if (k->first_child != RAD_NO_ELEMENT) return bad_cluster(c, "a leaf cluster that names a first child");
-            continue;
-        }
-        if (k->child_count < 2 || k->first_child <= c || (uint64_t)k->first_child + k->child_count > count)
-            return bad_cluster(c, "its children are fewer than 2, or out of range");
-        uint32_t at = k->root_begin;
-        for (uint32_t j = k->first_child; j < k->first_child + k->child_count; j++) {
-            if (L->clusters[j].parent != c || L->clusters[j].root_begin != at)
-                return bad_cluster(c, "a child names another parent, or the children's roots do not follow on");
-            at = L->clusters[j].root_end;
-        }
-        if (at != k->root_end) return bad_cluster(c, "its children's roots do not make up its own");
-    }
-    unsigned char *seen = calloc(roots, 1);
-    if (!seen) {
-        rad_error("links: out of memory checking %u roots' clusters", roots);
-        return RAD_ERR_NOMEM;
-    }
-    rad_status status = RAD_OK;
-    for (uint32_t q = 0; q < roots && status == RAD_OK; q++)
-        if (L->cluster_roots[q] >= roots || seen[L->cluster_roots[q]]++) {
-            rad_error("links: cluster_roots[%u] = %u: out of range or twice", q, L->cluster_roots[q]);
-            status = RAD_ERR_INVALID;
-        }
-    free(seen);
-    return status;
+    rad_status status = rad_links_check_cluster_tree(L, "links");
+    return status == RAD_ERR_FORMAT ? RAD_ERR_INVALID : status;
 }
 
 /* What the sweeps index, and the match with the leaves mesh. The rest of
@@ -304,7 +263,10 @@ static rad_status check_links(const rad_links *L, const rad_mesh *leaves)
     const uint64_t ids = rad_links_id_count(L);
     for (uint64_t i = n; i < ids; i++)
         if (L->first_link[i + 1] < L->first_link[i])
-            return bad_cluster((uint32_t)(i - n), "its links end before they begin");
+        {
+            rad_error("links: cluster %u: its links end before they begin", (uint32_t)(i - n));
+            return RAD_ERR_INVALID;
+        }
     if (L->first_link[0] != 0 || L->first_link[ids] != L->link_count) {
         rad_error("links: the link table does not span the %llu links", (unsigned long long)L->link_count);
         return RAD_ERR_INVALID;

@@ -613,7 +613,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     double *geometry = NULL;      /* per element pair: mean, spread, curvature of a -> b and of b -> a */
     cluster_outcome *cout = NULL; /* per pair with a cluster at an end, in list order */
     size_t out_cap = 0;
-    job_list next = {0}, pairs = {0}, cpairs = {0}; /* this round's element pairs (the backend's), cluster pairs */
+    job_list next = {0}, pairs = {0}, cpairs = {0};
     while (st == RAD_OK && list->count > 0) {
         size_t n = list->count;
         if (n > out_cap) {
@@ -630,16 +630,14 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
                 break;
             }
         }
-        pairs.count = 0;
-        size_t clustered = 0;
+        /* this round's element pairs (the backend's) and cluster pairs, each in list order */
+        pairs.count = cpairs.count = 0;
         for (size_t k = 0; k < n && st == RAD_OK; k++) {
             const ff_pair_job *j = &list->jobs[k];
-            if (ff_is_cluster(j->a) || ff_is_cluster(j->b))
-                clustered++;
-            else
-                st = job_push(&pairs, j->a, j->b);
+            st = job_push(ff_is_cluster(j->a) || ff_is_cluster(j->b) ? &cpairs : &pairs, j->a, j->b);
         }
         if (st != RAD_OK) break;
+        const size_t clustered = cpairs.count;
         if (pairs.count) st = L->backend->compute_pairs(L->backend_state, L->patches, L->keys, pairs.jobs,
                                                         pairs.count, out, counters);
         if (st != RAD_OK) break;
@@ -653,14 +651,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
             factor_spread(pb, pa, &geometry[6 * k + 3], &geometry[6 * k + 4], &geometry[6 * k + 5]);
         }
         if (clustered) {
-            /* the cluster pairs, in list order */
-            cpairs.count = 0;
-            for (size_t k = 0; k < n && st == RAD_OK; k++) {
-                const ff_pair_job *j = &list->jobs[k];
-                if (ff_is_cluster(j->a) || ff_is_cluster(j->b)) st = job_push(&cpairs, j->a, j->b);
-            }
-            if (st != RAD_OK) break;
-            const size_t m = cpairs.count;
+            const size_t m = clustered;
             const ff_pair_job *cj = cpairs.jobs;
             long long t0 = rad_clock_ns();
 #pragma omp parallel for schedule(dynamic, 16)

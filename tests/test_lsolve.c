@@ -641,6 +641,30 @@ static void test_furnace(void)
     check_furnace("leaves at depth 2, links mixed", deep, 1, kind);
 }
 
+/* Both methods on 1 and 2 threads: the same bytes (B, residual,
+ * iterations, balance), the imbalance within max_imbalance. */
+static void threads_identical(cube_case *cc, const char *what, double max_imbalance)
+{
+    const size_t n = cc->leaves.patch_count;
+    double *one = malloc(3 * n * sizeof *one), *two = malloc(3 * n * sizeof *two);
+    for (int m = 0; m < 2; m++) {
+        rad_lsolve_method method = m == 0 ? RAD_LSOLVE_JACOBI : RAD_LSOLVE_GAUSS_SEIDEL;
+        rad_lsolve_result r1, r2;
+        RAD_CHECK(run_lsolve(cc, method, 1e-9, 1, one, &r1) == RAD_OK);
+        RAD_CHECK(run_lsolve(cc, method, 1e-9, 2, two, &r2) == RAD_OK);
+        printf("%s, %s: %zu leaves, %u nodes, %llu links: %u iterations, imbalance %.2g, %.3f s on 1 thread, "
+               "%.3f s on 2\n",
+               what, m == 0 ? "jacobi" : "gauss-seidel", n, cc->links.node_count,
+               (unsigned long long)cc->links.link_count, r1.iterations[0], r1.imbalance, r1.seconds, r2.seconds);
+        RAD_CHECK(memcmp(one, two, 3 * n * sizeof *one) == 0);
+        RAD_CHECK(memcmp(r1.residual, r2.residual, sizeof r1.residual) == 0);
+        RAD_CHECK(r1.iterations[0] == r2.iterations[0] && r1.imbalance == r2.imbalance);
+        RAD_CHECK(fabs(r1.imbalance) <= max_imbalance);
+    }
+    free(one);
+    free(two);
+}
+
 /* 1 and 2 threads: the same bytes, both methods. Leaf links at depth 3
  * (122,880 links: the gathers run in parallel), and depth 5 with links at
  * mixed levels (8,190 nodes: Jacobi pushes and pulls trees in parallel). */
@@ -662,22 +686,7 @@ static void test_threads(void)
             cube_free(&cc);
             return;
         }
-        const size_t n = cc.leaves.patch_count;
-        double *one = malloc(3 * n * sizeof *one), *two = malloc(3 * n * sizeof *two);
-        for (int m = 0; m < 2; m++) {
-            rad_lsolve_method method = m == 0 ? RAD_LSOLVE_JACOBI : RAD_LSOLVE_GAUSS_SEIDEL;
-            rad_lsolve_result r1, r2;
-            RAD_CHECK(run_lsolve(&cc, method, 1e-9, 1, one, &r1) == RAD_OK);
-            RAD_CHECK(run_lsolve(&cc, method, 1e-9, 2, two, &r2) == RAD_OK);
-            printf("threads, %s: %zu leaves, %u nodes, %llu links: %u iterations, %.3f s on 1 thread, %.3f s on 2\n",
-                   m == 0 ? "jacobi" : "gauss-seidel", n, cc.links.node_count, (unsigned long long)cc.links.link_count,
-                   r1.iterations[0], r1.seconds, r2.seconds);
-            RAD_CHECK(memcmp(one, two, 3 * n * sizeof *one) == 0);
-            RAD_CHECK(memcmp(r1.residual, r2.residual, sizeof r1.residual) == 0);
-            RAD_CHECK(r1.iterations[0] == r2.iterations[0] && r1.imbalance == r2.imbalance);
-        }
-        free(one);
-        free(two);
+        threads_identical(&cc, "threads", INFINITY);
         cube_free(&cc);
     }
 }
@@ -1037,24 +1046,7 @@ static void test_cluster_threads(void)
     links_scale(&cc.links, 0.95);
     const uint32_t nodes = cc.links.node_count;
     RAD_CHECK(cc.links.first_link[nodes + 5] - cc.links.first_link[nodes] >= 16384);
-    const size_t n = cc.leaves.patch_count;
-    double *one = malloc(3 * n * sizeof *one), *two = malloc(3 * n * sizeof *two);
-    for (int m = 0; m < 2; m++) {
-        rad_lsolve_method method = m == 0 ? RAD_LSOLVE_JACOBI : RAD_LSOLVE_GAUSS_SEIDEL;
-        rad_lsolve_result r1, r2;
-        RAD_CHECK(run_lsolve(&cc, method, 1e-9, 1, one, &r1) == RAD_OK);
-        RAD_CHECK(run_lsolve(&cc, method, 1e-9, 2, two, &r2) == RAD_OK);
-        printf("threads with clusters, %s: %zu leaves, %u nodes, %llu links: %u iterations, imbalance %.2g, %.3f s "
-               "on 1 thread, %.3f s on 2\n",
-               m == 0 ? "jacobi" : "gauss-seidel", n, nodes, (unsigned long long)cc.links.link_count,
-               r1.iterations[0], r1.imbalance, r1.seconds, r2.seconds);
-        RAD_CHECK(memcmp(one, two, 3 * n * sizeof *one) == 0);
-        RAD_CHECK(memcmp(r1.residual, r2.residual, sizeof r1.residual) == 0);
-        RAD_CHECK(r1.iterations[0] == r2.iterations[0] && r1.imbalance == r2.imbalance);
-        RAD_CHECK(fabs(r1.imbalance) <= 1e-8);
-    }
-    free(one);
-    free(two);
+    threads_identical(&cc, "threads with clusters", 1e-8);
     cube_free(&cc);
 }
 
