@@ -156,7 +156,9 @@ typedef struct ff_backend {
      * standing for the patch indices the per-pair procedure takes (its
      * seeds and tie-breaks): an element's key is its patch index in the
      * uniform mesh of the same leaves, so a link between two leaves gets
-     * the very coupling the full matrix holds. */
+     * the very coupling the full matrix holds. Between calls on one state
+     * the elements (patches, keys) are only appended to, never changed:
+     * the CUDA backend uploads only those past the last call's. */
     rad_status (*compute_pairs)(void *state, const rad_ff_patch *patches, const uint32_t *keys,
                                 const ff_pair_job *jobs, size_t count, ff_pair_outcome *out, ff_counters *counters);
 } ff_backend;

@@ -188,6 +188,15 @@ struct cuda_state {
     cudaEvent_t start, middle, stop;
     double *d_area;             /* the patches' areas, contiguous (compute_records) */
     ff_cuda_records *records;   /* compute_records' buffers; NULL until its first call */
+    /* compute_pairs: the elements as far as uploaded (they are appended,
+     * never changed, ff_backend.h), the jobs, their outcomes and lists. */
+    rad_ff_patch *d_elements;
+    uint32_t *d_keys;
+    size_t element_capacity, elements_uploaded;
+    ff_pair_job *d_jobs;
+    ff_pair_outcome *d_outcomes;
+    uint32_t *d_job_list;
+    size_t job_capacity;
 };
 
 /* Pass 1: thread per pair, the classification (ff_pair_class.h) the CPU
@@ -271,29 +280,29 @@ struct cuda_group {
     unsigned lane;  /* 0 .. p.lanes - 1 */
 };
 
-__device__ static cuda_group cuda_pair_kernel_begin(const cuda_params &p, unsigned long long *block_counts)
+__device__ static cuda_group cuda_pair_kernel_begin(unsigned lanes, unsigned long long *block_counts)
 {
     if (threadIdx.x < C_COUNT) block_counts[threadIdx.x] = 0;
     __syncthreads();
     uint64_t thread = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
     cuda_group g;
-    g.group = thread / p.lanes;
-    g.lane = (unsigned)(thread % p.lanes);
+    g.group = thread / lanes;
+    g.lane = (unsigned)(thread % lanes);
     return g;
 }
 
-__device__ static void cuda_pair_kernel_end(const cuda_params &p, const unsigned long long *block_counts)
+__device__ static void cuda_pair_kernel_end(unsigned long long *counters, const unsigned long long *block_counts)
 {
     __syncthreads();
-    if (threadIdx.x < C_COUNT) atomicAdd(&p.counters[threadIdx.x], block_counts[threadIdx.x]);
+    if (threadIdx.x < C_COUNT) atomicAdd(&counters[threadIdx.x], block_counts[threadIdx.x]);
 }
 
 /* The run's settings for this lane of a group (rad_ff_pair.h, "Lanes"). */
-__device__ static rad_ff_pair_params cuda_lane_params(const cuda_params &p, unsigned lane)
+__device__ static rad_ff_pair_params cuda_lane_params(const rad_ff_pair_params &run, unsigned lane, unsigned lanes)
 {
-    rad_ff_pair_params pp = p.pair;
+    rad_ff_pair_params pp = run;
     pp.lane = lane;
-    pp.lanes = p.lanes;
+    pp.lanes = lanes;
     return pp;
 }
 
@@ -303,13 +312,13 @@ __device__ static rad_ff_pair_params cuda_lane_params(const cuda_params &p, unsi
 __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_pairs_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
-    cuda_group g = cuda_pair_kernel_begin(p, block_counts);
+    cuda_group g = cuda_pair_kernel_begin(p.lanes, block_counts);
     if (g.group < p.pair_count) { /* uniform within the group */
         long long start = clock64();
         uint32_t i, j;
         ff_pair_verdict v;
         uint32_t t = cuda_listed_pair(p, g.group, &i, &j, &v);
-        rad_ff_pair_params pp = cuda_lane_params(p, g.lane);
+        rad_ff_pair_params pp = cuda_lane_params(p.pair, g.lane, p.lanes);
         rad_ff_pair_result r;
         rad_ff_pair_compute(&pp, &p.patches[i], &p.patches[j], i, j, v == FF_PAIR_TRACED ? &p.tracer : NULL, &r);
         if (g.lane == 0) {
@@ -318,7 +327,7 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
             cuda_count_pair(block_counts, &r, v, clock64() - start);
         }
     }
-    cuda_pair_kernel_end(p, block_counts);
+    cuda_pair_kernel_end(p.counters, block_counts);
 }
 
 /* Pass 2 of the quadrature estimator, stage 1 (rad_ff_pair.h): G0 of
@@ -329,13 +338,13 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
 __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_QUAD_MIN_BLOCKS) ff_quad_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
-    cuda_group g = cuda_pair_kernel_begin(p, block_counts);
+    cuda_group g = cuda_pair_kernel_begin(p.lanes, block_counts);
     if (g.group < p.pair_count) { /* uniform within the group */
         long long start = clock64();
         uint32_t i, j;
         ff_pair_verdict v;
         uint32_t t = cuda_listed_pair(p, g.group, &i, &j, &v);
-        rad_ff_pair_params pp = cuda_lane_params(p, g.lane);
+        rad_ff_pair_params pp = cuda_lane_params(p.pair, g.lane, p.lanes);
         const rad_ff_patch *pi = &p.patches[i], *pj = &p.patches[j];
         rad_ff_quad_result g0 = rad_ff_pair_quad_unoccluded(&pp, pi, pj, i, j);
 #ifdef FF_CUDA_PROFILE
@@ -362,7 +371,7 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_QUAD_MIN_BLOCKS)
             cuda_count_pair(block_counts, &r, v, clock64() - start);
         }
     }
-    cuda_pair_kernel_end(p, block_counts);
+    cuda_pair_kernel_end(p.counters, block_counts);
 }
 
 /* Pass 3 of the quadrature estimator, stage 2: the shadow rays of the
@@ -372,12 +381,12 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_QUAD_MIN_BLOCKS)
 __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_RAY_MIN_BLOCKS) ff_quad_rays_kernel(cuda_params p)
 {
     __shared__ unsigned long long block_counts[C_COUNT];
-    cuda_group g = cuda_pair_kernel_begin(p, block_counts);
+    cuda_group g = cuda_pair_kernel_begin(p.lanes, block_counts);
     if (g.group < *p.ray_count) { /* uniform within the group */
         long long start = clock64();
         cuda_ray_pair rp = p.ray_pairs[g.group];
         uint32_t j = rp.t % p.n, i = p.row_begin + rp.t / p.n;
-        rad_ff_pair_params pp = cuda_lane_params(p, g.lane);
+        rad_ff_pair_params pp = cuda_lane_params(p.pair, g.lane, p.lanes);
         rad_ff_quad_result g0;
         g0.g = rp.g, g0.error = rp.error, g0.points = 0, g0.cells = 0, g0.capped = (int)rp.capped;
         rad_ff_pair_result r = {0};
@@ -389,7 +398,70 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_RAY_MIN_BLOCKS) 
             cuda_count_pair(block_counts, &r, FF_PAIR_TRACED, clock64() - start); /* no culling counts twice */
         }
     }
-    cuda_pair_kernel_end(p, block_counts);
+    cuda_pair_kernel_end(p.counters, block_counts);
+}
+
+/* Hierarchical radiosity's element pairs (compute_pairs), as the CPU
+ * backend's cpu_compute_pairs: a listing kernel classifies each job
+ * (ff_pair_class.h over the elements) and lists the computed ones, far
+ * from the front and near (costly) from the back; a pair kernel per list
+ * runs the per-pair procedure with the elements' keys, a group of lanes
+ * per job. A job's outcome depends only on its own two elements, so the
+ * list's order (atomics) changes nothing. */
+struct cuda_link_params {
+    const rad_ff_patch *patches; /* the hierarchy's elements (device copy) */
+    const uint32_t *keys;        /* beside them: each element's key (ff_backend.compute_pairs) */
+    const ff_pair_job *jobs;
+    ff_pair_outcome *out;        /* beside the jobs; the listing kernel sets each verdict */
+    const uint32_t *list;        /* this launch's jobs: indices into jobs, read with step */
+    int64_t step;                /* +1: the far list, forwards; -1: the near list, backwards */
+    uint32_t job_count, count;   /* all jobs; this launch's */
+    unsigned lanes;
+    cuda_tracer tracer;
+    rad_ff_pair_params pair;
+    ff_pair_rules rules;         /* over the elements: every ordered pair its own, nothing reused */
+    unsigned long long *counters; /* C_COUNT */
+};
+
+__global__ static void ff_link_facing_kernel(cuda_link_params p, uint32_t *list, uint32_t *counts)
+{
+    uint64_t k = (uint64_t)blockIdx.x * blockDim.x + threadIdx.x;
+    if (k >= p.job_count) return;
+    const ff_pair_job job = p.jobs[k];
+    int near = 0;
+    ff_pair_verdict v = ff_pair_classify(&p.rules, job.a, job.b, &near);
+    ff_pair_outcome o = {};
+    o.verdict = (uint32_t)v;
+    p.out[k] = o;
+    if (!ff_pair_computed(v)) return;
+    uint64_t at = near ? p.job_count - 1 - atomicAdd(&counts[L_NEAR], 1u) : atomicAdd(&counts[L_FAR], 1u);
+    list[at] = (uint32_t)k;
+    if (v == FF_PAIR_TRACED) atomicAdd(&counts[L_TRACED], 1u);
+}
+
+__global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_link_pairs_kernel(cuda_link_params p)
+{
+    __shared__ unsigned long long block_counts[C_COUNT];
+    cuda_group g = cuda_pair_kernel_begin(p.lanes, block_counts);
+    if (g.group < p.count) { /* uniform within the group */
+        long long start = clock64();
+        const uint32_t k = p.list[p.step * (int64_t)g.group];
+        const ff_pair_job job = p.jobs[k];
+        const ff_pair_verdict v = (ff_pair_verdict)p.out[k].verdict;
+        rad_ff_pair_params pp = cuda_lane_params(p.pair, g.lane, p.lanes);
+        rad_ff_pair_result r;
+        rad_ff_pair_compute(&pp, &p.patches[job.a], &p.patches[job.b], p.keys[job.a], p.keys[job.b],
+                            v == FF_PAIR_TRACED ? &p.tracer : NULL, &r);
+        if (g.lane == 0) {
+            ff_pair_outcome *o = &p.out[k];
+            o->coupling = r.coupling;
+            o->error = r.error;
+            o->rays = r.rays;
+            o->rays_blocked = r.rays_blocked;
+            cuda_count_pair(block_counts, &r, v, clock64() - start);
+        }
+    }
+    cuda_pair_kernel_end(p.counters, block_counts);
 }
 
 /* ff_cuda.h: CUDA's early start is core's (rad_cuda.h). */
@@ -412,6 +484,11 @@ static void cuda_destroy(void *state)
     cudaFree(s->d_ray_pairs);
     cudaFree(s->d_counters);
     cudaFree(s->d_area);
+    cudaFree(s->d_elements);
+    cudaFree(s->d_keys);
+    cudaFree(s->d_jobs);
+    cudaFree(s->d_outcomes);
+    cudaFree(s->d_job_list);
     ff_cuda_records_free(s->records);
     if (s->start) cudaEventDestroy(s->start);
     if (s->middle) cudaEventDestroy(s->middle);
@@ -471,6 +548,8 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
         RAD_CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_pairs_kernel));
         RAD_CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_quad_kernel));
         RAD_CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_quad_rays_kernel));
+        RAD_CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_link_facing_kernel));
+        RAD_CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_link_pairs_kernel));
     }
 done:
     ff_bvh_free(&bvh);
@@ -714,6 +793,144 @@ static rad_status cuda_compute_records(void *state, uint32_t row_begin, uint32_t
     return status;
 }
 
+/* Elements [0, count) and their keys on the device: the buffers grown
+ * (keeping what is there), the elements past those uploaded copied. */
+static rad_status upload_elements(cuda_state *s, const rad_ff_patch *patches, const uint32_t *keys, size_t count)
+{
+    rad_status status = RAD_OK;
+    if (count > s->element_capacity) {
+        size_t cap = s->element_capacity ? 2 * s->element_capacity : 4096;
+        while (cap < count) cap *= 2;
+        rad_ff_patch *elements = NULL;
+        uint32_t *element_keys = NULL;
+        cudaError_t err = cudaMalloc(&elements, cap * sizeof *elements);
+        if (err == cudaSuccess) err = cudaMalloc(&element_keys, cap * sizeof *element_keys);
+        if (err == cudaSuccess && s->elements_uploaded) {
+            err = cudaMemcpy(elements, s->d_elements, s->elements_uploaded * sizeof *elements,
+                             cudaMemcpyDeviceToDevice);
+            if (err == cudaSuccess)
+                err = cudaMemcpy(element_keys, s->d_keys, s->elements_uploaded * sizeof *element_keys,
+                                 cudaMemcpyDeviceToDevice);
+        }
+        if (err != cudaSuccess) {
+            cudaFree(elements);
+            cudaFree(element_keys);
+        }
+        RAD_CUDA_TRY(err);
+        cudaFree(s->d_elements);
+        cudaFree(s->d_keys);
+        s->d_elements = elements;
+        s->d_keys = element_keys;
+        s->element_capacity = cap;
+    }
+    if (count > s->elements_uploaded) {
+        const size_t from = s->elements_uploaded, more = count - from;
+        RAD_CUDA_TRY(cudaMemcpy(s->d_elements + from, patches + from, more * sizeof *patches, cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpy(s->d_keys + from, keys + from, more * sizeof *keys, cudaMemcpyHostToDevice));
+        s->elements_uploaded = count;
+    }
+done:
+    return status;
+}
+
+/* ff_backend.compute_pairs on the GPU: the jobs up, the listing kernel,
+ * a pair launch per list, the outcomes back. */
+static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, const uint32_t *keys,
+                                     const ff_pair_job *jobs, size_t count, ff_pair_outcome *out,
+                                     ff_counters *counters)
+{
+    cuda_state *s = (cuda_state *)state;
+    const ff_setup *su = &s->setup;
+    rad_status status = RAD_OK;
+    unsigned long long counts[C_COUNT] = {0};
+    uint32_t pair_counts[L_COUNT] = {0};
+    float kernel_ms = 0;
+    double t_mem = rad_clock_seconds();
+    cuda_link_params p;
+    ff_counters call = {};
+    size_t elements = 0;
+    if (count == 0) return RAD_OK;
+    if (count > UINT32_MAX) {
+        rad_error("cuda: %zu element pairs exceed one launch's index range", count);
+        return RAD_ERR_INVALID;
+    }
+    for (size_t k = 0; k < count; k++) {
+        const size_t top = (jobs[k].a > jobs[k].b ? jobs[k].a : jobs[k].b) + (size_t)1;
+        if (top > elements) elements = top;
+    }
+    if ((status = upload_elements(s, patches, keys, elements)) != RAD_OK) return status;
+    if (count > s->job_capacity) {
+        cudaFree(s->d_jobs);
+        cudaFree(s->d_outcomes);
+        cudaFree(s->d_job_list);
+        s->d_jobs = NULL;
+        s->d_outcomes = NULL;
+        s->d_job_list = NULL;
+        s->job_capacity = 0;
+        size_t cap = count < 65536 ? 65536 : count + count / 4;
+        RAD_CUDA_TRY(cudaMalloc(&s->d_jobs, cap * sizeof *s->d_jobs));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_outcomes, cap * sizeof *s->d_outcomes));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_job_list, cap * sizeof *s->d_job_list));
+        s->job_capacity = cap;
+    }
+    RAD_CUDA_TRY(cudaMemcpy(s->d_jobs, jobs, count * sizeof *jobs, cudaMemcpyHostToDevice));
+    RAD_CUDA_TRY(cudaMemset(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT));
+    RAD_CUDA_TRY(cudaMemset(s->d_pair_counts, 0, L_COUNT * sizeof(uint32_t)));
+    p.patches = s->d_elements;
+    p.keys = s->d_keys;
+    p.jobs = s->d_jobs;
+    p.out = s->d_outcomes;
+    p.list = s->d_job_list;
+    p.step = 1;
+    p.job_count = (uint32_t)count;
+    p.count = 0;
+    p.lanes = 1;
+    p.tracer.nodes = s->d_nodes;
+    p.tracer.tris = s->d_tris;
+    p.tracer.root = s->root;
+    p.tracer.root_count = s->root_count;
+    p.tracer.delta = su->ray_delta;
+    p.pair = ff_pair_params(su);
+    p.rules = ff_pair_rules_make(su, s->d_elements, s->d_nodes, s->d_tris, s->root, s->root_count);
+    p.rules.pairs_once = 0;
+    p.rules.reuse_old = NULL;
+    p.counters = s->d_counters;
+    counters->memory_seconds += rad_clock_seconds() - t_mem;
+
+    RAD_CUDA_TRY(cudaEventRecord(s->start));
+    ff_link_facing_kernel<<<(unsigned)((count + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK>>>(
+        p, s->d_job_list, s->d_pair_counts);
+    RAD_CUDA_TRY(cudaGetLastError());
+    RAD_CUDA_TRY(cudaMemcpy(pair_counts, s->d_pair_counts, sizeof pair_counts, cudaMemcpyDeviceToHost));
+    for (int list = L_FAR; list <= L_NEAR; list++) {
+        if (pair_counts[list] == 0) continue;
+        p.count = pair_counts[list];
+        p.list = list == L_FAR ? s->d_job_list : s->d_job_list + count - 1;
+        p.step = list == L_FAR ? 1 : -1;
+        p.lanes = list == L_FAR ? FF_CUDA_FAR_LANES : FF_CUDA_NEAR_LANES;
+        uint64_t per_block = FF_CUDA_BLOCK / p.lanes;
+        uint64_t blocks = ((uint64_t)p.count + per_block - 1) / per_block;
+        ff_link_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+        RAD_CUDA_TRY(cudaGetLastError());
+    }
+    RAD_CUDA_TRY(cudaEventRecord(s->stop));
+    RAD_CUDA_TRY(cudaEventSynchronize(s->stop)); /* execution errors surface here */
+    RAD_CUDA_TRY(cudaEventElapsedTime(&kernel_ms, s->start, s->stop));
+    t_mem = rad_clock_seconds();
+    RAD_CUDA_TRY(cudaMemcpy(out, s->d_outcomes, count * sizeof *out, cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY(cudaMemcpy(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost));
+    counters->memory_seconds += rad_clock_seconds() - t_mem;
+    call = cuda_counters(counts, pair_counts, count);
+    {
+        const double ray_share = counts[C_CYCLES] ? (double)counts[C_RAY_CYCLES] / (double)counts[C_CYCLES] : 0.0;
+        call.kernel_seconds = kernel_ms * 1e-3 * (1.0 - ray_share);
+        call.visibility_seconds = kernel_ms * 1e-3 * ray_share;
+    }
+    ff_counters_add(counters, &call);
+done:
+    return status;
+}
+
 /* Row buffers in page-locked host memory: results stream back by DMA. */
 static double *cuda_alloc_rows(void *state, size_t count)
 {
@@ -733,4 +950,4 @@ static void cuda_free_rows(void *state, double *rows)
 }
 
 extern "C" const ff_backend ff_backend_cuda = {"cuda",          cuda_create,    cuda_compute_rows, cuda_destroy,
-                                               cuda_alloc_rows, cuda_free_rows, cuda_compute_records, NULL};
+                                               cuda_alloc_rows, cuda_free_rows, cuda_compute_records, cuda_compute_pairs};

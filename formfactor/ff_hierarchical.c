@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "ff_backend.h"
+#include "ff_cuda.h"
 #include "ff_limits.h"
 #include "rad_cpu.h"
 #include "ff_links.h"
@@ -32,7 +33,9 @@ typedef struct hier_run {
     rad_mesh base;
     double *triangles;
     uint32_t *triangle_face, triangle_count;
+    const ff_backend *backend; /* element pairs: CUDA's under --backend cuda|auto with a GPU, else the CPU's */
     void *backend_state;
+    void *tracer_state;        /* the CPU backend's, for cluster links: backend_state, or its own beside CUDA's */
     ff_links links;
     rad_links exported;
     rad_mesh leaves;
@@ -81,7 +84,15 @@ static rad_status build_links(hier_run *h)
                    .scene_convex = opt->cull == FF_CULL_ALL && ff_scene_is_convex_enclosure(&h->scene, eps),
                    .cull_margin = ff_cull_margin(&h->base, centre, eps), .plane_eps = eps,
                    .ray_delta = ff_ray_delta(&h->base), .threads = h->threads};
-    if ((st = ff_backend_cpu.create(&su, &h->backend_state)) != RAD_OK) return st;
+    /* Asking CUDA starts its driver (main started it early where the
+     * options allow a GPU); a CPU run does not ask. */
+    const int gpus = opt->backend != FF_BACKEND_CPU ? ff_cuda_device_count() : 0;
+    if (opt->backend == FF_BACKEND_CUDA && gpus == 0) {
+        rad_error("--backend cuda: no CUDA device is visible to this process");
+        return RAD_ERR_UNSUPPORTED;
+    }
+    h->backend = gpus > 0 ? &ff_backend_cuda : &ff_backend_cpu;
+    if ((st = h->backend->create(&su, &h->backend_state)) != RAD_OK) return st;
     double total_area = 0;
     for (size_t k = 0; k < h->base.patch_count; k++) total_area += h->base.patches[k].area;
     ff_links_config config = {.link_tol = opt->link_tol, .oracle = ff_oracle_resolve(opt->oracle, opt->uniform_leaves),
@@ -92,8 +103,14 @@ static rad_status build_links(hier_run *h)
     if (opt->clusters < 0)
         rad_info("--clusters auto: %s (%zu faces; on from %u)", config.clusters ? "on" : "off", h->base.patch_count,
                  FF_CLUSTERS_AUTO_ROOTS);
-    if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, &ff_backend_cpu, h->backend_state)) !=
-        RAD_OK)
+    if (h->backend == &ff_backend_cpu)
+        h->tracer_state = h->backend_state;
+    else if (config.clusters && (st = ff_backend_cpu.create(&su, &h->tracer_state)) != RAD_OK)
+        return st;
+    rad_info("element pairs on the %s backend%s", h->backend->name,
+             h->backend != &ff_backend_cpu && config.clusters ? " (cluster links on the CPU)" : "");
+    if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, h->backend, h->backend_state,
+                            h->tracer_state)) != RAD_OK)
         return st;
     for (uint32_t pass = 0; pass < opt->passes && st == RAD_OK; pass++) {
         double t0 = rad_clock_seconds();
@@ -224,6 +241,8 @@ static rad_status write_stats(const hier_run *h)
     rad_json_number(&w, h->solution.imbalance);
     rad_json_key(&w, "threads");
     rad_json_int(&w, h->threads);
+    rad_json_key(&w, "backend");
+    rad_json_string(&w, h->backend->name);
     rad_json_key(&w, "times");
     rad_json_begin_object(&w, RAD_JSON_INLINE);
     rad_json_key(&w, "load");
@@ -273,7 +292,8 @@ rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
         if (st == RAD_OK) st = write_stats(&h);
     }
     st = ff_comm_agree(comm, st);
-    if (h.backend_state) ff_backend_cpu.destroy(h.backend_state);
+    if (h.tracer_state && h.tracer_state != h.backend_state) ff_backend_cpu.destroy(h.tracer_state);
+    if (h.backend_state) h.backend->destroy(h.backend_state);
     ff_links_free(&h.links);
     rad_links_free(&h.exported);
     rad_mesh_free(&h.leaves);

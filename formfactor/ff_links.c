@@ -85,10 +85,9 @@ static void cluster_values(ff_links *L, const double *lo, const double *hi);
 
 static rad_status clusters_init(ff_links *L)
 {
-    if (L->backend != &ff_backend_cpu) {
-        rad_error("clusters: the %s backend cannot trace cluster links (use the CPU backend or --clusters off)",
-                  L->backend->name);
-        return RAD_ERR_UNSUPPORTED;
+    if (!L->tracer_state) {
+        rad_error("internal: clusters without a CPU tracer for their links");
+        return RAD_ERR_INVALID;
     }
     if (L->tree.base->patch_count >= FF_CLUSTER_BIT / 2) {
         rad_error("clusters: %zu faces, more than a hierarchy with clusters numbers", L->tree.base->patch_count);
@@ -110,7 +109,8 @@ static rad_status clusters_init(ff_links *L)
 }
 
 rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *base, const double centre[3],
-                         const ff_links_config *config, const ff_backend *backend, void *backend_state)
+                         const ff_links_config *config, const ff_backend *backend, void *backend_state,
+                         void *tracer_state)
 {
     memset(L, 0, sizeof *L);
     L->scene = scene;
@@ -118,6 +118,7 @@ rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *ba
     L->config = *config;
     L->backend = backend;
     L->backend_state = backend_state;
+    L->tracer_state = tracer_state;
     if (!backend->compute_pairs) {
         rad_error("the %s backend cannot compute hierarchical links", backend->name);
         return RAD_ERR_UNSUPPORTED;
@@ -575,7 +576,7 @@ static void cluster_pair(const ff_links *L, uint32_t a, uint32_t b, cluster_outc
         rad_vec3 d = rad_v3_sub(y, x);
         if (rad_v3_dot(px->normal, d) <= 0 || rad_v3_dot(py->normal, d) >= 0) continue;
         valid++;
-        blocked += (uint32_t)ff_backend_cpu_occluded(L->backend_state, x, px->normal, px->face, y, py->normal,
+        blocked += (uint32_t)ff_backend_cpu_occluded(L->tracer_state, x, px->normal, px->face, y, py->normal,
                                                      py->face);
     }
     const double V = valid ? 1.0 - (double)blocked / valid : 1.0;

@@ -117,6 +117,7 @@ typedef struct ff_links {
     ff_links_config config;
     const ff_backend *backend;
     void *backend_state;
+    void *tracer_state;    /* a CPU backend's state: cluster links' shadow segments (ff_backend_cpu_occluded) */
     rad_hierarchy tree;
     rad_ff_patch *patches; /* per element, the backend's frame */
     uint32_t *keys;        /* per element: its patch index in the uniform mesh of the same leaves */
@@ -142,9 +143,13 @@ typedef struct ff_links {
 
 /* Roots from `base` (the --subdiv 0 mesh, which must outlive the links),
  * element patches through ff_patch_make, the backend (already created
- * over the scene's occluders) through its compute_pairs. */
+ * over the scene's occluders) through its compute_pairs. tracer_state:
+ * ff_backend_cpu's state over the same occluders, which traces cluster
+ * links (the backend's own where it is the CPU's); needed with
+ * config.clusters only. */
 rad_status ff_links_init(ff_links *links, const rad_scene *scene, const rad_mesh *base, const double centre[3],
-                         const ff_links_config *config, const ff_backend *backend, void *backend_state);
+                         const ff_links_config *config, const ff_backend *backend, void *backend_state,
+                         void *tracer_state);
 
 /* One pass of refinement. The first pass starts from every pair of roots
  * (from the root cluster's self-link with config.clusters);

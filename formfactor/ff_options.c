@@ -36,7 +36,8 @@ const char ff_options_help[] =
     "                           every pair of the --subdiv mesh; hierarchical links\n"
     "                           elements of quadtrees over the faces at the coarsest\n"
     "                           levels whose error meets --link-tol and writes the links\n"
-    "                           (docs/hierarchy.md; CPU backend); auto: hierarchical when\n"
+    "                           (docs/hierarchy.md; element pairs on the GPU under\n"
+    "                           --backend cuda|auto, else the CPU); auto: hierarchical when\n"
     "                           the --subdiv mesh has more than 20000 patches\n"
     "      --link-tol T         hierarchical: refine a link while the radiosity its error\n"
     "                           may move its receiver by exceeds T times the scene's mean\n"
@@ -504,10 +505,10 @@ static rad_status check_options(ff_options *o)
     }
     if (o->method == FF_METHOD_HIERARCHICAL) {
         const char *bad = o->refine_path ? "--refine" : o->reuse_path ? "--reuse" : o->errors_path ? "--errors"
-                        : o->subdiv_only ? "--subdiv-only" : o->backend == FF_BACKEND_CUDA ? "--backend cuda" : NULL;
+                        : o->subdiv_only ? "--subdiv-only" : NULL;
         if (bad) {
             rad_error("--method hierarchical: %s is for full matrices (hierarchical runs refine their own "
-                      "elements, on the CPU backend)", bad);
+                      "elements)", bad);
             return RAD_ERR_USAGE;
         }
     }

@@ -1,0 +1,40 @@
+#!/bin/sh
+# Hierarchical links with the element pairs on the GPU (formfactor
+# --method hierarchical --backend cuda: ff_backend_cuda's compute_pairs)
+# against the CPU backend's, on one scene:
+#   exact:    --link-tol 0, every pair down to the leaves, so both make the
+#             same links and the couplings differ only by rounding (atan2,
+#             sqrt, borderline ray hits): solutions within 1e-9 of max B;
+#   uniform:  --uniform-leaves --link-tol 1e-2, where the oracle decides
+#             (a coupling a few ulps apart may tip a decision): link counts
+#             within 1 %, solutions within 1e-3 of max B;
+#   clusters: --clusters on, the cluster links traced on the CPU beside
+#             the GPU's pairs: the same bars.
+# The stats must say "backend": "cuda". Skipped (77) without a GPU.
+#   hier_backends.sh FORMFACTOR SOLVE RADIOSITY_CLOSE SCENE WORKDIR
+set -u
+ff=$1 solve=$2 close=$3 scene=$4 dir=$5
+nvidia-smi -L >/dev/null 2>&1 || { echo "no GPU: skipped"; exit 77; }
+mkdir -p "$dir" && cd "$dir" || exit 1
+fail=0
+links() { grep -o '"links": [0-9]*' "$1" | head -1 | sed 's/.*: //'; }
+check() { # name tolerance formfactor-options...
+  name=$1 tol=$2
+  shift 2
+  for b in cpu cuda; do
+    "$ff" "$scene" --method hierarchical --backend "$b" "$@" -q -o "$name.$b.ff" --stats "$name.$b.json" ||
+      { echo "FAIL: $name: formfactor --backend $b"; fail=1; return; }
+    "$solve" "$name.$b.ff" -q --tol 1e-12 -o "$name.$b.rad" || { echo "FAIL: $name: solve of the $b links"; fail=1; return; }
+  done
+  grep -q '"backend": "cuda"' "$name.cuda.json" || { echo "FAIL: $name: the stats do not say cuda"; fail=1; }
+  lc=$(links "$name.cpu.json") lg=$(links "$name.cuda.json")
+  echo "$name: links cpu $lc, cuda $lg"
+  awk -v a="$lc" -v b="$lg" 'BEGIN { d = a - b; if (d < 0) d = -d; exit !(a > 0 && d <= 0.01 * a) }' ||
+    { echo "FAIL: $name: link counts differ by more than 1 %"; fail=1; }
+  "$close" "$name.cpu.rad" "$name.cuda.rad" "$tol" || { echo "FAIL: $name: the solutions differ"; fail=1; }
+}
+check exact 1e-9 --subdiv 2 --link-tol 0
+check uniform 1e-3 --subdiv 3 --uniform-leaves --link-tol 1e-2
+check clusters 1e-3 --subdiv 3 --clusters on --link-tol 3e-2
+[ "$fail" -eq 0 ] && echo "hierarchical links: the CUDA backend agrees with the CPU's"
+exit "$fail"
