@@ -23,6 +23,7 @@
 #include "ff_counters.h"
 #include "ff_rows.h"
 #include "rad_ff_kernel.h"
+#include "rad_ff_spread.h"
 #include "rad_status.h"
 
 /* Everything a backend needs; flat arrays, owned by the caller, read-only
@@ -117,6 +118,8 @@ typedef struct ff_pair_job {
 typedef struct ff_pair_outcome {
     double coupling;   /* c_ab = F_ab / A_b (0 where the pair does not face) */
     double error;      /* its standard error (rad_ff_pair_result.error) */
+    rad_ff_spread spread_ab, spread_ba; /* rad_ff_factor_spread(a -> b), (b -> a): the oracle's geometry
+                                           (zero where the pair does not face) */
     uint32_t rays, rays_blocked;
     uint32_t verdict;  /* ff_pair_verdict (ff_pair_class.h): FF_PAIR_NOT_FACING, or how it was computed */
     uint32_t pad;

@@ -403,7 +403,8 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_RAY_MIN_BLOCKS) 
 
 /* Hierarchical radiosity's element pairs (compute_pairs), as the CPU
  * backend's cpu_compute_pairs: a listing kernel classifies each job
- * (ff_pair_class.h over the elements) and lists the computed ones, far
+ * (ff_pair_class.h over the elements), computes the oracle's geometry
+ * of the computed ones (rad_ff_spread.h) and lists them, far
  * from the front and near (costly) from the back; a pair kernel per list
  * runs the per-pair procedure with the elements' keys, a group of lanes
  * per job. A job's outcome depends only on its own two elements, so the
@@ -432,6 +433,10 @@ __global__ static void ff_link_facing_kernel(cuda_link_params p, uint32_t *list,
     ff_pair_verdict v = ff_pair_classify(&p.rules, job.a, job.b, &near);
     ff_pair_outcome o = {};
     o.verdict = (uint32_t)v;
+    if (ff_pair_computed(v)) { /* the oracle's geometry, one thread per pair */
+        o.spread_ab = rad_ff_factor_spread(&p.patches[job.a], &p.patches[job.b]);
+        o.spread_ba = rad_ff_factor_spread(&p.patches[job.b], &p.patches[job.a]);
+    }
     p.out[k] = o;
     if (!ff_pair_computed(v)) return;
     uint64_t at = near ? p.job_count - 1 - atomicAdd(&counts[L_NEAR], 1u) : atomicAdd(&counts[L_FAR], 1u);

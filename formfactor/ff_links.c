@@ -224,57 +224,6 @@ static void cluster_values(ff_links *L, const double *lo, const double *hi)
 
 /* ---- the oracle ---- */
 
-/* Mean and spread (largest - smallest) of the unoccluded factor from the
- * points of `from` to `to`: its corners, the centres of its 4 children (a
- * split's parts, what one more level tells apart) and its own centre. The
- * corners see what the parts at `from`'s edges see: a part in a room's
- * corner sees the adjacent wall at a half and the rest of the room at
- * less than the element's mean, and without them the links to the rest,
- * kept at the mean, sum to 1.3 there (Cornell box). A corner on `to`'s
- * plane (an edge the two share) counts 0. The mean is over the centres. A
- * spread that is not a number is infinite (refine). */
-static void factor_spread(const rad_ff_patch *from, const rad_ff_patch *to, double *mean, double *spread,
-                          double *curvature)
-{
-    rad_vec3 x[9];
-    const rad_vec3 *p = from->p;
-    int m = 0;
-    if (from->vertex_count == 4) {
-        static const double uv[4][2] = {{0.25, 0.25}, {0.75, 0.25}, {0.75, 0.75}, {0.25, 0.75}};
-        for (int k = 0; k < 4; k++) {
-            double u = uv[k][0], v = uv[k][1];
-            x[m++] = rad_v3_add(rad_v3_add(rad_v3_scale(p[0], (1 - u) * (1 - v)), rad_v3_scale(p[1], u * (1 - v))),
-                                rad_v3_add(rad_v3_scale(p[2], u * v), rad_v3_scale(p[3], (1 - u) * v)));
-        }
-    } else {
-        for (int k = 0; k < 3; k++)
-            x[m++] = rad_v3_scale(rad_v3_add(rad_v3_scale(p[k], 4.0), rad_v3_add(p[(k + 1) % 3], p[(k + 2) % 3])),
-                                  1.0 / 6.0);
-        x[m++] = from->centre;
-    }
-    x[m++] = from->centre;
-    const int centres = m;
-    for (uint32_t k = 0; k < from->vertex_count; k++) x[m++] = p[k];
-    double lo = INFINITY, hi = -INFINITY, sum = 0, parts = 0, centre = 0, corner_lo = INFINITY, corner_hi = 0;
-    for (int k = 0; k < m; k++) {
-        double f = rad_ff_point_polygon(x[k], from->normal, to);
-        lo = f < lo ? f : lo;
-        hi = f > hi ? f : hi;
-        if (k < centres) sum += f;
-        if (k < centres - 1) parts += f;
-        if (k == centres - 1) centre = f;
-        if (k >= centres) corner_lo = fmin(corner_lo, f), corner_hi = fmax(corner_hi, f);
-    }
-    *mean = sum / centres;
-    *spread = isfinite(hi - lo) ? hi - lo : INFINITY;
-    /* The parts' mean against the centre: the second difference, what a
-     * quadratic's curvature gives over half the element. A corner that
-     * sees nothing of `to` while another sees it (a shared edge, `to`'s
-     * plane crossing `from`) is a kink no curvature describes: the spread. */
-    double c = fabs(parts / (centres - 1) - centre);
-    *curvature = corner_lo == 0 && corner_hi > 0 ? *spread : isfinite(c) ? fmin(c, *spread) : INFINITY;
-}
-
 /* Error of F_rs (F units) from a pair's outcome: the factor's spread over
  * r, scaled by the visible fraction V; where rays saw the pair partly
  * hidden, what V of a part may differ from V of the whole (each of the
@@ -611,7 +560,6 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
 {
     rad_status st = RAD_OK;
     ff_pair_outcome *out = NULL;  /* per element pair, in list order */
-    double *geometry = NULL;      /* per element pair: mean, spread, curvature of a -> b and of b -> a */
     cluster_outcome *cout = NULL; /* per pair with a cluster at an end, in list order */
     size_t out_cap = 0;
     job_list next = {0}, pairs = {0}, cpairs = {0};
@@ -619,13 +567,11 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         size_t n = list->count;
         if (n > out_cap) {
             free(out);
-            free(geometry);
             free(cout);
             out = malloc(n * sizeof *out);
-            geometry = malloc(6 * n * sizeof *geometry);
             cout = malloc(n * sizeof *cout);
             out_cap = n;
-            if (!out || !geometry || !cout) {
+            if (!out || !cout) {
                 rad_error("hierarchy: out of memory for %zu candidate pairs", n);
                 st = RAD_ERR_NOMEM;
                 break;
@@ -642,15 +588,6 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         if (pairs.count) st = L->backend->compute_pairs(L->backend_state, L->patches, L->keys, pairs.jobs,
                                                         pairs.count, out, counters);
         if (st != RAD_OK) break;
-        const rad_ff_patch *patches = L->patches;
-        const ff_pair_job *jobs = pairs.jobs;
-#pragma omp parallel for schedule(dynamic, 64)
-        for (size_t k = 0; k < pairs.count; k++) {
-            if (out[k].verdict == FF_PAIR_NOT_FACING) continue;
-            const rad_ff_patch *pa = &patches[jobs[k].a], *pb = &patches[jobs[k].b];
-            factor_spread(pa, pb, &geometry[6 * k], &geometry[6 * k + 1], &geometry[6 * k + 2]);
-            factor_spread(pb, pa, &geometry[6 * k + 3], &geometry[6 * k + 4], &geometry[6 * k + 5]);
-        }
         if (clustered) {
             const size_t m = clustered;
             const ff_pair_job *cj = cpairs.jobs;
@@ -683,15 +620,15 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
                 p.error_ab = p.left_ab = (float)c->error_ab;
                 p.error_ba = p.left_ba = (float)c->error_ba;
             } else {
-                const ff_pair_outcome *o = &out[ke];
-                const double *g = &geometry[6 * ke++];
+                const ff_pair_outcome *o = &out[ke++];
                 if (o->verdict == FF_PAIR_NOT_FACING) continue;
+                const rad_ff_spread *ab = &o->spread_ab, *ba = &o->spread_ba;
                 double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
                 p.coupling = o->coupling;
-                p.error_ab = (float)factor_error(o, g[1], g[0], Ab);
-                p.error_ba = (float)factor_error(o, g[4], g[3], Aa);
-                p.left_ab = (float)gather_error(o, g[1], g[2], g[0], Ab, leaf_depth(L, a));
-                p.left_ba = (float)gather_error(o, g[4], g[5], g[3], Aa, leaf_depth(L, b));
+                p.error_ab = (float)factor_error(o, ab->spread, ab->mean, Ab);
+                p.error_ba = (float)factor_error(o, ba->spread, ba->mean, Aa);
+                p.left_ab = (float)gather_error(o, ab->spread, ab->curvature, ab->mean, Ab, leaf_depth(L, a));
+                p.left_ba = (float)gather_error(o, ba->spread, ba->curvature, ba->mean, Aa, leaf_depth(L, b));
             }
             if ((splittable(L, a) || splittable(L, b)) && over_tolerance(L, &p)) {
                 element_splits += !ff_is_cluster(a) && !ff_is_cluster(b);
@@ -712,7 +649,6 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         next = t;
     }
     free(out);
-    free(geometry);
     free(cout);
     free(next.jobs);
     free(pairs.jobs);
