@@ -9,14 +9,20 @@
 # with the leaves on cornell_sphere at a fixed tolerance (--uniform-leaves
 # off: the leaves the tolerance makes); THREADS=none skips that table. Then
 # uniform leaves (UNIFORM_THREADS, UNIFORM_BOX_TOLS, UNIFORM_SPHERE_TOLS).
-# Writes hier_bench.md and the stats
+# BACKEND (default cpu) is formfactor's and solve's --backend: cuda or
+# auto build with CUDA (Hopper) and put the element pairs and the link
+# sweeps on the GPU. Writes hier_bench.md and the stats
 # JSON under $OUT (default ./hier-bench-out).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out=${OUT:-hier-bench-out}; mkdir -p "$out"
 build=${BUILD_DIR:-/tmp/build-hier}
 cores=$(nproc)
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DRAD_WITH_RENDER=OFF -DRAD_WITH_CUDA=OFF > "$out/cmake.log" 2>&1 &&
+backend=${BACKEND:-cpu}
+cuda=OFF
+[ "$backend" = cpu ] || cuda="ON -DCMAKE_CUDA_ARCHITECTURES=${CUDA_ARCH:-90}"
+# shellcheck disable=SC2086 # cuda holds two words
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DRAD_WITH_RENDER=OFF -DRAD_WITH_CUDA=$cuda > "$out/cmake.log" 2>&1 &&
   cmake --build "$build" -j"$cores" --target formfactor solve > "$out/build.log" 2>&1 || { tail -20 "$out/build.log"; exit 1; }
 ff="$build/formfactor" solve="$build/solve"
 threads_list=${THREADS:-"2 all"}
@@ -29,13 +35,13 @@ run() {
   local t0 t1 t2
   t0=$(date +%s.%N)
   if [ -x /usr/bin/time ]; then
-    /usr/bin/time -f "%M" -o "$out/$tag.mem" env OMP_NUM_THREADS="$t" "$ff" "$@" -q -o /tmp/hier.ff --stats "$out/$tag.json" || { echo "| $label | $t | failed |"; return; }
+    /usr/bin/time -f "%M" -o "$out/$tag.mem" env OMP_NUM_THREADS="$t" "$ff" "$@" --backend "$backend" -q -o /tmp/hier.ff --stats "$out/$tag.json" || { echo "| $label | $t | failed |"; return; }
   else
     echo 0 > "$out/$tag.mem"
-    OMP_NUM_THREADS="$t" "$ff" "$@" -q -o /tmp/hier.ff --stats "$out/$tag.json" || { echo "| $label | $t | failed |"; return; }
+    OMP_NUM_THREADS="$t" "$ff" "$@" --backend "$backend" -q -o /tmp/hier.ff --stats "$out/$tag.json" || { echo "| $label | $t | failed |"; return; }
   fi
   t1=$(date +%s.%N)
-  OMP_NUM_THREADS="$t" "$solve" /tmp/hier.ff -q -o /tmp/hier.rad --stats "$out/$tag.solve.json" || { echo "| $label | $t | solve failed |"; return; }
+  OMP_NUM_THREADS="$t" "$solve" /tmp/hier.ff --backend "$backend" -q -o /tmp/hier.rad --stats "$out/$tag.solve.json" || { echo "| $label | $t | solve failed |"; return; }
   t2=$(date +%s.%N)
   printf "| %s | %s | %s | %s | %s | %.1f | %s | %.2f | %.2f | %.2f | %.0f |\n" "$label" "$t" "$(j "$out/$tag.json" leaves)" \
     "$(j "$out/$tag.json" elements)" "$(j "$out/$tag.json" links)" "$(j "$out/$tag.json" links_per_element)" \
@@ -46,7 +52,7 @@ run() {
 {
 echo "# Hierarchical radiosity: time ($(lscpu | grep -m1 'Model name' | sed 's/.*: *//'), $cores cores, $(date -u +%F))"
 echo
-echo "formfactor --method hierarchical (CPU backend) then solve; wall seconds; peak MiB of formfactor."
+echo "formfactor --method hierarchical then solve, both --backend $backend; wall seconds; peak MiB of formfactor."
 echo
 echo "| run | threads | leaves | elements | links | links/element | error bound | formfactor s | solve s | total s | MiB |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|"

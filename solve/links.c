@@ -1,14 +1,16 @@
 /* links.c - solve on a file of links (links.h; docs/solve.md, "On links"):
  * the options checked, the leaves' row sums judged as a matrix's rows are
  * (matrix.h: the row-sum note or warning, the refusal of rho * row sum
- * >= 1), rad_lsolve, then the radiosity file of the leaves mesh and the
- * stats, as stage.c writes them for a matrix. */
+ * >= 1), rad_lsolve, the shaped solve (on the CPU, or the GPU: --backend),
+ * then the radiosity file of the leaves mesh and the stats, as stage.c
+ * writes them for a matrix. */
 #include "links.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "gpu.h"
 #include "matrix.h"
 #include "rad_clock.h"
 #include "rad_log.h"
@@ -52,8 +54,19 @@ static rad_status check_options(const solve_options *options, const char *input,
         rad_error("%s: holds links: --by-group is not available for link files yet (issue 26)", input);
         return RAD_ERR_USAGE;
     }
-    if (options->backend == SOLVE_BACKEND_CUDA)
-        rad_info("%s: holds links, which solve sweeps on the CPU (--backend cuda applies to matrices)", input);
+    if (options->backend == SOLVE_BACKEND_CUDA && options->no_shape) {
+        rad_info("%s: holds links, whose flat sweeps run on the CPU (--backend cuda runs the shaped solve, which "
+                 "--shape off leaves out)",
+                 input);
+    } else if (options->backend == SOLVE_BACKEND_CUDA && !solve_gpu_built()) {
+        rad_error("--backend cuda: this build of solve has no CUDA (nvcc was not found when it was configured, or "
+                  "-DRAD_WITH_CUDA=OFF); --backend cpu or auto solves on the CPU");
+        return RAD_ERR_UNSUPPORTED;
+    } else if (options->backend == SOLVE_BACKEND_CUDA && solve_gpu_device_count() == 0) {
+        rad_error("--backend cuda: no CUDA device is visible (no GPU, no driver, or CUDA_VISIBLE_DEVICES hides them); "
+                  "--backend cpu or auto solves on the CPU");
+        return RAD_ERR_BACKEND;
+    }
     *out_method = options->params.method == SOLVE_JACOBI ? RAD_LSOLVE_JACOBI : RAD_LSOLVE_GAUSS_SEIDEL;
     return RAD_OK;
 }
@@ -162,6 +175,9 @@ static rad_status judge_rows(links_state *s)
     return RAD_OK;
 }
 
+/* Where the shaped solve ran, if not on the CPU (the flat sweeps always do). */
+static int shaped_on_gpu(const links_state *s) { return s->shaped && s->shape.backend == SOLVE_SHAPED_CUDA; }
+
 /* The channels' reports, as stage.c logs and stats.c writes them. */
 static void fill_reports(links_state *s)
 {
@@ -181,9 +197,9 @@ static void fill_reports(links_state *s)
         rep->error_bound = channel_error_bound(s->in->leaves, s->row_sum, c, r->residual[c]);
         /* the balance is over the channels together (the stats' "balance") */
         rep->balance = (solve_balance){NAN, NAN, NAN, NAN};
-        rad_info("%s: %s: %s on links, %u iterations, residual %.3g, %.3f s, backend cpu", s->input,
+        rad_info("%s: %s: %s on links, %u iterations, residual %.3g, %.3f s, backend %s", s->input,
                  s->grey ? "grey" : rgb_names[c], solve_method_name(rep->method_used), rep->iterations,
-                 rep->residual, rep->seconds);
+                 rep->residual, rep->seconds, shaped_on_gpu(s) ? "cpu, the shaped solve cuda" : "cpu");
     }
     rad_info("%s: energy%s: emitted %.9g, absorbed %.9g, escaped %.9g (imbalance %.2g)", s->input,
              s->grey ? "" : " (the channels summed)", r->emitted, r->absorbed, r->escaped, r->imbalance);
@@ -193,24 +209,40 @@ static void fill_reports(links_state *s)
  * move a leaf by a tenth of what the oracle let each link err by. */
 #define SHAPE_GATE_OF_LINK_TOL 0.1
 
+/* --backend for the shaped solve: cuda on the GPU (each rank its own,
+ * rank mod the devices); auto the GPU from SOLVE_SHAPED_GPU_MIN_WEIGHTS
+ * point factors up, for one process (ranks each solving alone would each
+ * start CUDA); cpu the CPU. */
+static solve_shaped_backend shaped_backend(const solve_options *options)
+{
+    if (options->backend == SOLVE_BACKEND_CUDA) return SOLVE_SHAPED_CUDA;
+    if (options->backend == SOLVE_BACKEND_AUTO && solve_comm_size(options->comm) == 1) return SOLVE_SHAPED_AUTO;
+    return SOLVE_SHAPED_CPU;
+}
+
 /* The shaped solve from the flat solution, unless --shape off. Its
  * residual, sweeps and balance replace the flat ones in the outputs. */
 static rad_status shape(links_state *s)
 {
     if (s->options->no_shape) return RAD_OK;
     const solve_shaped_options o = {.threads = s->options->threads,
+                                    .backend = shaped_backend(s->options),
+                                    .device = solve_comm_rank(s->options->comm),
                                     .gate = SHAPE_GATE_OF_LINK_TOL * s->in->links->link_tol,
                                     .tolerance = s->solve.tolerance,
                                     .max_iterations = s->solve.max_iterations,
                                     .channels = s->grey ? 1 : 3};
     rad_status status = solve_shaped(s->in->links, s->in->leaves, &o, s->radiosity, &s->shape);
-    if (status != RAD_OK && status != RAD_ERR_NOT_CONVERGED) return status;
+    /* each rank solved alone (a GPU may fail on one): a failure anywhere is every rank's */
+    const rad_status failed = solve_comm_agree(s->options->comm, status == RAD_ERR_NOT_CONVERGED ? RAD_OK : status);
+    if (failed != RAD_OK) return failed;
     s->shaped = 1;
     const solve_shaped_result *r = &s->shape;
     rad_info("%s: shaped: %llu link ends spread over their leaves (%llu point factors), %u iterations, residual "
-             "%.3g, B moved by up to %.3g of its largest value, %.3f s",
+             "%.3g, B moved by up to %.3g of its largest value, %.3f s (factors %.3f s, sweeps %.3f s), backend %s%s%s",
              s->input, (unsigned long long)r->shaped_ends, (unsigned long long)r->weights, r->iterations, r->residual,
-             r->change, r->seconds);
+             r->change, r->seconds, r->factor_seconds, r->sweep_seconds, solve_shaped_backend_name(r->backend),
+             r->backend == SOLVE_SHAPED_CUDA ? ": " : "", r->backend == SOLVE_SHAPED_CUDA ? r->device : "");
     for (int c = 0; c < 3; c++) {
         s->result.iterations[c] += r->iterations;
         s->result.residual[c] = r->residual;
@@ -262,7 +294,8 @@ static rad_status write_outputs(const links_state *s)
         .tolerance = s->solve.tolerance,
         .max_iterations = s->solve.max_iterations,
         .load_seconds = in->load_seconds,
-        .backend = "cpu",
+        .backend = shaped_on_gpu(s) ? "cuda" : "cpu",
+        .device = shaped_on_gpu(s) ? s->shape.device : NULL,
         .device_exact = -1,
         .total_seconds = in->load_seconds + rad_clock_seconds() - s->start,
         .converged = s->solved == RAD_OK,
@@ -290,7 +323,8 @@ rad_status solve_links_solve(const solve_options *options, const solve_links_inp
     const rad_links *links = in->links;
     const rad_mesh *leaves = in->leaves;
     s.solve = rad_lsolve_defaults();
-    rad_status status = check_options(options, s.input, &s.solve.method);
+    /* agreed: whether a GPU is visible may differ between ranks */
+    rad_status status = solve_comm_agree(options->comm, check_options(options, s.input, &s.solve.method));
     if (status == RAD_OK && links->leaf_count != leaves->patch_count) {
         rad_error("%s: %u leaves in the links, %zu patches in the patch table", s.input, links->leaf_count,
                   leaves->patch_count);

@@ -8,10 +8,12 @@
  * default) or jacobi, sweeps over the links (cg is refused: the system on
  * links is solved by sweeps only); --tol and --max-iter as for a matrix,
  * the residual being max |E + rho sum F B - B| over the leaves, over
- * ||E||_inf; --backend: the CPU (a note for cuda); threads: OpenMP's
- * default (OMP_NUM_THREADS). --errors does not apply (each link carries its
- * own error bound) and --by-group is not available yet: both are refused
- * before anything is solved.
+ * ||E||_inf; --backend: where the shaped solve runs (cuda: the GPU,
+ * refused without one; auto: the GPU for one process from
+ * SOLVE_SHAPED_GPU_MIN_WEIGHTS point factors, shaped.h), the flat sweeps
+ * being the CPU's; threads: OpenMP's default (OMP_NUM_THREADS). --errors
+ * does not apply (each link carries its own error bound) and --by-group
+ * is not available yet: both are refused before anything is solved.
  *
  * Across ranks every rank solves the same links (the bytes do not depend on
  * it) and rank 0 writes; every rank returns the same status.
@@ -40,6 +42,8 @@ typedef struct solve_links_input {
 /* Everything after reading: checks, the solve, the radiosity file and the
  * stats. RAD_ERR_NOT_CONVERGED once the outputs are written, marked
  * unconverged; RAD_ERR_USAGE for --method cg, --errors and --by-group;
+ * RAD_ERR_BACKEND for --backend cuda without a visible GPU (nothing
+ * solved or written);
  * RAD_ERR_INVALID for a leaf with rho * row sum >= 1 (nothing written). */
 rad_status solve_links_solve(const solve_options *options, const solve_links_input *in);
 

@@ -49,13 +49,27 @@
  * reciprocal and a closed scene still balances. Element-element links
  * are shaped as above.
  *
- * How. Jacobi sweeps over the leaves from the flat solution: the sources'
+ * How. Sweeps over the leaves from the flat solution ("Where"): the sources'
  * S (shaped ends summed over their leaves), the unshaped receivers'
  * gathers pushed down the trees as flat, the shaped receivers' added per
  * leaf. The residual is rad_lsolve's: max |E + rho K B - B| over the
  * leaves and channels, over ||E||_inf, of the iterate returned. The point
  * factors are computed once and stored (4 bytes each). The bytes do not
  * depend on the thread count.
+ *
+ * Where. The CPU (the default) computes the point factors on the host
+ * threads and sweeps Gauss-Seidel, tree by tree. The cuda backend
+ * (shaped_gpu.h) computes them on the GPU and sweeps Jacobi there, every
+ * tree at once, copying back three maxima a sweep; the plan (which ends,
+ * the ranges, the lists) stays the host's. Its Jacobi stops where its
+ * change, which is the residual of the iterate it swept from, meets the
+ * tolerance, and returns that iterate, as the CPU returns the iterate its
+ * last sweep measured. The host backend runs the cuda backend's steps on
+ * the host, item by item through the same functions (shaped_math.h), for
+ * tests without a GPU. The GPU's results are the same bits run after run;
+ * against the CPU's they differ by the two methods' stopping points (both
+ * within the tolerance) and by a point factor whose float rounds the other
+ * way where the GPU's atan2 differs from the host's in the last bit.
  */
 #ifndef SOLVE_SHAPED_H
 #define SOLVE_SHAPED_H
@@ -66,8 +80,37 @@
 #include "rad_mesh.h"
 #include "rad_status.h"
 
+/* Where the point factors and the sweeps run. */
+typedef enum solve_shaped_backend {
+    SOLVE_SHAPED_CPU = 0, /* host threads, Gauss-Seidel (the default) */
+    SOLVE_SHAPED_AUTO,    /* cuda where this build has CUDA, a GPU is visible and there are at least
+                             SOLVE_SHAPED_GPU_MIN_WEIGHTS point factors (falling back to cpu, with a warning,
+                             where the GPU fails); else cpu */
+    SOLVE_SHAPED_CUDA,    /* the GPU, Jacobi; RAD_ERR_BACKEND (logged) without one, RAD_ERR_UNSUPPORTED in a
+                             build without CUDA */
+    SOLVE_SHAPED_HOST     /* the cuda backend's steps on the host (shaped_gpu.h): tests */
+} solve_shaped_backend;
+
+/* "cpu", "auto", "cuda", "host". */
+const char *solve_shaped_backend_name(solve_shaped_backend backend);
+
+/* auto takes the GPU from this many point factors up, where the CPU's
+ * shaped solve takes longer than starting CUDA (0.2-0.3 s, less where it
+ * overlapped the file's reading): cornell_sphere's 11 776 leaves at
+ * link-tol 1e-3 have 2.1 M factors, 0.77 s on 2 cores (factors 0.25 s,
+ * sweeps 0.47 s), so 4 M take ~1.5 s there and ~0.2 s on 16 cores; its
+ * 188 416 leaves have 47 M, ~11 s on 2 cores. */
+#define SOLVE_SHAPED_GPU_MIN_WEIGHTS ((uint64_t)4 << 20)
+/* The point factors are known once the ends are chosen; solve starts CUDA
+ * while a file of links loads (stage.c) from this many leaves up, where
+ * they may reach that (cornell_sphere at link-tol 1e-3: 180 a leaf at
+ * 11 776 leaves, 250 at 188 416). */
+#define SOLVE_SHAPED_GPU_PRESTART_LEAVES 16384u
+
 typedef struct solve_shaped_options {
     int threads;             /* OpenMP threads; 0 = OpenMP's default */
+    solve_shaped_backend backend;
+    int device;              /* cuda: the GPU, mod the devices (an MPI rank's); 0 alone */
     double gate;             /* shape an end where it may move a leaf by gate x the mean reflected B */
     double tolerance;        /* residual to reach (> 0) */
     uint32_t max_iterations; /* > 0 */
@@ -83,6 +126,10 @@ typedef struct solve_shaped_result {
     double change;          /* max |B - B_flat| / max |B_flat| over leaves and channels */
     double emitted, absorbed, escaped, imbalance; /* as rad_lsolve_result's, for the shaped operator */
     double seconds;
+    double factor_seconds;  /* of those: the point factors and the lists (cuda: with the copies to the GPU) */
+    double sweep_seconds;   /* of those: the sweeps (cuda: with the start's and the result's copies) */
+    solve_shaped_backend backend; /* the one that ran: cpu, cuda or host (never auto) */
+    char device[128];       /* where: "cpu", "host" or the GPU's name */
 } solve_shaped_result;
 
 /* B: 3 values per leaf patch (RGB): the flat solution on entry, the
@@ -90,7 +137,8 @@ typedef struct solve_shaped_result {
  * status is RAD_ERR_NOT_CONVERGED); untouched on other failures.
  * RAD_ERR_NOMEM (logged); RAD_ERR_INVALID for a leaves mesh that does
  * not match the links, a link without its pair, or a residual that is
- * not finite. The links must have passed rad_links_check. */
+ * not finite; RAD_ERR_BACKEND or RAD_ERR_UNSUPPORTED where cuda cannot
+ * run (logged). The links must have passed rad_links_check. */
 rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const solve_shaped_options *options, double *B,
                         solve_shaped_result *out);
 

@@ -28,6 +28,7 @@
 #include "rad_log.h"
 #include "rad_rfile.h"
 #include "rad_scene.h"
+#include "shaped.h"
 #include "stats.h"
 
 static const char *const backend_names[] = {"auto", "cpu", "cuda"};
@@ -117,6 +118,17 @@ static void stage_state_free(stage_state *s)
 static int file_holds_links(const rad_ff_info *info)
 {
     return info->layout == RAD_FF_LAYOUT_LINKS;
+}
+
+/* Will a file of links ask for the GPU? --backend cuda for its shaped
+ * solve; auto, alone, where it has enough leaves that the point factors
+ * may reach SOLVE_SHAPED_GPU_MIN_WEIGHTS (SOLVE_SHAPED_GPU_PRESTART_LEAVES). */
+static int links_may_use_gpu(const solve_options *options, int ranks, const rad_ff_info *info)
+{
+    if (options->no_shape || !solve_gpu_built()) return 0;
+    return options->backend == SOLVE_BACKEND_CUDA ||
+           (options->backend == SOLVE_BACKEND_AUTO && ranks == 1 &&
+            info->patch_count >= SOLVE_SHAPED_GPU_PRESTART_LEAVES);
 }
 
 /* Stored entries of the matrix: its header's estimate (a sparse file's
@@ -336,8 +348,13 @@ static rad_status stage_open(stage_state *s)
     else
         status = solve_comm_agree(s->comm, rad_ff_open(s->input, &s->file));
     if (status != RAD_OK) return status;
-    /* Hierarchical radiosity's links (issue 26): links.c takes the file from here. */
-    if (file_holds_links(rad_ff_file_info(s->file))) return RAD_OK;
+    /* Hierarchical radiosity's links (issue 26): links.c takes the file
+     * from here; CUDA starts while the links load where the shaped solve
+     * may run on the GPU (links.c, shaped.h). */
+    if (file_holds_links(rad_ff_file_info(s->file))) {
+        if (links_may_use_gpu(options, s->ranks, rad_ff_file_info(s->file))) solve_gpu_prestart(s->rank);
+        return RAD_OK;
+    }
     /* CUDA starts while the matrix loads where the GPU will be asked for
      * (under mpirun on the rank's device, rank mod the devices). */
     if (options->backend != SOLVE_BACKEND_CPU && solve_gpu_built() &&

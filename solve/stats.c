@@ -98,6 +98,9 @@ static void put_links(rad_json_writer *w, const solve_stats_links *l)
     put_number(w, "residual", r->residual);
     put_number(w, "change", r->change);
     put_number(w, "seconds", r->seconds);
+    put_number(w, "factor_seconds", r->factor_seconds);
+    put_number(w, "sweep_seconds", r->sweep_seconds);
+    put_name(w, "backend", solve_shaped_backend_name(r->backend));
     rad_json_end_object(w);
 }
 

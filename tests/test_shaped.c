@@ -1,0 +1,218 @@
+/* test_shaped.c - the shaped solve's backends (solve/shaped.h,
+ * solve/shaped_gpu.h) on files of links, each from its flat solution
+ * (rad_lsolve to 1e-13), at --tol 1e-12:
+ *
+ *  1. The CPU's Gauss-Seidel against the host twin of the GPU's steps
+ *     (SOLVE_SHAPED_HOST: shaped_host.c, the kernels' items through the
+ *     same shaped_math.h functions in the same order): both converged,
+ *     residual <= the tolerance, the same ends and point factors, B within
+ *     1e-9 of max B (the two methods' stopping points, each within 1e-12),
+ *     the energy balance alike (the row sums made per leaf, as on the GPU,
+ *     against the host's), the twin the same bits run after run.
+ *  2. Backend choice: auto below SOLVE_SHAPED_GPU_MIN_WEIGHTS runs the
+ *     CPU, to the bit; cuda without a usable device (none built, or none
+ *     visible) is an error and leaves B untouched.
+ *  3. With --cuda (label gpu; 77 where no device is visible): the GPU
+ *     against its host twin: the same ends and factors counted, B the
+ *     same bits and the same iterations - unless a point factor's float
+ *     rounds the other way because the GPU's atan2 differs from the host's
+ *     in the last bit (odds ~1e-8 a factor; one such moves a leaf by up to
+ *     ~1e-8 of B), so held to 1e-9 of max B and iterations within 1, with
+ *     the bits' identity printed; the same bits when run again.
+ *
+ * usage: test_shaped [--cuda] LINKS...
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gpu.h"
+#include "rad_ffile.h"
+#include "rad_lsolve.h"
+#include "rad_test.h"
+#include "shaped.h"
+#include "stage.h"
+
+#define TEST_TOL 1e-12
+
+typedef struct fixture {
+    const char *path;
+    rad_ff_file *file;
+    rad_links links;
+    const rad_mesh *leaves;
+    int channels;
+    double *flat; /* 3 per leaf */
+} fixture;
+
+static void fixture_free(fixture *x)
+{
+    rad_links_free(&x->links);
+    rad_ff_close(x->file);
+    free(x->flat);
+}
+
+static int fixture_load(const char *path, fixture *x)
+{
+    memset(x, 0, sizeof *x);
+    x->path = path;
+    if (rad_ff_open(path, &x->file) != RAD_OK || rad_ff_read_links(x->file, &x->links) != RAD_OK) return 0;
+    x->leaves = rad_ff_file_mesh(x->file);
+    x->channels = solve_mesh_is_grey(x->leaves) ? 1 : 3;
+    x->flat = malloc(3 * x->leaves->patch_count * sizeof *x->flat);
+    if (!x->flat) return 0;
+    rad_lsolve_options o = rad_lsolve_defaults();
+    o.tolerance = 1e-13;
+    o.max_iterations = 100000;
+    o.channels = x->channels;
+    rad_lsolve_result r;
+    return rad_lsolve(&x->links, x->leaves, &o, x->flat, &r) == RAD_OK;
+}
+
+/* The shaped solve by `backend` from the flat solution into B (malloc'd). */
+static rad_status run(const fixture *x, solve_shaped_backend backend, double **out_B, solve_shaped_result *out)
+{
+    const size_t n = 3 * x->leaves->patch_count;
+    double *B = malloc(n * sizeof *B);
+    if (!B) return RAD_ERR_NOMEM;
+    memcpy(B, x->flat, n * sizeof *B);
+    const solve_shaped_options o = {.backend = backend,
+                                    .gate = 0.1 * x->links.link_tol,
+                                    .tolerance = TEST_TOL,
+                                    .max_iterations = 10000,
+                                    .channels = x->channels};
+    memset(out, 0, sizeof *out);
+    rad_status status = solve_shaped(&x->links, x->leaves, &o, B, out);
+    *out_B = B;
+    return status;
+}
+
+/* max |a - b| over max |b|. */
+static double worst_relative(const double *a, const double *b, size_t n)
+{
+    double most = 0, diff = 0;
+    for (size_t i = 0; i < n; i++) {
+        most = fmax(most, fabs(b[i]));
+        diff = fmax(diff, fabs(a[i] - b[i]));
+    }
+    return most > 0 ? diff / most : diff;
+}
+
+static void check_result(const char *what, rad_status status, const solve_shaped_result *r,
+                         solve_shaped_backend backend)
+{
+    RAD_CHECK(status == RAD_OK);
+    RAD_CHECK(r->converged);
+    RAD_CHECK(r->residual <= TEST_TOL);
+    RAD_CHECK(r->backend == backend);
+    RAD_CHECK(r->seconds >= r->factor_seconds + r->sweep_seconds - 1e-9);
+    printf("  %s: %llu ends, %llu point factors, %u iterations, residual %.3g, imbalance %.3g, %.3f s (factors "
+           "%.3f, sweeps %.3f), %s\n",
+           what, (unsigned long long)r->shaped_ends, (unsigned long long)r->weights, r->iterations, r->residual,
+           r->imbalance, r->seconds, r->factor_seconds, r->sweep_seconds, r->device);
+}
+
+/* 1 and 2 on one file. */
+static void check_host(const fixture *x)
+{
+    const size_t n = 3 * x->leaves->patch_count;
+    double *cpu = NULL, *host = NULL, *again = NULL, *chosen = NULL;
+    solve_shaped_result rc, rh, ra, rx;
+    check_result("cpu", run(x, SOLVE_SHAPED_CPU, &cpu, &rc), &rc, SOLVE_SHAPED_CPU);
+    check_result("host", run(x, SOLVE_SHAPED_HOST, &host, &rh), &rh, SOLVE_SHAPED_HOST);
+    RAD_CHECK(rh.shaped_ends == rc.shaped_ends);
+    RAD_CHECK(rh.weights == rc.weights);
+    const double d = worst_relative(host, cpu, n);
+    printf("  host twin against the CPU: max |dB| %.3g of max B\n", d);
+    RAD_CHECK(d <= 1e-9);
+    RAD_CHECK_NEAR(rh.change, rc.change, 1e-9);
+    RAD_CHECK_REL(rh.emitted, rc.emitted, 1e-15);
+    RAD_CHECK_REL(rh.absorbed, rc.absorbed, 1e-9);
+    RAD_CHECK_REL(rh.escaped, rc.escaped, 1e-9);
+    RAD_CHECK_NEAR(rh.imbalance, rc.imbalance, 1e-9);
+    RAD_CHECK(strcmp(rh.device, "host") == 0 && strcmp(rc.device, "cpu") == 0);
+    /* the twin again: the same bits */
+    RAD_CHECK(run(x, SOLVE_SHAPED_HOST, &again, &ra) == RAD_OK);
+    RAD_CHECK(memcmp(again, host, n * sizeof *host) == 0);
+    RAD_CHECK(ra.iterations == rh.iterations);
+    /* auto below the GPU's threshold: the CPU, to the bit */
+    if (rc.weights < SOLVE_SHAPED_GPU_MIN_WEIGHTS) {
+        RAD_CHECK(run(x, SOLVE_SHAPED_AUTO, &chosen, &rx) == RAD_OK);
+        RAD_CHECK(rx.backend == SOLVE_SHAPED_CPU);
+        RAD_CHECK(memcmp(chosen, cpu, n * sizeof *cpu) == 0);
+    }
+    free(cpu);
+    free(host);
+    free(again);
+    free(chosen);
+}
+
+/* 2: cuda where it cannot run fails and leaves B alone. */
+static void check_cuda_refused(const fixture *x)
+{
+    double *B = NULL;
+    solve_shaped_result r;
+    rad_test_capture_log();
+    const rad_status status = run(x, SOLVE_SHAPED_CUDA, &B, &r);
+    rad_log_set_sink(NULL, NULL);
+    RAD_CHECK(status == (solve_gpu_built() ? RAD_ERR_BACKEND : RAD_ERR_UNSUPPORTED));
+    RAD_CHECK(rad_test_log_contains("--backend cuda"));
+    RAD_CHECK(memcmp(B, x->flat, 3 * x->leaves->patch_count * sizeof *B) == 0);
+    free(B);
+}
+
+/* 3 on one file. */
+static void check_cuda(const fixture *x)
+{
+    const size_t n = 3 * x->leaves->patch_count;
+    double *gpu = NULL, *host = NULL, *again = NULL;
+    solve_shaped_result rg, rh, ra;
+    check_result("cuda", run(x, SOLVE_SHAPED_CUDA, &gpu, &rg), &rg, SOLVE_SHAPED_CUDA);
+    check_result("host", run(x, SOLVE_SHAPED_HOST, &host, &rh), &rh, SOLVE_SHAPED_HOST);
+    RAD_CHECK(rg.shaped_ends == rh.shaped_ends);
+    RAD_CHECK(rg.weights == rh.weights);
+    const int same = memcmp(gpu, host, n * sizeof *gpu) == 0;
+    const double d = worst_relative(gpu, host, n);
+    printf("  cuda against its host twin: max |dB| %.3g of max B, %s; iterations %u and %u\n", d,
+           same ? "the same bits" : "NOT the same bits (a point factor rounded the other way?)", rg.iterations,
+           rh.iterations);
+    RAD_CHECK(d <= 1e-9);
+    RAD_CHECK(rg.iterations + 1 >= rh.iterations && rh.iterations + 1 >= rg.iterations);
+    if (same) RAD_CHECK(rg.iterations == rh.iterations && rg.imbalance == rh.imbalance);
+    RAD_CHECK(run(x, SOLVE_SHAPED_CUDA, &again, &ra) == RAD_OK);
+    RAD_CHECK(memcmp(again, gpu, n * sizeof *gpu) == 0);
+    free(gpu);
+    free(host);
+    free(again);
+}
+
+int main(int argc, char **argv)
+{
+    int cuda = argc > 1 && strcmp(argv[1], "--cuda") == 0;
+    if (argc < 2 + cuda) {
+        fprintf(stderr, "usage: test_shaped [--cuda] LINKS...\n");
+        return 2;
+    }
+    if (cuda && solve_gpu_device_count() == 0) {
+        printf("no CUDA device: skipped\n");
+        return 77;
+    }
+    rad_log_set_level(RAD_LOG_WARN);
+    for (int a = 1 + cuda; a < argc; a++) {
+        fixture x;
+        printf("%s\n", argv[a]);
+        if (!fixture_load(argv[a], &x)) {
+            fprintf(stderr, "%s: cannot read or solve flat\n", argv[a]);
+            rad_test_failures++;
+            fixture_free(&x);
+            continue;
+        }
+        if (cuda) {
+            check_cuda(&x);
+        } else {
+            check_host(&x);
+            if (solve_gpu_device_count() == 0) check_cuda_refused(&x);
+        }
+        fixture_free(&x);
+    }
+    return rad_test_finish();
+}
