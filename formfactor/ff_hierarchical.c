@@ -20,6 +20,7 @@
 #include "ff_links.h"
 #include "ff_load.h"
 #include "ff_setup.h"
+#include "ff_solve.h"
 #include "rad_clock.h"
 #include "rad_ffile.h"
 #include "rad_fs.h"
@@ -44,24 +45,46 @@ typedef struct hier_run {
     ff_counters counters;
     double error_bound;
     int threads;
-    double seconds_load, seconds_links, seconds_solve, seconds_write, seconds_total;
+    double seconds_load, seconds_setup, seconds_links, seconds_export, seconds_solve, seconds_write, seconds_total;
     uint64_t refined[64];
 } hier_run;
 
-/* Exports the links and solves on them (B warm-started where the leaves did not change). */
+/* Are two leaf meshes the same patches, in the same order? */
+static int same_leaves(const rad_mesh *a, const rad_mesh *b)
+{
+    if (a->patch_count != b->patch_count || !a->patches) return 0;
+    for (size_t k = 0; k < a->patch_count; k++) {
+        const rad_patch *p = &a->patches[k], *q = &b->patches[k];
+        if (p->area != q->area || p->centroid.x != q->centroid.x || p->centroid.y != q->centroid.y ||
+            p->centroid.z != q->centroid.z)
+            return 0;
+    }
+    return 1;
+}
+
+/* Exports the links and solves on them, from the last pass's B where the
+ * leaves did not change (--uniform-leaves: every pass after the first). */
 static rad_status export_and_solve(hier_run *h)
 {
+    double t0 = rad_clock_seconds();
+    rad_mesh old_leaves = h->leaves;
+    double *old_B = h->B;
+    memset(&h->leaves, 0, sizeof h->leaves);
+    h->B = NULL;
     rad_links_free(&h->exported);
-    rad_mesh_free(&h->leaves);
     rad_status st = ff_links_export(&h->links, &h->exported, &h->leaves);
-    if (st != RAD_OK) return st;
-    free(h->B);
-    h->B = malloc(3 * (h->leaves.patch_count ? h->leaves.patch_count : 1) * sizeof *h->B);
-    if (!h->B) return RAD_ERR_NOMEM;
+    h->seconds_export += rad_clock_seconds() - t0;
+    if (st == RAD_OK && !(h->B = malloc(3 * (h->leaves.patch_count ? h->leaves.patch_count : 1) * sizeof *h->B)))
+        st = RAD_ERR_NOMEM;
     rad_lsolve_options o = rad_lsolve_defaults();
     o.threads = h->threads;
     o.tolerance = 1e-6;
-    double t0 = rad_clock_seconds();
+    o.warm_start = st == RAD_OK && old_B && same_leaves(&old_leaves, &h->leaves);
+    if (o.warm_start) memcpy(h->B, old_B, 3 * h->leaves.patch_count * sizeof *h->B);
+    rad_mesh_free(&old_leaves);
+    free(old_B);
+    if (st != RAD_OK) return st;
+    t0 = rad_clock_seconds();
     st = rad_lsolve(&h->exported, &h->leaves, &o, h->B, &h->solution);
     h->seconds_solve += rad_clock_seconds() - t0;
     return st;
@@ -70,6 +93,7 @@ static rad_status export_and_solve(hier_run *h)
 static rad_status build_links(hier_run *h)
 {
     const ff_options *opt = h->opt;
+    const double t_setup = rad_clock_seconds();
     double centre[3];
     ff_frame_centre(&h->base, centre);
     rad_status st = ff_occluders_build(&h->scene, centre, &h->triangles, &h->triangle_face, &h->triangle_count);
@@ -112,12 +136,17 @@ static rad_status build_links(hier_run *h)
     if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, h->backend, h->backend_state,
                             h->tracer_state)) != RAD_OK)
         return st;
+    h->seconds_setup = rad_clock_seconds() - t_setup;
     for (uint32_t pass = 0; pass < opt->passes && st == RAD_OK; pass++) {
         double t0 = rad_clock_seconds();
         uint64_t refined = 0;
         st = ff_links_refine(&h->links, pass ? h->B : NULL, &h->counters, &refined);
         h->seconds_links += rad_clock_seconds() - t0;
         if (pass < 64) h->refined[pass] = refined;
+        if (st == RAD_OK && pass > 0 && refined == 0) {
+            rad_info("pass %u: nothing refined; the links and their solution stand", pass + 1);
+            break;
+        }
         if (st == RAD_OK) st = export_and_solve(h);
         if (st == RAD_OK)
             rad_info("pass %u: %llu pairs refined; %u elements, %u leaves, %llu links (%.1f per leaf); %llu candidate "
@@ -127,16 +156,18 @@ static rad_status build_links(hier_run *h)
                      (double)h->exported.link_count / (h->exported.leaf_count ? h->exported.leaf_count : 1),
                      (unsigned long long)h->links.candidates, (unsigned long long)h->counters.rays,
                      h->seconds_links, h->solution.iterations[0]);
-        if (pass > 0 && refined == 0) break;
     }
     if (st == RAD_OK) {
+        const double t0 = rad_clock_seconds();
         h->error_bound = ff_links_error_bound(&h->links, &h->exported, h->B);
         h->exported.error_bound = h->error_bound;
+        h->seconds_export += rad_clock_seconds() - t0;
     }
     return st;
 }
 
-static rad_status write_links(hier_run *h)
+/* The header of the links' file. */
+static rad_ff_info links_info(const hier_run *h)
 {
     const ff_options *opt = h->opt;
     rad_ff_info info = {.patch_count = h->leaves.patch_count, .vertex_count = h->leaves.vertex_count,
@@ -146,8 +177,18 @@ static rad_status write_links(hier_run *h)
                         .flags = RAD_FF_FLAG_RECIPROCAL | (opt->ke_radiance ? RAD_FF_FLAG_KE_RADIANCE : 0),
                         .group_count = (uint32_t)h->leaves.group_count, .layout = RAD_FF_LAYOUT_LINKS};
     snprintf(info.scene_name, sizeof info.scene_name, "%s", opt->scene_path ? opt->scene_path : rad_default_scene_name);
+    return info;
+}
+
+/* The links to -o, or with --radiosity solved in memory (ff_solve.h) and
+ * the radiosity written instead. */
+static rad_status write_links(hier_run *h)
+{
+    const ff_options *opt = h->opt;
+    const rad_ff_info info = links_info(h);
     double t0 = rad_clock_seconds();
-    rad_status st = rad_ff_write_links(opt->output, &info, &h->leaves, &h->exported);
+    rad_status st = opt->radiosity_path ? ff_solve_links(&info, &h->leaves, &h->exported, opt, h->threads)
+                                        : rad_ff_write_links(opt->output, &info, &h->leaves, &h->exported);
     h->seconds_write = rad_clock_seconds() - t0;
     return st;
 }
@@ -176,12 +217,12 @@ static rad_status write_stats(const hier_run *h)
     for (uint32_t e = 0; e < x->node_count; e++) levels = x->nodes[e].level + 1 > levels ? x->nodes[e].level + 1 : levels;
     rad_info("hierarchical: %u roots, %u levels, %u elements, %u leaves, %llu links (%.1f per leaf, %.1f per element), "
              "%llu candidate pairs in %llu rounds, %llu shadow rays; error bound %.3g; links %.2f s, solves %.2f s, "
-             "write %.2f s",
+             "%s %.2f s",
              x->root_count, levels, x->node_count, x->leaf_count, (unsigned long long)x->link_count,
              (double)x->link_count / x->leaf_count, (double)x->link_count / x->node_count,
              (unsigned long long)h->links.candidates, (unsigned long long)h->links.rounds,
              (unsigned long long)h->counters.rays, h->error_bound, h->seconds_links, h->seconds_solve,
-             h->seconds_write);
+             opt->radiosity_path ? "solved and written (--radiosity)" : "write", h->seconds_write);
     if (!opt->stats_path) return RAD_OK;
     FILE *f = NULL;
     char temp[4096];
@@ -247,15 +288,19 @@ static rad_status write_stats(const hier_run *h)
     rad_json_begin_object(&w, RAD_JSON_INLINE);
     rad_json_key(&w, "load");
     rad_json_number(&w, h->seconds_load);
+    rad_json_key(&w, "setup"); /* occluders, the backend (a GPU's start), the roots */
+    rad_json_number(&w, h->seconds_setup);
     rad_json_key(&w, "links");
     rad_json_number(&w, h->seconds_links);
+    rad_json_key(&w, "export"); /* the links handed to the solves, and the error bound */
+    rad_json_number(&w, h->seconds_export);
     rad_json_key(&w, "form_factors");
     rad_json_number(&w, h->counters.kernel_seconds);
     rad_json_key(&w, "visibility");
     rad_json_number(&w, h->counters.visibility_seconds);
     rad_json_key(&w, "solves");
     rad_json_number(&w, h->seconds_solve);
-    rad_json_key(&w, "io");
+    rad_json_key(&w, opt->radiosity_path ? "radiosity" : "io"); /* --radiosity: the solve in memory, and its file */
     rad_json_number(&w, h->seconds_write);
     rad_json_key(&w, "total");
     rad_json_number(&w, h->seconds_total);
@@ -288,7 +333,7 @@ rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
         if (st == RAD_OK) st = build_links(&h);
         if (st == RAD_OK) st = write_links(&h);
         h.seconds_total = rad_clock_seconds() - t0;
-        if (st == RAD_OK) rad_info("wrote %s", opt->output);
+        if (st == RAD_OK && !opt->radiosity_path) rad_info("wrote %s", opt->output);
         if (st == RAD_OK) st = write_stats(&h);
     }
     st = ff_comm_agree(comm, st);

@@ -27,8 +27,9 @@ const char ff_options_help[] =
     "                           input) instead of the matrix: scene to radiosity without\n"
     "                           writing and reading the N x N file; the same bytes as\n"
     "                           formfactor, then solve with its defaults (one GPU per rank\n"
-    "                           under --backend cuda|auto; sparse format; not with -o,\n"
-    "                           --errors or --method hierarchical)\n"
+    "                           under --backend cuda|auto; sparse format; not with -o or\n"
+    "                           --errors); --method hierarchical: the links solved in\n"
+    "                           memory, the same bytes as writing them, then solve\n"
     "      --subdiv S           split every face into 4^S patches (default: 0; not with\n"
     "                           --refine, whose mesh comes from RADIOSITY); hierarchical:\n"
     "                           the finest level elements reach (default: 5)\n"
@@ -514,11 +515,11 @@ static rad_status check_options(ff_options *o)
     }
     if (o->radiosity_path) {
         const char *bad = o->output_given ? "-o" : o->errors_path ? "--errors"
-                        : o->format != FF_FORMAT_SPARSE ? "--format dense|paper"
-                        : o->method == FF_METHOD_HIERARCHICAL ? "--method hierarchical" : NULL;
+                        : o->format != FF_FORMAT_SPARSE && o->method != FF_METHOD_HIERARCHICAL ? "--format dense|paper"
+                        : NULL;
         if (bad) {
-            rad_error("--radiosity %s: the matrix is solved in memory and not written, so %s does not apply (a "
-                      "hierarchical run's links: write them, then solve)",
+            rad_error("--radiosity %s: the matrix (or the links) is solved in memory and not written, so %s does "
+                      "not apply",
                       o->radiosity_path, bad);
             return RAD_ERR_USAGE;
         }

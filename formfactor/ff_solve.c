@@ -4,6 +4,7 @@
 #include <stdlib.h>
 
 #include "comm.h"
+#include "links.h"
 #include "matrix.h"
 #include "rad_log.h"
 #include "stage.h"
@@ -99,4 +100,15 @@ void ff_solve_free(ff_solve *s)
     if (!s) return;
     solve_matrix_free(&s->matrix);
     free(s);
+}
+
+rad_status ff_solve_links(const rad_ff_info *info, const rad_mesh *leaves, const rad_links *links,
+                          const ff_options *options, int threads)
+{
+    solve_options so = {.input = FF_SOLVE_LINKS_NAME,
+                        .output = options->radiosity_path,
+                        .backend = solve_backend_of(options->backend),
+                        .threads = threads};
+    solve_links_input in = {.info = info, .leaves = leaves, .links = links, .load_seconds = 0};
+    return solve_links_solve(&so, &in);
 }

@@ -22,10 +22,12 @@
 #include "ff_comm.h"
 #include "ff_options.h"
 #include "rad_ffile.h"
+#include "rad_links.h"
 #include "rad_status.h"
 
-/* What solve's messages call the matrix in memory. */
+/* What solve's messages call the matrix (the links) in memory. */
 #define FF_SOLVE_NAME "the matrix in memory"
+#define FF_SOLVE_LINKS_NAME "the links in memory"
 
 /* The split of rows among ranks (ranks + 1 entries) moved to the chunks
  * solve's GPU backend adds (solve_stage_align_split), so that the
@@ -47,5 +49,13 @@ rad_status ff_solve_rows(void *solve, uint32_t row, uint32_t rows, const unsigne
 rad_status ff_solve_run(ff_comm *comm, ff_solve *solve, const uint32_t *row_begin, const ff_options *options,
                         int threads);
 void ff_solve_free(ff_solve *solve); /* NULL is fine */
+
+/* formfactor --method hierarchical --radiosity: the links and their
+ * leaves, as they would be written with `info` as the header, solved in
+ * memory by solve's stage for links (solve/links.h) exactly as `solve`
+ * solves that file: the same checks, backend choice and bytes. One
+ * process (the rank that made the links). */
+rad_status ff_solve_links(const rad_ff_info *info, const rad_mesh *leaves, const rad_links *links,
+                          const ff_options *options, int threads);
 
 #endif

@@ -205,6 +205,9 @@ static void fill_reports(links_state *s)
              s->grey ? "" : " (the channels summed)", r->emitted, r->absorbed, r->escaped, r->imbalance);
 }
 
+/* The flat solve's tolerance where the shaped solve follows it (below). */
+#define SOLVE_LINKS_FLAT_START_TOL 1e-6
+
 /* The shaped solve's gate (shaped.h): an end is shaped where that may
  * move a leaf by a tenth of what the oracle let each link err by. */
 #define SHAPE_GATE_OF_LINK_TOL 0.1
@@ -352,7 +355,15 @@ rad_status solve_links_solve(const solve_options *options, const solve_links_inp
         if (links->cluster_count)
             rad_info("%s: %u clusters above the roots, %llu links at or from a cluster (solved flat)", s.input,
                      links->cluster_count, (unsigned long long)cluster_link_count(links));
-        status = rad_lsolve(links, leaves, &s.solve, s.radiosity, &s.result);
+        /* With the shaped solve to follow, the flat solution is its start
+         * and its gate, and the shape moves B by percents (0.06 of max B
+         * on cornell_sphere): solved past SOLVE_LINKS_FLAT_START_TOL,
+         * the flat sweeps would only be undone. The shaped sweeps then
+         * meet --tol. */
+        rad_lsolve_options flat = s.solve;
+        if (!options->no_shape && flat.tolerance < SOLVE_LINKS_FLAT_START_TOL)
+            flat.tolerance = SOLVE_LINKS_FLAT_START_TOL;
+        status = rad_lsolve(links, leaves, &flat, s.radiosity, &s.result);
         if (status == RAD_OK) status = shape(&s);
     }
     if (status == RAD_OK || status == RAD_ERR_NOT_CONVERGED) {

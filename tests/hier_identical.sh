@@ -1,7 +1,8 @@
 #!/bin/sh
 # Hierarchical links files (issue 26) are the same bytes for any thread and
 # rank count: formfactor --method hierarchical on cornell_sphere with 1 and
-# 2 threads, and under mpirun -n 2, then solve's radiosity files too.
+# 2 threads, and under mpirun -n 2, then solve's radiosity files too, and
+# formfactor --radiosity's (the links solved in memory).
 #   hier_identical.sh FORMFACTOR SOLVE SCENE WORKDIR [FORMFACTOR OPTIONS]
 # (the options replace --subdiv 4 --link-tol 3e-2; with --clusters on the
 # file also holds clusters: version 5)
@@ -26,5 +27,9 @@ fi
 OMP_NUM_THREADS=1 "$solve" t1.ff -q -o t1.rad || exit 1
 OMP_NUM_THREADS=2 "$solve" t2.ff -q -o t2.rad || exit 1
 cmp t1.rad t2.rad || { echo "FAIL: solve on 1 and 2 threads differs"; failed=1; }
-[ "$failed" -eq 0 ] && echo "links and radiosity: the same bytes for 1 and 2 threads and ranks"
+# scene to radiosity in one process: the links solved in memory
+# shellcheck disable=SC2086
+OMP_NUM_THREADS=2 "$ff" $args --radiosity m.rad || exit 1
+cmp t1.rad m.rad || { echo "FAIL: formfactor --radiosity differs from formfactor, then solve"; failed=1; }
+[ "$failed" -eq 0 ] && echo "links and radiosity: the same bytes for 1 and 2 threads and ranks, and in memory"
 exit "$failed"
