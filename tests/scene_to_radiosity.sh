@@ -42,7 +42,7 @@ done
 ls | grep -qx formfactors && fail "--radiosity wrote a matrix file"
 
 # Refusals: usage errors, before any work.
-for bad in "-o refused.ff" "--errors refused_errors.ff" "--format dense" "--method hierarchical"; do
+for bad in "-o refused.ff" "--errors refused_errors.ff" "--format dense" "--method hierarchical -o refused.ff"; do
   set +e
   "$ff" --radiosity r.rad $bad > bad.log 2>&1
   rc=$?
