@@ -843,6 +843,9 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     }
 #undef EXPORT_ID
     free(fill);
+    /* each receiver's links by source: one thread sorts each (a total
+     * order, so the same bytes for any thread count) */
+#pragma omp parallel for schedule(dynamic, 256)
     for (size_t e = 0; e < ids; e++)
         qsort(out->links + out->first_link[e], out->first_link[e + 1] - out->first_link[e], sizeof *out->links,
               by_source);
@@ -869,9 +872,10 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
     size_t n = x->node_count, ids = (size_t)rad_links_id_count(x);
     double *mean = calloc(3 * ids, sizeof *mean), *lo = malloc(3 * ids * sizeof *lo), *hi = malloc(3 * ids * sizeof *hi);
     double *beta = calloc(3 * ids, sizeof *beta);
+    double *own = malloc(3 * (n ? n : 1) * sizeof *own);
     uint32_t *leaf_cluster = x->cluster_count ? malloc(x->root_count * sizeof *leaf_cluster) : NULL;
     double bound = INFINITY;
-    if (!mean || !lo || !hi || !beta || (x->cluster_count && !leaf_cluster)) goto done;
+    if (!mean || !lo || !hi || !beta || !own || (x->cluster_count && !leaf_cluster)) goto done;
     /* B's mean, least and largest over each node's leaves (children after parents). */
     for (size_t e = n; e-- > 0;) {
         const rad_link_node *d = &x->nodes[e];
@@ -924,12 +928,12 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
         if (x->clusters[c].parent != RAD_NO_ELEMENT)
             for (int ch = 0; ch < 3; ch++) beta[3 * id + ch] += beta[3 * (n + x->clusters[c].parent) + ch];
     }
-    /* Each node's own links, then what its ancestors' add (parents first). */
-    double q = 0, bmean = 0, area = 0, all_mean = 0, all_area = 0, worst = 0;
+    /* Each node's own links (one thread per node, in link order), then
+     * what its root's clusters and its ancestors add (parents first). */
+#pragma omp parallel for schedule(dynamic, 256)
     for (size_t r = 0; r < n; r++) {
         const double *rho = L->tree.base->patches[x->nodes[r].root].rho;
-        if (leaf_cluster && r < x->root_count)
-            for (int c = 0; c < 3; c++) beta[3 * r + c] += beta[3 * (n + leaf_cluster[r]) + c];
+        double sum[3] = {0, 0, 0};
         for (uint64_t k = x->first_link[r]; k < x->first_link[r + 1]; k++) {
             const rad_link *l = &x->links[k];
             const rad_link *back = find_link(x, l->source, (uint32_t)r);
@@ -941,9 +945,17 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
             for (int c = 0; c < 3; c++) {
                 size_t s = l->source;
                 double dB = fmax(hi[3 * s + c] - mean[3 * s + c], mean[3 * s + c] - lo[3 * s + c]);
-                beta[3 * r + c] += rho[c] * (receiver * hi[3 * s + c] + rel * (l->factor + l->error) * dB);
+                sum[c] += rho[c] * (receiver * hi[3 * s + c] + rel * (l->factor + l->error) * dB);
             }
         }
+        for (int c = 0; c < 3; c++) own[3 * r + c] = sum[c];
+    }
+    double q = 0, bmean = 0, area = 0, all_mean = 0, all_area = 0, worst = 0;
+    for (size_t r = 0; r < n; r++) {
+        const double *rho = L->tree.base->patches[x->nodes[r].root].rho;
+        if (leaf_cluster && r < x->root_count)
+            for (int c = 0; c < 3; c++) beta[3 * r + c] += beta[3 * (n + leaf_cluster[r]) + c];
+        for (int c = 0; c < 3; c++) beta[3 * r + c] += own[3 * r + c];
         const rad_link_node *d = &x->nodes[r];
         if (d->parent != RAD_NO_ELEMENT)
             for (int c = 0; c < 3; c++) beta[3 * r + c] += beta[3 * (size_t)d->parent + c];
@@ -970,6 +982,7 @@ done:
     free(lo);
     free(hi);
     free(beta);
+    free(own);
     free(leaf_cluster);
     return bound;
 }
