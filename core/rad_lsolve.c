@@ -34,7 +34,15 @@
  * node and cluster in parallel, then pushes and pulls the trees in
  * parallel; Gauss-Seidel gathers the clusters in parallel where they
  * receive enough links, then goes tree by tree and gathers a tree's nodes
- * in parallel where the tree receives enough links.
+ * in parallel where the tree receives enough links. Where the links are
+ * many (LSOLVE_GS_GROUPED_MIN_LINKS; or as rad_lsolve_options.group_links
+ * asks) Gauss-Seidel goes group by group of consecutive trees instead
+ * (LSOLVE_GS_GROUP_LINKS each, a larger tree a
+ * group of its own): a group's nodes gather from the newest B in parallel,
+ * then its trees are pushed and pulled in parallel, so the trees of a
+ * group see each other's values of the sweep before (a scene of many
+ * faces is many small trees, which tree by tree ran on one thread). The
+ * groups depend on the links alone, not on the threads.
  */
 #include "rad_lsolve.h"
 
@@ -58,6 +66,10 @@
  * costs about what the work takes on one (a link is ~1 ns). */
 #define LSOLVE_PARALLEL_MIN_LINKS 16384u
 #define LSOLVE_PARALLEL_MIN_NODES 4096u
+/* Gauss-Seidel in groups of trees (above) from this many links, each
+ * group at least LSOLVE_GS_GROUP_LINKS (the last may have fewer). */
+#define LSOLVE_GS_GROUPED_MIN_LINKS (4u << 20)
+#define LSOLVE_GS_GROUP_LINKS 65536u
 
 rad_lsolve_options rad_lsolve_defaults(void)
 {
@@ -76,6 +88,9 @@ typedef struct lsolve_plan {
     uint32_t *tree_first; /* root_count + 1: tree t is tree_nodes[tree_first[t] .. tree_first[t + 1]) */
     uint32_t *tree_nodes; /* node_count: every tree's nodes in index order, parents first */
     uint64_t *tree_links; /* root_count: the links the tree's nodes receive */
+    uint32_t *group_first; /* group_count + 1: Gauss-Seidel's group g is trees group_first[g] .. [g + 1] */
+    uint64_t *group_links; /* group_count: the links its nodes receive */
+    uint32_t group_count;
     uint32_t *patch_of;   /* node_count: a leaf patch under the node (the node's material) */
     double *child_area;   /* node_count: a split node's 4 children's areas summed; 0 for a leaf */
     double *row_sum;      /* ids: sum of F over the links of the node (cluster) and of its ancestors,
@@ -285,6 +300,8 @@ static void plan_free(lsolve_plan *p)
     free(p->tree_first);
     free(p->tree_nodes);
     free(p->tree_links);
+    free(p->group_first);
+    free(p->group_links);
     free(p->patch_of);
     free(p->child_area);
     free(p->row_sum);
@@ -322,7 +339,7 @@ static void plan_clusters(const rad_links *L, lsolve_plan *p)
     }
 }
 
-static rad_status plan_make(const rad_links *L, int threads, lsolve_plan *p)
+static rad_status plan_make(const rad_links *L, int threads, uint64_t group_links, lsolve_plan *p)
 {
     const uint32_t n = L->node_count, roots = L->root_count, clusters = L->cluster_count;
     const size_t ids = rad_links_id_count(L);
@@ -336,10 +353,13 @@ static rad_status plan_make(const rad_links *L, int threads, lsolve_plan *p)
     p->tree_first = calloc((size_t)roots + 1, sizeof *p->tree_first);
     p->tree_nodes = malloc((size_t)n * sizeof *p->tree_nodes);
     p->tree_links = calloc(roots, sizeof *p->tree_links);
+    p->group_first = malloc(((size_t)roots + 1) * sizeof *p->group_first);
+    p->group_links = malloc((roots ? roots : 1) * sizeof *p->group_links);
     p->patch_of = malloc((size_t)n * sizeof *p->patch_of);
     p->child_area = malloc((size_t)n * sizeof *p->child_area);
     p->row_sum = malloc(ids * sizeof *p->row_sum);
-    if (!p->tree_first || !p->tree_nodes || !p->tree_links || !p->patch_of || !p->child_area || !p->row_sum ||
+    if (!p->tree_first || !p->tree_nodes || !p->tree_links || !p->group_first || !p->group_links || !p->patch_of ||
+        !p->child_area || !p->row_sum ||
         (clusters && (!p->root_cluster || !p->cluster_area))) {
         rad_error("links: out of memory for the solve's plan of %u nodes and %u clusters", n, clusters);
         plan_free(p);
@@ -357,6 +377,20 @@ static rad_status plan_make(const rad_links *L, int threads, lsolve_plan *p)
     }
     for (uint32_t t = roots; t > 0; t--) p->tree_first[t] = p->tree_first[t - 1];
     p->tree_first[0] = 0;
+    /* Gauss-Seidel's groups: a tree each, or consecutive trees to
+     * LSOLVE_GS_GROUP_LINKS where the links are many */
+    const int grouped = group_links > 0 || L->link_count >= LSOLVE_GS_GROUPED_MIN_LINKS;
+    const uint64_t group = group_links > 0 ? group_links : LSOLVE_GS_GROUP_LINKS;
+    uint64_t held = 0;
+    p->group_first[0] = 0;
+    for (uint32_t t = 0; t < roots; t++) {
+        held += p->tree_links[t];
+        if (!grouped || held >= group || t + 1 == roots) {
+            p->group_links[p->group_count] = held;
+            p->group_first[++p->group_count] = t + 1;
+            held = 0;
+        }
+    }
     /* children after parents: a reverse pass sees every child before its parent */
     for (uint32_t i = n; i-- > 0;) {
         const rad_link_node *e = &L->nodes[i];
@@ -466,21 +500,31 @@ static double gauss_seidel_sweep(const lsolve_plan *p, lsolve_vectors *v)
     gather_clusters(p, old, G);
     double rmax = 0;
     int not_a_number = 0;
-    for (uint32_t tree = 0; tree < L->root_count; tree++) {
-        const uint32_t *list = p->tree_nodes + p->tree_first[tree];
-        const uint32_t count = p->tree_first[tree + 1] - p->tree_first[tree];
-#pragma omp parallel for schedule(dynamic, 16) num_threads(threads_for(p, p->tree_links[tree])) \
-    if (p->tree_links[tree] >= LSOLVE_PARALLEL_MIN_LINKS)
-        for (uint32_t k = 0; k < count; k++) {
+    for (uint32_t g = 0; g < p->group_count; g++) {
+        const uint32_t t0 = p->group_first[g], t1 = p->group_first[g + 1];
+        const uint32_t *list = p->tree_nodes;
+        const uint32_t k0 = p->tree_first[t0], k1 = p->tree_first[t1];
+        const uint64_t links = p->group_links[g];
+#pragma omp parallel for schedule(dynamic, 16) num_threads(threads_for(p, links)) \
+    if (links >= LSOLVE_PARALLEL_MIN_LINKS)
+        for (uint32_t k = k0; k < k1; k++) {
             const uint32_t r = list[k];
             double now = 0, before = 0;
             if (rho[r] != 0) gather_two(L, r, B, old, &now, &before);
             G[r] = rho[r] * now;
             G_old[r] = rho[r] * before;
         }
-        double r = tree_update(p, v, G_old, tree);
-        if (r > rmax) rmax = r;
-        not_a_number |= isnan(r);
+        double gmax = 0;
+        int gnan = 0;
+#pragma omp parallel for schedule(dynamic, 4) num_threads(threads_for(p, links)) reduction(max : gmax) \
+    reduction(| : gnan) if (t1 - t0 > 1 && links >= LSOLVE_PARALLEL_MIN_LINKS)
+        for (uint32_t tree = t0; tree < t1; tree++) {
+            double r = tree_update(p, v, G_old, tree);
+            if (r > gmax) gmax = r;
+            gnan |= isnan(r);
+        }
+        if (gmax > rmax) rmax = gmax;
+        not_a_number |= gnan;
     }
     pull_clusters(p, v->B);
     return not_a_number ? NAN : rmax;
@@ -606,7 +650,7 @@ rad_status rad_lsolve(const rad_links *links, const rad_mesh *leaves, const rad_
     if (status == RAD_OK) status = check_links(links, leaves);
     if (status != RAD_OK) return status;
     lsolve_plan plan;
-    status = plan_make(links, o.threads, &plan);
+    status = plan_make(links, o.threads, o.group_links, &plan);
     if (status != RAD_OK) return status;
     const size_t n = rad_links_id_count(links), leaf_count = links->leaf_count; /* vectors over the ids */
     double *block = malloc(6 * n * sizeof(double));

@@ -48,6 +48,9 @@ typedef struct rad_lsolve_options {
     int threads;               /* OpenMP threads; 0 = the default */
     int warm_start;            /* 1: B holds a start iterate; 0: start from E */
     int channels;              /* 1: solve channel 0 and copy it (grey scene); 3 (default) */
+    uint64_t group_links;      /* Gauss-Seidel in groups of consecutive trees of at least this many links
+                                  (rad_lsolve.c); 0 (default): tree by tree below 4 M links, groups of
+                                  65 536 links from there */
 } rad_lsolve_options;
 
 rad_lsolve_options rad_lsolve_defaults(void);

@@ -449,10 +449,15 @@ static void rgb_materials(double rho[FACES][3], double emission[FACES][3])
         }
 }
 
+/* Gauss-Seidel's groups of trees for run_lsolve: at least this share of
+ * the links each (rad_lsolve_options.group_links); 0: rad_lsolve's default. */
+static double group_share;
+
 static rad_status run_lsolve(const cube_case *cc, rad_lsolve_method method, double tol, int threads, double *B,
                              rad_lsolve_result *r)
 {
     rad_lsolve_options o = rad_lsolve_defaults();
+    o.group_links = group_share > 0 ? (uint64_t)ceil(group_share * (double)cc->links.link_count) : 0;
     o.method = method;
     o.tolerance = tol;
     o.max_iterations = 200000;
@@ -689,6 +694,46 @@ static void test_threads(void)
         threads_identical(&cc, "threads", INFINITY);
         cube_free(&cc);
     }
+}
+
+/* Gauss-Seidel in groups of consecutive trees (rad_lsolve.c; what it does
+ * from 4 M links up): groups of a third of the links (two or three trees
+ * each), then the six trees in one group, which is Jacobi's sweep: the
+ * direct solve's B to 1e-10 (check_against_dense; fewer sweeps than
+ * Jacobi where the groups are several), and the same bytes on 1 and 2
+ * threads. */
+static void test_groups(void)
+{
+    static const int depth3[FACES] = {3, 3, 3, 3, 3, 3};
+    int kind[FACES][FACES];
+    kinds_mixed(kind);
+    group_share = 1.0 / 3;
+    check_against_dense("groups of a third of the links", kind);
+    double rho[FACES][3], emission[FACES][3];
+    rgb_materials(rho, emission);
+    cube_case cc;
+    kinds_all(kind, 2);
+    int made = cube_make(&cc, depth3, 0, rho, emission) && links_between_faces(&cc, kind, 0);
+    RAD_CHECK(made);
+    if (made) threads_identical(&cc, "threads, groups of a third", INFINITY);
+    cube_free(&cc);
+    group_share = 1.0;
+    if (cube_make(&cc, depth3, 0, rho, emission) && links_between_faces(&cc, kind, 0)) {
+        const size_t n = cc.leaves.patch_count;
+        double *g = malloc(3 * n * sizeof *g), *j = malloc(3 * n * sizeof *j);
+        rad_lsolve_result rg, rj;
+        RAD_CHECK(g && j && run_lsolve(&cc, RAD_LSOLVE_GAUSS_SEIDEL, 1e-12, 2, g, &rg) == RAD_OK &&
+                  run_lsolve(&cc, RAD_LSOLVE_JACOBI, 1e-12, 2, j, &rj) == RAD_OK);
+        printf("one group of all six trees: %u sweeps, Jacobi %u\n", rg.iterations[0], rj.iterations[0]);
+        RAD_CHECK(rg.iterations[0] == rj.iterations[0]);
+        RAD_CHECK(g && j && memcmp(g, j, 3 * n * sizeof *g) == 0);
+        free(g);
+        free(j);
+    } else {
+        RAD_CHECK(0);
+    }
+    cube_free(&cc);
+    group_share = 0;
 }
 
 /* Grey channels, no light, the iteration limit, a warm start, bad input. */
@@ -1057,6 +1102,7 @@ int main(void)
     test_mixed_links();
     test_furnace();
     test_threads();
+    test_groups();
     test_edges();
     test_cluster_links();
     test_cluster_furnace();
