@@ -44,6 +44,7 @@ typedef struct hier_run {
     rad_lsolve_result solution;
     ff_counters counters;
     double error_bound;
+    double solved_tol; /* the tolerance the last flat solve met */
     int threads;
     double seconds_load, seconds_setup, seconds_links, seconds_export, seconds_solve, seconds_write, seconds_total;
     uint64_t refined[64];
@@ -62,9 +63,31 @@ static int same_leaves(const rad_mesh *a, const rad_mesh *b)
     return 1;
 }
 
-/* Exports the links and solves on them, from the last pass's B where the
- * leaves did not change (--uniform-leaves: every pass after the first). */
-static rad_status export_and_solve(hier_run *h)
+/* The passes' flat solves: a pass that another follows solves only for
+ * the oracle's weights (B to 1e-4 moves a link's weight by 1e-4 of
+ * itself); the last one, whose B gives the file's error bound and the
+ * stats' balance, to 1e-6. */
+#define HIER_ORACLE_TOL 1e-4
+#define HIER_FINAL_TOL 1e-6
+
+/* The flat solve of the exported links to `tol`, from h->B where `warm`. */
+static rad_status solve_flat(hier_run *h, double tol, int warm)
+{
+    rad_lsolve_options o = rad_lsolve_defaults();
+    o.threads = h->threads;
+    o.tolerance = tol;
+    o.warm_start = warm;
+    const double t0 = rad_clock_seconds();
+    rad_status st = rad_lsolve(&h->exported, &h->leaves, &o, h->B, &h->solution);
+    h->seconds_solve += rad_clock_seconds() - t0;
+    h->solved_tol = tol;
+    return st;
+}
+
+/* Exports the links and solves on them to `tol`, from the last pass's B
+ * where the leaves did not change (--uniform-leaves: every pass after the
+ * first). */
+static rad_status export_and_solve(hier_run *h, double tol)
 {
     double t0 = rad_clock_seconds();
     rad_mesh old_leaves = h->leaves;
@@ -76,18 +99,11 @@ static rad_status export_and_solve(hier_run *h)
     h->seconds_export += rad_clock_seconds() - t0;
     if (st == RAD_OK && !(h->B = malloc(3 * (h->leaves.patch_count ? h->leaves.patch_count : 1) * sizeof *h->B)))
         st = RAD_ERR_NOMEM;
-    rad_lsolve_options o = rad_lsolve_defaults();
-    o.threads = h->threads;
-    o.tolerance = 1e-6;
-    o.warm_start = st == RAD_OK && old_B && same_leaves(&old_leaves, &h->leaves);
-    if (o.warm_start) memcpy(h->B, old_B, 3 * h->leaves.patch_count * sizeof *h->B);
+    const int warm = st == RAD_OK && old_B && same_leaves(&old_leaves, &h->leaves);
+    if (warm) memcpy(h->B, old_B, 3 * h->leaves.patch_count * sizeof *h->B);
     rad_mesh_free(&old_leaves);
     free(old_B);
-    if (st != RAD_OK) return st;
-    t0 = rad_clock_seconds();
-    st = rad_lsolve(&h->exported, &h->leaves, &o, h->B, &h->solution);
-    h->seconds_solve += rad_clock_seconds() - t0;
-    return st;
+    return st == RAD_OK ? solve_flat(h, tol, warm) : st;
 }
 
 static rad_status build_links(hier_run *h)
@@ -147,7 +163,7 @@ static rad_status build_links(hier_run *h)
             rad_info("pass %u: nothing refined; the links and their solution stand", pass + 1);
             break;
         }
-        if (st == RAD_OK) st = export_and_solve(h);
+        if (st == RAD_OK) st = export_and_solve(h, pass + 1 < opt->passes ? HIER_ORACLE_TOL : HIER_FINAL_TOL);
         if (st == RAD_OK)
             rad_info("pass %u: %llu pairs refined; %u elements, %u leaves, %llu links (%.1f per leaf); %llu candidate "
                      "pairs, %llu shadow rays so far; links %.2f s, solved in %u sweeps",
@@ -157,6 +173,8 @@ static rad_status build_links(hier_run *h)
                      (unsigned long long)h->links.candidates, (unsigned long long)h->counters.rays,
                      h->seconds_links, h->solution.iterations[0]);
     }
+    /* a pass that refined nothing left the last solution at the oracle's tolerance */
+    if (st == RAD_OK && h->solved_tol > HIER_FINAL_TOL) st = solve_flat(h, HIER_FINAL_TOL, 1);
     if (st == RAD_OK) {
         const double t0 = rad_clock_seconds();
         h->error_bound = ff_links_error_bound(&h->links, &h->exported, h->B);
