@@ -196,6 +196,12 @@ rad_status rad_ff_write_serial(const char *path, const rad_ff_info *info, const 
  * zeroed; temporary name + rename, as every output. */
 rad_status rad_ff_write_links(const char *path, const rad_ff_info *info, const rad_mesh *leaves,
                               const rad_links *links);
+/* The header rad_ff_write_links would write for `links` into *out (the
+ * counts, link_tol, error_bound and matrix_bytes filled in), after the
+ * same checks (RAD_ERR_INVALID, logged with `what`, for links a reader
+ * would refuse): formfactor --radiosity solves links it does not write. */
+rad_status rad_ff_links_info(const char *what, const rad_ff_info *info, const rad_mesh *leaves,
+                             const rad_links *links, rad_ff_info *out);
 
 /* ---- reading ---- */
 

@@ -220,7 +220,7 @@ rad_status rad_lfile_check_leaves(const rad_links *links, const rad_mesh *leaves
 /* The info a links file's header gets: the caller's, with the counts and
  * settings of `links`. RAD_ERR_INVALID (logged) for links that a reader
  * would refuse, or that do not belong to `leaves`. */
-static rad_status links_info(const char *path, const rad_ff_info *info_in, const rad_mesh *leaves,
+rad_status rad_ff_links_info(const char *path, const rad_ff_info *info_in, const rad_mesh *leaves,
                              const rad_links *links, rad_ff_info *out)
 {
     rad_ff_info info = *info_in;
@@ -261,7 +261,7 @@ rad_status rad_ff_write_links(const char *path, const rad_ff_info *info_in, cons
     FILE *f = NULL;
     char temp[4096];
     rad_ff_info info;
-    if ((status = links_info(path, info_in, leaves, links, &info)) != RAD_OK) return status;
+    if ((status = rad_ff_links_info(path, info_in, leaves, links, &info)) != RAD_OK) return status;
     if ((status = rad_ff_prologue_encode(&info, leaves, &prologue, &prologue_size)) != RAD_OK) return status;
     if ((status = rad_fs_temp_create(path, temp, sizeof temp)) != RAD_OK) {
         free(prologue);

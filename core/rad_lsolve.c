@@ -37,8 +37,8 @@
  * in parallel where the tree receives enough links. Where the links are
  * many (LSOLVE_GS_GROUPED_MIN_LINKS; or as rad_lsolve_options.group_links
  * asks) Gauss-Seidel goes group by group of consecutive trees instead
- * (LSOLVE_GS_GROUP_LINKS each, a larger tree a
- * group of its own): a group's nodes gather from the newest B in parallel,
+ * (a group closes once its trees receive LSOLVE_GS_GROUP_LINKS links; the
+ * last may hold fewer): a group's nodes gather from the newest B in parallel,
  * then its trees are pushed and pulled in parallel, so the trees of a
  * group see each other's values of the sweep before (a scene of many
  * faces is many small trees, which tree by tree ran on one thread). The

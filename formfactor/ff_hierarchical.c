@@ -329,6 +329,14 @@ static rad_status write_stats(const hier_run *h)
     return st != RAD_OK ? st : written;
 }
 
+/* The backends' states (and a GPU's buffers); the links stay. */
+static void release_backends(hier_run *h)
+{
+    if (h->tracer_state && h->tracer_state != h->backend_state) ff_backend_cpu.destroy(h->tracer_state);
+    if (h->backend_state) h->backend->destroy(h->backend_state);
+    h->tracer_state = h->backend_state = NULL;
+}
+
 rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
 {
     int rank = ff_comm_rank(comm);
@@ -349,14 +357,14 @@ rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
         }
         h.seconds_load = rad_clock_seconds() - t0;
         if (st == RAD_OK) st = build_links(&h);
+        release_backends(&h); /* the GPU's memory, before --radiosity's solve needs it */
         if (st == RAD_OK) st = write_links(&h);
         h.seconds_total = rad_clock_seconds() - t0;
         if (st == RAD_OK && !opt->radiosity_path) rad_info("wrote %s", opt->output);
         if (st == RAD_OK) st = write_stats(&h);
     }
     st = ff_comm_agree(comm, st);
-    if (h.tracer_state && h.tracer_state != h.backend_state) ff_backend_cpu.destroy(h.tracer_state);
-    if (h.backend_state) h.backend->destroy(h.backend_state);
+    release_backends(&h);
     ff_links_free(&h.links);
     rad_links_free(&h.exported);
     rad_mesh_free(&h.leaves);

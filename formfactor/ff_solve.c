@@ -109,6 +109,9 @@ rad_status ff_solve_links(const rad_ff_info *info, const rad_mesh *leaves, const
                         .output = options->radiosity_path,
                         .backend = solve_backend_of(options->backend),
                         .threads = threads};
-    solve_links_input in = {.info = info, .leaves = leaves, .links = links, .load_seconds = 0};
+    rad_ff_info header; /* the file's, after the writer's checks */
+    rad_status status = rad_ff_links_info(FF_SOLVE_LINKS_NAME, info, leaves, links, &header);
+    if (status != RAD_OK) return status;
+    solve_links_input in = {.info = &header, .leaves = leaves, .links = links, .load_seconds = 0};
     return solve_links_solve(&so, &in);
 }

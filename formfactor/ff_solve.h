@@ -53,7 +53,8 @@ void ff_solve_free(ff_solve *solve); /* NULL is fine */
 /* formfactor --method hierarchical --radiosity: the links and their
  * leaves, as they would be written with `info` as the header, solved in
  * memory by solve's stage for links (solve/links.h) exactly as `solve`
- * solves that file: the same checks, backend choice and bytes. One
+ * solves that file: the writer's checks (rad_ff_links_info), then the
+ * same backend choice and bytes. One
  * process (the rank that made the links). */
 rad_status ff_solve_links(const rad_ff_info *info, const rad_mesh *leaves, const rad_links *links,
                           const ff_options *options, int threads);
