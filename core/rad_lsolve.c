@@ -505,6 +505,7 @@ static double gauss_seidel_sweep(const lsolve_plan *p, lsolve_vectors *v)
         const uint32_t *list = p->tree_nodes;
         const uint32_t k0 = p->tree_first[t0], k1 = p->tree_first[t1];
         const uint64_t links = p->group_links[g];
+        (void)links; /* read by the OpenMP clauses only */
 #pragma omp parallel for schedule(dynamic, 16) num_threads(threads_for(p, links)) \
     if (links >= LSOLVE_PARALLEL_MIN_LINKS)
         for (uint32_t k = k0; k < k1; k++) {
