@@ -142,25 +142,36 @@ rad_status rad_fs_temp_create(const char *final_path, char *out, size_t out_size
         memcpy(out, final_path, strlen(final_path) + 1);
         return RAD_OK;
     }
-    for (int attempt = 0; attempt < 16; attempt++) {
+    /* The guarded signals wait while the temporary is created and guarded:
+     * one that came in between killed the process with the file left. */
+    sigset_t guarded, previous;
+    sigemptyset(&guarded);
+    for (size_t k = 0; k < GUARDED_COUNT; k++) sigaddset(&guarded, guarded_signals[k]);
+    pthread_sigmask(SIG_BLOCK, &guarded, &previous);
+    rad_status status = RAD_ERR_IO;
+    int made = 0;
+    for (int attempt = 0; attempt < 16 && !made; attempt++) {
         int n = snprintf(out, out_size, "%s.tmp-%016llx", final_path, (unsigned long long)random_suffix());
         if (n < 0 || (size_t)n >= out_size) {
             rad_error("%s: output path too long", final_path);
-            return RAD_ERR_USAGE;
+            status = RAD_ERR_USAGE;
+            break;
         }
         int fd = open(out, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
         if (fd < 0 && errno == EEXIST) continue; /* planted or unlucky: another name */
+        made = 1;
         if (fd < 0) {
             rad_error("%s: cannot write: creating its temporary %s: %s", final_path, out, strerror(errno));
-            return RAD_ERR_IO;
+            status = RAD_ERR_IO;
+            break;
         }
         close(fd);
-        rad_status status = rad_fs_guard(out);
+        status = rad_fs_guard(out);
         if (status != RAD_OK) unlink(out);
-        return status;
     }
-    rad_error("%s: cannot create a temporary beside it (16 names taken)", final_path);
-    return RAD_ERR_IO;
+    pthread_sigmask(SIG_SETMASK, &previous, NULL);
+    if (!made && status == RAD_ERR_IO) rad_error("%s: cannot create a temporary beside it (16 names taken)", final_path);
+    return status;
 }
 
 FILE *rad_fs_temp_open(const char *temp)
