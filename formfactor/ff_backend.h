@@ -112,6 +112,8 @@ typedef struct ff_records {
  * indices into the patches compute_pairs is given. */
 typedef struct ff_pair_job {
     uint32_t a, b;
+    uint32_t spread; /* 1: compute the oracle's geometry (spread_ab, spread_ba); 0: neither element
+                        can be split, so nothing weighs it: they stay zero */
 } ff_pair_job;
 
 /* What compute_pairs found for a job. */
@@ -119,7 +121,7 @@ typedef struct ff_pair_outcome {
     double coupling;   /* c_ab = F_ab / A_b (0 where the pair does not face) */
     double error;      /* its standard error (rad_ff_pair_result.error) */
     rad_ff_spread spread_ab, spread_ba; /* rad_ff_factor_spread(a -> b), (b -> a): the oracle's geometry
-                                           (zero where the pair does not face) */
+                                           (zero where the pair does not face or the job asks none) */
     uint32_t rays, rays_blocked;
     uint32_t verdict;  /* ff_pair_verdict (ff_pair_class.h): FF_PAIR_NOT_FACING, or how it was computed */
     uint32_t pad;

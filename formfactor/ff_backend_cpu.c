@@ -205,8 +205,10 @@ static rad_status cpu_compute_pairs(void *state, const rad_ff_patch *patches, co
                                     v == FF_PAIR_TRACED ? &tracer : NULL, &r);
                 o.coupling = r.coupling;
                 o.error = r.error;
-                o.spread_ab = rad_ff_factor_spread(&patches[a], &patches[b]);
-                o.spread_ba = rad_ff_factor_spread(&patches[b], &patches[a]);
+                if (jobs[k].spread) {
+                    o.spread_ab = rad_ff_factor_spread(&patches[a], &patches[b]);
+                    o.spread_ba = rad_ff_factor_spread(&patches[b], &patches[a]);
+                }
                 o.rays = r.rays;
                 o.rays_blocked = r.rays_blocked;
                 count_pair(&c, &r);

@@ -433,7 +433,7 @@ __global__ static void ff_link_facing_kernel(cuda_link_params p, uint32_t *list,
     ff_pair_verdict v = ff_pair_classify(&p.rules, job.a, job.b, &near);
     ff_pair_outcome o = {};
     o.verdict = (uint32_t)v;
-    if (ff_pair_computed(v)) { /* the oracle's geometry, one thread per pair */
+    if (ff_pair_computed(v) && job.spread) { /* the oracle's geometry, one thread per pair */
         o.spread_ab = rad_ff_factor_spread(&p.patches[job.a], &p.patches[job.b]);
         o.spread_ba = rad_ff_factor_spread(&p.patches[job.b], &p.patches[job.a]);
     }

@@ -85,7 +85,7 @@ static rad_status solve_flat(hier_run *h, double tol, int warm)
 }
 
 /* Exports the links and solves on them to `tol`, from the last pass's B
- * where the leaves did not change (--uniform-leaves: every pass after the
+ * where the leaves did not change (uniform or sized leaves: every pass after the
  * first). */
 static rad_status export_and_solve(hier_run *h, double tol)
 {
@@ -135,9 +135,10 @@ static rad_status build_links(hier_run *h)
     if ((st = h->backend->create(&su, &h->backend_state)) != RAD_OK) return st;
     double total_area = 0;
     for (size_t k = 0; k < h->base.patch_count; k++) total_area += h->base.patches[k].area;
-    ff_links_config config = {.link_tol = opt->link_tol, .oracle = ff_oracle_resolve(opt->oracle, opt->uniform_leaves),
+    ff_links_config config = {.link_tol = opt->link_tol, .oracle = ff_oracle_resolve(opt->oracle, opt->uniform_leaves || opt->sized_leaves),
                               .max_level = opt->subdiv_given ? (uint32_t)opt->subdiv : FF_HIER_MAX_LEVEL,
                               .min_area = opt->min_area * total_area, .uniform_leaves = opt->uniform_leaves,
+                              .sized_leaves = opt->sized_leaves,
                               .clusters = opt->clusters >= 0 ? opt->clusters
                                                              : h->base.patch_count >= FF_CLUSTERS_AUTO_ROOTS};
     if (opt->clusters < 0)
@@ -259,6 +260,8 @@ static rad_status write_stats(const hier_run *h)
     rad_json_number(&w, opt->link_tol);
     rad_json_key(&w, "max_level");
     rad_json_uint(&w, h->links.config.max_level);
+    rad_json_key(&w, "leaves_made");
+    rad_json_string(&w, h->links.config.uniform_leaves ? "uniform" : h->links.config.sized_leaves ? "sized" : "by refinement");
     rad_json_key(&w, "min_area");
     rad_json_number(&w, opt->min_area);
     rad_json_key(&w, "passes");

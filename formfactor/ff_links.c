@@ -76,7 +76,8 @@ static int splittable(const ff_links *L, uint32_t e)
 {
     if (ff_is_cluster(e)) return 1; /* into its child clusters or its roots */
     const rad_element *el = &L->tree.elements[e];
-    return el->level < L->config.max_level && 0.25 * el->area >= L->config.min_area;
+    const uint32_t finest = L->leaf_level ? L->leaf_level[el->root] : L->config.max_level;
+    return el->level < finest && 0.25 * el->area >= L->config.min_area;
 }
 
 /* The cluster tree over the roots (their patches are elements 0 .. roots - 1),
@@ -105,6 +106,30 @@ static rad_status clusters_init(ff_links *L)
     }
     cluster_values(L, NULL, NULL);
     rad_info("clusters: %zu over %zu faces", n, L->tree.base->patch_count);
+    return RAD_OK;
+}
+
+/* The leaves' level per root where they are made in advance: max_level
+ * (uniform), or the fewest splits that bring the root's elements to the
+ * largest root's area at max_level (sized; the 1 -> 4 split quarters the
+ * area, so a root of a quarter of the largest's area stops a level above). */
+static rad_status leaves_in_advance(ff_links *L)
+{
+    const size_t n = L->tree.base->patch_count;
+    if (!(L->leaf_level = malloc(n ? n : 1))) {
+        rad_error("hierarchy: out of memory for %zu roots' leaf levels", n);
+        return RAD_ERR_NOMEM;
+    }
+    double largest = 0;
+    for (size_t r = 0; r < n; r++) largest = fmax(largest, L->tree.base->patches[r].area);
+    const uint32_t top = L->config.max_level;
+    const double leaf = ldexp(largest, -2 * (int)top) * (1 + 1e-9);
+    for (size_t r = 0; r < n; r++) {
+        uint32_t level = top;
+        if (L->config.sized_leaves)
+            for (level = 0; level < top && ldexp(L->tree.base->patches[r].area, -2 * (int)level) > leaf;) level++;
+        L->leaf_level[r] = (uint8_t)level;
+    }
     return RAD_OK;
 }
 
@@ -138,9 +163,10 @@ rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *ba
     }
     L->reflected = L->total_area > 0 ? L->emitted_power / L->total_area : 0;
     st = elements_added(L, 0);
-    for (size_t r = 0; st == RAD_OK && config->uniform_leaves && r < base->patch_count; r++) {
+    if (st == RAD_OK && (config->uniform_leaves || config->sized_leaves)) st = leaves_in_advance(L);
+    for (size_t r = 0; st == RAD_OK && L->leaf_level && r < base->patch_count; r++) {
         size_t before = L->tree.element_count;
-        st = rad_hierarchy_split_to(&L->tree, (uint32_t)r, config->max_level);
+        st = rad_hierarchy_split_to(&L->tree, (uint32_t)r, L->leaf_level[r]);
         if (st == RAD_OK) st = elements_added(L, before);
     }
     if (st == RAD_OK && config->clusters) st = clusters_init(L);
@@ -152,6 +178,7 @@ void ff_links_free(ff_links *L)
     rad_hierarchy_free(&L->tree);
     free(L->patches);
     free(L->keys);
+    free(L->leaf_level);
     free(L->radiosity);
     free(L->spread);
     free(L->links);
@@ -248,12 +275,13 @@ static double gather_error(const ff_pair_outcome *o, double spread, double curva
 }
 
 /* Levels from element e down to its leaves where the leaves are known in
- * advance (uniform leaves), else 0. */
+ * advance (uniform or sized leaves), else 0. */
 static uint32_t leaf_depth(const ff_links *L, uint32_t e)
 {
-    if (ff_is_cluster(e)) return 0;
-    const uint32_t level = L->tree.elements[e].level;
-    return L->config.uniform_leaves && L->config.max_level > level ? L->config.max_level - level : 0;
+    if (ff_is_cluster(e) || !L->leaf_level) return 0;
+    const rad_element *el = &L->tree.elements[e];
+    const uint32_t finest = L->leaf_level[el->root];
+    return finest > el->level ? finest - el->level : 0;
 }
 
 /* How much the oracle weighs r <- s: in radiosity (error: what the link's
@@ -319,7 +347,7 @@ static rad_status job_push(job_list *l, uint32_t a, uint32_t b)
         l->jobs = j;
         l->cap = cap;
     }
-    l->jobs[l->count++] = (ff_pair_job){a < b ? a : b, a < b ? b : a};
+    l->jobs[l->count++] = (ff_pair_job){a < b ? a : b, a < b ? b : a, 1};
     return RAD_OK;
 }
 
@@ -581,7 +609,10 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         pairs.count = cpairs.count = 0;
         for (size_t k = 0; k < n && st == RAD_OK; k++) {
             const ff_pair_job *j = &list->jobs[k];
-            st = job_push(ff_is_cluster(j->a) || ff_is_cluster(j->b) ? &cpairs : &pairs, j->a, j->b);
+            const int clustered_job = ff_is_cluster(j->a) || ff_is_cluster(j->b);
+            st = job_push(clustered_job ? &cpairs : &pairs, j->a, j->b);
+            /* a pair no pass can split needs no oracle: its link is the leaves' entry */
+            if (st == RAD_OK && !clustered_job) pairs.jobs[pairs.count - 1].spread = splittable(L, j->a) || splittable(L, j->b);
         }
         if (st != RAD_OK) break;
         const size_t clustered = cpairs.count;
@@ -620,10 +651,15 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
                 p.error_ab = p.left_ab = (float)c->error_ab;
                 p.error_ba = p.left_ba = (float)c->error_ba;
             } else {
-                const ff_pair_outcome *o = &out[ke++];
+                const ff_pair_outcome *o = &out[ke];
+                const int weighed = pairs.jobs[ke++].spread;
                 if (o->verdict == FF_PAIR_NOT_FACING) continue;
-                const rad_ff_spread *ab = &o->spread_ab, *ba = &o->spread_ba;
                 double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
+                /* Between two leaves the factor's spread is what the full matrix of
+                 * those leaves has too (the same entry): only the visibility and
+                 * the estimate's own error are left, taken with F as the mean. */
+                const rad_ff_spread leaf_ab = {o->coupling * Ab, 0, 0}, leaf_ba = {o->coupling * Aa, 0, 0};
+                const rad_ff_spread *ab = weighed ? &o->spread_ab : &leaf_ab, *ba = weighed ? &o->spread_ba : &leaf_ba;
                 p.coupling = o->coupling;
                 p.error_ab = (float)factor_error(o, ab->spread, ab->mean, Ab);
                 p.error_ba = (float)factor_error(o, ba->spread, ba->mean, Aa);

@@ -68,14 +68,14 @@ typedef enum ff_oracle {
     FF_ORACLE_GATHER = 3
 } ff_oracle;
 const char *ff_oracle_name(ff_oracle oracle);
-/* --oracle auto: gather where the leaves are known in advance (uniform
- * leaves: the shaped solve spreads coarse links over them), else error
+/* --oracle auto: gather where the leaves are known in advance (uniform or
+ * sized leaves: the shaped solve spreads coarse links over them), else error
  * (adaptive leaves: a coarse receiver is often its own leaf, with nothing
  * to spread over, and the sender term costs links: docs/hierarchy.md). */
 #define FF_ORACLE_AUTO (-1)
-static inline ff_oracle ff_oracle_resolve(int asked, int uniform_leaves)
+static inline ff_oracle ff_oracle_resolve(int asked, int leaves_known)
 {
-    return asked != FF_ORACLE_AUTO ? (ff_oracle)asked : uniform_leaves ? FF_ORACLE_GATHER : FF_ORACLE_ERROR;
+    return asked != FF_ORACLE_AUTO ? (ff_oracle)asked : leaves_known ? FF_ORACLE_GATHER : FF_ORACLE_ERROR;
 }
 
 typedef struct ff_links_config {
@@ -85,6 +85,9 @@ typedef struct ff_links_config {
     double min_area;    /* scene units^2: no element is split into children smaller than this */
     int uniform_leaves; /* every root split to max_level first: the leaves of the full matrix at
                            --subdiv max_level, whatever the tolerance (to compare the two) */
+    int sized_leaves;   /* every root split first until its elements are no larger than the
+                           largest root's at max_level: leaves of about one size, known in
+                           advance as uniform ones are (fewer where the roots differ in size) */
     int clusters;       /* refinement starts from the self-link of a cluster tree over the roots
                            (ff_clusters.h) instead of every pair of roots */
 } ff_links_config;
@@ -123,6 +126,8 @@ typedef struct ff_links {
     uint32_t *keys;        /* per element: its patch index in the uniform mesh of the same leaves */
     size_t patch_cap;
     int exact_keys;        /* roots x 4^max_level fit 32 bits: keys are those indices, else element indices */
+    uint8_t *leaf_level;   /* per root, the level of its leaves where they are made in advance
+                              (uniform or sized leaves), else NULL (leaves by refinement) */
     double *radiosity;     /* per element, RGB: the oracle's B (E until a solution is given) */
     double *spread;        /* per element: max - min of B over its leaves, the largest channel's (0 until then) */
     double emitted_power;  /* P */

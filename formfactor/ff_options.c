@@ -45,7 +45,7 @@ const char ff_options_help[] =
     "                           radiosity (default: 1e-2; 3e-3 for a finer picture; 0: every\n"
     "                           pair down to the finest level)\n"
     "      --oracle O           auto | error | gather | power | factor (default: auto =\n"
-    "                           gather with --uniform-leaves, else error): what a link's\n"
+    "                           gather with uniform or sized leaves, else error): what a link's\n"
     "                           estimate is weighed by: rho B x the error of F (against\n"
     "                           T x the mean radiosity); the same for what solve's shaped\n"
     "                           solve leaves of that error, plus the source's spread of B\n"
@@ -61,6 +61,10 @@ const char ff_options_help[] =
     "      --uniform-leaves     hierarchical: split every face to --subdiv first, so that\n"
     "                           the leaves are the full matrix's at --subdiv whatever\n"
     "                           --link-tol (to compare the two: tools/hier_study.py)\n"
+    "      --sized-leaves       hierarchical: split every face first until its pieces are\n"
+    "                           no larger than the largest face's at --subdiv: leaves of\n"
+    "                           about one size, fewer than --uniform-leaves where faces\n"
+    "                           differ in size, and known in advance as those are\n"
     "      --subdiv-only GROUP  subdivide only faces of OBJ group GROUP (the paper's\n"
     "                           code subdivided only the box: --subdiv-only box)\n"
     "      --refine RADIOSITY   instead of --subdiv: take the mesh of RADIOSITY (solve's\n"
@@ -285,7 +289,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
            O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT, O_KE,
-           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES, O_RADIOSITY, O_DRY_RUN, O_CLUSTERS };
+           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES, O_SIZED_LEAVES, O_RADIOSITY, O_DRY_RUN, O_CLUSTERS };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -310,7 +314,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"preset", required_argument, 0, O_PRESET}, {"method", required_argument, 0, O_METHOD},
         {"link-tol", required_argument, 0, O_LINK_TOL}, {"oracle", required_argument, 0, O_ORACLE},
         {"min-area", required_argument, 0, O_MIN_AREA}, {"passes", required_argument, 0, O_PASSES},
-        {"uniform-leaves", no_argument, 0, O_UNIFORM_LEAVES}, {"clusters", required_argument, 0, O_CLUSTERS}, {"radiosity", required_argument, 0, O_RADIOSITY},
+        {"uniform-leaves", no_argument, 0, O_UNIFORM_LEAVES}, {"sized-leaves", no_argument, 0, O_SIZED_LEAVES}, {"clusters", required_argument, 0, O_CLUSTERS}, {"radiosity", required_argument, 0, O_RADIOSITY},
         {0, 0, 0, 0}};
     int rays_given = 0, rtol_given = 0;
     uint64_t v = 0;
@@ -362,6 +366,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_ORACLE: st = parse_name("--oracle", optarg, oracle_names, FF_NAMES_COUNT(oracle_names), &o->oracle); break;
         case O_MIN_AREA: st = rad_parse_real("--min-area", optarg, 0, 1, 1, 0, &o->min_area); break;
         case O_UNIFORM_LEAVES: o->uniform_leaves = 1; break;
+        case O_SIZED_LEAVES: o->sized_leaves = 1; break;
         case O_CLUSTERS: st = parse_name("--clusters", optarg, switch_names, FF_NAMES_COUNT(switch_names), &o->clusters); break;
         case O_PASSES: st = rad_parse_uint("--passes", optarg, 1, 100, &v); o->passes = (uint32_t)v; break;
         case O_PRESET: st = parse_name("--preset", optarg, preset_names, FF_NAMES_COUNT(preset_names), &o->preset); break;
@@ -512,6 +517,10 @@ static rad_status check_options(ff_options *o)
                       "elements)", bad);
             return RAD_ERR_USAGE;
         }
+    }
+    if (o->uniform_leaves && o->sized_leaves) {
+        rad_error("--uniform-leaves and --sized-leaves: the leaves are made one way; give one");
+        return RAD_ERR_USAGE;
     }
     if (o->radiosity_path) {
         const char *bad = o->output_given ? "-o" : o->errors_path ? "--errors"

@@ -92,10 +92,11 @@ typedef struct ff_options {
     ff_method method;        /* --method */
     double link_tol;         /* --link-tol (hierarchical) */
     int oracle;              /* --oracle: ff_oracle (ff_links.h), or FF_ORACLE_AUTO: gather with
-                                uniform_leaves, else error */
+                                uniform or sized leaves, else error */
     double min_area;         /* --min-area: fraction of the scene's total area */
     uint32_t passes;         /* --passes: refinement passes (hierarchical) */
     int uniform_leaves;      /* --uniform-leaves: every face split to --subdiv first (hierarchical) */
+    int sized_leaves;        /* --sized-leaves: every face split first to the largest face's leaf area */
     int clusters;            /* --clusters: 1 on, 0 off, -1 auto (on from FF_CLUSTERS_AUTO_ROOTS faces) */
     int preset;              /* --preset: FF_PRESET_FINAL (default) or FF_PRESET_PREVIEW */
     int ke_radiance;         /* --ke radiance: Ke is emitted radiance, E = pi Ke

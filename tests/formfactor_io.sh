@@ -87,6 +87,8 @@ echo "ok: --target-error only adds rays, and counts only its own misses"
 # e. Settings that must match, or that do not apply, are refused by name.
 refused "--subdiv with --refine" "--subdiv 2 with --refine rad0: .*drop --subdiv" \
   "$ff" --refine rad0 --subdiv 2 -q -o old.ff
+refused "--uniform-leaves with --sized-leaves" "--uniform-leaves and --sized-leaves: .*give one" \
+  "$ff" --method hierarchical --uniform-leaves --sized-leaves -q -o old.ff
 refused "--reuse with another --seed" "--reuse ff0: computed with --seed 1, this run with --seed 2" \
   "$ff" --refine rad0 --reuse ff0 --seed 2 --backend cpu -q -o old.ff
 refused "--reuse with another --element" "--reuse ff0: stored as --element f64, this run writes --element f32" \

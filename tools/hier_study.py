@@ -8,7 +8,7 @@ and solve gives B_f. The error is max |B_h - B_f| / max B_f over leaves and
 channels, held against the bound the links file records (--stats
 error_bound), with links, leaves and times.
 
-    tools/hier_study.py --build BUILD [--scene S] [--tols 1e-2,1e-3,...] [--uniform]
+    tools/hier_study.py --build BUILD [--scene S] [--tols 1e-2,1e-3,...] [--uniform | --sized]
                         [--subdiv D] [--oracle O] [--passes P] [--clusters C] [--json OUT]
                         [--check]   (exit 1 unless the error falls monotonically
                                      and every bound covers its error)
@@ -90,6 +90,9 @@ def main(argv):
     p.add_argument("--uniform", action="store_true",
                    help="formfactor --uniform-leaves: every tolerance on the same leaves (the --subdiv mesh), "
                         "whose full matrix is computed once")
+    p.add_argument("--sized", action="store_true",
+                   help="formfactor --sized-leaves: every tolerance on the same leaves (each face split to the "
+                        "largest face's leaf size), whose full matrix is computed once")
     a = p.parse_args(argv)
     ff = a.formfactor or os.path.join(a.build, "formfactor")
     solve = a.solve or os.path.join(a.build, "solve")
@@ -111,6 +114,8 @@ def main(argv):
                 cmd += ["--passes", str(a.passes)]
             if a.uniform:
                 cmd += ["--uniform-leaves"]
+            if a.sized:
+                cmd += ["--sized-leaves"]
             if a.clusters:
                 cmd += ["--clusters", a.clusters]
             t_links = run(cmd, env)
@@ -120,7 +125,7 @@ def main(argv):
             if a.flat:
                 run([solve, lk, "-q", "--tol", a.solve_tol, "--shape", "off", "-o", hr + ".flat"], env)
             stats = json.load(open(st))
-            if not (a.uniform and rows):
+            if not ((a.uniform or a.sized) and rows):
                 t_full = run([ff, *scene, "--refine", hr, "--refine-tol", "1e5", "-q", "-o", full], env)
                 t_full += run([solve, full, "-q", "--tol", a.solve_tol, "-o", fr], env)
             err, rms = errors(read_radiosity(hr), read_radiosity(fr))
