@@ -44,7 +44,6 @@ static rad_status elements_added(ff_links *L, size_t from)
         }
         L->patch_cap = cap;
     }
-    const uint32_t depth = L->config.max_level;
     for (size_t e = from; e < h->element_count; e++) {
         const rad_element *el = &h->elements[e];
         const rad_patch *root = &h->base->patches[el->root];
@@ -58,13 +57,14 @@ static rad_status elements_added(ff_links *L, size_t from)
         p.centroid = el->centroid;
         ff_patch_make(L->scene, h->positions, &p, L->centre, &L->patches[e]);
         if (el->parent == RAD_NO_ELEMENT) {
-            L->keys[e] = L->exact_keys ? el->root << (2 * depth) : (uint32_t)e;
+            L->keys[e] = L->exact_keys ? L->root_key[el->root] : (uint32_t)e;
             memcpy(&L->radiosity[3 * e], root->emission, 3 * sizeof(double));
             L->spread[e] = 0;
         } else {
-            /* child k of parent p: p's key + k 4^(depth - level) */
+            /* child k of parent p: p's key + k 4^(finest - level), finest the root's leaves' level */
+            const uint32_t finest = L->leaf_level ? L->leaf_level[el->root] : L->config.max_level;
             uint32_t k = (uint32_t)e - h->elements[el->parent].first_child;
-            L->keys[e] = L->exact_keys ? L->keys[el->parent] + (k << (2 * (depth - el->level))) : (uint32_t)e;
+            L->keys[e] = L->exact_keys ? L->keys[el->parent] + (k << (2 * (finest - el->level))) : (uint32_t)e;
             memcpy(&L->radiosity[3 * e], &L->radiosity[3 * (size_t)el->parent], 3 * sizeof(double));
             L->spread[e] = L->spread[el->parent];
         }
@@ -78,6 +78,14 @@ static int splittable(const ff_links *L, uint32_t e)
     const rad_element *el = &L->tree.elements[e];
     const uint32_t finest = L->leaf_level ? L->leaf_level[el->root] : L->config.max_level;
     return el->level < finest && 0.25 * el->area >= L->config.min_area;
+}
+
+/* A leaf of the tree that no pass can split (at the finest level, or at
+ * --min-area): a leaf of the solution for good. (Leaves made in advance
+ * ignore --min-area, so an element that may not be split can have children.) */
+static int final_leaf(const ff_links *L, uint32_t e)
+{
+    return !ff_is_cluster(e) && L->tree.elements[e].first_child == RAD_NO_ELEMENT && !splittable(L, e);
 }
 
 /* The cluster tree over the roots (their patches are elements 0 .. roots - 1),
@@ -133,6 +141,31 @@ static rad_status leaves_in_advance(ff_links *L)
     return RAD_OK;
 }
 
+/* Each root's key: the index of its first leaf in the mesh of the leaves
+ * (each root's 4^finest leaves after the roots' before it), so that an
+ * element's key is its first leaf's patch index there and a link between
+ * two leaves gets the full matrix's entry of those leaves (seeds and
+ * tie-breaks). Exact where the leaves number below 2^32, else keys are
+ * element indices. */
+static rad_status root_keys(ff_links *L)
+{
+    const size_t n = L->tree.base->patch_count;
+    uint64_t total = 0;
+    for (size_t r = 0; r < n; r++) total += (uint64_t)1 << (2 * (L->leaf_level ? L->leaf_level[r] : L->config.max_level));
+    L->exact_keys = total < UINT32_MAX;
+    if (!L->exact_keys) return RAD_OK;
+    if (!(L->root_key = malloc((n ? n : 1) * sizeof *L->root_key))) {
+        rad_error("hierarchy: out of memory for %zu roots' keys", n);
+        return RAD_ERR_NOMEM;
+    }
+    uint32_t at = 0;
+    for (size_t r = 0; r < n; r++) {
+        L->root_key[r] = at;
+        at += (uint32_t)1 << (2 * (L->leaf_level ? L->leaf_level[r] : L->config.max_level));
+    }
+    return RAD_OK;
+}
+
 rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *base, const double centre[3],
                          const ff_links_config *config, const ff_backend *backend, void *backend_state,
                          void *tracer_state)
@@ -153,8 +186,9 @@ rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *ba
         return RAD_ERR_USAGE;
     }
     rad_status st = rad_hierarchy_init(base, &L->tree);
+    if (st == RAD_OK && (config->uniform_leaves || config->sized_leaves)) st = leaves_in_advance(L);
+    if (st == RAD_OK) st = root_keys(L);
     if (st != RAD_OK) return st;
-    L->exact_keys = (uint64_t)base->patch_count << (2 * config->max_level) < UINT32_MAX;
     for (size_t r = 0; r < base->patch_count; r++) {
         const rad_patch *p = &base->patches[r];
         double e = fmax(p->emission[0], fmax(p->emission[1], p->emission[2]));
@@ -163,7 +197,6 @@ rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *ba
     }
     L->reflected = L->total_area > 0 ? L->emitted_power / L->total_area : 0;
     st = elements_added(L, 0);
-    if (st == RAD_OK && (config->uniform_leaves || config->sized_leaves)) st = leaves_in_advance(L);
     for (size_t r = 0; st == RAD_OK && L->leaf_level && r < base->patch_count; r++) {
         size_t before = L->tree.element_count;
         st = rad_hierarchy_split_to(&L->tree, (uint32_t)r, L->leaf_level[r]);
@@ -179,6 +212,7 @@ void ff_links_free(ff_links *L)
     free(L->patches);
     free(L->keys);
     free(L->leaf_level);
+    free(L->root_key);
     free(L->radiosity);
     free(L->spread);
     free(L->links);
@@ -611,8 +645,8 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
             const ff_pair_job *j = &list->jobs[k];
             const int clustered_job = ff_is_cluster(j->a) || ff_is_cluster(j->b);
             st = job_push(clustered_job ? &cpairs : &pairs, j->a, j->b);
-            /* a pair no pass can split needs no oracle: its link is the leaves' entry */
-            if (st == RAD_OK && !clustered_job) pairs.jobs[pairs.count - 1].spread = splittable(L, j->a) || splittable(L, j->b);
+            /* two leaves no pass can split need no oracle: their link is the leaves' entry */
+            if (st == RAD_OK && !clustered_job) pairs.jobs[pairs.count - 1].spread = !final_leaf(L, j->a) || !final_leaf(L, j->b);
         }
         if (st != RAD_OK) break;
         const size_t clustered = cpairs.count;
@@ -657,8 +691,10 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
                 double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
                 /* Between two leaves the factor's spread is what the full matrix of
                  * those leaves has too (the same entry): only the visibility and
-                 * the estimate's own error are left, taken with F as the mean. */
-                const rad_ff_spread leaf_ab = {o->coupling * Ab, 0, 0}, leaf_ba = {o->coupling * Aa, 0, 0};
+                 * the estimate's own error are left, with F / V as the
+                 * unoccluded mean. */
+                const double V = o->rays ? 1.0 - (double)o->rays_blocked / o->rays : 1.0, unoccluded = V > 0 ? 1.0 / V : 0.0;
+                const rad_ff_spread leaf_ab = {o->coupling * Ab * unoccluded, 0, 0}, leaf_ba = {o->coupling * Aa * unoccluded, 0, 0};
                 const rad_ff_spread *ab = weighed ? &o->spread_ab : &leaf_ab, *ba = weighed ? &o->spread_ba : &leaf_ba;
                 p.coupling = o->coupling;
                 p.error_ab = (float)factor_error(o, ab->spread, ab->mean, Ab);

@@ -123,9 +123,11 @@ typedef struct ff_links {
     void *tracer_state;    /* a CPU backend's state: cluster links' shadow segments (ff_backend_cpu_occluded) */
     rad_hierarchy tree;
     rad_ff_patch *patches; /* per element, the backend's frame */
-    uint32_t *keys;        /* per element: its patch index in the uniform mesh of the same leaves */
+    uint32_t *keys;        /* per element: its first leaf's patch index in the mesh of the leaves
+                              (uniform or sized leaves; else the --subdiv mesh's) */
+    uint32_t *root_key;    /* per root, with exact_keys: its key */
     size_t patch_cap;
-    int exact_keys;        /* roots x 4^max_level fit 32 bits: keys are those indices, else element indices */
+    int exact_keys;        /* the leaves' count fits 32 bits: keys are those indices, else element indices */
     uint8_t *leaf_level;   /* per root, the level of its leaves where they are made in advance
                               (uniform or sized leaves), else NULL (leaves by refinement) */
     double *radiosity;     /* per element, RGB: the oracle's B (E until a solution is given) */

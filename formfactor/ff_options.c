@@ -518,6 +518,11 @@ static rad_status check_options(ff_options *o)
             return RAD_ERR_USAGE;
         }
     }
+    if ((o->uniform_leaves || o->sized_leaves) && o->method == FF_METHOD_FULL) {
+        rad_error("%s: for --method hierarchical (or auto); the full matrix's leaves are the --subdiv mesh",
+                  o->uniform_leaves ? "--uniform-leaves" : "--sized-leaves");
+        return RAD_ERR_USAGE;
+    }
     if (o->uniform_leaves && o->sized_leaves) {
         rad_error("--uniform-leaves and --sized-leaves: the leaves are made one way; give one");
         return RAD_ERR_USAGE;
