@@ -112,8 +112,8 @@ typedef struct ff_records {
  * indices into the patches compute_pairs is given. */
 typedef struct ff_pair_job {
     uint32_t a, b;
-    uint32_t spread; /* 1: compute the oracle's geometry (spread_ab, spread_ba); 0: neither element
-                        can be split, so nothing weighs it: they stay zero */
+    uint32_t spread; /* 1: compute the oracle's geometry (spread_ab, spread_ba); 0: both are leaves
+                        no pass splits, so nothing weighs it: they stay zero */
 } ff_pair_job;
 
 /* What compute_pairs found for a job. */

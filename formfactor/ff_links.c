@@ -23,6 +23,13 @@ const char *ff_oracle_name(ff_oracle oracle)
 
 /* ---- elements ---- */
 
+/* The level of root r's leaves: where they are made in advance (uniform or
+ * sized leaves) their level, else the finest (max_level). */
+static uint32_t finest_level(const ff_links *L, uint32_t root)
+{
+    return L->leaf_level ? L->leaf_level[root] : L->config.max_level;
+}
+
 /* Patch, key and oracle radiosity of elements [from, tree.element_count). */
 static rad_status elements_added(ff_links *L, size_t from)
 {
@@ -61,10 +68,10 @@ static rad_status elements_added(ff_links *L, size_t from)
             memcpy(&L->radiosity[3 * e], root->emission, 3 * sizeof(double));
             L->spread[e] = 0;
         } else {
-            /* child k of parent p: p's key + k 4^(finest - level), finest the root's leaves' level */
-            const uint32_t finest = L->leaf_level ? L->leaf_level[el->root] : L->config.max_level;
+            /* child k of parent p: p's key + k 4^(finest - level) */
             uint32_t k = (uint32_t)e - h->elements[el->parent].first_child;
-            L->keys[e] = L->exact_keys ? L->keys[el->parent] + (k << (2 * (finest - el->level))) : (uint32_t)e;
+            L->keys[e] = L->exact_keys ? L->keys[el->parent] + (k << (2 * (finest_level(L, el->root) - el->level)))
+                                       : (uint32_t)e;
             memcpy(&L->radiosity[3 * e], &L->radiosity[3 * (size_t)el->parent], 3 * sizeof(double));
             L->spread[e] = L->spread[el->parent];
         }
@@ -76,8 +83,7 @@ static int splittable(const ff_links *L, uint32_t e)
 {
     if (ff_is_cluster(e)) return 1; /* into its child clusters or its roots */
     const rad_element *el = &L->tree.elements[e];
-    const uint32_t finest = L->leaf_level ? L->leaf_level[el->root] : L->config.max_level;
-    return el->level < finest && 0.25 * el->area >= L->config.min_area;
+    return el->level < finest_level(L, el->root) && 0.25 * el->area >= L->config.min_area;
 }
 
 /* A leaf of the tree that no pass can split (at the finest level, or at
@@ -150,19 +156,16 @@ static rad_status leaves_in_advance(ff_links *L)
 static rad_status root_keys(ff_links *L)
 {
     const size_t n = L->tree.base->patch_count;
-    uint64_t total = 0;
-    for (size_t r = 0; r < n; r++) total += (uint64_t)1 << (2 * (L->leaf_level ? L->leaf_level[r] : L->config.max_level));
-    L->exact_keys = total < UINT32_MAX;
-    if (!L->exact_keys) return RAD_OK;
     if (!(L->root_key = malloc((n ? n : 1) * sizeof *L->root_key))) {
         rad_error("hierarchy: out of memory for %zu roots' keys", n);
         return RAD_ERR_NOMEM;
     }
-    uint32_t at = 0;
+    uint64_t at = 0;
     for (size_t r = 0; r < n; r++) {
-        L->root_key[r] = at;
-        at += (uint32_t)1 << (2 * (L->leaf_level ? L->leaf_level[r] : L->config.max_level));
+        L->root_key[r] = (uint32_t)at;
+        at += (uint64_t)1 << (2 * finest_level(L, (uint32_t)r));
     }
+    L->exact_keys = at < UINT32_MAX;
     return RAD_OK;
 }
 
@@ -285,6 +288,23 @@ static void cluster_values(ff_links *L, const double *lo, const double *hi)
 
 /* ---- the oracle ---- */
 
+/* The visible fraction the pair's shadow rays saw (1 without rays). */
+static double visible_fraction(const ff_pair_outcome *o)
+{
+    return o->rays ? 1.0 - (double)o->rays_blocked / o->rays : 1.0;
+}
+
+/* The oracle's geometry of a pair of two leaves no pass splits, which the
+ * backend does not compute (ff_pair_job.spread): the factor's spread over a
+ * leaf is what the full matrix of those leaves has too (the same entry), so
+ * only the visibility and the estimate's own error are left, with F / V as
+ * the unoccluded mean. */
+static rad_ff_spread leaf_pair_geometry(const ff_pair_outcome *o, double area_s)
+{
+    const double V = visible_fraction(o);
+    return (rad_ff_spread){o->coupling * area_s * (V > 0 ? 1.0 / V : 0.0), 0.0, 0.0};
+}
+
 /* Error of F_rs (F units) from a pair's outcome: the factor's spread over
  * r, scaled by the visible fraction V; where rays saw the pair partly
  * hidden, what V of a part may differ from V of the whole (each of the
@@ -292,7 +312,7 @@ static void cluster_values(ff_links *L, const double *lo, const double *hi)
  * times the mean unoccluded factor; and the estimate's own error. */
 static double factor_error(const ff_pair_outcome *o, double spread, double mean, double area_s)
 {
-    double V = o->rays ? 1.0 - (double)o->rays_blocked / o->rays : 1.0;
+    double V = visible_fraction(o);
     double partial = 4.0 * fmin(V, 1.0 - V);
     return spread * V + mean * (partial < 1.0 ? partial : 1.0) + o->error * area_s;
 }
@@ -314,7 +334,7 @@ static uint32_t leaf_depth(const ff_links *L, uint32_t e)
 {
     if (ff_is_cluster(e) || !L->leaf_level) return 0;
     const rad_element *el = &L->tree.elements[e];
-    const uint32_t finest = L->leaf_level[el->root];
+    const uint32_t finest = finest_level(L, el->root);
     return finest > el->level ? finest - el->level : 0;
 }
 
@@ -689,13 +709,9 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
                 const int weighed = pairs.jobs[ke++].spread;
                 if (o->verdict == FF_PAIR_NOT_FACING) continue;
                 double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
-                /* Between two leaves the factor's spread is what the full matrix of
-                 * those leaves has too (the same entry): only the visibility and
-                 * the estimate's own error are left, with F / V as the
-                 * unoccluded mean. */
-                const double V = o->rays ? 1.0 - (double)o->rays_blocked / o->rays : 1.0, unoccluded = V > 0 ? 1.0 / V : 0.0;
-                const rad_ff_spread leaf_ab = {o->coupling * Ab * unoccluded, 0, 0}, leaf_ba = {o->coupling * Aa * unoccluded, 0, 0};
-                const rad_ff_spread *ab = weighed ? &o->spread_ab : &leaf_ab, *ba = weighed ? &o->spread_ba : &leaf_ba;
+                const rad_ff_spread sab = weighed ? o->spread_ab : leaf_pair_geometry(o, Ab);
+                const rad_ff_spread sba = weighed ? o->spread_ba : leaf_pair_geometry(o, Aa);
+                const rad_ff_spread *ab = &sab, *ba = &sba;
                 p.coupling = o->coupling;
                 p.error_ab = (float)factor_error(o, ab->spread, ab->mean, Ab);
                 p.error_ba = (float)factor_error(o, ba->spread, ba->mean, Aa);
