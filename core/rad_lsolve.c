@@ -42,7 +42,10 @@
  * then its trees are pushed and pulled in parallel, so the trees of a
  * group see each other's values of the sweep before (a scene of many
  * faces is many small trees, which tree by tree ran on one thread). The
- * groups depend on the links alone, not on the threads.
+ * groups depend on the links alone, not on the threads. Where most links
+ * sit in groups too small for those threads (channels_in_parallel: a few
+ * hundred thousand links in trees of a few thousand), the three channels
+ * run at once on three threads instead, each the same arithmetic.
  */
 #include "rad_lsolve.h"
 
@@ -641,10 +644,49 @@ static rad_status resolve_options(const rad_lsolve_options *asked, rad_lsolve_op
     return RAD_OK;
 }
 
+/* One channel c solved into solved[3 l + c] (by leaf), its balance in
+ * sums[3], with `block` (6 doubles per id) for its vectors. */
+static rad_status solve_channel(const lsolve_plan *p, const rad_mesh *leaves, const rad_lsolve_options *o, int c,
+                                const double *B_in, double *block, double *solved, double sums[3],
+                                lsolve_channel_run *run)
+{
+    static const char *const rgb_names[3] = {"red", "green", "blue"};
+    const rad_links *links = p->links;
+    const size_t n = rad_links_id_count(links);
+    lsolve_vectors v = {.rho = block, .E = block + n, .B = block + 2 * n, .old = block + 3 * n,
+                        .G = block + 4 * n, .G_old = block + 5 * n};
+    const char *label = o->channels == 1 ? "grey" : rgb_names[c];
+    channel_start(p, leaves, c, o->warm_start, B_in, &v);
+    rad_status status = channel_iterate(p, &v, o, label, run);
+    if (status != RAD_OK) return status;
+    if (!run->converged)
+        rad_info("links: %s: not converged after %u iterations (residual %.3g, target %.3g)", label, run->iterations,
+                 run->residual, o->tolerance);
+    sums[0] = sums[1] = sums[2] = 0;
+    channel_balance(p, &v, v.G, sums);
+    for (uint32_t i = 0; i < links->node_count; i++)
+        if (links->nodes[i].first_child == RAD_NO_ELEMENT) solved[3 * (size_t)links->nodes[i].leaf + c] = v.B[i];
+    return RAD_OK;
+}
+
+/* Whether the three channels go on three threads at once: where most of
+ * the links are gathered in groups too small for the sweeps' own threads
+ * (a scene of a few hundred thousand links, whose Gauss-Seidel runs tree
+ * by tree on one thread). Each channel is the same arithmetic either way,
+ * so B's bytes do not change. */
+static int channels_in_parallel(const lsolve_plan *p, const rad_lsolve_options *o)
+{
+    if (o->channels != 3 || p->threads < 2) return 0;
+    if (o->method == RAD_LSOLVE_JACOBI) return p->links->link_count < LSOLVE_PARALLEL_MIN_LINKS;
+    uint64_t alone = 0;
+    for (uint32_t g = 0; g < p->group_count; g++)
+        if (p->group_links[g] < LSOLVE_PARALLEL_MIN_LINKS) alone += p->group_links[g];
+    return 2 * alone >= p->links->link_count;
+}
+
 rad_status rad_lsolve(const rad_links *links, const rad_mesh *leaves, const rad_lsolve_options *options, double *B,
                       rad_lsolve_result *out)
 {
-    static const char *const rgb_names[3] = {"red", "green", "blue"};
     const double start = rad_clock_seconds();
     rad_lsolve_options o;
     rad_status status = resolve_options(options, &o);
@@ -654,7 +696,8 @@ rad_status rad_lsolve(const rad_links *links, const rad_mesh *leaves, const rad_
     status = plan_make(links, o.threads, o.group_links, &plan);
     if (status != RAD_OK) return status;
     const size_t n = rad_links_id_count(links), leaf_count = links->leaf_count; /* vectors over the ids */
-    double *block = malloc(6 * n * sizeof(double));
+    const int parallel = channels_in_parallel(&plan, &o);
+    double *block = malloc((parallel ? 3 : 1) * 6 * n * sizeof(double));
     double *solved = malloc((leaf_count ? 3 * leaf_count : 1) * sizeof(double)); /* B is written on success only */
     if (!block || !solved) {
         rad_error("links: out of memory for the solve's vectors over %zu nodes and clusters", n);
@@ -663,26 +706,25 @@ rad_status rad_lsolve(const rad_links *links, const rad_mesh *leaves, const rad_
     rad_lsolve_result result;
     memset(&result, 0, sizeof result);
     result.converged = 1;
-    double sums[3] = {0, 0, 0};
-    for (int c = 0; c < o.channels && status == RAD_OK; c++) {
-        lsolve_vectors v = {.rho = block, .E = block + n, .B = block + 2 * n, .old = block + 3 * n,
-                            .G = block + 4 * n, .G_old = block + 5 * n};
-        const char *label = o.channels == 1 ? "grey" : rgb_names[c];
-        channel_start(&plan, leaves, c, o.warm_start, B, &v);
-        lsolve_channel_run run;
-        status = channel_iterate(&plan, &v, &o, label, &run);
-        if (status != RAD_OK) break;
-        if (!run.converged)
-            rad_info("links: %s: not converged after %u iterations (residual %.3g, target %.3g)", label,
-                     run.iterations, run.residual, o.tolerance);
-        result.iterations[c] = run.iterations;
-        result.residual[c] = run.residual;
-        result.converged &= run.converged;
-        channel_balance(&plan, &v, v.G, sums);
-        for (uint32_t i = 0; i < links->node_count; i++)
-            if (links->nodes[i].first_child == RAD_NO_ELEMENT) solved[3 * (size_t)links->nodes[i].leaf + c] = v.B[i];
+    double sums[3][3] = {{0}};
+    rad_status channel_status[3] = {RAD_OK, RAD_OK, RAD_OK};
+    lsolve_channel_run runs[3];
+    memset(runs, 0, sizeof runs);
+    if (status == RAD_OK && parallel) {
+#pragma omp parallel for schedule(static, 1) num_threads(3)
+        for (int c = 0; c < 3; c++)
+            channel_status[c] = solve_channel(&plan, leaves, &o, c, B, block + 6 * n * (size_t)c, solved, sums[c], &runs[c]);
+    } else {
+        for (int c = 0; c < o.channels && status == RAD_OK; c++)
+            status = channel_status[c] = solve_channel(&plan, leaves, &o, c, B, block, solved, sums[c], &runs[c]);
     }
+    for (int c = 0; c < o.channels && status == RAD_OK; c++) status = channel_status[c];
     if (status == RAD_OK) {
+        for (int c = 0; c < o.channels; c++) {
+            result.iterations[c] = runs[c].iterations;
+            result.residual[c] = runs[c].residual;
+            result.converged &= runs[c].converged;
+        }
         if (o.channels == 1)
             for (size_t l = 0; l < leaf_count; l++) solved[3 * l + 1] = solved[3 * l + 2] = solved[3 * l];
         for (int c = o.channels; c < 3; c++) {
@@ -690,11 +732,15 @@ rad_status rad_lsolve(const rad_links *links, const rad_mesh *leaves, const rad_
             result.residual[c] = result.residual[0];
         }
         memcpy(B, solved, 3 * leaf_count * sizeof(double));
-        /* a grey solve's balance is its one channel's, as solve reports it */
-        result.emitted = sums[0];
-        result.absorbed = sums[1];
-        result.escaped = sums[2];
-        result.imbalance = sums[0] > 0 ? (sums[1] + sums[2] - sums[0]) / sums[0] : 0;
+        /* a grey solve's balance is its one channel's, as solve reports it;
+         * the channels' sums added in channel order */
+        for (int c = 0; c < o.channels; c++) {
+            result.emitted += sums[c][0];
+            result.absorbed += sums[c][1];
+            result.escaped += sums[c][2];
+        }
+        result.imbalance =
+            result.emitted > 0 ? (result.absorbed + result.escaped - result.emitted) / result.emitted : 0;
         result.seconds = rad_clock_seconds() - start;
         *out = result;
         if (!result.converged) status = RAD_ERR_NOT_CONVERGED;

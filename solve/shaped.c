@@ -97,13 +97,64 @@ static void pull_tree(const shaped_plan *p, shaped_vectors *v, uint32_t t)
     }
 }
 
+/* Gauss-Seidel's groups of consecutive trees: a group closes once its
+ * trees' work (shaped_plan.tree_work: links and point factors a sweep
+ * reads) reaches the options' group_work, the last may hold less. The
+ * groups depend on the links alone, not on the threads. */
+typedef struct shaped_groups {
+    uint32_t *first; /* count + 1: group g is trees first[g] .. first[g + 1] */
+    uint64_t *work;  /* count */
+    uint32_t count;
+} shaped_groups;
+
+static rad_status groups_make(const shaped_plan *p, uint64_t group_work, shaped_groups *g)
+{
+    const uint32_t roots = p->L->root_count;
+    g->first = malloc(((size_t)roots + 1) * sizeof *g->first);
+    g->work = malloc((roots ? roots : 1) * sizeof *g->work);
+    g->count = 0;
+    if (!g->first || !g->work) {
+        rad_error("links: out of memory for the shaped solve's groups of %u trees", roots);
+        return RAD_ERR_NOMEM;
+    }
+    g->first[0] = 0;
+    uint64_t held = 0;
+    for (uint32_t t = 0; t < roots; t++) {
+        held += p->tree_work[t];
+        if (held >= group_work || t + 1 == roots) {
+            g->work[g->count] = held;
+            g->first[++g->count] = t + 1;
+            held = 0;
+        }
+    }
+    return RAD_OK;
+}
+
+static void groups_free(shaped_groups *g)
+{
+    free(g->first);
+    free(g->work);
+    memset(g, 0, sizeof *g);
+}
+
+/* Trees t0 .. t1's H pushed down, parents first (one thread a tree). */
+static void push_trees(const shaped_plan *p, shaped_vectors *v, uint32_t t0, uint32_t t1, int wide)
+{
+#pragma omp parallel for schedule(dynamic, 1) num_threads(p->threads) if (wide && t1 - t0 > 1)
+    for (uint32_t t = t0; t < t1; t++)
+        for (uint32_t k = p->tree_first[t]; k < p->tree_first[t + 1]; k++) shaped_push(&p->view, p->tree_nodes[k], v->H);
+}
+
 /* One Gauss-Seidel sweep: the clusters gathered and pushed down their
- * tree from the B it starts from, then tree by tree in root order: each
- * tree gathers from the newest B (the trees before it already updated; a
- * cluster source at its start value), updates its leaves in place and
- * pulls its nodes; the clusters pulled last. r[3]: the largest change per
- * channel (infinite where one is not a number). */
-static void gauss_seidel_sweep(const shaped_plan *p, shaped_vectors *v, double r[3])
+ * tree from the B it starts from, then group by group of trees in root
+ * order: a group's nodes gather from the newest B (the groups before it
+ * already updated, its own trees at the sweep's start; a cluster source
+ * at its start value), its leaves update in place and its trees pull
+ * their nodes; the clusters pulled last. The roots are nodes 0 ..
+ * root_count - 1, so a group's leaves are one range of the leaf list.
+ * r[3]: the largest change per channel (infinite where one is not a
+ * number). */
+static void gauss_seidel_sweep(const shaped_plan *p, const shaped_groups *g, shaped_vectors *v, double r[3])
 {
     const rad_links *L = p->L;
     const uint32_t n = L->node_count, clusters = L->cluster_count;
@@ -112,25 +163,26 @@ static void gauss_seidel_sweep(const shaped_plan *p, shaped_vectors *v, double r
     if (p->cluster_links >= SHAPED_PARALLEL_MIN_LINKS)
     for (uint32_t c = 0; c < clusters; c++) gather_node(p, v, n + c);
     push_clusters(p, v->H);
-    for (uint32_t t = 0; t < L->root_count; t++) {
-        const uint32_t *list = p->tree_nodes + p->tree_first[t];
-        const uint32_t count = p->tree_first[t + 1] - p->tree_first[t], root = list[0];
-        const int wide = p->tree_links[t] >= SHAPED_PARALLEL_MIN_LINKS;
+    for (uint32_t grp = 0; grp < g->count; grp++) {
+        const uint32_t t0 = g->first[grp], t1 = g->first[grp + 1];
+        const uint32_t k0 = p->tree_first[t0], k1 = p->tree_first[t1];
+        const int wide = g->work[grp] >= SHAPED_PARALLEL_MIN_LINKS;
 #pragma omp parallel for schedule(dynamic, 16) num_threads(p->threads) if (wide)
-        for (uint32_t k = 0; k < count; k++) gather_node(p, v, list[k]);
-        for (uint32_t k = 0; k < count; k++) shaped_push(&p->view, list[k], v->H); /* parents first */
-        const uint32_t q0 = p->first[root], q1 = q0 + p->count[root];
+        for (uint32_t k = k0; k < k1; k++) gather_node(p, v, p->tree_nodes[k]);
+        push_trees(p, v, t0, t1, wide);
+        const uint32_t q0 = p->first[t0], q1 = p->first[t1 - 1] + p->count[t1 - 1];
 #pragma omp parallel for schedule(dynamic, 256) num_threads(p->threads) reduction(max : r0, r1, r2) \
     if (q1 - q0 >= SHAPED_PARALLEL_MIN_LEAVES)
         for (uint32_t q = q0; q < q1; q++) {
             double d[3];
-            /* in place: this tree's S and H are made */
+            /* in place: this group's S and H are made */
             shaped_update_leaf(&p->view, q, v->H, v->S, v->Q, &v->Q[3 * (size_t)q], d);
             r0 = fmax(r0, d[0]);
             r1 = fmax(r1, d[1]);
             r2 = fmax(r2, d[2]);
         }
-        pull_tree(p, v, t);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(p->threads) if (wide && t1 - t0 > 1)
+        for (uint32_t t = t0; t < t1; t++) pull_tree(p, v, t);
     }
     shaped_plan_pull_clusters(p, v->B);
     r[0] = r0, r[1] = r1, r[2] = r2;
@@ -165,9 +217,15 @@ static rad_status solve_on_cpu(shaped_plan *p, shaped_vectors *v, const solve_sh
     if (status == RAD_OK) status = shaped_plan_lists(p);
     if (status != RAD_OK) return status;
     shaped_plan_row_sums(p);
+    shaped_groups groups;
+    if ((status = groups_make(p, o->group_work ? o->group_work : SOLVE_SHAPED_GROUP_WORK, &groups)) != RAD_OK) {
+        groups_free(&groups);
+        return status;
+    }
     v->S = malloc(3 * (p->shaped_count ? p->shaped_count : 1) * sizeof *v->S);
     if (!v->S) {
         rad_error("links: out of memory for the shaped solve's %llu shaped links", (unsigned long long)p->shaped_count);
+        groups_free(&groups);
         return RAD_ERR_NOMEM;
     }
     const double t1 = rad_clock_seconds();
@@ -175,7 +233,7 @@ static rad_status solve_on_cpu(shaped_plan *p, shaped_vectors *v, const solve_sh
     double last_progress = start;
     for (uint32_t it = 0;; it++) {
         double r[3];
-        gauss_seidel_sweep(p, v, r);
+        gauss_seidel_sweep(p, &groups, v, r);
         double worst = scaled_change(r, e_norm);
         const int last = it + 1 >= o->max_iterations;
         if (isfinite(worst) && (worst <= o->tolerance || last)) {
@@ -195,6 +253,7 @@ static rad_status solve_on_cpu(shaped_plan *p, shaped_vectors *v, const solve_sh
         }
         progress(it, worst, o->tolerance, start, &last_progress);
     }
+    groups_free(&groups);
     res->sweep_seconds = rad_clock_seconds() - t1;
     res->backend = SOLVE_SHAPED_CPU;
     snprintf(res->device, sizeof res->device, "cpu");

@@ -58,7 +58,11 @@
  * depend on the thread count.
  *
  * Where. The CPU (the default) computes the point factors on the host
- * threads and sweeps Gauss-Seidel, tree by tree. The cuda backend
+ * threads and sweeps Gauss-Seidel in groups of consecutive trees (a group
+ * closes at SOLVE_SHAPED_GROUP_WORK links and point factors read; within a
+ * group the trees gather in parallel from the sweep's start, so the
+ * many small trees of a scene of a few thousand faces fill the threads,
+ * which tree by tree ran on one). The cuda backend
  * (shaped_gpu.h) computes them on the GPU and sweeps Jacobi there, every
  * tree at once, copying back three maxima a sweep; the plan (which ends,
  * the ranges, the lists) stays the host's. Its Jacobi stops where its
@@ -107,6 +111,13 @@ const char *solve_shaped_backend_name(solve_shaped_backend backend);
  * 11 776 leaves, 250 at 188 416). */
 #define SOLVE_SHAPED_GPU_PRESTART_LEAVES 16384u
 
+/* Gauss-Seidel's groups of trees on the CPU close at this much work: links
+ * and point factors a sweep reads, ~1 ns each on one core. The Cornell
+ * box at the quick start's flags (3 M point factors): 6 groups and 9
+ * sweeps instead of 29 trees and 8, the sweeps 0.10 -> 0.026 s on 16
+ * cores (docs/performance.md, "The Cornell box on one H100"). */
+#define SOLVE_SHAPED_GROUP_WORK ((uint64_t)1 << 20)
+
 typedef struct solve_shaped_options {
     int threads;             /* OpenMP threads; 0 = OpenMP's default */
     solve_shaped_backend backend;
@@ -115,6 +126,8 @@ typedef struct solve_shaped_options {
     double tolerance;        /* residual to reach (> 0) */
     uint32_t max_iterations; /* > 0 */
     int channels;            /* 1: a grey scene (the balance is channel 0's, as rad_lsolve's); else 3 */
+    uint64_t group_work;     /* cpu: Gauss-Seidel's groups close at this much work; 0 = SOLVE_SHAPED_GROUP_WORK,
+                                1 = tree by tree (tests) */
 } solve_shaped_options;
 
 typedef struct solve_shaped_result {

@@ -42,7 +42,7 @@ void shaped_plan_free(shaped_plan *p)
     free(p->id_area);
     free(p->tree_first);
     free(p->tree_nodes);
-    free(p->tree_links);
+    free(p->tree_work);
     free(p->root_cluster);
     memset(p, 0, sizeof *p);
 }
@@ -193,7 +193,8 @@ static void plan_trees(shaped_plan *p, const double *B, double *node_B, double *
     }
 }
 
-/* Every tree's nodes in index order, and the links they receive. */
+/* Every tree's nodes in index order, and the links they receive (the
+ * start of its work, shaped_plan_lists adds the rest). */
 static void plan_tree_lists(shaped_plan *p)
 {
     const rad_links *L = p->L;
@@ -203,7 +204,7 @@ static void plan_tree_lists(shaped_plan *p)
     for (uint32_t i = 0; i < n; i++) {
         const uint32_t t = L->nodes[i].root;
         p->tree_nodes[p->tree_first[t]++] = i; /* counts up; set back below */
-        p->tree_links[t] += L->first_link[i + 1] - L->first_link[i];
+        p->tree_work[t] += L->first_link[i + 1] - L->first_link[i];
     }
     for (uint32_t t = roots; t > 0; t--) p->tree_first[t] = p->tree_first[t - 1];
     p->tree_first[0] = 0;
@@ -259,7 +260,8 @@ static void plan_ends(shaped_plan *p, const double *node_B, const double *spread
 }
 
 /* The shaped ends' point factors on the host (in parallel over
- * receivers); an end whose factors sum to 0 is left flat. */
+ * receivers, one at a time: the roots come first and hold most of them);
+ * an end whose factors sum to 0 is left flat. */
 rad_status shaped_plan_factors(shaped_plan *p)
 {
     const rad_links *L = p->L;
@@ -272,7 +274,7 @@ rad_status shaped_plan_factors(shaped_plan *p)
     }
     p->view.f = p->f;
     const shaped_view *v = &p->view;
-#pragma omp parallel for schedule(dynamic, 16) num_threads(p->threads)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(p->threads)
     for (uint32_t r = 0; r < n; r++) {
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
             if (p->at[k] == NO_WEIGHTS) continue;
@@ -312,6 +314,10 @@ rad_status shaped_plan_lists(shaped_plan *p)
     }
     p->shaped_first[ids] = m;
     p->view.shaped = p->shaped;
+    for (uint64_t j = 0; j < m; j++) { /* a shaped link's gather and update read both ends' point factors */
+        const uint32_t r = p->shaped_receiver[j], s = L->links[p->shaped[j]].source;
+        p->tree_work[L->nodes[r].root] += p->count[r] + p->count[s];
+    }
     return RAD_OK;
 }
 
@@ -357,13 +363,13 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
     p->id_area = malloc(ids * sizeof *p->id_area);
     p->tree_first = calloc((size_t)L->root_count + 1, sizeof *p->tree_first);
     p->tree_nodes = malloc((size_t)n * sizeof *p->tree_nodes);
-    p->tree_links = calloc(L->root_count ? L->root_count : 1, sizeof *p->tree_links);
+    p->tree_work = calloc(L->root_count ? L->root_count : 1, sizeof *p->tree_work);
     double *spread = malloc((size_t)n * sizeof *spread), *lo = malloc(6 * (size_t)n * sizeof *lo);
     rad_status status = RAD_OK;
     if (!p->leaf_nodes || !p->first || !p->count || !p->leaf_area || !p->reverse || !p->at || !p->inv_mean ||
         !p->shaped_first || !p->row_sum || !p->rho || !p->E || !p->area_q || !p->leaf_centroid ||
         !p->leaf_normal || !p->up || !p->pull_first || !p->pull_child || !p->id_area || !p->tree_first ||
-        !p->tree_nodes || !p->tree_links || !spread || !lo || (L->cluster_count && !p->root_cluster)) {
+        !p->tree_nodes || !p->tree_work || !spread || !lo || (L->cluster_count && !p->root_cluster)) {
         rad_error("links: out of memory for the shaped solve over %u nodes and %llu links", n,
                   (unsigned long long)L->link_count);
         status = RAD_ERR_NOMEM;

@@ -647,7 +647,8 @@ static void test_furnace(void)
 }
 
 /* Both methods on 1 and 2 threads: the same bytes (B, residual,
- * iterations, balance), the imbalance within max_imbalance. */
+ * iterations, balance), the imbalance within max_imbalance. On 2 threads
+ * small trees' channels run at once (rad_lsolve.c, channels_in_parallel). */
 static void threads_identical(cube_case *cc, const char *what, double max_imbalance)
 {
     const size_t n = cc->leaves.patch_count;

@@ -9,6 +9,9 @@
  *     1e-9 of max B (the two methods' stopping points, each within 1e-12),
  *     the energy balance alike (the row sums made per leaf, as on the GPU,
  *     against the host's), the twin the same bits run after run.
+ *     Gauss-Seidel tree by tree and in groups of trees of several sizes
+ *     (solve_shaped_options.group_work): the same bits on 1 and 3
+ *     threads, each within 1e-9 of max B of tree by tree.
  *  2. Backend choice: auto below SOLVE_SHAPED_GPU_MIN_WEIGHTS runs the
  *     CPU, to the bit; cuda without a usable device (none built, or none
  *     visible) is an error and leaves B untouched.
@@ -68,8 +71,11 @@ static int fixture_load(const char *path, fixture *x)
     return rad_lsolve(&x->links, x->leaves, &o, x->flat, &r) == RAD_OK;
 }
 
-/* The shaped solve by `backend` from the flat solution into B (malloc'd). */
-static rad_status run(const fixture *x, solve_shaped_backend backend, double **out_B, solve_shaped_result *out)
+/* The shaped solve by `backend` from the flat solution into B (malloc'd),
+ * on `threads` (0: OpenMP's default) with Gauss-Seidel's groups closing at
+ * `group_work` (0: the default). */
+static rad_status run_with(const fixture *x, solve_shaped_backend backend, int threads, uint64_t group_work,
+                           double **out_B, solve_shaped_result *out)
 {
     const size_t n = 3 * x->leaves->patch_count;
     double *B = malloc(n * sizeof *B);
@@ -79,11 +85,18 @@ static rad_status run(const fixture *x, solve_shaped_backend backend, double **o
                                     .gate = 0.1 * x->links.link_tol,
                                     .tolerance = TEST_TOL,
                                     .max_iterations = 10000,
-                                    .channels = x->channels};
+                                    .channels = x->channels,
+                                    .threads = threads,
+                                    .group_work = group_work};
     memset(out, 0, sizeof *out);
     rad_status status = solve_shaped(&x->links, x->leaves, &o, B, out);
     *out_B = B;
     return status;
+}
+
+static rad_status run(const fixture *x, solve_shaped_backend backend, double **out_B, solve_shaped_result *out)
+{
+    return run_with(x, backend, 0, 0, out_B, out);
 }
 
 /* max |a - b| over max |b|. */
@@ -144,6 +157,35 @@ static void check_host(const fixture *x)
     free(host);
     free(again);
     free(chosen);
+}
+
+/* 1b: the CPU's Gauss-Seidel tree by tree (group_work 1) and in groups
+ * of every size tried: the same bits on 1 and 3 threads, and each within
+ * the tolerance's reach of the others (1e-9 of max B). */
+static void check_groups(const fixture *x)
+{
+    const size_t n = 3 * x->leaves->patch_count;
+    const uint64_t works[] = {1, 4096, 0, UINT64_MAX};
+    double *first = NULL;
+    for (size_t w = 0; w < sizeof works / sizeof works[0]; w++) {
+        double *one = NULL, *three = NULL;
+        solve_shaped_result r1, r3;
+        RAD_CHECK(run_with(x, SOLVE_SHAPED_CPU, 1, works[w], &one, &r1) == RAD_OK);
+        RAD_CHECK(run_with(x, SOLVE_SHAPED_CPU, 3, works[w], &three, &r3) == RAD_OK);
+        RAD_CHECK(r1.converged && r3.converged);
+        RAD_CHECK(memcmp(one, three, n * sizeof *one) == 0);
+        RAD_CHECK(r1.iterations == r3.iterations);
+        RAD_CHECK(memcmp(&r1.imbalance, &r3.imbalance, sizeof r1.imbalance) == 0);
+        const double d = first ? worst_relative(one, first, n) : 0;
+        printf("  groups closing at %llu: %u iterations, 1 and 3 threads the same bits, max |dB| %.3g of max B "
+               "against tree by tree\n",
+               (unsigned long long)(works[w] ? works[w] : SOLVE_SHAPED_GROUP_WORK), r1.iterations, d);
+        RAD_CHECK(d <= 1e-9);
+        if (!first) first = one;
+        else free(one);
+        free(three);
+    }
+    free(first);
 }
 
 /* 2: cuda where it cannot run fails and leaves B alone. */
@@ -210,6 +252,7 @@ int main(int argc, char **argv)
             check_cuda(&x);
         } else {
             check_host(&x);
+            check_groups(&x);
             if (solve_gpu_device_count() == 0) check_cuda_refused(&x);
         }
         fixture_free(&x);
