@@ -131,7 +131,17 @@ static rad_status build_links(hier_run *h)
         rad_error("--backend cuda: no CUDA device is visible to this process");
         return RAD_ERR_UNSUPPORTED;
     }
-    h->backend = gpus > 0 ? &ff_backend_cuda : &ff_backend_cpu;
+    int use_gpu = gpus > 0;
+    if (use_gpu && opt->backend == FF_BACKEND_AUTO) {
+        const uint32_t level = opt->subdiv_given ? (uint32_t)opt->subdiv : FF_HIER_MAX_LEVEL;
+        const double most = (double)h->base.patch_count * ldexp(1.0, 2 * (int)level);
+        const double cpu_below = (double)FF_HIER_CPU_LEAVES_PER_THREAD * h->threads;
+        use_gpu = most >= cpu_below;
+        if (!use_gpu)
+            rad_info("--backend auto: the CPU (at most %.0f leaves, under %u a thread on %d threads; the GPU from "
+                     "there)", most, FF_HIER_CPU_LEAVES_PER_THREAD, h->threads);
+    }
+    h->backend = use_gpu ? &ff_backend_cuda : &ff_backend_cpu;
     if ((st = h->backend->create(&su, &h->backend_state)) != RAD_OK) return st;
     double total_area = 0;
     for (size_t k = 0; k < h->base.patch_count; k++) total_area += h->base.patches[k].area;

@@ -42,6 +42,14 @@ typedef enum ff_method { FF_METHOD_FULL = 0, FF_METHOD_HIERARCHICAL = 1, FF_METH
 /* Hierarchical runs: the finest level when --subdiv is not given, the
  * default --link-tol, --min-area (of the scene's total area) and --passes. */
 #define FF_HIER_MAX_LEVEL 5
+/* --method hierarchical --backend auto takes the GPU where a GPU is visible
+ * and the leaves may reach this many a CPU thread (faces x 4^level, an
+ * upper bound): below, the CPU's threads finish before CUDA has started
+ * (0.22-0.35 s on an H100 host). The Cornell box's quick start (29 696
+ * leaves) on 16 cores: 0.44-0.57 s on the CPU, 0.52-0.75 s with CUDA;
+ * cornell_sphere at level 5 (47 104) 0.74 s either way, at level 6 (188 416)
+ * 2.3 s against 6.8 s (docs/performance.md). */
+#define FF_HIER_CPU_LEAVES_PER_THREAD 4096u
 #define FF_HIER_LINK_TOL 1e-2
 #define FF_HIER_MIN_AREA 1e-7
 #define FF_HIER_PASSES 3

@@ -10,7 +10,10 @@
 #             within 1 %, solutions within 1e-3 of max B;
 #   clusters: --clusters on, the cluster links traced on the CPU beside
 #             the GPU's pairs: the same bars.
-# The stats must say "backend": "cuda". Skipped (77) without a GPU.
+# The stats must say "backend": "cuda". And --backend auto: the CPU where
+# the leaves may reach fewer than 4096 a thread (--subdiv 2 on 2 threads:
+# 46 faces x 16), the GPU from there (--subdiv 6: 46 x 4096), as its log
+# and stats say. Skipped (77) without a GPU.
 #   hier_backends.sh FORMFACTOR SOLVE RADIOSITY_CLOSE SCENE WORKDIR
 set -u
 ff=$1 solve=$2 close=$3 scene=$4 dir=$5
@@ -36,5 +39,12 @@ check() { # name tolerance formfactor-options...
 check exact 1e-9 --subdiv 2 --link-tol 0
 check uniform 1e-3 --subdiv 3 --uniform-leaves --link-tol 1e-2
 check clusters 1e-3 --subdiv 3 --clusters on --link-tol 3e-2
-[ "$fail" -eq 0 ] && echo "hierarchical links: the CUDA backend agrees with the CPU's"
+"$ff" "$scene" --method hierarchical --subdiv 2 --threads 2 --link-tol 0.1 --passes 1 -o auto_small.ff \
+  --stats auto_small.json 2> auto_small.log || { echo "FAIL: auto, small"; fail=1; }
+grep -q '"backend": "cpu"' auto_small.json && grep -q -- '--backend auto: the CPU' auto_small.log ||
+  { echo "FAIL: auto did not take the CPU below its bound"; cat auto_small.log; fail=1; }
+"$ff" "$scene" --method hierarchical --subdiv 6 --threads 2 --link-tol 0.1 --passes 1 -q -o auto_large.ff \
+  --stats auto_large.json || { echo "FAIL: auto, large"; fail=1; }
+grep -q '"backend": "cuda"' auto_large.json || { echo "FAIL: auto did not take the GPU above its bound"; fail=1; }
+[ "$fail" -eq 0 ] && echo "hierarchical links: the CUDA backend agrees with the CPU's; auto takes each where it should"
 exit "$fail"
