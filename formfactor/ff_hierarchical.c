@@ -125,22 +125,21 @@ static rad_status build_links(hier_run *h)
                    .cull_margin = ff_cull_margin(&h->base, centre, eps), .plane_eps = eps,
                    .ray_delta = ff_ray_delta(&h->base), .threads = h->threads};
     /* Asking CUDA starts its driver (main started it early where the
-     * options allow a GPU); a CPU run does not ask. */
-    const int gpus = opt->backend != FF_BACKEND_CPU ? ff_cuda_device_count() : 0;
+     * options allow a GPU, and asking waits for that start); a CPU run does
+     * not ask, nor does auto where the CPU's threads will finish first. */
+    const uint32_t level = opt->subdiv_given ? (uint32_t)opt->subdiv : FF_HIER_MAX_LEVEL;
+    const double most = (double)h->base.patch_count * ldexp(1.0, 2 * (int)level);
+    const double cpu_below = (double)FF_HIER_CPU_LEAVES_PER_THREAD * h->threads;
+    const int cpu_first = opt->backend == FF_BACKEND_AUTO && most < cpu_below;
+    const int gpus = opt->backend != FF_BACKEND_CPU && !cpu_first ? ff_cuda_device_count() : 0;
     if (opt->backend == FF_BACKEND_CUDA && gpus == 0) {
         rad_error("--backend cuda: no CUDA device is visible to this process");
         return RAD_ERR_UNSUPPORTED;
     }
-    int use_gpu = gpus > 0;
-    if (use_gpu && opt->backend == FF_BACKEND_AUTO) {
-        const uint32_t level = opt->subdiv_given ? (uint32_t)opt->subdiv : FF_HIER_MAX_LEVEL;
-        const double most = (double)h->base.patch_count * ldexp(1.0, 2 * (int)level);
-        const double cpu_below = (double)FF_HIER_CPU_LEAVES_PER_THREAD * h->threads;
-        use_gpu = most >= cpu_below;
-        if (!use_gpu)
-            rad_info("--backend auto: the CPU (at most %.0f leaves, under %u a thread on %d threads; the GPU from "
-                     "there)", most, FF_HIER_CPU_LEAVES_PER_THREAD, h->threads);
-    }
+    const int use_gpu = gpus > 0;
+    if (cpu_first)
+        rad_info("--backend auto: the CPU (at most %.0f leaves, under %u a thread on %d threads; a GPU from there)",
+                 most, FF_HIER_CPU_LEAVES_PER_THREAD, h->threads);
     h->backend = use_gpu ? &ff_backend_cuda : &ff_backend_cpu;
     if ((st = h->backend->create(&su, &h->backend_state)) != RAD_OK) return st;
     double total_area = 0;
