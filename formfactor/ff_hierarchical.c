@@ -106,10 +106,25 @@ static rad_status export_and_solve(hier_run *h, double tol)
     return st == RAD_OK ? solve_flat(h, tol, warm) : st;
 }
 
+/* Whether --backend auto takes the CPU without asking CUDA: where the
+ * leaves may reach fewer than FF_HIER_CPU_LEAVES_PER_THREAD a thread
+ * (faces x 4^level, *most), the CPU's threads finish before CUDA has
+ * started, and that start slows the CPU's run beside it. */
+static int cpu_first_under_auto(const hier_run *h, double *most)
+{
+    const ff_options *opt = h->opt;
+    const uint32_t level = opt->subdiv_given ? (uint32_t)opt->subdiv : FF_HIER_MAX_LEVEL;
+    *most = (double)h->base.patch_count * ldexp(1.0, 2 * (int)level);
+    return opt->backend == FF_BACKEND_AUTO && *most < (double)FF_HIER_CPU_LEAVES_PER_THREAD * h->threads;
+}
+
 static rad_status build_links(hier_run *h)
 {
     const ff_options *opt = h->opt;
     const double t_setup = rad_clock_seconds();
+    double most;
+    const int cpu_first = cpu_first_under_auto(h, &most);
+    const int will_ask = opt->backend != FF_BACKEND_CPU && !cpu_first;
     double centre[3];
     ff_frame_centre(&h->base, centre);
     rad_status st = ff_occluders_build(&h->scene, centre, &h->triangles, &h->triangle_face, &h->triangle_count);
@@ -124,14 +139,7 @@ static rad_status build_links(hier_run *h)
                    .scene_convex = opt->cull == FF_CULL_ALL && ff_scene_is_convex_enclosure(&h->scene, eps),
                    .cull_margin = ff_cull_margin(&h->base, centre, eps), .plane_eps = eps,
                    .ray_delta = ff_ray_delta(&h->base), .threads = h->threads};
-    /* Asking CUDA starts its driver (main started it early where the
-     * options allow a GPU, and asking waits for that start); a CPU run does
-     * not ask, nor does auto where the CPU's threads will finish first. */
-    const uint32_t level = opt->subdiv_given ? (uint32_t)opt->subdiv : FF_HIER_MAX_LEVEL;
-    const double most = (double)h->base.patch_count * ldexp(1.0, 2 * (int)level);
-    const double cpu_below = (double)FF_HIER_CPU_LEAVES_PER_THREAD * h->threads;
-    const int cpu_first = opt->backend == FF_BACKEND_AUTO && most < cpu_below;
-    const int gpus = opt->backend != FF_BACKEND_CPU && !cpu_first ? ff_cuda_device_count() : 0;
+    const int gpus = will_ask ? ff_cuda_device_count() : 0; /* waits for the start */
     if (opt->backend == FF_BACKEND_CUDA && gpus == 0) {
         rad_error("--backend cuda: no CUDA device is visible to this process");
         return RAD_ERR_UNSUPPORTED;
@@ -360,9 +368,15 @@ rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
     rad_status st = RAD_OK;
     if (rank == 0) {
         if (ff_comm_size(comm) > 1) rad_info("--method hierarchical: rank 0 computes the links; the other ranks wait");
+        /* CUDA starts while the scene loads under --backend cuda, once
+         * its size is known under auto (main leaves it to this run, rank
+         * 0's device: rank 0 computes the links) */
+        if (opt->backend == FF_BACKEND_CUDA) ff_cuda_prestart(0);
         st = ff_load_scene(opt, &h.scene);
         rad_mesh_options mo = {.subdiv = 0, .contacts = opt->contacts};
         if (st == RAD_OK) st = rad_mesh_build(&h.scene, &mo, &h.base);
+        double most;
+        if (st == RAD_OK && opt->backend == FF_BACKEND_AUTO && !cpu_first_under_auto(&h, &most)) ff_cuda_prestart(0);
         if (st == RAD_OK && h.base.patch_count == 0) {
             rad_error("%s: the scene has no faces", h.scene.path);
             st = RAD_ERR_INVALID;

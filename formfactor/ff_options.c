@@ -574,6 +574,12 @@ static int names_backend(const char *arg, size_t len)
     return len >= 4 && len <= 9 && strncmp(arg, "--backend", len) == 0;
 }
 
+/* "--method" as getopt_long takes it (no other option starts "--me"). */
+static int names_method(const char *arg, size_t len)
+{
+    return len >= 4 && len <= 8 && strncmp(arg, "--method", len) == 0;
+}
+
 int ff_options_may_use_gpu(int argc, char **argv)
 {
     for (int k = 1; k < argc; k++) {
@@ -583,6 +589,9 @@ int ff_options_may_use_gpu(int argc, char **argv)
         const char *eq = strchr(a, '=');
         if (eq && names_backend(a, (size_t)(eq - a)) && strcmp(eq + 1, "cpu") == 0) return 0;
         if (!eq && names_backend(a, strlen(a)) && k + 1 < argc && strcmp(argv[k + 1], "cpu") == 0) return 0;
+        /* hierarchical starts CUDA itself once it knows the scene's size */
+        if (eq && names_method(a, (size_t)(eq - a)) && strcmp(eq + 1, "hierarchical") == 0) return 0;
+        if (!eq && names_method(a, strlen(a)) && k + 1 < argc && strcmp(argv[k + 1], "hierarchical") == 0) return 0;
     }
     return 1;
 }

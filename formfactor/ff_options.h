@@ -145,9 +145,10 @@ enum { FF_PRESET_FINAL = 0, FF_PRESET_PREVIEW = 1 };
 rad_status ff_options_parse(int argc, char **argv, ff_options *out);
 
 /* 0 when argv says the run will not touch a GPU (--backend cpu, --help,
- * --version), else 1: a quick look before MPI starts and the options are
- * parsed, so that CUDA can start early (ff_cuda.h). A wrong 1 only costs
- * the start of CUDA. */
+ * --version) or will decide later (--method hierarchical, which starts
+ * CUDA once the scene's size says it may use it), else 1: a quick look
+ * before MPI starts and the options are parsed, so that CUDA can start
+ * early (ff_cuda.h). A wrong 1 only costs the start of CUDA. */
 int ff_options_may_use_gpu(int argc, char **argv);
 
 /* The --help text (for stdout). */
