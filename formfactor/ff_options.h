@@ -46,7 +46,7 @@ typedef enum ff_method { FF_METHOD_FULL = 0, FF_METHOD_HIERARCHICAL = 1, FF_METH
  * and the leaves may reach this many a CPU thread (faces x 4^level, an
  * upper bound): below, the CPU's threads finish before CUDA has started
  * (0.22-0.35 s on an H100 host). The Cornell box's quick start (29 696
- * leaves) on 16 cores: 0.44-0.57 s on the CPU, 0.52-0.75 s with CUDA;
+ * leaves) on 16 cores: 0.46-0.54 s on the CPU, 0.62-0.69 s with CUDA;
  * cornell_sphere at level 5 (47 104) 0.74 s either way, at level 6 (188 416)
  * 2.3 s against 6.8 s (docs/performance.md). */
 #define FF_HIER_CPU_LEAVES_PER_THREAD 4096u

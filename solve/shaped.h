@@ -115,7 +115,7 @@ const char *solve_shaped_backend_name(solve_shaped_backend backend);
  * and point factors a sweep reads, ~1 ns each on one core. The Cornell
  * box at the quick start's flags (3 M point factors): 6 groups and 9
  * sweeps instead of 29 trees and 8, the sweeps 0.10 -> 0.026 s on 16
- * cores (docs/performance.md, "The Cornell box on one H100"). */
+ * cores (docs/performance.md, "The Cornell box within the bars"). */
 #define SOLVE_SHAPED_GROUP_WORK ((uint64_t)1 << 20)
 
 typedef struct solve_shaped_options {
