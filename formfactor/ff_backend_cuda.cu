@@ -170,6 +170,7 @@ struct cuda_params {
 
 struct cuda_state {
     ff_setup setup;
+    int device; /* the CUDA device, set again by calls that may come from another host thread */
     rad_ff_patch *d_patches;
     ff_bvh_node *d_nodes;
     ff_bvh_tri *d_tris;
@@ -513,7 +514,8 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
         status = RAD_ERR_UNSUPPORTED;
         goto done;
     }
-    RAD_CUDA_TRY(cudaSetDevice(setup->device % count));
+    s->device = setup->device % count;
+    RAD_CUDA_TRY(cudaSetDevice(s->device));
     if ((status = ff_bvh_build(setup->triangles, setup->triangle_face, setup->triangle_count, &bvh)) != RAD_OK)
         goto done;
     s->root = bvh.root;
@@ -859,6 +861,9 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
         rad_error("cuda: %zu element pairs exceed one launch's index range", count);
         return RAD_ERR_INVALID;
     }
+    /* the hierarchy calls from a thread beside the cluster pairs' (ff_links.c);
+     * the current device is per host thread */
+    RAD_CUDA_TRY(cudaSetDevice(s->device));
     for (size_t k = 0; k < count; k++) {
         const size_t top = (jobs[k].a > jobs[k].b ? jobs[k].a : jobs[k].b) + (size_t)1;
         if (top > elements) elements = top;

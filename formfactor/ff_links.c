@@ -2,6 +2,7 @@
 #include "ff_links.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -637,6 +638,25 @@ static void cluster_pair(const ff_links *L, uint32_t a, uint32_t b, cluster_outc
     o->error_ba = fmax(pb.hi_sr - Fba, Fba - (clear ? pb.lo_sr : 0.0));
 }
 
+/* One round's element pairs through the backend, with counters of their
+ * own (the cluster pairs may run beside it). */
+typedef struct element_call {
+    const ff_links *L;
+    const job_list *pairs;
+    ff_pair_outcome *out;
+    ff_counters counters;
+    rad_status status;
+} element_call;
+
+static void *element_pairs_thread(void *arg)
+{
+    element_call *c = arg;
+    const ff_links *L = c->L;
+    c->status = L->backend->compute_pairs(L->backend_state, L->patches, L->keys, c->pairs->jobs, c->pairs->count,
+                                          c->out, &c->counters);
+    return NULL;
+}
+
 /* Candidates through the backend, then decided in order. */
 static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters, uint64_t *refined)
 {
@@ -670,9 +690,14 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         }
         if (st != RAD_OK) break;
         const size_t clustered = cpairs.count;
-        if (pairs.count) st = L->backend->compute_pairs(L->backend_state, L->patches, L->keys, pairs.jobs,
-                                                        pairs.count, out, counters);
-        if (st != RAD_OK) break;
+        /* The element pairs on the backend and the cluster pairs on the
+         * CPU's threads: at once where the backend is a GPU (its call
+         * waits on the device on a thread of its own), else in turn. */
+        element_call call = {L, &pairs, out, {0}, RAD_OK};
+        pthread_t gpu_thread;
+        const int overlap = pairs.count && clustered && L->tracer_state != L->backend_state &&
+                            pthread_create(&gpu_thread, NULL, element_pairs_thread, &call) == 0;
+        if (pairs.count && !overlap) element_pairs_thread(&call);
         if (clustered) {
             const size_t m = clustered;
             const ff_pair_job *cj = cpairs.jobs;
@@ -683,6 +708,9 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
             L->cluster_pairs += m;
             for (size_t i = 0; i < m; i++) L->cluster_rays += cout[i].rays;
         }
+        if (overlap) pthread_join(gpu_thread, NULL);
+        ff_counters_add(counters, &call.counters);
+        if ((st = call.status) != RAD_OK) break;
         L->candidates += n;
         L->rounds++;
         const size_t links_before = L->link_count;
