@@ -114,67 +114,6 @@ rad_status ff_occluders_build(const rad_scene *scene, const double centre[3], do
     return RAD_OK;
 }
 
-/* A face's sort key for ff_scene_is_convex_enclosure: how far its normal
- * points away from the scene's centre (a convex enclosure's all point in). */
-typedef struct face_order {
-    double outward;
-    uint32_t face;
-} face_order;
-
-static int most_outward_first(const void *a, const void *b)
-{
-    const face_order *x = a, *y = b;
-    if (x->outward != y->outward) return x->outward > y->outward ? -1 : 1;
-    return (x->face > y->face) - (x->face < y->face);
-}
-
-int ff_scene_is_convex_enclosure(const rad_scene *scene, double eps)
-{
-    size_t nf = scene->face_count;
-    rad_vec3 *normal = malloc((nf ? nf : 1) * sizeof *normal), *centroid = malloc((nf ? nf : 1) * sizeof *centroid);
-    face_order *order = malloc((nf ? nf : 1) * sizeof *order);
-    int convex = nf > 0;
-    if (!normal || !centroid || !order) {
-        convex = 0; /* out of memory: not known to be convex, so rays are cast (the safe side) */
-        nf = 0;
-    }
-    rad_box box = rad_box_of_points(scene->positions, scene->vertex_count);
-    double c[3];
-    rad_box_centre(&box, c);
-    const rad_vec3 centre = rad_v3(c[0], c[1], c[2]);
-    for (size_t f = 0; f < nf; f++) {
-        const rad_face *face = &scene->faces[f];
-        rad_vec3 v[4];
-        for (uint32_t k = 0; k < face->vertex_count; k++) {
-            const double *p = scene->positions + 3 * (size_t)face->v[k];
-            v[k] = rad_v3(p[0], p[1], p[2]);
-        }
-        double area;
-        rad_polygon_geometry(v, (int)face->vertex_count, &area, &normal[f], &centroid[f]);
-        order[f] = (face_order){rad_v3_dot(normal[f], rad_v3_sub(centroid[f], centre)), (uint32_t)f};
-    }
-    /* Every vertex must lie on the inner side of every face's plane. Faces
-     * pointing away from the centre go first: in a scene that is not a
-     * convex enclosure one of them fails at once, where a room's thousands
-     * of inward wall faces would each have checked every vertex (k^2). */
-    qsort(order, nf, sizeof *order, most_outward_first);
-    for (size_t i = 0; i < nf && convex; i++) {
-        const size_t f = order[i].face;
-        for (size_t g = 0; g < scene->face_count && convex; g++)
-            for (uint32_t k = 0; k < scene->faces[g].vertex_count; k++) {
-                const double *p = scene->positions + 3 * (size_t)scene->faces[g].v[k];
-                if (rad_v3_dot(normal[f], rad_v3_sub(rad_v3(p[0], p[1], p[2]), centroid[f])) < -eps) {
-                    convex = 0;
-                    break;
-                }
-            }
-    }
-    free(normal);
-    free(centroid);
-    free(order);
-    return convex;
-}
-
 /* The bounding-box diagonal of the mesh. */
 static double mesh_diagonal(const rad_mesh *mesh)
 {

@@ -19,6 +19,7 @@
 #include <string.h>
 
 #include "ff_fixture.h"
+#include "rad_polygon.h"
 #include "rad_test.h"
 
 static double *compute(const fixture *fx, uint32_t samples, uint32_t rays, uint64_t seed, ff_counters *counters)
@@ -259,6 +260,96 @@ static void check_row_assignment(void)
     }
 }
 
+/* A closed cube [0, 1]^3 of n x n cells a face, two triangles a cell,
+ * wound to face inward; the vertex at the centre of the x = 0 wall moved
+ * to x = dx. Into buf (of size cap). */
+static void grid_cube_obj(char *buf, size_t cap, int n, double dx)
+{
+    size_t at = (size_t)snprintf(buf, cap, "mtllib s.mtl\nusemtl grey\n");
+    uint32_t base = 1;
+    for (int k = 0; k < 3; k++)
+        for (int side = 0; side < 2; side++) {
+            const int u = (k + 1) % 3, v = (k + 2) % 3;
+            for (int j = 0; j <= n; j++)
+                for (int i = 0; i <= n; i++) {
+                    double p[3];
+                    p[k] = side, p[u] = (double)i / n, p[v] = (double)j / n;
+                    if (k == 0 && side == 0 && 2 * i == n && 2 * j == n) p[0] = dx;
+                    at += (size_t)snprintf(buf + at, cap - at, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
+                }
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++) {
+                    const uint32_t a = base + (uint32_t)(j * (n + 1) + i), b = a + 1, c = a + (uint32_t)n + 2,
+                                   d = a + (uint32_t)n + 1;
+                    if (side == 0)
+                        at += (size_t)snprintf(buf + at, cap - at, "f %u %u %u\nf %u %u %u\n", a, b, c, a, c, d);
+                    else
+                        at += (size_t)snprintf(buf + at, cap - at, "f %u %u %u\nf %u %u %u\n", a, c, b, a, d, c);
+                }
+            base += (uint32_t)((n + 1) * (n + 1));
+        }
+}
+
+/* The definition, face by face against every vertex a face uses (k^2). */
+static int convex_by_brute_force(const rad_scene *scene, double eps)
+{
+    for (size_t f = 0; f < scene->face_count; f++) {
+        const rad_face *face = &scene->faces[f];
+        rad_vec3 v[4], normal, centroid;
+        double area;
+        for (uint32_t k = 0; k < face->vertex_count; k++) {
+            const double *p = scene->positions + 3 * (size_t)face->v[k];
+            v[k] = rad_v3(p[0], p[1], p[2]);
+        }
+        rad_polygon_geometry(v, (int)face->vertex_count, &area, &normal, &centroid);
+        for (size_t g = 0; g < scene->face_count; g++)
+            for (uint32_t k = 0; k < scene->faces[g].vertex_count; k++) {
+                const double *p = scene->positions + 3 * (size_t)scene->faces[g].v[k];
+                if (rad_v3_dot(normal, rad_v3_sub(rad_v3(p[0], p[1], p[2]), centroid)) < -eps) return 0;
+            }
+    }
+    return 1;
+}
+
+/* ff_scene_is_convex_enclosure (a tree of vertex boxes, ff_convex.c) gives
+ * the brute force's answer: a closed grid cube is convex; its wall's
+ * centre pushed out by 0.01 is not (a vertex behind the wall's other
+ * triangles), pushed in by 0.01 is not (a dent: the tilted triangles'
+ * planes have the wall behind them); moved within eps and just past it
+ * either way, as the definition says. And the Cornell box and
+ * cornell_sphere are not (boxes inside). */
+static void check_convex_enclosure(void)
+{
+    const int n = 6;
+    const size_t cap = 1 << 16;
+    char *obj = malloc(cap);
+    const double moves[] = {0.0, -0.01, 0.01, -1e-12, 1e-12, -1e-10, 1e-10};
+    const int expected[] = {1, 0, 0, -1, -1, 0, -1}; /* -1: whatever the definition says */
+    for (size_t m = 0; obj && m < sizeof moves / sizeof moves[0]; m++) {
+        grid_cube_obj(obj, cap, n, moves[m]);
+        fixture fx;
+        RAD_CHECK(fixture_load(&fx, obj, "s.obj", 0));
+        const double eps = ff_plane_eps(&fx.mesh);
+        const int fast = ff_scene_is_convex_enclosure(&fx.scene, eps), slow = convex_by_brute_force(&fx.scene, eps);
+        fprintf(stderr, "grid cube, wall centre at x = %g (eps %.3g): convex %d, brute force %d\n", moves[m], eps, fast,
+                slow);
+        RAD_CHECK(fast == slow);
+        if (expected[m] >= 0) RAD_CHECK(fast == expected[m]);
+        fixture_free(&fx);
+    }
+    free(obj);
+    const char *scenes[] = {RAD_SCENES "/cornell_box.obj", RAD_SCENES "/cornell_sphere.obj", RAD_SCENES "/closed_box.obj"};
+    for (int k = 0; k < 3; k++) {
+        fixture fx;
+        RAD_CHECK(fixture_load(&fx, NULL, scenes[k], 0));
+        const double eps = ff_plane_eps(&fx.mesh);
+        const int fast = ff_scene_is_convex_enclosure(&fx.scene, eps);
+        RAD_CHECK(fast == convex_by_brute_force(&fx.scene, eps));
+        RAD_CHECK(fast == (k == 2)); /* only the closed box is one convex enclosure */
+        fixture_free(&fx);
+    }
+}
+
 int main(void)
 {
     check_row_assignment();
@@ -283,5 +374,6 @@ int main(void)
     check_blocked();
     check_closed_box();
     check_split_invariance();
+    check_convex_enclosure();
     return rad_test_finish();
 }
