@@ -669,15 +669,17 @@ static rad_status solve_channel(const lsolve_plan *p, const rad_mesh *leaves, co
     return RAD_OK;
 }
 
-/* Whether the three channels go on three threads at once: where most of
- * the links are gathered in groups too small for the sweeps' own threads
- * (a scene of a few hundred thousand links, whose Gauss-Seidel runs tree
- * by tree on one thread). Each channel is the same arithmetic either way,
- * so B's bytes do not change. */
+/* Whether the three channels go on up to three threads at once (of the
+ * threads given): Gauss-Seidel where most of the links are gathered in
+ * groups too small for the sweeps' own threads (a scene of a few hundred
+ * thousand links, whose Gauss-Seidel runs tree by tree on one thread;
+ * Jacobi's sweeps are parallel whole). Each channel is the same
+ * arithmetic either way, so B's bytes do not change; a channel's own
+ * loops then run on its one thread (OpenMP's nesting is off by default;
+ * where a user turns it on they open teams of their own, the same bytes). */
 static int channels_in_parallel(const lsolve_plan *p, const rad_lsolve_options *o)
 {
-    if (o->channels != 3 || p->threads < 2) return 0;
-    if (o->method == RAD_LSOLVE_JACOBI) return p->links->link_count < LSOLVE_PARALLEL_MIN_LINKS;
+    if (o->channels != 3 || p->threads < 2 || o->method != RAD_LSOLVE_GAUSS_SEIDEL) return 0;
     uint64_t alone = 0;
     for (uint32_t g = 0; g < p->group_count; g++)
         if (p->group_links[g] < LSOLVE_PARALLEL_MIN_LINKS) alone += p->group_links[g];
@@ -711,7 +713,7 @@ rad_status rad_lsolve(const rad_links *links, const rad_mesh *leaves, const rad_
     lsolve_channel_run runs[3];
     memset(runs, 0, sizeof runs);
     if (status == RAD_OK && parallel) {
-#pragma omp parallel for schedule(static, 1) num_threads(3)
+#pragma omp parallel for schedule(static, 1) num_threads(plan.threads < 3 ? plan.threads : 3)
         for (int c = 0; c < 3; c++)
             channel_status[c] = solve_channel(&plan, leaves, &o, c, B, block + 6 * n * (size_t)c, solved, sums[c], &runs[c]);
     } else {

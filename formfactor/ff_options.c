@@ -582,6 +582,7 @@ static int names_method(const char *arg, size_t len)
 
 int ff_options_may_use_gpu(int argc, char **argv)
 {
+    int hierarchical = 0; /* the last --method given wins, as getopt_long takes them */
     for (int k = 1; k < argc; k++) {
         const char *a = argv[k];
         if (strcmp(a, "--") == 0) break;
@@ -589,9 +590,10 @@ int ff_options_may_use_gpu(int argc, char **argv)
         const char *eq = strchr(a, '=');
         if (eq && names_backend(a, (size_t)(eq - a)) && strcmp(eq + 1, "cpu") == 0) return 0;
         if (!eq && names_backend(a, strlen(a)) && k + 1 < argc && strcmp(argv[k + 1], "cpu") == 0) return 0;
-        /* hierarchical starts CUDA itself once it knows the scene's size */
-        if (eq && names_method(a, (size_t)(eq - a)) && strcmp(eq + 1, "hierarchical") == 0) return 0;
-        if (!eq && names_method(a, strlen(a)) && k + 1 < argc && strcmp(argv[k + 1], "hierarchical") == 0) return 0;
+        if (eq && names_method(a, (size_t)(eq - a))) hierarchical = strcmp(eq + 1, "hierarchical") == 0;
+        if (!eq && names_method(a, strlen(a)) && k + 1 < argc) hierarchical = strcmp(argv[k + 1], "hierarchical") == 0;
     }
-    return 1;
+    /* hierarchical starts CUDA itself once it knows the scene's size
+     * (--method auto, which may choose it, still starts early) */
+    return !hierarchical;
 }

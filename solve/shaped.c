@@ -34,8 +34,10 @@
 #include "shaped_plan.h"
 
 #define SHAPED_PROGRESS_SECONDS 2.0
-/* A Gauss-Seidel tree's gather and update go parallel from this many links
- * and leaves up (waking the threads costs ~40 us, docs/solve.md "Threads"). */
+/* A Gauss-Seidel group's gather, pushes and pulls go parallel from this
+ * much work (links and point factors, shaped_plan.tree_work), its update
+ * from this many leaves (waking the threads costs ~40 us, docs/solve.md
+ * "Threads"). */
 #define SHAPED_PARALLEL_MIN_LINKS 16384u
 #define SHAPED_PARALLEL_MIN_LEAVES 4096u
 

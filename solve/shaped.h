@@ -59,10 +59,11 @@
  *
  * Where. The CPU (the default) computes the point factors on the host
  * threads and sweeps Gauss-Seidel in groups of consecutive trees (a group
- * closes at SOLVE_SHAPED_GROUP_WORK links and point factors read; within a
- * group the trees gather in parallel from the sweep's start, so the
- * many small trees of a scene of a few thousand faces fill the threads,
- * which tree by tree ran on one). The cuda backend
+ * closes at SOLVE_SHAPED_GROUP_WORK links and point factors read; a
+ * group's trees gather in parallel, from this sweep's values of the groups
+ * before it and the last sweep's of their own, so the many small trees of
+ * a scene of a few thousand faces fill the threads, which tree by tree ran
+ * on one). The cuda backend
  * (shaped_gpu.h) computes them on the GPU and sweeps Jacobi there, every
  * tree at once, copying back three maxima a sweep; the plan (which ends,
  * the ranges, the lists) stays the host's. Its Jacobi stops where its
@@ -113,9 +114,9 @@ const char *solve_shaped_backend_name(solve_shaped_backend backend);
 
 /* Gauss-Seidel's groups of trees on the CPU close at this much work: links
  * and point factors a sweep reads, ~1 ns each on one core. The Cornell
- * box at the quick start's flags (3 M point factors): 6 groups and 9
- * sweeps instead of 29 trees and 8, the sweeps 0.10 -> 0.026 s on 16
- * cores (docs/performance.md, "The Cornell box within the bars"). */
+ * box at the quick start's flags (3 M point factors): 6 groups instead of
+ * 29 trees, 8 sweeps either way, the sweeps 0.10 -> 0.026 s on 16 cores
+ * (docs/performance.md, "The Cornell box within the bars"). */
 #define SOLVE_SHAPED_GROUP_WORK ((uint64_t)1 << 20)
 
 typedef struct solve_shaped_options {

@@ -259,9 +259,9 @@ static void plan_ends(shaped_plan *p, const double *node_B, const double *spread
         }
 }
 
-/* The shaped ends' point factors on the host (in parallel over
- * receivers, one at a time: the roots come first and hold most of them);
- * an end whose factors sum to 0 is left flat. */
+/* The shaped ends' point factors on the host (in parallel over the
+ * receivers that have any, one at a time: the roots come first and hold
+ * most of them); an end whose factors sum to 0 is left flat. */
 rad_status shaped_plan_factors(shaped_plan *p)
 {
     const rad_links *L = p->L;
@@ -274,8 +274,20 @@ rad_status shaped_plan_factors(shaped_plan *p)
     }
     p->view.f = p->f;
     const shaped_view *v = &p->view;
+    uint32_t *receivers = malloc((n ? n : 1) * sizeof *receivers), count = 0;
+    if (!receivers) {
+        rad_error("links: out of memory for the shaped solve's list of %u receivers", n);
+        return RAD_ERR_NOMEM;
+    }
+    for (uint32_t r = 0; r < n; r++)
+        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
+            if (p->at[k] != NO_WEIGHTS) {
+                receivers[count++] = r;
+                break;
+            }
 #pragma omp parallel for schedule(dynamic, 1) num_threads(p->threads)
-    for (uint32_t r = 0; r < n; r++) {
+    for (uint32_t i = 0; i < count; i++) {
+        const uint32_t r = receivers[i];
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
             if (p->at[k] == NO_WEIGHTS) continue;
             rad_ff_patch P;
@@ -286,6 +298,7 @@ rad_status shaped_plan_factors(shaped_plan *p)
             if (p->inv_mean[k] == 0) p->at[k] = NO_WEIGHTS;
         }
     }
+    free(receivers);
     return RAD_OK;
 }
 
@@ -314,10 +327,15 @@ rad_status shaped_plan_lists(shaped_plan *p)
     }
     p->shaped_first[ids] = m;
     p->view.shaped = p->shaped;
-    for (uint64_t j = 0; j < m; j++) { /* a shaped link's gather and update read both ends' point factors */
-        const uint32_t r = p->shaped_receiver[j], s = L->links[p->shaped[j]].source;
-        p->tree_work[L->nodes[r].root] += p->count[r] + p->count[s];
-    }
+    /* a sweep reads, for a link k at receiver r < s in r's tree: r's point
+     * factors where k's end is shaped (the update of r's leaves), s's where
+     * the pair's other end is (S, what s sends, summed over s's leaves) */
+    for (uint32_t r = 0; r < L->node_count; r++)
+        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
+            const uint32_t s = L->links[k].source;
+            if (p->at[k] != NO_WEIGHTS) p->tree_work[L->nodes[r].root] += p->count[r];
+            if (s < L->node_count && p->at[p->reverse[k]] != NO_WEIGHTS) p->tree_work[L->nodes[r].root] += p->count[s];
+        }
     return RAD_OK;
 }
 

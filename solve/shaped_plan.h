@@ -55,7 +55,8 @@ typedef struct shaped_plan {
     uint32_t *tree_first;    /* root_count + 1: tree t's nodes are tree_nodes[tree_first[t] .. [t + 1]), */
     uint32_t *tree_nodes;    /* in index order (parents first) */
     uint64_t *tree_work;     /* root_count: the links the tree's nodes receive, plus (once the lists are
-                                made) the point factors a sweep reads for its shaped links at both ends */
+                                made) the point factors a sweep reads for them: the receiver's where the
+                                link's end is shaped, the source's where the pair's other end is */
     uint32_t *root_cluster;  /* root_count: the leaf cluster holding the root; NULL without clusters */
     uint64_t cluster_links;  /* the links the clusters receive */
     int threads;
