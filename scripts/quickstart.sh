@@ -10,7 +10,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 # The built-in Cornell box by hierarchical radiosity (docs/hierarchy.md):
 # every face split to level 5 (29 696 leaves), linked at the coarsest
 # levels whose error meets --link-tol 1e-2, solved in memory
-# (--radiosity); about 3 s on 2 cores with render, and the image within 2.1 % RMS of a
+# (--radiosity); about 1.5 s on 2 cores, 2.5 s with render, and the image within 2.1 % RMS of a
 # path tracer's (docs/accuracy.md, "The Cornell box in the time": the
 # refined full matrix below, 2.2 %, takes 15 s). The unoccluded factors to
 # 1e-5 and 8 shadow rays a partly hidden pair: the links' own tolerance is
