@@ -131,4 +131,27 @@ rad_status rad_links_check(const rad_links *links, size_t vertex_count, const ch
  * RAD_ERR_FORMAT (logged, naming `what` and the cluster), RAD_ERR_NOMEM. */
 rad_status rad_links_check_cluster_tree(const rad_links *links, const char *what);
 
+/* Gauss-Seidel's groups of consecutive trees, for both solves on links
+ * (rad_lsolve, solve/shaped.c): a group closes once its trees' work
+ * (work[t] per tree, in root order) reaches `group` (0: every tree alone),
+ * the last may hold less. Fills first[0 .. count] (group g is trees
+ * first[g] .. first[g + 1]) and held[0 .. count) (each group's work);
+ * returns count. Depends on the work alone, not on the threads. */
+static inline uint32_t rad_links_tree_groups(const uint64_t *work, uint32_t roots, uint64_t group, uint32_t *first,
+                                             uint64_t *held)
+{
+    uint32_t count = 0;
+    uint64_t sum = 0;
+    first[0] = 0;
+    for (uint32_t t = 0; t < roots; t++) {
+        sum += work[t];
+        if (sum >= group || t + 1 == roots) {
+            held[count] = sum;
+            first[++count] = t + 1;
+            sum = 0;
+        }
+    }
+    return count;
+}
+
 #endif

@@ -383,17 +383,8 @@ static rad_status plan_make(const rad_links *L, int threads, uint64_t group_link
     /* Gauss-Seidel's groups: a tree each, or consecutive trees to
      * LSOLVE_GS_GROUP_LINKS where the links are many */
     const int grouped = group_links > 0 || L->link_count >= LSOLVE_GS_GROUPED_MIN_LINKS;
-    const uint64_t group = group_links > 0 ? group_links : LSOLVE_GS_GROUP_LINKS;
-    uint64_t held = 0;
-    p->group_first[0] = 0;
-    for (uint32_t t = 0; t < roots; t++) {
-        held += p->tree_links[t];
-        if (!grouped || held >= group || t + 1 == roots) {
-            p->group_links[p->group_count] = held;
-            p->group_first[++p->group_count] = t + 1;
-            held = 0;
-        }
-    }
+    const uint64_t group = !grouped ? 0 : group_links > 0 ? group_links : LSOLVE_GS_GROUP_LINKS;
+    p->group_count = rad_links_tree_groups(p->tree_links, roots, group, p->group_first, p->group_links);
     /* children after parents: a reverse pass sees every child before its parent */
     for (uint32_t i = n; i-- > 0;) {
         const rad_link_node *e = &L->nodes[i];

@@ -31,17 +31,19 @@ __attribute__((noinline)) static double plane_value(rad_vec3 n, rad_vec3 c, rad_
     return rad_v3_dot(n, rad_v3_sub(p, c));
 }
 
-/* A vertex and its coordinate along the axis a node splits. */
-typedef struct keyed_vertex {
+/* An index and its sort key: a vertex and its coordinate along the axis
+ * a node splits; a face and how far its normal points towards the scene's
+ * centre (a convex enclosure's all do; the least first). */
+typedef struct keyed {
     double key;
-    uint32_t v;
-} keyed_vertex;
+    uint32_t index;
+} keyed;
 
 static int by_key(const void *a, const void *b)
 {
-    const keyed_vertex *x = a, *y = b;
+    const keyed *x = a, *y = b;
     if (x->key != y->key) return x->key < y->key ? -1 : 1;
-    return (x->v > y->v) - (x->v < y->v);
+    return (x->index > y->index) - (x->index < y->index);
 }
 
 typedef struct vertex_tree {
@@ -52,7 +54,7 @@ typedef struct vertex_tree {
     uint32_t *end;
     uint32_t *left;  /* per node: its first child (the second is left + 1); 0 for a leaf */
     uint32_t nodes;
-    keyed_vertex *scratch; /* one per vertex: the sort's */
+    keyed *scratch; /* one per vertex: the sort's */
 } vertex_tree;
 
 /* Node `i` over v[begin .. end): its box, and children split at the median
@@ -69,9 +71,9 @@ static void tree_build(vertex_tree *t, uint32_t i, uint32_t begin, uint32_t end)
     for (int a = 1; a < 3; a++)
         if (box.hi[a] - box.lo[a] > box.hi[axis] - box.lo[axis]) axis = a;
     for (uint32_t k = begin; k < end; k++)
-        t->scratch[k] = (keyed_vertex){t->positions[3 * (size_t)t->v[k] + axis], t->v[k]};
+        t->scratch[k] = (keyed){t->positions[3 * (size_t)t->v[k] + axis], t->v[k]};
     qsort(t->scratch + begin, end - begin, sizeof *t->scratch, by_key);
-    for (uint32_t k = begin; k < end; k++) t->v[k] = t->scratch[k].v;
+    for (uint32_t k = begin; k < end; k++) t->v[k] = t->scratch[k].index;
     const uint32_t mid = begin + (end - begin) / 2, left = t->nodes;
     t->nodes += 2;
     t->left[i] = left;
@@ -103,25 +105,11 @@ static int any_behind(const vertex_tree *t, rad_vec3 n, rad_vec3 c, double eps, 
     return 0;
 }
 
-/* A face's sort key: how far its normal points away from the scene's
- * centre (a convex enclosure's all point in). */
-typedef struct face_order {
-    double outward;
-    uint32_t face;
-} face_order;
-
-static int most_outward_first(const void *a, const void *b)
-{
-    const face_order *x = a, *y = b;
-    if (x->outward != y->outward) return x->outward > y->outward ? -1 : 1;
-    return (x->face > y->face) - (x->face < y->face);
-}
-
 int ff_scene_is_convex_enclosure(const rad_scene *scene, double eps)
 {
     const size_t nf = scene->face_count, nv = scene->vertex_count;
     rad_vec3 *normal = malloc((nf ? nf : 1) * sizeof *normal), *centroid = malloc((nf ? nf : 1) * sizeof *centroid);
-    face_order *order = malloc((nf ? nf : 1) * sizeof *order);
+    keyed *order = malloc((nf ? nf : 1) * sizeof *order);
     unsigned char *used = calloc(nv ? nv : 1, 1);
     vertex_tree t = {.positions = scene->positions};
     t.v = malloc((nv ? nv : 1) * sizeof *t.v);
@@ -156,11 +144,11 @@ int ff_scene_is_convex_enclosure(const rad_scene *scene, double eps)
             }
             double area;
             rad_polygon_geometry(v, (int)face->vertex_count, &area, &normal[f], &centroid[f]);
-            order[f] = (face_order){rad_v3_dot(normal[f], rad_v3_sub(centroid[f], centre)), (uint32_t)f};
+            order[f] = (keyed){-rad_v3_dot(normal[f], rad_v3_sub(centroid[f], centre)), (uint32_t)f}; /* outward first */
         }
-        qsort(order, nf, sizeof *order, most_outward_first);
+        qsort(order, nf, sizeof *order, by_key);
         for (size_t i = 0; i < nf && convex; i++)
-            convex = !any_behind(&t, normal[order[i].face], centroid[order[i].face], eps, stack);
+            convex = !any_behind(&t, normal[order[i].index], centroid[order[i].index], eps, stack);
     }
     free(normal);
     free(centroid);

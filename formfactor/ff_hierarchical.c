@@ -46,6 +46,8 @@ typedef struct hier_run {
     double error_bound;
     double solved_tol; /* the tolerance the last flat solve met */
     int threads;
+    int cpu_first;      /* --backend auto takes the CPU without asking CUDA (cpu_first_under_auto) */
+    double most_leaves; /* faces x 4^level: what it decides by */
     double seconds_load, seconds_setup, seconds_links, seconds_export, seconds_solve, seconds_write, seconds_total;
     uint64_t refined[64];
 } hier_run;
@@ -122,9 +124,7 @@ static rad_status build_links(hier_run *h)
 {
     const ff_options *opt = h->opt;
     const double t_setup = rad_clock_seconds();
-    double most;
-    const int cpu_first = cpu_first_under_auto(h, &most);
-    const int will_ask = opt->backend != FF_BACKEND_CPU && !cpu_first;
+    const int will_ask = opt->backend != FF_BACKEND_CPU && !h->cpu_first;
     double centre[3];
     ff_frame_centre(&h->base, centre);
     rad_status st = ff_occluders_build(&h->scene, centre, &h->triangles, &h->triangle_face, &h->triangle_count);
@@ -144,11 +144,10 @@ static rad_status build_links(hier_run *h)
         rad_error("--backend cuda: no CUDA device is visible to this process");
         return RAD_ERR_UNSUPPORTED;
     }
-    const int use_gpu = gpus > 0;
-    if (cpu_first)
+    if (h->cpu_first)
         rad_info("--backend auto: the CPU (at most %.0f leaves, under %u a thread on %d threads; a GPU from there)",
-                 most, FF_HIER_CPU_LEAVES_PER_THREAD, h->threads);
-    h->backend = use_gpu ? &ff_backend_cuda : &ff_backend_cpu;
+                 h->most_leaves, FF_HIER_CPU_LEAVES_PER_THREAD, h->threads);
+    h->backend = gpus > 0 ? &ff_backend_cuda : &ff_backend_cpu;
     if ((st = h->backend->create(&su, &h->backend_state)) != RAD_OK) return st;
     double total_area = 0;
     for (size_t k = 0; k < h->base.patch_count; k++) total_area += h->base.patches[k].area;
@@ -375,8 +374,8 @@ rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
         st = ff_load_scene(opt, &h.scene);
         rad_mesh_options mo = {.subdiv = 0, .contacts = opt->contacts};
         if (st == RAD_OK) st = rad_mesh_build(&h.scene, &mo, &h.base);
-        double most;
-        if (st == RAD_OK && opt->backend == FF_BACKEND_AUTO && !cpu_first_under_auto(&h, &most)) ff_cuda_prestart(0);
+        if (st == RAD_OK) h.cpu_first = cpu_first_under_auto(&h, &h.most_leaves);
+        if (st == RAD_OK && opt->backend == FF_BACKEND_AUTO && !h.cpu_first) ff_cuda_prestart(0);
         if (st == RAD_OK && h.base.patch_count == 0) {
             rad_error("%s: the scene has no faces", h.scene.path);
             st = RAD_ERR_INVALID;

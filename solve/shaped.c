@@ -99,10 +99,9 @@ static void pull_tree(const shaped_plan *p, shaped_vectors *v, uint32_t t)
     }
 }
 
-/* Gauss-Seidel's groups of consecutive trees: a group closes once its
- * trees' work (shaped_plan.tree_work: links and point factors a sweep
- * reads) reaches the options' group_work, the last may hold less. The
- * groups depend on the links alone, not on the threads. */
+/* Gauss-Seidel's groups of consecutive trees (rad_links_tree_groups) by
+ * their work (shaped_plan.tree_work: links and point factors a sweep
+ * reads), closing at the options' group_work. */
 typedef struct shaped_groups {
     uint32_t *first; /* count + 1: group g is trees first[g] .. first[g + 1] */
     uint64_t *work;  /* count */
@@ -119,16 +118,7 @@ static rad_status groups_make(const shaped_plan *p, uint64_t group_work, shaped_
         rad_error("links: out of memory for the shaped solve's groups of %u trees", roots);
         return RAD_ERR_NOMEM;
     }
-    g->first[0] = 0;
-    uint64_t held = 0;
-    for (uint32_t t = 0; t < roots; t++) {
-        held += p->tree_work[t];
-        if (held >= group_work || t + 1 == roots) {
-            g->work[g->count] = held;
-            g->first[++g->count] = t + 1;
-            held = 0;
-        }
-    }
+    g->count = rad_links_tree_groups(p->tree_work, roots, group_work, g->first, g->work);
     return RAD_OK;
 }
 
