@@ -199,7 +199,54 @@ ff_cluster_pair_bound ff_cluster_pair_estimate(const ff_cluster_bound *r, const 
 
 /* ---- the tree ---- */
 
-rad_status ff_clusters_build(const rad_ff_patch *patches, uint32_t root_count, ff_cluster_tree *out)
+/* The key a cluster's roots are split by: where their normals spread
+ * beyond max_cone (half-angle about their area-weighted mean), the normal's
+ * component along the axis it varies most on (area-weighted), so that the
+ * two halves face apart (a table's top and bottom); else the centre's
+ * coordinate along the widest axis of the centres' box. */
+static void split_keys(const rad_ff_patch *patches, const uint32_t *roots, uint32_t begin, uint32_t end,
+                       double max_cone, split_key *keys)
+{
+    rad_vec3 v = rad_v3(0, 0, 0), sq = rad_v3(0, 0, 0);
+    double area = 0;
+    for (uint32_t k = begin; k < end; k++) {
+        const rad_ff_patch *p = &patches[roots[k]];
+        v = rad_v3_add(v, rad_v3_scale(p->normal, p->area));
+        sq = rad_v3_add(sq, rad_v3_scale(rad_v3(p->normal.x * p->normal.x, p->normal.y * p->normal.y,
+                                                p->normal.z * p->normal.z), p->area));
+        area += p->area;
+    }
+    const double len = rad_v3_length(v);
+    double cos_min = 1.0;
+    if (len > 1e-12 * area)
+        for (uint32_t k = begin; k < end; k++) cos_min = fmin(cos_min, rad_v3_dot(patches[roots[k]].normal, v) / len);
+    else
+        cos_min = -1.0;
+    if (max_cone < RAD_PI && acos(fmax(-1.0, fmin(1.0, cos_min))) > max_cone && area > 0) {
+        rad_vec3 mean = rad_v3_scale(v, 1.0 / area);
+        rad_vec3 var = rad_v3(sq.x / area - mean.x * mean.x, sq.y / area - mean.y * mean.y, sq.z / area - mean.z * mean.z);
+        int axis = var.x >= var.y && var.x >= var.z ? 0 : var.y >= var.z ? 1 : 2;
+        for (uint32_t k = begin; k < end; k++) {
+            rad_vec3 n = patches[roots[k]].normal;
+            keys[k - begin] = (split_key){axis == 0 ? n.x : axis == 1 ? n.y : n.z, roots[k]};
+        }
+        return;
+    }
+    rad_vec3 lo = rad_v3(INFINITY, INFINITY, INFINITY), hi = rad_v3(-INFINITY, -INFINITY, -INFINITY);
+    for (uint32_t k = begin; k < end; k++) {
+        rad_vec3 x = patches[roots[k]].centre;
+        lo = rad_v3(fmin(lo.x, x.x), fmin(lo.y, x.y), fmin(lo.z, x.z));
+        hi = rad_v3(fmax(hi.x, x.x), fmax(hi.y, x.y), fmax(hi.z, x.z));
+    }
+    rad_vec3 d = rad_v3_sub(hi, lo);
+    int axis = d.x >= d.y && d.x >= d.z ? 0 : d.y >= d.z ? 1 : 2;
+    for (uint32_t k = begin; k < end; k++) {
+        rad_vec3 x = patches[roots[k]].centre;
+        keys[k - begin] = (split_key){axis == 0 ? x.x : axis == 1 ? x.y : x.z, roots[k]};
+    }
+}
+
+rad_status ff_clusters_build(const rad_ff_patch *patches, uint32_t root_count, double max_cone, ff_cluster_tree *out)
 {
     memset(out, 0, sizeof *out);
     size_t cap = root_count > 0 ? 2 * (size_t)root_count : 1;
@@ -223,18 +270,7 @@ rad_status ff_clusters_build(const rad_ff_patch *patches, uint32_t root_count, f
         rad_link_cluster *l = &out->clusters[c].link;
         uint32_t begin = l->root_begin, end = l->root_end, n = end - begin;
         if (n <= FF_CLUSTER_LEAF_ROOTS) continue;
-        rad_vec3 lo = rad_v3(INFINITY, INFINITY, INFINITY), hi = rad_v3(-INFINITY, -INFINITY, -INFINITY);
-        for (uint32_t k = begin; k < end; k++) {
-            rad_vec3 x = patches[out->roots[k]].centre;
-            lo = rad_v3(fmin(lo.x, x.x), fmin(lo.y, x.y), fmin(lo.z, x.z));
-            hi = rad_v3(fmax(hi.x, x.x), fmax(hi.y, x.y), fmax(hi.z, x.z));
-        }
-        rad_vec3 d = rad_v3_sub(hi, lo);
-        int axis = d.x >= d.y && d.x >= d.z ? 0 : d.y >= d.z ? 1 : 2;
-        for (uint32_t k = begin; k < end; k++) {
-            rad_vec3 x = patches[out->roots[k]].centre;
-            keys[k - begin] = (split_key){axis == 0 ? x.x : axis == 1 ? x.y : x.z, out->roots[k]};
-        }
+        split_keys(patches, out->roots, begin, end, max_cone, keys);
         uint32_t half = n / 2;
         select_kth(keys, n, half);
         for (uint32_t k = 0; k < n; k++) out->roots[begin + k] = keys[k].root;

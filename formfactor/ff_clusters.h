@@ -5,7 +5,7 @@
  * Greenberg 1994).
  *
  *     ff_cluster_tree t;
- *     ff_clusters_build(root_patches, root_count, &t);
+ *     ff_clusters_build(root_patches, root_count, max_cone, &t);
  *     ... t.clusters[c], t.roots[t.clusters[c].root_begin .. root_end) ...
  *     ff_cluster_bound b = ff_cluster_bound_of(&t.clusters[c]);
  *     ff_clusters_free(&t);
@@ -65,9 +65,12 @@ typedef struct ff_cluster_tree {
     uint32_t root_count;
 } ff_cluster_tree;
 
-/* The tree over roots 0 .. root_count - 1 (patches in the backend's frame).
+/* The tree over roots 0 .. root_count - 1 (patches in the backend's frame):
+ * a cluster whose normals spread beyond max_cone (radians; RAD_PI: never)
+ * is split by orientation, any other by position (ff_clusters.c).
  * RAD_ERR_NOMEM (logged). */
-rad_status ff_clusters_build(const rad_ff_patch *root_patches, uint32_t root_count, ff_cluster_tree *out);
+rad_status ff_clusters_build(const rad_ff_patch *root_patches, uint32_t root_count, double max_cone,
+                             ff_cluster_tree *out);
 
 /* One element's bound (a cluster of one face). */
 ff_cluster_bound ff_element_bound(const rad_ff_patch *patch);

@@ -155,6 +155,7 @@ static rad_status build_links(hier_run *h)
                               .max_level = opt->subdiv_given ? (uint32_t)opt->subdiv : FF_HIER_MAX_LEVEL,
                               .min_area = opt->min_area * total_area, .uniform_leaves = opt->uniform_leaves,
                               .sized_leaves = opt->sized_leaves,
+                              .cluster_cone = opt->cluster_cone >= 180.0 ? RAD_PI : opt->cluster_cone * (RAD_PI / 180.0),
                               .clusters = opt->clusters >= 0 ? opt->clusters
                                                              : h->base.patch_count >= FF_CLUSTERS_AUTO_ROOTS};
     if (opt->clusters < 0)

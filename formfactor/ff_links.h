@@ -90,6 +90,8 @@ typedef struct ff_links_config {
                            advance as uniform ones are (fewer where the roots differ in size) */
     int clusters;       /* refinement starts from the self-link of a cluster tree over the roots
                            (ff_clusters.h) instead of every pair of roots */
+    double cluster_cone; /* radians: a cluster whose normals spread more than this from their mean
+                            links nothing and is split (by orientation in the tree); 0 or pi: none */
 } ff_links_config;
 
 /* --clusters auto turns clusters on from this many roots up: below, the

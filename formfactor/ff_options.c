@@ -59,6 +59,11 @@ const char ff_options_help[] =
     "      --clusters C         auto | on | off (default: auto = on from 2048 faces):\n"
     "                           hierarchical: start from one link of a cluster tree over\n"
     "                           the faces instead of every pair of faces (docs/hierarchy.md)\n"
+    "      --cluster-cone DEG   hierarchical with clusters: no cluster link at a cluster\n"
+    "                           whose normals spread more than DEG degrees from their mean\n"
+    "                           (one irradiance for faces facing apart moves light from\n"
+    "                           walls to objects); such clusters split by orientation\n"
+    "                           (default: 70; 180: any cluster links)\n"
     "      --uniform-leaves     hierarchical: split every face to --subdiv first, so that\n"
     "                           the leaves are the full matrix's at --subdiv whatever\n"
     "                           --link-tol (to compare the two: tools/hier_study.py)\n"
@@ -290,7 +295,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
            O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT, O_KE,
-           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES, O_SIZED_LEAVES, O_RADIOSITY, O_DRY_RUN, O_CLUSTERS };
+           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES, O_SIZED_LEAVES, O_RADIOSITY, O_DRY_RUN, O_CLUSTERS, O_CLUSTER_CONE };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -315,7 +320,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"preset", required_argument, 0, O_PRESET}, {"method", required_argument, 0, O_METHOD},
         {"link-tol", required_argument, 0, O_LINK_TOL}, {"oracle", required_argument, 0, O_ORACLE},
         {"min-area", required_argument, 0, O_MIN_AREA}, {"passes", required_argument, 0, O_PASSES},
-        {"uniform-leaves", no_argument, 0, O_UNIFORM_LEAVES}, {"sized-leaves", no_argument, 0, O_SIZED_LEAVES}, {"clusters", required_argument, 0, O_CLUSTERS}, {"radiosity", required_argument, 0, O_RADIOSITY},
+        {"uniform-leaves", no_argument, 0, O_UNIFORM_LEAVES}, {"sized-leaves", no_argument, 0, O_SIZED_LEAVES}, {"clusters", required_argument, 0, O_CLUSTERS}, {"cluster-cone", required_argument, 0, O_CLUSTER_CONE}, {"radiosity", required_argument, 0, O_RADIOSITY},
         {0, 0, 0, 0}};
     int rays_given = 0, rtol_given = 0;
     uint64_t v = 0;
@@ -370,6 +375,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_SIZED_LEAVES: o->sized_leaves = 1; break;
         case O_CLUSTERS: st = parse_name("--clusters", optarg, switch_names, FF_NAMES_COUNT(switch_names), &o->clusters); break;
         case O_PASSES: st = rad_parse_uint("--passes", optarg, 1, 100, &v); o->passes = (uint32_t)v; break;
+        case O_CLUSTER_CONE: st = rad_parse_real("--cluster-cone", optarg, 0, 0, 180, 1, &o->cluster_cone); break;
         case O_PRESET: st = parse_name("--preset", optarg, preset_names, FF_NAMES_COUNT(preset_names), &o->preset); break;
         case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
         case O_FLIP_NORMALS: o->flip_normals = 1; break;
@@ -557,7 +563,7 @@ rad_status ff_options_parse(int argc, char **argv, ff_options *out)
 {
     /* Zero is the default for the enums (auto, all, auto, sparse). */
     *out = (ff_options){.output = "formfactors", .samples = 512, .shadow_rays = 32, .seed = 1,
-                        .oracle = FF_ORACLE_AUTO, .clusters = -1, .link_tol = FF_HIER_LINK_TOL, .min_area = FF_HIER_MIN_AREA, .passes = FF_HIER_PASSES,
+                        .oracle = FF_ORACLE_AUTO, .clusters = -1, .cluster_cone = FF_CLUSTER_CONE_DEG, .link_tol = FF_HIER_LINK_TOL, .min_area = FF_HIER_MIN_AREA, .passes = FF_HIER_PASSES,
                         .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE,
                         .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL};
     out->refine = rad_refine_defaults();

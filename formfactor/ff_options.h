@@ -53,6 +53,8 @@ typedef enum ff_method { FF_METHOD_FULL = 0, FF_METHOD_HIERARCHICAL = 1, FF_METH
 #define FF_HIER_LINK_TOL 1e-2
 #define FF_HIER_MIN_AREA 1e-7
 #define FF_HIER_PASSES 3
+/* --cluster-cone's default (docs/hierarchy.md, "Clusters facing apart"). */
+#define FF_CLUSTER_CONE_DEG 70.0
 
 typedef enum ff_reciprocity { FF_RECIPROCITY_AUTO, FF_RECIPROCITY_ON, FF_RECIPROCITY_OFF } ff_reciprocity;
 
@@ -106,6 +108,7 @@ typedef struct ff_options {
     int uniform_leaves;      /* --uniform-leaves: every face split to --subdiv first (hierarchical) */
     int sized_leaves;        /* --sized-leaves: every face split first to the largest face's leaf area */
     int clusters;            /* --clusters: 1 on, 0 off, -1 auto (on from FF_CLUSTERS_AUTO_ROOTS faces) */
+    double cluster_cone;     /* --cluster-cone: degrees (180: any cluster may link) */
     int preset;              /* --preset: FF_PRESET_FINAL (default) or FF_PRESET_PREVIEW */
     int ke_radiance;         /* --ke radiance: Ke is emitted radiance, E = pi Ke
                                 (rad_scene_options.ke_radiance); 0 = --ke radiosity */

@@ -3,7 +3,8 @@
 
     scenes/make_interior.py --triangles 100000 --out /tmp/interior_1e5
 
-gives /tmp/interior_1e5.obj and .mtl: a closed 8 x 3 x 6 room (faces
+gives /tmp/interior_1e5.obj, .mtl and .camera (a view from the front wall,
+for render and tools/image_study.py): a closed 8 x 3 x 6 room (faces
 inward, walls tessellated), three ceiling lights, four tables (thin legs),
 eight chairs, two shelves of books (many small boxes), and tessellated
 curved objects - spheres, vases (cylinders with a lip) and tori - resting
@@ -71,11 +72,11 @@ class Obj:
             for k in range(segments):
                 k1 = (k + 1) % segments
                 if len(a) == 1:
-                    self.tri(a[0], b[k1], b[k])
+                    self.tri(a[0], b[k], b[k1])
                 elif len(b) == 1:
-                    self.tri(a[k], a[k1], b[0])
+                    self.tri(a[k], b[0], a[k1])
                 else:
-                    self.quad(a[k], a[k1], b[k1], b[k])
+                    self.quad(a[k], b[k], b[k1], a[k1])
 
     def sphere(self, cx, cy, cz, r, segments):
         rings = max(3, segments // 2)
@@ -117,15 +118,15 @@ def build(target):
     o.group = "ceiling"
     o.grid((0, H, 0), (W, 0, 0), (0, 0, D), wall * 4, wall * 3)
     o.group = "wall_back"
-    o.grid((0, 0, D), (W, 0, 0), (0, H, 0), wall * 4, wall * 2)
+    o.grid((0, 0, D), (0, H, 0), (W, 0, 0), wall * 2, wall * 4)
     o.group = "wall_front"
-    o.grid((0, 0, 0), (0, H, 0), (W, 0, 0), wall * 2, wall * 4)
+    o.grid((0, 0, 0), (W, 0, 0), (0, H, 0), wall * 4, wall * 2)
     o.mtl = "red"
     o.group = "wall_left"
-    o.grid((0, 0, 0), (0, 0, D), (0, H, 0), wall * 3, wall * 2)
+    o.grid((0, 0, 0), (0, H, 0), (0, 0, D), wall * 2, wall * 3)
     o.mtl = "green"
     o.group = "wall_right"
-    o.grid((W, 0, 0), (0, H, 0), (0, 0, D), wall * 2, wall * 3)
+    o.grid((W, 0, 0), (0, 0, D), (0, H, 0), wall * 3, wall * 2)
     o.mtl = "light"
     for i, x in enumerate((2.0, 4.0, 6.0)):
         o.group = f"light_{i}"
@@ -194,6 +195,15 @@ def build(target):
     return o
 
 
+# From the front wall at eye height, across the tables to the shelves; the
+# lights are on the ceiling, above the view.
+CAMERA = """# Camera for scenes/make_interior.py's room (units m)
+eye 4 1.7 0.25
+look_at 4 0.9 5
+up 0 1 0
+fov_y 65
+"""
+
 MTL = """newmtl white
 Kd 0.75 0.75 0.75
 newmtl red
@@ -215,7 +225,7 @@ Ke 12 12 12
 def main(argv):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--triangles", type=int, default=10000, help="about how many triangles [10000]")
-    p.add_argument("--out", required=True, help="writes OUT.obj and OUT.mtl")
+    p.add_argument("--out", required=True, help="writes OUT.obj, OUT.mtl and OUT.camera")
     a = p.parse_args(argv)
     o = build(a.triangles)
     name = a.out.rsplit("/", 1)[-1]
@@ -236,6 +246,8 @@ def main(argv):
                 mtl = m
             out.append(f"f {i} {j} {k}\n")
         f.write("".join(out))
+    with open(a.out + ".camera", "w") as f:
+        f.write(CAMERA)
     print(f"{a.out}.obj: {len(o.rows)} triangles, {len(o.verts)} vertices")
     return 0
 

@@ -89,7 +89,7 @@ static double point_to_all(rad_vec3 x, rad_vec3 n, const rad_ff_patch *s, int co
 static ff_cluster_bound tree_bound(const rad_ff_patch *p, int count)
 {
     ff_cluster_tree t;
-    RAD_CHECK(ff_clusters_build(p, (uint32_t)count, &t) == RAD_OK);
+    RAD_CHECK(ff_clusters_build(p, (uint32_t)count, RAD_PI, &t) == RAD_OK);
     unsigned char *seen = calloc((size_t)count, 1);
     for (uint32_t k = 0; k < t.root_count; k++) {
         RAD_CHECK(t.roots[k] < (uint32_t)count && !seen[t.roots[k]]);

@@ -51,7 +51,8 @@ light out of the overall numbers, without it every pixel counts.
 
 Options of `run` / `reference` (defaults in brackets):
   --build DIR           our build directory [build]
-  --scenes A,B          cornell_box,cornell_sphere,cluttered_room [all three]
+  --scenes A,B          cornell_box,cornell_sphere,cluttered_room [all three], or OBJ
+                        files with a .camera beside them (scenes/make_interior.py)
   --min-subdiv S, --max-subdiv S   uniform subdivisions [2, 4]; S = 5 costs
                         about 16 x S = 4's formfactor time
   --max-patches N       skip uniform runs of more patches [20000] (the cluttered
@@ -147,6 +148,7 @@ CAMERAS = {
     "cluttered_room": {"eye": (5.0, 1.7, 0.3), "look_at": (5.0, 0.6, 6.0), "up": (0.0, 1.0, 0.0), "fov_y": 70.0},
 }
 DEFAULT_FOV_Y = 39.3077
+LABEL_FACES_MAX = 5000     # above: labels_by_brightness (casting per face would take hours)
 PASS_SPP = 64
 LUMA = (0.2126, 0.7152, 0.0722)
 BACKGROUND, MIXED = -1, -2
@@ -346,14 +348,40 @@ def cast_labels(faces, face_region, eye, dirs):
     return best.reshape(shape)
 
 
-def labels_for(scene, width, height, cache):
-    """Per-pixel labels (cached): dict with labels (H, W) int16, names, exclude (H, W) bool."""
+def labels_by_brightness(faces, materials, ref):
+    """Labels for scenes too large to cast per face (LABEL_FACES_MAX): one region, 'all'; excluded are
+    the pixels at least half as bright as the dimmest light (Ke / pi: a light seen directly) and their 8
+    neighbours, as the light's pixels are in labels_for, and the background."""
+    lights = [luminance(np.array(m["Ke"], float)) / math.pi for m in materials.values() if max(m["Ke"]) > 0]
+    y = luminance(ref)
+    hit = y >= 0.5 * min(lights) if lights else np.zeros(y.shape, bool)
+    near = hit.copy()
+    near[1:, :] |= hit[:-1, :]
+    near[:-1, :] |= hit[1:, :]
+    grown = near.copy()
+    grown[:, 1:] |= near[:, :-1]
+    grown[:, :-1] |= near[:, 1:]
+    exclude = grown | (y <= 0.0)
+    return np.zeros(y.shape, np.int16), ["all"], exclude
+
+
+def labels_for(scene, width, height, cache, ref=None):
+    """Per-pixel labels (cached): dict with labels (H, W) int16, names, exclude (H, W) bool. Scenes of
+    more than LABEL_FACES_MAX faces take them from the reference ref (labels_by_brightness)."""
     path = os.path.join(cache, f"labels_{scene}_{width}x{height}_v2.npz")
     if os.path.exists(path):
         z = np.load(path)
         return {"labels": z["labels"], "names": [str(s) for s in z["names"]], "exclude": z["exclude"], "path": path}
     t0 = time.time()
-    faces, _ = load_obj(os.path.join(REPO, SCENES[scene][0]))
+    faces, materials = load_obj(os.path.join(REPO, SCENES[scene][0]))
+    if len(faces) > LABEL_FACES_MAX:
+        if ref is None:
+            raise RuntimeError(f"labels for {scene} ({len(faces)} faces) come from its reference: render it first")
+        labels, names, exclude = labels_by_brightness(faces, materials, ref)
+        os.makedirs(cache, exist_ok=True)
+        np.savez_compressed(path, labels=labels, names=np.array(names), exclude=exclude)
+        log(f"labels for {scene}: by brightness, {int(exclude.sum())} pixels left out -> {path}")
+        return {"labels": labels, "names": names, "exclude": exclude, "path": path}
     cam = load_camera(scene)
     per_face = region_names(faces, cam, width, height)
     names = sorted(set(per_face))
@@ -541,7 +569,7 @@ def render_reference(scene, args):
     if not os.path.exists(mean_path):
         write_exr(mean_path, mean)
     info["mean"] = mean_path
-    labels = labels_for(scene, W, H, args.cache)
+    labels = labels_for(scene, W, H, args.cache, mean)
     info["labels"] = labels["path"]
     if len(images) >= 2:
         c = compare(images[1], images[0], labels)
@@ -916,9 +944,19 @@ def parse_args(argv):
     if not argv or argv[0] not in ("run", "reference", "compare", "-h", "--help"):
         argv = ["run"] + list(argv)
     args = p.parse_args(argv)
+    names = []
     for s in getattr(args, "scenes", "").split(",") if args.cmd != "compare" else []:
+        if s.endswith(".obj") and os.path.exists(s):   # a scene file of one's own, its camera beside it
+            name = os.path.splitext(os.path.basename(s))[0]
+            SCENES[name] = (os.path.abspath(s), False)
+            if not os.path.exists(os.path.splitext(s)[0] + ".camera"):
+                p.error(f"{s}: no camera file {os.path.splitext(s)[0]}.camera beside it")
+            s = name
         if s not in SCENES:
-            p.error(f"unknown scene '{s}' (known: {', '.join(SCENES)})")
+            p.error(f"unknown scene '{s}' (known: {', '.join(SCENES)}, or an .obj file with a .camera beside it)")
+        names.append(s)
+    if args.cmd != "compare":
+        args.scenes = ",".join(names)
     return args
 
 
