@@ -10,7 +10,7 @@
 /* ---- the median split ---- */
 
 typedef struct split_key {
-    double at;     /* the centre's coordinate on the split axis */
+    double at;     /* the centre's coordinate on the split axis, or the normal's (split_keys) */
     uint32_t root;
 } split_key;
 
@@ -199,11 +199,21 @@ ff_cluster_pair_bound ff_cluster_pair_estimate(const ff_cluster_bound *r, const 
 
 /* ---- the tree ---- */
 
+/* A cluster is split by orientation only where its centres' box is
+ * thinner than this fraction of its widest side: a table top, a book, a
+ * seat, whose top and bottom faces position splits keep together down to
+ * the leaf clusters. Elsewhere orientation splits make clusters of one
+ * orientation spread over a room (a closed cube's furnace came out 20 %
+ * high with them everywhere, 6 % at 0.25, 2.0 % at 0.1 as with position
+ * splits alone: docs/hierarchy.md). */
+#define FF_CLUSTER_THIN 0.1
+
 /* The key a cluster's roots are split by: where their normals spread
- * beyond max_cone (half-angle about their area-weighted mean), the normal's
- * component along the axis it varies most on (area-weighted), so that the
- * two halves face apart (a table's top and bottom); else the centre's
- * coordinate along the widest axis of the centres' box. */
+ * beyond max_cone (half-angle about their area-weighted mean) and their
+ * centres' box is thin (FF_CLUSTER_THIN), the normal's component along the
+ * axis it varies most on (area-weighted), so that the two halves face
+ * apart (a table's top and bottom); else the centre's coordinate along the
+ * widest axis of the centres' box. */
 static void split_keys(const rad_ff_patch *patches, const uint32_t *roots, uint32_t begin, uint32_t end,
                        double max_cone, split_key *keys)
 {
@@ -222,7 +232,16 @@ static void split_keys(const rad_ff_patch *patches, const uint32_t *roots, uint3
         for (uint32_t k = begin; k < end; k++) cos_min = fmin(cos_min, rad_v3_dot(patches[roots[k]].normal, v) / len);
     else
         cos_min = -1.0;
-    if (max_cone < RAD_PI && acos(fmax(-1.0, fmin(1.0, cos_min))) > max_cone && area > 0) {
+    rad_vec3 lo = rad_v3(INFINITY, INFINITY, INFINITY), hi = rad_v3(-INFINITY, -INFINITY, -INFINITY);
+    for (uint32_t k = begin; k < end; k++) {
+        rad_vec3 x = patches[roots[k]].centre;
+        lo = rad_v3(fmin(lo.x, x.x), fmin(lo.y, x.y), fmin(lo.z, x.z));
+        hi = rad_v3(fmax(hi.x, x.x), fmax(hi.y, x.y), fmax(hi.z, x.z));
+    }
+    rad_vec3 d = rad_v3_sub(hi, lo);
+    const double widest = fmax(d.x, fmax(d.y, d.z)), thinnest = fmin(d.x, fmin(d.y, d.z));
+    if (max_cone < RAD_PI && acos(fmax(-1.0, fmin(1.0, cos_min))) > max_cone && area > 0 &&
+        thinnest < FF_CLUSTER_THIN * widest) {
         rad_vec3 mean = rad_v3_scale(v, 1.0 / area);
         rad_vec3 var = rad_v3(sq.x / area - mean.x * mean.x, sq.y / area - mean.y * mean.y, sq.z / area - mean.z * mean.z);
         int axis = var.x >= var.y && var.x >= var.z ? 0 : var.y >= var.z ? 1 : 2;
@@ -232,13 +251,6 @@ static void split_keys(const rad_ff_patch *patches, const uint32_t *roots, uint3
         }
         return;
     }
-    rad_vec3 lo = rad_v3(INFINITY, INFINITY, INFINITY), hi = rad_v3(-INFINITY, -INFINITY, -INFINITY);
-    for (uint32_t k = begin; k < end; k++) {
-        rad_vec3 x = patches[roots[k]].centre;
-        lo = rad_v3(fmin(lo.x, x.x), fmin(lo.y, x.y), fmin(lo.z, x.z));
-        hi = rad_v3(fmax(hi.x, x.x), fmax(hi.y, x.y), fmax(hi.z, x.z));
-    }
-    rad_vec3 d = rad_v3_sub(hi, lo);
     int axis = d.x >= d.y && d.x >= d.z ? 0 : d.y >= d.z ? 1 : 2;
     for (uint32_t k = begin; k < end; k++) {
         rad_vec3 x = patches[roots[k]].centre;

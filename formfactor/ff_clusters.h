@@ -12,8 +12,9 @@
  *
  * The tree is built top down: a cluster's roots are split at the median of
  * their centres along the widest axis of the centres' box, or, where their
- * normals spread beyond max_cone from their mean, at the median of the
- * normals' component along the axis it varies most on (ties by root
+ * normals spread beyond max_cone from their mean and that box is thin (a
+ * table top), at the median of the normals' component along the axis it
+ * varies most on (ties by root
  * index: the same tree for any thread count), until at most
  * FF_CLUSTER_LEAF_ROOTS roots are left. A cluster's children are
  * consecutive and come after it (rad_link_cluster's rules).
