@@ -109,8 +109,8 @@ static rad_status clusters_init(ff_links *L)
         rad_error("clusters: %zu faces, more than a hierarchy with clusters numbers", L->tree.base->patch_count);
         return RAD_ERR_UNSUPPORTED;
     }
-    rad_status st = ff_clusters_build(L->patches, (uint32_t)L->tree.base->patch_count,
-                                       L->config.cluster_cone > 0 ? L->config.cluster_cone : RAD_PI, &L->clusters);
+    rad_status st = ff_clusters_build(L->patches, (uint32_t)L->tree.base->patch_count, L->config.cluster_cone,
+                                       &L->clusters);
     if (st != RAD_OK) return st;
     size_t n = L->clusters.count;
     L->cluster_radiosity = malloc(3 * n * sizeof *L->cluster_radiosity);
@@ -179,6 +179,7 @@ rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *ba
     L->scene = scene;
     memcpy(L->centre, centre, sizeof L->centre);
     L->config = *config;
+    if (!(L->config.cluster_cone > 0)) L->config.cluster_cone = RAD_PI; /* 0: no cone, as pi */
     L->backend = backend;
     L->backend_state = backend_state;
     L->tracer_state = tracer_state;
@@ -431,8 +432,7 @@ static rad_status link_push(ff_links *L, const ff_link_pair *p)
  * link-tol 0.1 with such links; within 1 % without (docs/hierarchy.md). */
 static int mixed_end(const ff_links *L, uint32_t id)
 {
-    return ff_is_cluster(id) && L->config.cluster_cone > 0 &&
-           L->clusters.clusters[ff_cluster_of(id)].bound.cone_angle > L->config.cluster_cone;
+    return ff_is_cluster(id) && L->clusters.clusters[ff_cluster_of(id)].bound.cone_angle > L->config.cluster_cone;
 }
 
 /* A pair with a cluster at an end: a cluster's self-link becomes the

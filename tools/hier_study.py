@@ -30,7 +30,7 @@ except ImportError:
 
 
 def read_radiosity(path):
-    """B (N x 3), the patches' areas and whether they emit."""
+    """B (N x 3), the patches' areas, whether they emit and their normals (N x 3)."""
     head = open(path, "rb").read(256)
     if head[:8] != b"RADRAD\r\n":
         raise SystemExit(f"{path}: not a radiosity file")
@@ -38,14 +38,14 @@ def read_radiosity(path):
     patches_at, offset = struct.unpack_from("<QQ", head, 120)
     rec = np.fromfile(path, "<f8", 16 * n, offset=patches_at).reshape(n, 16)
     area, emits = rec[:, 3], (rec[:, 13:16] > 0).any(axis=1)
-    return np.fromfile(path, "<f8", 3 * n, offset=offset).reshape(n, 3), area, emits
+    return np.fromfile(path, "<f8", 3 * n, offset=offset).reshape(n, 3), area, emits, rec[:, 4:7]
 
 
 def errors(h, f):
     """The largest and the area-weighted RMS |B_h - B_f| over leaves and channels, both over the
     mean radiosity of the leaves that do not emit (area-weighted, brightest channel): the scale
     the links' error bound is given in, and the image's relative RMSE's."""
-    (Bh, area, emits), (Bf, _, _) = h, f
+    (Bh, area, emits, _), (Bf, _, _, _) = h, f
     keep = ~emits if (~emits).any() else np.ones(len(area), bool)
     mean = float(np.sum(area[keep] * Bf[keep].max(axis=1)) / np.sum(area[keep]))
     d = np.abs(Bh - Bf)
@@ -53,18 +53,14 @@ def errors(h, f):
     return float(d.max()) / mean, rms / mean
 
 
-def facing_bias(hpath, fpath):
+def facing_bias(h, f):
     """The largest relative difference, over the six ways a leaf can face (its normal's largest axis and
-    its sign), between the area-weighted mean radiosity of the leaves that face that way in two radiosity
-    files of the same leaves; ways holding less than 1 % of the area left out. Clusters whose faces face
-    apart, given one irradiance, move light between these (docs/hierarchy.md)."""
-    def load(path):
-        head = open(path, "rb").read(256)
-        n = struct.unpack_from("<Q", head, 16)[0]
-        patches_at, offset = struct.unpack_from("<QQ", head, 120)
-        rec = np.fromfile(path, "<f8", 16 * n, offset=patches_at).reshape(n, 16)
-        return np.fromfile(path, "<f8", 3 * n, offset=offset).reshape(n, 3).sum(axis=1), rec[:, 3], rec[:, 4:7]
-    (bh, area, normal), (bf, _, _) = load(hpath), load(fpath)
+    its sign), between the area-weighted mean radiosity (channels summed) of the leaves that face that
+    way in two solutions of the same leaves (read_radiosity's); ways holding less than 1 % of the area
+    left out. Clusters whose faces face apart, given one irradiance, move light between these
+    (docs/hierarchy.md)."""
+    (Bh, area, _, normal), (Bf, _, _, _) = h, f
+    bh, bf = Bh.sum(axis=1), Bf.sum(axis=1)
     axis = np.abs(normal).argmax(axis=1)
     way = 2 * axis + (normal[np.arange(len(axis)), axis] < 0)
     worst = 0.0
@@ -157,9 +153,10 @@ def main(argv):
             if not ((a.uniform or a.sized) and rows):
                 t_full = run([ff, *scene, "--refine", hr, "--refine-tol", "1e5", "-q", "-o", full], env)
                 t_full += run([solve, full, "-q", "--tol", a.solve_tol, "-o", fr], env)
-            err, rms = errors(read_radiosity(hr), read_radiosity(fr))
-            bias = facing_bias(hr, fr)
-            flat = errors(read_radiosity(hr + ".flat"), read_radiosity(fr)) if a.flat else (None, None)
+            h, f = read_radiosity(hr), read_radiosity(fr)
+            err, rms = errors(h, f)
+            bias = facing_bias(h, f)
+            flat = errors(read_radiosity(hr + ".flat"), f) if a.flat else (None, None)
             rows.append({"link_tol": float(tol), "leaves": stats["leaves"], "elements": stats["elements"],
                          "links": stats["links"], "links_per_leaf": stats["links_per_leaf"],
                          "error": err, "rms": rms, "bound": stats["error_bound"], "seconds": t_links + t_solve,

@@ -348,40 +348,29 @@ def cast_labels(faces, face_region, eye, dirs):
     return best.reshape(shape)
 
 
-def labels_by_brightness(faces, materials, ref):
-    """Labels for scenes too large to cast per face (LABEL_FACES_MAX): one region, 'all'; excluded are
-    the pixels at least half as bright as the dimmest light (Ke / pi: a light seen directly) and their 8
-    neighbours, as the light's pixels are in labels_for, and the background."""
-    lights = [luminance(np.array(m["Ke"], float)) / math.pi for m in materials.values() if max(m["Ke"]) > 0]
-    y = luminance(ref)
-    hit = y >= 0.5 * min(lights) if lights else np.zeros(y.shape, bool)
+def with_neighbours(hit):
+    """hit (H, W) bool grown by one pixel in all 8 directions."""
     near = hit.copy()
     near[1:, :] |= hit[:-1, :]
     near[:-1, :] |= hit[1:, :]
     grown = near.copy()
     grown[:, 1:] |= near[:, :-1]
     grown[:, :-1] |= near[:, 1:]
-    exclude = grown | (y <= 0.0)
-    return np.zeros(y.shape, np.int16), ["all"], exclude
+    return grown
 
 
-def labels_for(scene, width, height, cache, ref=None):
-    """Per-pixel labels (cached): dict with labels (H, W) int16, names, exclude (H, W) bool. Scenes of
-    more than LABEL_FACES_MAX faces take them from the reference ref (labels_by_brightness)."""
-    path = os.path.join(cache, f"labels_{scene}_{width}x{height}_v2.npz")
-    if os.path.exists(path):
-        z = np.load(path)
-        return {"labels": z["labels"], "names": [str(s) for s in z["names"]], "exclude": z["exclude"], "path": path}
-    t0 = time.time()
-    faces, materials = load_obj(os.path.join(REPO, SCENES[scene][0]))
-    if len(faces) > LABEL_FACES_MAX:
-        if ref is None:
-            raise RuntimeError(f"labels for {scene} ({len(faces)} faces) come from its reference: render it first")
-        labels, names, exclude = labels_by_brightness(faces, materials, ref)
-        os.makedirs(cache, exist_ok=True)
-        np.savez_compressed(path, labels=labels, names=np.array(names), exclude=exclude)
-        log(f"labels for {scene}: by brightness, {int(exclude.sum())} pixels left out -> {path}")
-        return {"labels": labels, "names": names, "exclude": exclude, "path": path}
+def labels_by_brightness(materials, ref):
+    """Labels for scenes too large to cast per face (LABEL_FACES_MAX): one region, 'all'; excluded are
+    the pixels at least half as bright as the dimmest light (Ke / pi: a light seen directly) and their 8
+    neighbours, as the light's pixels are in labels_for, and the background."""
+    lights = [luminance(np.array(m["Ke"], float)) / math.pi for m in materials.values() if max(m["Ke"]) > 0]
+    y = luminance(ref)
+    hit = y >= 0.5 * min(lights) if lights else np.zeros(y.shape, bool)
+    return np.zeros(y.shape, np.int16), ["all"], with_neighbours(hit) | (y <= 0.0)
+
+
+def labels_by_rays(faces, scene, width, height):
+    """Per-pixel regions from rays cast at every face (3 x 3 a pixel): labels, names, exclude."""
     cam = load_camera(scene)
     per_face = region_names(faces, cam, width, height)
     names = sorted(set(per_face))
@@ -398,17 +387,29 @@ def labels_for(scene, width, height, cache, ref=None):
     # reference disagree by aliasing alone (one such pixel was 23 % of the Cornell box's squared
     # error). The light is a large convex polygon, so every pixel it touches borders one its
     # rays hit. (Caches before this rule were labels_<scene>_<W>x<H>.npz, without _v2.)
-    hit = np.any(hits == light, axis=-1)
-    near = hit.copy()
-    near[1:, :] |= hit[:-1, :]
-    near[:-1, :] |= hit[1:, :]
-    grown = near.copy()
-    grown[:, 1:] |= near[:, :-1]
-    grown[:, :-1] |= near[:, 1:]
-    exclude = grown | (labels == BACKGROUND)
+    exclude = with_neighbours(np.any(hits == light, axis=-1)) | (labels == BACKGROUND)
+    return labels, names, exclude
+
+
+def labels_for(scene, width, height, cache, ref=None):
+    """Per-pixel labels (cached): dict with labels (H, W) int16, names, exclude (H, W) bool. Scenes of
+    more than LABEL_FACES_MAX faces take them from the reference ref (labels_by_brightness)."""
+    path = os.path.join(cache, f"labels_{scene}_{width}x{height}_v2.npz")
+    if os.path.exists(path):
+        return load_labels(path)
+    t0 = time.time()
+    faces, materials = load_obj(os.path.join(REPO, SCENES[scene][0]))
+    if len(faces) <= LABEL_FACES_MAX:
+        labels, names, exclude = labels_by_rays(faces, scene, width, height)
+        how = f"{len(names)} regions"
+    elif ref is not None:
+        labels, names, exclude = labels_by_brightness(materials, ref)
+        how = f"by brightness, {int(exclude.sum())} pixels left out"
+    else:
+        raise RuntimeError(f"labels for {scene} ({len(faces)} faces) come from its reference: render it first")
     os.makedirs(cache, exist_ok=True)
     np.savez_compressed(path, labels=labels, names=np.array(names), exclude=exclude)
-    log(f"labels for {scene}: {len(names)} regions, {time.time() - t0:.1f} s -> {path}")
+    log(f"labels for {scene}: {how}, {time.time() - t0:.1f} s -> {path}")
     return {"labels": labels, "names": names, "exclude": exclude, "path": path}
 
 
