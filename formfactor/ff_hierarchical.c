@@ -45,6 +45,7 @@ typedef struct hier_run {
     ff_counters counters;
     double error_bound;
     double solved_tol; /* the tolerance the last flat solve met */
+    int solved_cold;   /* ... from B = E, as solve would (ff_solve_links may take it) */
     int threads;
     int cpu_first;      /* --backend auto takes the CPU without asking CUDA (cpu_first_under_auto) */
     double most_leaves; /* faces x 4^level: what it decides by */
@@ -72,24 +73,31 @@ static int same_leaves(const rad_mesh *a, const rad_mesh *b)
 #define HIER_ORACLE_TOL 1e-4
 #define HIER_FINAL_TOL 1e-6
 
-/* The flat solve of the exported links to `tol`, from h->B where `warm`. */
+/* The flat solve of the exported links to `tol`, from h->B where `warm`;
+ * a grey scene once (solve's options, so that ff_solve_links may take a
+ * cold one as its own). */
 static rad_status solve_flat(hier_run *h, double tol, int warm)
 {
     rad_lsolve_options o = rad_lsolve_defaults();
     o.threads = h->threads;
     o.tolerance = tol;
     o.warm_start = warm;
+    o.channels = ff_solve_channels(&h->leaves);
     const double t0 = rad_clock_seconds();
     rad_status st = rad_lsolve(&h->exported, &h->leaves, &o, h->B, &h->solution);
     h->seconds_solve += rad_clock_seconds() - t0;
     h->solved_tol = tol;
+    h->solved_cold = !warm;
     return st;
 }
 
-/* Exports the links and solves on them to `tol`, from the last pass's B
- * where the leaves did not change (uniform or sized leaves: every pass after the
- * first). */
-static rad_status export_and_solve(hier_run *h, double tol)
+/* Exports the links and solves on them to `tol`: from the last pass's B
+ * where the leaves did not change (uniform or sized leaves: every pass
+ * after the first), else, but for the last pass, from the elements' B
+ * (ff_links_leaf_radiosity: a new leaf starts at its parent's value). The
+ * last pass of new leaves solves from B = E, as solve does on the file,
+ * so that --radiosity can take that solution as its own. */
+static rad_status export_and_solve(hier_run *h, double tol, int last)
 {
     double t0 = rad_clock_seconds();
     rad_mesh old_leaves = h->leaves;
@@ -101,8 +109,12 @@ static rad_status export_and_solve(hier_run *h, double tol)
     h->seconds_export += rad_clock_seconds() - t0;
     if (st == RAD_OK && !(h->B = malloc(3 * (h->leaves.patch_count ? h->leaves.patch_count : 1) * sizeof *h->B)))
         st = RAD_ERR_NOMEM;
-    const int warm = st == RAD_OK && old_B && same_leaves(&old_leaves, &h->leaves);
-    if (warm) memcpy(h->B, old_B, 3 * h->leaves.patch_count * sizeof *h->B);
+    int warm = st == RAD_OK && old_B && same_leaves(&old_leaves, &h->leaves);
+    if (warm) {
+        memcpy(h->B, old_B, 3 * h->leaves.patch_count * sizeof *h->B);
+    } else if (st == RAD_OK && old_B && !last) {
+        warm = ff_links_leaf_radiosity(&h->links, h->B);
+    }
     rad_mesh_free(&old_leaves);
     free(old_B);
     return st == RAD_OK ? solve_flat(h, tol, warm) : st;
@@ -181,7 +193,8 @@ static rad_status build_links(hier_run *h)
             rad_info("pass %u: nothing refined; the links and their solution stand", pass + 1);
             break;
         }
-        if (st == RAD_OK) st = export_and_solve(h, pass + 1 < opt->passes ? HIER_ORACLE_TOL : HIER_FINAL_TOL);
+        const int last = pass + 1 == opt->passes;
+        if (st == RAD_OK) st = export_and_solve(h, last ? HIER_FINAL_TOL : HIER_ORACLE_TOL, last);
         if (st == RAD_OK)
             rad_info("pass %u: %llu pairs refined; %u elements, %u leaves, %llu links (%.1f per leaf); %llu candidate "
                      "pairs, %llu shadow rays so far; links %.2f s, solved in %u sweeps",
@@ -223,7 +236,9 @@ static rad_status write_links(hier_run *h)
     const ff_options *opt = h->opt;
     const rad_ff_info info = links_info(h);
     double t0 = rad_clock_seconds();
-    rad_status st = opt->radiosity_path ? ff_solve_links(&info, &h->leaves, &h->exported, opt, h->threads)
+    const ff_solve_flat flat = {.B = h->B, .result = h->solution, .tolerance = h->solved_tol};
+    rad_status st = opt->radiosity_path ? ff_solve_links(&info, &h->leaves, &h->exported, h->solved_cold ? &flat : NULL,
+                                                         opt, h->threads)
                                         : rad_ff_write_links(opt->output, &info, &h->leaves, &h->exported);
     h->seconds_write = rad_clock_seconds() - t0;
     return st;

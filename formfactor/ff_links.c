@@ -867,6 +867,16 @@ static void set_radiosity(ff_links *L, const double *leaf_radiosity)
     if (sum > 0) L->reflected = sum / area;
 }
 
+int ff_links_leaf_radiosity(const ff_links *L, double *B)
+{
+    const rad_hierarchy *h = &L->tree;
+    uint32_t *leaves = leaf_elements(h);
+    if (!leaves) return 0;
+    for (size_t k = 0; k < h->leaf_count; k++) memcpy(&B[3 * k], &L->radiosity[3 * (size_t)leaves[k]], 3 * sizeof(double));
+    free(leaves);
+    return 1;
+}
+
 rad_status ff_links_refine(ff_links *L, const double *leaf_radiosity, ff_counters *counters, uint64_t *out_refined)
 {
     job_list list = {0};

@@ -168,6 +168,12 @@ rad_status ff_links_init(ff_links *links, const rad_scene *scene, const rad_mesh
  * this pass refined (0: nothing changed). */
 rad_status ff_links_refine(ff_links *links, const double *leaf_radiosity, ff_counters *counters, uint64_t *out_refined);
 
+/* B (3 per leaf, in ff_links_export's order) from the elements' values:
+ * the last solution's where a leaf was one, else its nearest ancestor's
+ * (a warm start for the solve of the next export). 0 where out of memory
+ * (B untouched). */
+int ff_links_leaf_radiosity(const ff_links *links, double *B);
+
 /* The links as rad_links (nodes in element order, then the clusters;
  * links sorted by receiver then source) and the leaves mesh
  * (rad_hierarchy_leaves). */

@@ -326,6 +326,14 @@ static rad_status write_outputs(const links_state *s)
     return solve_comm_agree(s->options->comm, status);
 }
 
+/* Whether the flat solve handed in is the one `o` would run (from B = E;
+ * converged, so the iteration limits do not matter). */
+static int flat_taken(const solve_links_flat *given, const rad_lsolve_options *o)
+{
+    return given && !o->warm_start && given->result.converged && given->tolerance == o->tolerance &&
+           given->method == o->method && given->channels == o->channels;
+}
+
 rad_status solve_links_solve(const solve_options *options, const solve_links_input *in)
 {
     links_state s;
@@ -376,7 +384,14 @@ rad_status solve_links_solve(const solve_options *options, const solve_links_inp
         rad_lsolve_options flat = s.solve;
         if (!options->no_shape && flat.tolerance < SOLVE_LINKS_FLAT_START_TOL)
             flat.tolerance = SOLVE_LINKS_FLAT_START_TOL;
-        status = rad_lsolve(links, leaves, &flat, s.radiosity, &s.result);
+        if (flat_taken(in->flat, &flat)) {
+            memcpy(s.radiosity, in->flat->B, 3 * leaves->patch_count * sizeof *s.radiosity);
+            s.result = in->flat->result;
+            rad_info("%s: flat: the last pass's solve taken as it is (to %.3g, %u sweeps)", s.input, flat.tolerance,
+                     s.result.iterations[0]);
+        } else {
+            status = rad_lsolve(links, leaves, &flat, s.radiosity, &s.result);
+        }
         if (status == RAD_OK) status = shape(&s);
     }
     if (status == RAD_OK || status == RAD_ERR_NOT_CONVERGED) {

@@ -23,6 +23,7 @@
 
 #include "rad_ffile.h"
 #include "rad_links.h"
+#include "rad_lsolve.h"
 #include "rad_mesh.h"
 #include "rad_status.h"
 #include "stage.h"
@@ -32,11 +33,25 @@
 rad_status solve_links_run(const solve_options *options, rad_ff_file *file);
 
 /* The links, as read, and where they came from. */
+/* A flat solve already run on the links from B = E (rad_lsolve, the
+ * channels as solve_mesh_is_grey says), which solve_links_solve takes as
+ * its own where it converged to the tolerance and by the method the solve
+ * would use: the same sweeps, so the same bytes, run once (formfactor
+ * --radiosity's last pass). */
+typedef struct solve_links_flat {
+    const double *B; /* 3 per leaf */
+    rad_lsolve_result result;
+    double tolerance;
+    rad_lsolve_method method;
+    int channels; /* 1 or 3 */
+} solve_links_flat;
+
 typedef struct solve_links_input {
     const rad_ff_info *info;  /* the file's header: fingerprint, flags, scene path */
     const rad_mesh *leaves;   /* the leaves mesh (the file's patch table) */
     const rad_links *links;
     double load_seconds;      /* reading them */
+    const solve_links_flat *flat; /* NULL: none solved yet */
 } solve_links_input;
 
 /* Everything after reading: checks, the solve, the radiosity file and the
