@@ -232,5 +232,15 @@ int ff_backend_cpu_occluded(void *state, rad_vec3 x, rad_vec3 nx, uint32_t fx, r
     return cpu_occluded(&tracer, x, nx, fx, y, ny, fy);
 }
 
+static rad_status cpu_trace_segments(void *state, const ff_segment *segs, size_t count, uint8_t *blocked)
+{
+    const cpu_state *s = state;
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(s->setup.threads)
+    for (size_t k = 0; k < count; k++)
+        blocked[k] = (uint8_t)ff_bvh_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &segs[k]);
+    return RAD_OK;
+}
+
 const ff_backend ff_backend_cpu = {"cpu",          cpu_create,    cpu_compute_rows, cpu_destroy,
-                                   cpu_alloc_rows, cpu_free_rows, NULL,             cpu_compute_pairs};
+                                   cpu_alloc_rows, cpu_free_rows, NULL,             cpu_compute_pairs,
+                                   cpu_trace_segments};

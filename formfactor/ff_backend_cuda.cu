@@ -198,6 +198,10 @@ struct cuda_state {
     ff_pair_outcome *d_outcomes;
     uint32_t *d_job_list;
     size_t job_capacity;
+    /* trace_segments' own buffers (it may run beside compute_pairs) */
+    ff_segment *d_segments;
+    uint8_t *d_blocked;
+    size_t segment_capacity;
 };
 
 /* Pass 1: thread per pair, the classification (ff_pair_class.h) the CPU
@@ -495,6 +499,8 @@ static void cuda_destroy(void *state)
     cudaFree(s->d_jobs);
     cudaFree(s->d_outcomes);
     cudaFree(s->d_job_list);
+    cudaFree(s->d_segments);
+    cudaFree(s->d_blocked);
     ff_cuda_records_free(s->records);
     if (s->start) cudaEventDestroy(s->start);
     if (s->middle) cudaEventDestroy(s->middle);
@@ -941,6 +947,49 @@ done:
     return status;
 }
 
+/* ff_backend.trace_segments: a thread per segment. */
+__global__ static void ff_segments_kernel(cuda_tracer t, const ff_segment *segs, uint32_t count, uint8_t *blocked)
+{
+    uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
+    if (k >= count) return;
+    const ff_segment seg = segs[k];
+    blocked[k] = (uint8_t)ff_bvh_occluded(t.nodes, t.tris, t.root, t.root_count, &seg);
+}
+
+/* Up to this many segments a launch (a round's cluster pairs come in
+ * chunks of this order, ff_links.c). */
+#define FF_CUDA_SEGMENT_BATCH (1u << 22)
+
+static rad_status cuda_trace_segments(void *state, const ff_segment *segs, size_t count, uint8_t *blocked)
+{
+    cuda_state *s = (cuda_state *)state;
+    rad_status status = RAD_OK;
+    cuda_tracer t;
+    if (count == 0) return RAD_OK;
+    RAD_CUDA_TRY(cudaSetDevice(s->device)); /* per host thread */
+    if (s->segment_capacity < FF_CUDA_SEGMENT_BATCH) {
+        RAD_CUDA_TRY(cudaMalloc(&s->d_segments, FF_CUDA_SEGMENT_BATCH * sizeof *s->d_segments));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_blocked, FF_CUDA_SEGMENT_BATCH * sizeof *s->d_blocked));
+        s->segment_capacity = FF_CUDA_SEGMENT_BATCH;
+    }
+    t.nodes = s->d_nodes;
+    t.tris = s->d_tris;
+    t.root = s->root;
+    t.root_count = s->root_count;
+    t.delta = s->setup.ray_delta;
+    for (size_t done = 0; done < count;) {
+        const uint32_t n = (uint32_t)(count - done < FF_CUDA_SEGMENT_BATCH ? count - done : FF_CUDA_SEGMENT_BATCH);
+        RAD_CUDA_TRY(cudaMemcpy(s->d_segments, segs + done, n * sizeof *segs, cudaMemcpyHostToDevice));
+        ff_segments_kernel<<<(n + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK, FF_CUDA_BLOCK>>>(t, s->d_segments, n,
+                                                                                      s->d_blocked);
+        RAD_CUDA_TRY(cudaGetLastError());
+        RAD_CUDA_TRY(cudaMemcpy(blocked + done, s->d_blocked, n, cudaMemcpyDeviceToHost));
+        done += n;
+    }
+done:
+    return status;
+}
+
 /* Row buffers in page-locked host memory: results stream back by DMA. */
 static double *cuda_alloc_rows(void *state, size_t count)
 {
@@ -960,4 +1009,5 @@ static void cuda_free_rows(void *state, double *rows)
 }
 
 extern "C" const ff_backend ff_backend_cuda = {"cuda",          cuda_create,    cuda_compute_rows, cuda_destroy,
-                                               cuda_alloc_rows, cuda_free_rows, cuda_compute_records, cuda_compute_pairs};
+                                               cuda_alloc_rows, cuda_free_rows, cuda_compute_records, cuda_compute_pairs,
+                                               cuda_trace_segments};

@@ -169,7 +169,8 @@ static rad_status build_links(hier_run *h)
                               .sized_leaves = opt->sized_leaves,
                               .cluster_cone = opt->cluster_cone >= 180.0 ? RAD_PI : opt->cluster_cone * (RAD_PI / 180.0),
                               .clusters = opt->clusters >= 0 ? opt->clusters
-                                                             : h->base.patch_count >= FF_CLUSTERS_AUTO_ROOTS};
+                                                             : h->base.patch_count >= FF_CLUSTERS_AUTO_ROOTS,
+                              .ray_delta = su.ray_delta};
     if (opt->clusters < 0)
         rad_info("--clusters auto: %s (%zu faces; on from %u)", config.clusters ? "on" : "off", h->base.patch_count,
                  FF_CLUSTERS_AUTO_ROOTS);

@@ -594,13 +594,17 @@ static int end_parts(const ff_links *L, uint32_t id, uint32_t parts[FF_CLUSTER_P
  * weighs the bounds' error. */
 #define FF_CLUSTER_ADMISSIBLE 0.9
 
-/* The pair (a, b), a cluster at one end at least: the coupling summed
- * over the two ends' parts (end_parts, shown) times the visible fraction
- * of FF_CLUSTER_RAYS segments between points drawn on the two ends, facing
- * each other. The error of F_ab is what the bounds
+/* The pair (a, b), a cluster at one end at least, in two steps around
+ * the tracing of its segments (trace_cluster_chunk): cluster_draw decides
+ * whether it faces and may be linked, and draws FF_CLUSTER_RAYS segments
+ * between points on the two ends that face each other (o->rays of them,
+ * into segs); cluster_finish, told how many were blocked, sums the
+ * coupling over the two ends' parts (end_parts, shown) times the visible
+ * fraction. The error of F_ab is what the bounds
  * (ff_cluster_pair_estimate) allow a point of a's faces to see of b beyond
  * F_ab, the lower bound taken only where every segment was clear. */
-static void cluster_pair(const ff_links *L, uint32_t a, uint32_t b, cluster_outcome *o)
+static void cluster_draw(const ff_links *L, uint32_t a, uint32_t b, cluster_outcome *o,
+                         ff_segment segs[FF_CLUSTER_RAYS])
 {
     memset(o, 0, sizeof *o);
     if (a == b) {
@@ -616,17 +620,24 @@ static void cluster_pair(const ff_links *L, uint32_t a, uint32_t b, cluster_outc
         o->must_split = 1;
         return;
     }
-    uint32_t valid = 0, blocked = 0;
+    uint32_t valid = 0;
     const uint64_t seed = mix64(((uint64_t)a << 32) | b);
     for (uint32_t k = 0; k < 4 * FF_CLUSTER_RAYS && valid < FF_CLUSTER_RAYS; k++) {
         rad_vec3 x, y;
         const rad_ff_patch *px = side_point(L, a, seed + 2 * k, &x), *py = side_point(L, b, seed + 2 * k + 1, &y);
         rad_vec3 d = rad_v3_sub(y, x);
         if (rad_v3_dot(px->normal, d) <= 0 || rad_v3_dot(py->normal, d) >= 0) continue;
-        valid++;
-        blocked += (uint32_t)ff_backend_cpu_occluded(L->tracer_state, x, px->normal, px->face, y, py->normal,
-                                                     py->face);
+        segs[valid++] = ff_segment_make(x, px->normal, px->face, y, py->normal, py->face, L->config.ray_delta);
     }
+    o->rays = valid;
+}
+
+static void cluster_finish(const ff_links *L, uint32_t a, uint32_t b, uint32_t blocked, cluster_outcome *o)
+{
+    if (!o->facing || o->must_split) return;
+    ff_cluster_bound ba = node_bound(L, a), bb = node_bound(L, b);
+    ff_cluster_pair_bound pb = ff_cluster_pair_estimate(&ba, &bb);
+    const uint32_t valid = o->rays;
     const double V = valid ? 1.0 - (double)blocked / valid : 1.0;
     const int clear = valid == FF_CLUSTER_RAYS && blocked == 0;
     /* The coupling part by part: an end whose normals spread comes apart
@@ -647,11 +658,60 @@ static void cluster_pair(const ff_links *L, uint32_t a, uint32_t b, cluster_outc
             sum += shown(L, pa[i], w) * shown(L, pb_[j], rad_v3_scale(w, -1.0)) / (RAD_PI * dist2);
         }
     o->coupling = V * sum / (ba.area * bb.area);
-    o->rays = valid;
     o->blocked = blocked;
     double Fab = o->coupling * bb.area, Fba = o->coupling * ba.area;
     o->error_ab = fmax(pb.hi_rs - Fab, Fab - (clear ? pb.lo_rs : 0.0));
     o->error_ba = fmax(pb.hi_sr - Fba, Fba - (clear ? pb.lo_sr : 0.0));
+}
+
+/* Cluster pairs a round holds at once between drawing and finishing (their
+ * segments: FF_CLUSTER_RAYS each, ~100 bytes a segment). */
+#define FF_CLUSTER_CHUNK 65536u
+
+/* Where the cluster links' segments are traced: the element backend
+ * where it traces segments and is not the CPU's (a GPU), else the CPU
+ * tracer. */
+static void segment_tracer(const ff_links *L, const ff_backend **backend, void **state)
+{
+    if (L->backend->trace_segments && L->backend_state != L->tracer_state) {
+        *backend = L->backend;
+        *state = L->backend_state;
+    } else {
+        *backend = &ff_backend_cpu;
+        *state = L->tracer_state;
+    }
+}
+
+/* The cluster pairs jobs[0, m) into out[0, m): drawn on the CPU's threads
+ * a chunk at a time, their segments traced together (segment_tracer),
+ * then finished on the threads. segs: FF_CLUSTER_CHUNK * FF_CLUSTER_RAYS
+ * segments, blocked as many bytes, offsets FF_CLUSTER_CHUNK + 1. */
+static rad_status cluster_pairs(const ff_links *L, const ff_pair_job *jobs, size_t m, cluster_outcome *out,
+                                ff_segment *drawn, ff_segment *segs, uint8_t *blocked, size_t *offsets)
+{
+    const ff_backend *tracer;
+    void *state;
+    segment_tracer(L, &tracer, &state);
+    for (size_t c0 = 0; c0 < m; c0 += FF_CLUSTER_CHUNK) {
+        const size_t c = m - c0 < FF_CLUSTER_CHUNK ? m - c0 : FF_CLUSTER_CHUNK;
+#pragma omp parallel for schedule(dynamic, 16)
+        for (size_t i = 0; i < c; i++)
+            cluster_draw(L, jobs[c0 + i].a, jobs[c0 + i].b, &out[c0 + i], drawn + i * FF_CLUSTER_RAYS);
+        offsets[0] = 0;
+        for (size_t i = 0; i < c; i++) offsets[i + 1] = offsets[i] + out[c0 + i].rays;
+#pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < c; i++)
+            memcpy(segs + offsets[i], drawn + i * FF_CLUSTER_RAYS, out[c0 + i].rays * sizeof *segs);
+        rad_status st = tracer->trace_segments(state, segs, offsets[c], blocked);
+        if (st != RAD_OK) return st;
+#pragma omp parallel for schedule(dynamic, 16)
+        for (size_t i = 0; i < c; i++) {
+            uint32_t hit = 0;
+            for (size_t k = offsets[i]; k < offsets[i + 1]; k++) hit += blocked[k];
+            cluster_finish(L, jobs[c0 + i].a, jobs[c0 + i].b, hit, &out[c0 + i]);
+        }
+    }
+    return RAD_OK;
 }
 
 /* One round's element pairs through the backend, with counters of their
@@ -673,6 +733,26 @@ static void *element_pairs_thread(void *arg)
     return NULL;
 }
 
+/* cluster_pairs' buffers: the segments (returned; NULL, logged, for lack
+ * of memory, nothing left allocated), those drawn, the blocked flags and
+ * the offsets. */
+static ff_segment *cluster_buffers(ff_segment **drawn, uint8_t **blocked, size_t **offsets)
+{
+    const size_t n = (size_t)FF_CLUSTER_CHUNK * FF_CLUSTER_RAYS;
+    ff_segment *segs = malloc(n * sizeof *segs);
+    *drawn = malloc(n * sizeof **drawn);
+    *blocked = malloc(n);
+    *offsets = malloc((FF_CLUSTER_CHUNK + 1) * sizeof **offsets);
+    if (segs && *drawn && *blocked && *offsets) return segs;
+    rad_error("hierarchy: out of memory for the cluster links' segments");
+    free(segs);
+    free(*drawn);
+    free(*blocked);
+    free(*offsets);
+    *drawn = NULL, *blocked = NULL, *offsets = NULL;
+    return NULL;
+}
+
 /* Candidates through the backend, then decided in order. */
 static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters, uint64_t *refined)
 {
@@ -681,6 +761,9 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     cluster_outcome *cout = NULL; /* per pair with a cluster at an end, in list order */
     size_t out_cap = 0;
     job_list next = {0}, pairs = {0}, cpairs = {0};
+    ff_segment *segs = NULL, *drawn = NULL; /* cluster_pairs' buffers, made on the first round with clusters */
+    uint8_t *blocked = NULL;
+    size_t *offsets = NULL;
     while (st == RAD_OK && list->count > 0) {
         size_t n = list->count;
         if (n > out_cap) {
@@ -714,19 +797,22 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         const int overlap = pairs.count && clustered && L->tracer_state != L->backend_state &&
                             pthread_create(&gpu_thread, NULL, element_pairs_thread, &call) == 0;
         if (pairs.count && !overlap) element_pairs_thread(&call);
+        rad_status cst = RAD_OK;
         if (clustered) {
             const size_t m = clustered;
-            const ff_pair_job *cj = cpairs.jobs;
             long long t0 = rad_clock_ns();
-#pragma omp parallel for schedule(dynamic, 16)
-            for (size_t i = 0; i < m; i++) cluster_pair(L, cj[i].a, cj[i].b, &cout[i]);
+            if (!segs && !(segs = cluster_buffers(&drawn, &blocked, &offsets))) {
+                cst = RAD_ERR_NOMEM;
+            } else {
+                cst = cluster_pairs(L, cpairs.jobs, m, cout, drawn, segs, blocked, offsets);
+            }
             counters->visibility_seconds += 1e-9 * (double)(rad_clock_ns() - t0);
             L->cluster_pairs += m;
             for (size_t i = 0; i < m; i++) L->cluster_rays += cout[i].rays;
         }
         if (overlap) pthread_join(gpu_thread, NULL);
         ff_counters_add(counters, &call.counters);
-        if ((st = call.status) != RAD_OK) break;
+        if ((st = call.status) != RAD_OK || (st = cst) != RAD_OK) break;
         L->candidates += n;
         L->rounds++;
         const size_t links_before = L->link_count;
@@ -785,6 +871,10 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     free(next.jobs);
     free(pairs.jobs);
     free(cpairs.jobs);
+    free(segs);
+    free(drawn);
+    free(blocked);
+    free(offsets);
     return st;
 }
 

@@ -92,6 +92,7 @@ typedef struct ff_links_config {
                            (ff_clusters.h) instead of every pair of roots */
     double cluster_cone; /* radians: a cluster whose normals spread more than this from their mean
                             links nothing and is split (by orientation in the tree); 0 or pi: none */
+    double ray_delta;    /* scene units: the cluster links' shadow segments' (ff_segment) */
 } ff_links_config;
 
 /* --clusters auto turns clusters on from this many roots up: below, the
@@ -122,7 +123,8 @@ typedef struct ff_links {
     ff_links_config config;
     const ff_backend *backend;
     void *backend_state;
-    void *tracer_state;    /* a CPU backend's state: cluster links' shadow segments (ff_backend_cpu_occluded) */
+    void *tracer_state;    /* a CPU backend's state: cluster links' shadow segments where the backend
+                              does not trace them (trace_segments) */
     rad_hierarchy tree;
     rad_ff_patch *patches; /* per element, the backend's frame */
     uint32_t *keys;        /* per element: its first leaf's patch index in the mesh of the leaves
