@@ -682,18 +682,54 @@ static void segment_tracer(const ff_links *L, const ff_backend **backend, void *
     }
 }
 
-/* The cluster pairs jobs[0, m) into out[0, m): drawn on the CPU's threads
- * a chunk at a time, their segments traced together (segment_tracer),
- * then finished on the threads. segs: FF_CLUSTER_CHUNK * FF_CLUSTER_RAYS
- * segments, blocked as many bytes, offsets FF_CLUSTER_CHUNK + 1. */
-static rad_status cluster_pairs(const ff_links *L, const ff_pair_job *jobs, size_t m, cluster_outcome *out,
-                                ff_segment *drawn, ff_segment *segs, uint8_t *blocked, size_t *offsets)
-{
+/* cluster_pairs' buffers: the segments to trace (in the tracer's row
+ * memory: page-locked for a GPU, which reads them at twice the speed),
+ * those drawn, the blocked flags and the offsets. RAD_ERR_NOMEM (logged)
+ * with nothing left allocated. */
+typedef struct cluster_buffers {
     const ff_backend *tracer;
     void *state;
-    segment_tracer(L, &tracer, &state);
+    ff_segment *segs, *drawn;
+    uint8_t *blocked;
+    size_t *offsets;
+} cluster_buffers;
+
+static void cluster_buffers_free(cluster_buffers *b)
+{
+    if (b->segs) b->tracer->free_rows(b->state, (double *)b->segs);
+    free(b->drawn);
+    free(b->blocked);
+    free(b->offsets);
+    memset(b, 0, sizeof *b);
+}
+
+static rad_status cluster_buffers_make(const ff_links *L, cluster_buffers *b)
+{
+    const size_t n = (size_t)FF_CLUSTER_CHUNK * FF_CLUSTER_RAYS;
+    memset(b, 0, sizeof *b);
+    segment_tracer(L, &b->tracer, &b->state);
+    b->segs = (ff_segment *)b->tracer->alloc_rows(b->state, n * sizeof *b->segs / sizeof(double));
+    b->drawn = malloc(n * sizeof *b->drawn);
+    b->blocked = malloc(n);
+    b->offsets = malloc((FF_CLUSTER_CHUNK + 1) * sizeof *b->offsets);
+    if (b->segs && b->drawn && b->blocked && b->offsets) return RAD_OK;
+    rad_error("hierarchy: out of memory for the cluster links' segments");
+    cluster_buffers_free(b);
+    return RAD_ERR_NOMEM;
+}
+
+/* The cluster pairs jobs[0, m) into out[0, m): drawn on the CPU's threads
+ * a chunk at a time, their segments traced together (segment_tracer),
+ * then finished on the threads, in the buffers b (cluster_buffers_make). */
+static rad_status cluster_pairs(ff_links *L, const ff_pair_job *jobs, size_t m, cluster_outcome *out,
+                                const cluster_buffers *b)
+{
+    ff_segment *drawn = b->drawn, *segs = b->segs;
+    uint8_t *blocked = b->blocked;
+    size_t *offsets = b->offsets;
     for (size_t c0 = 0; c0 < m; c0 += FF_CLUSTER_CHUNK) {
         const size_t c = m - c0 < FF_CLUSTER_CHUNK ? m - c0 : FF_CLUSTER_CHUNK;
+        long long t0 = rad_clock_ns();
 #pragma omp parallel for schedule(dynamic, 16)
         for (size_t i = 0; i < c; i++)
             cluster_draw(L, jobs[c0 + i].a, jobs[c0 + i].b, &out[c0 + i], drawn + i * FF_CLUSTER_RAYS);
@@ -702,14 +738,19 @@ static rad_status cluster_pairs(const ff_links *L, const ff_pair_job *jobs, size
 #pragma omp parallel for schedule(static)
         for (size_t i = 0; i < c; i++)
             memcpy(segs + offsets[i], drawn + i * FF_CLUSTER_RAYS, out[c0 + i].rays * sizeof *segs);
-        rad_status st = tracer->trace_segments(state, segs, offsets[c], blocked);
+        long long t1 = rad_clock_ns();
+        rad_status st = b->tracer->trace_segments(b->state, segs, offsets[c], blocked);
         if (st != RAD_OK) return st;
+        long long t2 = rad_clock_ns();
 #pragma omp parallel for schedule(dynamic, 16)
         for (size_t i = 0; i < c; i++) {
             uint32_t hit = 0;
             for (size_t k = offsets[i]; k < offsets[i + 1]; k++) hit += blocked[k];
             cluster_finish(L, jobs[c0 + i].a, jobs[c0 + i].b, hit, &out[c0 + i]);
         }
+        L->cluster_seconds[0] += 1e-9 * (double)(t1 - t0);
+        L->cluster_seconds[1] += 1e-9 * (double)(t2 - t1);
+        L->cluster_seconds[2] += 1e-9 * (double)(rad_clock_ns() - t2);
     }
     return RAD_OK;
 }
@@ -733,26 +774,6 @@ static void *element_pairs_thread(void *arg)
     return NULL;
 }
 
-/* cluster_pairs' buffers: the segments (returned; NULL, logged, for lack
- * of memory, nothing left allocated), those drawn, the blocked flags and
- * the offsets. */
-static ff_segment *cluster_buffers(ff_segment **drawn, uint8_t **blocked, size_t **offsets)
-{
-    const size_t n = (size_t)FF_CLUSTER_CHUNK * FF_CLUSTER_RAYS;
-    ff_segment *segs = malloc(n * sizeof *segs);
-    *drawn = malloc(n * sizeof **drawn);
-    *blocked = malloc(n);
-    *offsets = malloc((FF_CLUSTER_CHUNK + 1) * sizeof **offsets);
-    if (segs && *drawn && *blocked && *offsets) return segs;
-    rad_error("hierarchy: out of memory for the cluster links' segments");
-    free(segs);
-    free(*drawn);
-    free(*blocked);
-    free(*offsets);
-    *drawn = NULL, *blocked = NULL, *offsets = NULL;
-    return NULL;
-}
-
 /* Candidates through the backend, then decided in order. */
 static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters, uint64_t *refined)
 {
@@ -761,9 +782,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     cluster_outcome *cout = NULL; /* per pair with a cluster at an end, in list order */
     size_t out_cap = 0;
     job_list next = {0}, pairs = {0}, cpairs = {0};
-    ff_segment *segs = NULL, *drawn = NULL; /* cluster_pairs' buffers, made on the first round with clusters */
-    uint8_t *blocked = NULL;
-    size_t *offsets = NULL;
+    cluster_buffers buffers = {0}; /* made on the first round with clusters */
     while (st == RAD_OK && list->count > 0) {
         size_t n = list->count;
         if (n > out_cap) {
@@ -801,11 +820,8 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         if (clustered) {
             const size_t m = clustered;
             long long t0 = rad_clock_ns();
-            if (!segs && !(segs = cluster_buffers(&drawn, &blocked, &offsets))) {
-                cst = RAD_ERR_NOMEM;
-            } else {
-                cst = cluster_pairs(L, cpairs.jobs, m, cout, drawn, segs, blocked, offsets);
-            }
+            if (!buffers.segs) cst = cluster_buffers_make(L, &buffers);
+            if (cst == RAD_OK) cst = cluster_pairs(L, cpairs.jobs, m, cout, &buffers);
             counters->visibility_seconds += 1e-9 * (double)(rad_clock_ns() - t0);
             L->cluster_pairs += m;
             for (size_t i = 0; i < m; i++) L->cluster_rays += cout[i].rays;
@@ -871,10 +887,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     free(next.jobs);
     free(pairs.jobs);
     free(cpairs.jobs);
-    free(segs);
-    free(drawn);
-    free(blocked);
-    free(offsets);
+    cluster_buffers_free(&buffers);
     return st;
 }
 
