@@ -20,7 +20,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "ff_bvh.h"
+#include "ff_cluster_math.h"
 #include "ff_counters.h"
 #include "ff_rows.h"
 #include "rad_ff_kernel.h"
@@ -167,13 +167,16 @@ typedef struct ff_backend {
      * the CUDA backend uploads only those past the last call's. */
     rad_status (*compute_pairs)(void *state, const rad_ff_patch *patches, const uint32_t *keys,
                                 const ff_pair_job *jobs, size_t count, ff_pair_outcome *out, ff_counters *counters);
-    /* Shadow segments (ff_segment_make's, through the occluders' BVH):
-     * blocked[k] = 1 where something other than its two faces lies on
-     * segs[k] (ff_bvh_occluded), else 0; the same answers on every
-     * backend. The cluster links of a hierarchical run trace theirs here
-     * (ff_links.c). Safe beside a compute_pairs call from another thread.
-     * NULL: not offered. */
-    rad_status (*trace_segments)(void *state, const ff_segment *segs, size_t count, uint8_t *blocked);
+    /* Pairs with a cluster at an end (ff_links.c): out[k] for jobs[k],
+     * k < count, as ff_cluster_draw decides and draws it, its segments
+     * traced through the occluders' BVH (out[k].blocked). v holds host
+     * arrays: the tree's cluster_count clusters and root_count roots (the
+     * same on every call of a run) and element_count elements (only ever
+     * appended to, as compute_pairs' are). The same answers on every
+     * backend; safe beside a compute_pairs call from another thread. NULL:
+     * not offered. */
+    rad_status (*cluster_draws)(void *state, const ff_cluster_view *v, uint32_t cluster_count, uint32_t root_count,
+                                size_t element_count, const ff_pair_job *jobs, size_t count, ff_cluster_drawn *out);
 } ff_backend;
 
 extern const ff_backend ff_backend_cpu;

@@ -232,15 +232,24 @@ int ff_backend_cpu_occluded(void *state, rad_vec3 x, rad_vec3 nx, uint32_t fx, r
     return cpu_occluded(&tracer, x, nx, fx, y, ny, fy);
 }
 
-static rad_status cpu_trace_segments(void *state, const ff_segment *segs, size_t count, uint8_t *blocked)
+static rad_status cpu_cluster_draws(void *state, const ff_cluster_view *v, uint32_t cluster_count,
+                                    uint32_t root_count, size_t element_count, const ff_pair_job *jobs, size_t count,
+                                    ff_cluster_drawn *out)
 {
     const cpu_state *s = state;
-#pragma omp parallel for schedule(dynamic, 1024) num_threads(s->setup.threads)
-    for (size_t k = 0; k < count; k++)
-        blocked[k] = (uint8_t)ff_bvh_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &segs[k]);
+    (void)cluster_count, (void)root_count, (void)element_count;
+#pragma omp parallel for schedule(dynamic, 16) num_threads(s->setup.threads)
+    for (size_t k = 0; k < count; k++) {
+        ff_segment segs[FF_CLUSTER_RAYS];
+        ff_cluster_draw(v, jobs[k].a, jobs[k].b, &out[k], segs);
+        uint32_t blocked = 0;
+        for (uint32_t r = 0; r < out[k].rays; r++)
+            blocked += (uint32_t)ff_bvh_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &segs[r]);
+        out[k].blocked = blocked;
+    }
     return RAD_OK;
 }
 
 const ff_backend ff_backend_cpu = {"cpu",          cpu_create,    cpu_compute_rows, cpu_destroy,
                                    cpu_alloc_rows, cpu_free_rows, NULL,             cpu_compute_pairs,
-                                   cpu_trace_segments};
+                                   cpu_cluster_draws};

@@ -198,10 +198,17 @@ struct cuda_state {
     ff_pair_outcome *d_outcomes;
     uint32_t *d_job_list;
     size_t job_capacity;
-    /* trace_segments' own buffers (it may run beside compute_pairs) */
-    ff_segment *d_segments;
-    uint8_t *d_blocked;
-    size_t segment_capacity;
+    /* cluster_draws' own copies (it may run beside compute_pairs): the
+     * cluster tree (once), the elements as far as uploaded, the jobs and
+     * their outcomes */
+    ff_cluster *d_clusters;
+    uint32_t *d_roots;
+    double *d_area_before;
+    rad_ff_patch *d_cluster_elements;
+    size_t cluster_element_capacity, cluster_elements_uploaded;
+    ff_pair_job *d_cluster_jobs;
+    ff_cluster_drawn *d_drawn;
+    size_t cluster_job_capacity;
 };
 
 /* Pass 1: thread per pair, the classification (ff_pair_class.h) the CPU
@@ -499,8 +506,12 @@ static void cuda_destroy(void *state)
     cudaFree(s->d_jobs);
     cudaFree(s->d_outcomes);
     cudaFree(s->d_job_list);
-    cudaFree(s->d_segments);
-    cudaFree(s->d_blocked);
+    cudaFree(s->d_clusters);
+    cudaFree(s->d_roots);
+    cudaFree(s->d_area_before);
+    cudaFree(s->d_cluster_elements);
+    cudaFree(s->d_cluster_jobs);
+    cudaFree(s->d_drawn);
     ff_cuda_records_free(s->records);
     if (s->start) cudaEventDestroy(s->start);
     if (s->middle) cudaEventDestroy(s->middle);
@@ -947,45 +958,90 @@ done:
     return status;
 }
 
-/* ff_backend.trace_segments: a thread per segment. */
-__global__ static void ff_segments_kernel(cuda_tracer t, const ff_segment *segs, uint32_t count, uint8_t *blocked)
+/* ff_backend.cluster_draws: a thread per pair draws its segments
+ * (ff_cluster_draw, as on the CPU) and traces them. */
+__global__ static void ff_cluster_draws_kernel(ff_cluster_view v, cuda_tracer t, const ff_pair_job *jobs,
+                                               uint32_t count, ff_cluster_drawn *out)
 {
     uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
     if (k >= count) return;
-    const ff_segment seg = segs[k];
-    blocked[k] = (uint8_t)ff_bvh_occluded(t.nodes, t.tris, t.root, t.root_count, &seg);
+    ff_segment segs[FF_CLUSTER_RAYS];
+    ff_cluster_drawn o;
+    ff_cluster_draw(&v, jobs[k].a, jobs[k].b, &o, segs);
+    uint32_t blocked = 0;
+    for (uint32_t r = 0; r < o.rays; r++) blocked += (uint32_t)ff_bvh_occluded(t.nodes, t.tris, t.root, t.root_count, &segs[r]);
+    o.blocked = blocked;
+    out[k] = o;
 }
 
-/* Up to this many segments a launch (a round's cluster pairs come in
- * chunks of this order, ff_links.c). */
-#define FF_CUDA_SEGMENT_BATCH (1u << 22)
-
-static rad_status cuda_trace_segments(void *state, const ff_segment *segs, size_t count, uint8_t *blocked)
+static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, uint32_t cluster_count,
+                                     uint32_t root_count, size_t element_count, const ff_pair_job *jobs,
+                                     size_t count, ff_cluster_drawn *out)
 {
     cuda_state *s = (cuda_state *)state;
     rad_status status = RAD_OK;
     cuda_tracer t;
+    ff_cluster_view dv;
     if (count == 0) return RAD_OK;
-    RAD_CUDA_TRY(cudaSetDevice(s->device)); /* per host thread */
-    if (s->segment_capacity < FF_CUDA_SEGMENT_BATCH) {
-        RAD_CUDA_TRY(cudaMalloc(&s->d_segments, FF_CUDA_SEGMENT_BATCH * sizeof *s->d_segments));
-        RAD_CUDA_TRY(cudaMalloc(&s->d_blocked, FF_CUDA_SEGMENT_BATCH * sizeof *s->d_blocked));
-        s->segment_capacity = FF_CUDA_SEGMENT_BATCH;
+    if (count > UINT32_MAX) {
+        rad_error("cuda: %zu cluster pairs exceed one launch's index range", count);
+        return RAD_ERR_INVALID;
     }
+    RAD_CUDA_TRY(cudaSetDevice(s->device)); /* per host thread */
+    if (!s->d_clusters) { /* the tree: the same on every call of a run */
+        RAD_CUDA_TRY(cudaMalloc(&s->d_clusters, (cluster_count ? cluster_count : 1) * sizeof *s->d_clusters));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_roots, ((size_t)root_count + 1) * sizeof *s->d_roots));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_area_before, ((size_t)root_count + 1) * sizeof *s->d_area_before));
+        RAD_CUDA_TRY(cudaMemcpy(s->d_clusters, v->clusters, cluster_count * sizeof *s->d_clusters,
+                                cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpy(s->d_roots, v->roots, root_count * sizeof *s->d_roots, cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpy(s->d_area_before, v->area_before, ((size_t)root_count + 1) * sizeof *s->d_area_before,
+                                cudaMemcpyHostToDevice));
+    }
+    if (element_count > s->cluster_element_capacity) { /* grown: the uploaded ones move along */
+        size_t cap = element_count + element_count / 2;
+        rad_ff_patch *grown = NULL;
+        RAD_CUDA_TRY(cudaMalloc(&grown, cap * sizeof *grown));
+        if (s->cluster_elements_uploaded)
+            RAD_CUDA_TRY(cudaMemcpy(grown, s->d_cluster_elements, s->cluster_elements_uploaded * sizeof *grown,
+                                    cudaMemcpyDeviceToDevice));
+        cudaFree(s->d_cluster_elements);
+        s->d_cluster_elements = grown;
+        s->cluster_element_capacity = cap;
+    }
+    if (element_count > s->cluster_elements_uploaded) {
+        RAD_CUDA_TRY(cudaMemcpy(s->d_cluster_elements + s->cluster_elements_uploaded,
+                                v->patches + s->cluster_elements_uploaded,
+                                (element_count - s->cluster_elements_uploaded) * sizeof *v->patches,
+                                cudaMemcpyHostToDevice));
+        s->cluster_elements_uploaded = element_count;
+    }
+    if (count > s->cluster_job_capacity) {
+        cudaFree(s->d_cluster_jobs);
+        cudaFree(s->d_drawn);
+        s->d_cluster_jobs = NULL;
+        s->d_drawn = NULL;
+        s->cluster_job_capacity = 0;
+        size_t cap = count < 65536 ? 65536 : count + count / 4;
+        RAD_CUDA_TRY(cudaMalloc(&s->d_cluster_jobs, cap * sizeof *s->d_cluster_jobs));
+        RAD_CUDA_TRY(cudaMalloc(&s->d_drawn, cap * sizeof *s->d_drawn));
+        s->cluster_job_capacity = cap;
+    }
+    RAD_CUDA_TRY(cudaMemcpy(s->d_cluster_jobs, jobs, count * sizeof *jobs, cudaMemcpyHostToDevice));
+    dv = *v;
+    dv.clusters = s->d_clusters;
+    dv.roots = s->d_roots;
+    dv.area_before = s->d_area_before;
+    dv.patches = s->d_cluster_elements;
     t.nodes = s->d_nodes;
     t.tris = s->d_tris;
     t.root = s->root;
     t.root_count = s->root_count;
     t.delta = s->setup.ray_delta;
-    for (size_t done = 0; done < count;) {
-        const uint32_t n = (uint32_t)(count - done < FF_CUDA_SEGMENT_BATCH ? count - done : FF_CUDA_SEGMENT_BATCH);
-        RAD_CUDA_TRY(cudaMemcpy(s->d_segments, segs + done, n * sizeof *segs, cudaMemcpyHostToDevice));
-        ff_segments_kernel<<<(n + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK, FF_CUDA_BLOCK>>>(t, s->d_segments, n,
-                                                                                      s->d_blocked);
-        RAD_CUDA_TRY(cudaGetLastError());
-        RAD_CUDA_TRY(cudaMemcpy(blocked + done, s->d_blocked, n, cudaMemcpyDeviceToHost));
-        done += n;
-    }
+    ff_cluster_draws_kernel<<<(unsigned)((count + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK>>>(
+        dv, t, s->d_cluster_jobs, (uint32_t)count, s->d_drawn);
+    RAD_CUDA_TRY(cudaGetLastError());
+    RAD_CUDA_TRY(cudaMemcpy(out, s->d_drawn, count * sizeof *out, cudaMemcpyDeviceToHost));
 done:
     return status;
 }
@@ -1010,4 +1066,4 @@ static void cuda_free_rows(void *state, double *rows)
 
 extern "C" const ff_backend ff_backend_cuda = {"cuda",          cuda_create,    cuda_compute_rows, cuda_destroy,
                                                cuda_alloc_rows, cuda_free_rows, cuda_compute_records, cuda_compute_pairs,
-                                               cuda_trace_segments};
+                                               cuda_cluster_draws};

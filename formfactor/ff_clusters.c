@@ -56,22 +56,6 @@ static void select_kth(split_key *keys, size_t n, size_t k)
 
 /* ---- bounds ---- */
 
-ff_cluster_bound ff_element_bound(const rad_ff_patch *p)
-{
-    ff_cluster_bound b;
-    b.centre = p->centre;
-    b.radius = p->radius;
-    b.area = p->area;
-    b.vector_area = rad_v3_scale(p->normal, p->area);
-    b.axis = p->normal;
-    b.cone_angle = 0;
-    rad_vec3 n = p->normal;
-    const double A = p->area;
-    b.moment[0] = A * n.x * n.x, b.moment[1] = A * n.y * n.y, b.moment[2] = A * n.z * n.z;
-    b.moment[3] = A * n.x * n.y, b.moment[4] = A * n.x * n.z, b.moment[5] = A * n.y * n.z;
-    return b;
-}
-
 /* Cluster c's bound from its roots' patches. */
 static ff_cluster_bound bound_of_roots(const rad_ff_patch *patches, const uint32_t *roots, uint32_t begin,
                                        uint32_t end)
@@ -111,41 +95,6 @@ static ff_cluster_bound bound_of_roots(const rad_ff_patch *patches, const uint32
     return b;
 }
 
-/* The area b shows towards directions within beta of the unit w: an
- * estimate and bounds (ff_clusters.h), and the range of cos between a
- * face's normal and those directions. */
-typedef struct shown_area {
-    double est, lo, hi, cos_lo, cos_hi;
-} shown_area;
-
-static shown_area shown_towards(const ff_cluster_bound *b, rad_vec3 w, double beta)
-{
-    shown_area a;
-    double theta = acos(fmax(-1.0, fmin(1.0, rad_v3_dot(b->axis, w))));
-    double widest = theta + b->cone_angle + beta, narrowest = theta - b->cone_angle - beta;
-    a.cos_hi = narrowest <= 0 ? 1.0 : cos(narrowest);
-    a.cos_lo = widest >= RAD_PI ? -1.0 : cos(widest);
-    double vw = rad_v3_dot(b->vector_area, w), S = b->area;
-    /* Each point sees the faces from its own direction, within beta of w:
-     * sum A n.w(y) lies within S beta of V.w (not |V| beta: the faces'
-     * normals may disagree, and each face takes its own worst direction). */
-    double slack = S * beta;
-    a.hi = a.cos_hi <= 0 ? 0.0 : fmin(S * a.cos_hi, 0.5 * (vw + slack + S));
-    a.lo = a.cos_lo >= 0 ? fmax(S * a.cos_lo, vw - slack) : fmax(0.0, vw - slack);
-    if (a.lo > a.hi) a.lo = a.hi;
-    /* The estimate at w itself: every face in front, P(w) = V.w exactly;
-     * else (V.w + T) / 2, T between its moment bounds (ff_clusters.h). */
-    const double *M = b->moment;
-    double q = w.x * w.x * M[0] + w.y * w.y * M[1] + w.z * w.z * M[2] +
-               2 * (w.x * w.y * M[3] + w.x * w.z * M[4] + w.y * w.z * M[5]);
-    q = fmax(0.0, q);
-    double t_hi = sqrt(S * q), t_lo = fmin(t_hi, fmax(q, fabs(vw)));
-    int in_front = theta + b->cone_angle <= 0.5 * RAD_PI;
-    double est = in_front ? vw : 0.5 * (vw + sqrt(t_hi * t_lo));
-    a.est = fmin(a.hi, fmax(a.lo, est));
-    return a;
-}
-
 double ff_cluster_shown_in(const ff_cluster_tree *t, const rad_ff_patch *root_patches, uint32_t c, rad_vec3 w,
                            int depth)
 {
@@ -162,38 +111,10 @@ double ff_cluster_shown_in(const ff_cluster_tree *t, const rad_ff_patch *root_pa
         }
         return p;
     }
-    if (depth <= 0) return shown_towards(b, w, 0.0).est;
+    if (depth <= 0) return ff_cluster_shown_towards(b, w, 0.0).est;
     double p = 0;
     for (uint32_t i = 0; i < cl->link.child_count; i++)
         p += ff_cluster_shown_in(t, root_patches, cl->link.first_child + i, w, depth - 1);
-    return p;
-}
-
-ff_cluster_pair_bound ff_cluster_pair_estimate(const ff_cluster_bound *r, const ff_cluster_bound *s)
-{
-    ff_cluster_pair_bound p = {0, 0, 0, 0, 0, 0};
-    rad_vec3 d = rad_v3_sub(s->centre, r->centre);
-    double dist = rad_v3_length(d), reach = r->radius + s->radius;
-    if (!(dist > 0)) {
-        p.facing = 1;
-        p.hi_rs = p.hi_sr = INFINITY;
-        return p;
-    }
-    rad_vec3 w = rad_v3_scale(d, 1.0 / dist);
-    double beta = reach >= dist ? RAD_PI : asin(reach / dist);
-    shown_area ar = shown_towards(r, w, beta), as = shown_towards(s, rad_v3_scale(w, -1.0), beta);
-    if (ar.hi <= 0 || as.hi <= 0) return p;
-    p.facing = 1;
-    p.coupling = ar.est * as.est / (r->area * s->area * RAD_PI * dist * dist);
-    double near = dist - reach, far = dist + reach;
-    if (near <= 0) {
-        p.hi_rs = p.hi_sr = INFINITY;
-    } else {
-        p.hi_rs = fmin(1.0, ar.cos_hi * as.hi / (RAD_PI * near * near));
-        p.hi_sr = fmin(1.0, as.cos_hi * ar.hi / (RAD_PI * near * near));
-    }
-    p.lo_rs = fmax(0.0, ar.cos_lo) * as.lo / (RAD_PI * far * far);
-    p.lo_sr = fmax(0.0, as.cos_lo) * ar.lo / (RAD_PI * far * far);
     return p;
 }
 
@@ -302,21 +223,6 @@ rad_status ff_clusters_build(const rad_ff_patch *patches, uint32_t root_count, d
         cl->link.area = cl->bound.area;
     }
     return RAD_OK;
-}
-
-uint32_t ff_cluster_pick_root(const ff_cluster_tree *t, uint32_t c, double u)
-{
-    const rad_link_cluster *l = &t->clusters[c].link;
-    double lo_area = t->area_before[l->root_begin], want = lo_area + u * (t->area_before[l->root_end] - lo_area);
-    uint32_t lo = l->root_begin, hi = l->root_end - 1; /* the last k with area_before[k] <= want */
-    while (lo < hi) {
-        uint32_t mid = lo + (hi - lo + 1) / 2;
-        if (t->area_before[mid] <= want)
-            lo = mid;
-        else
-            hi = mid - 1;
-    }
-    return t->roots[lo];
 }
 
 void ff_clusters_free(ff_cluster_tree *t)

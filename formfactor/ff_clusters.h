@@ -19,7 +19,8 @@
  * FF_CLUSTER_LEAF_ROOTS roots are left. A cluster's children are
  * consecutive and come after it (rad_link_cluster's rules).
  *
- * What a link needs to know of a cluster (ff_cluster_bound) is what its
+ * What a link needs to know of a cluster (ff_cluster_bound, ff_cluster_math.h,
+ * with the pair's estimate and the draws written once for CPU and GPU) is what its
  * faces can send and receive without looking at them one by one: the
  * bounding sphere, the total area S, the vector area V = sum A n, and a
  * cone holding every face normal. The area a cluster shows in direction w,
@@ -36,6 +37,7 @@
 
 #include <stdint.h>
 
+#include "ff_cluster_math.h"
 #include "rad_ff_kernel.h"
 #include "rad_links.h"
 #include "rad_math.h"
@@ -43,22 +45,6 @@
 
 /* Roots a leaf cluster holds at most. */
 #define FF_CLUSTER_LEAF_ROOTS 4u
-
-/* The geometry a link between clusters or elements is bounded with. */
-typedef struct ff_cluster_bound {
-    rad_vec3 centre;
-    double radius;     /* every point of every face lies within it of centre */
-    double area;       /* S */
-    rad_vec3 vector_area; /* V */
-    rad_vec3 axis;     /* unit; every face normal within cone_angle of it */
-    double cone_angle; /* radians, in [0, pi] */
-    double moment[6];  /* M = sum A n n^T: xx, yy, zz, xy, xz, yz */
-} ff_cluster_bound;
-
-typedef struct ff_cluster {
-    rad_link_cluster link; /* parent, children, root range, area: what the file stores */
-    ff_cluster_bound bound;
-} ff_cluster;
 
 typedef struct ff_cluster_tree {
     ff_cluster *clusters;
@@ -75,28 +61,12 @@ typedef struct ff_cluster_tree {
 rad_status ff_clusters_build(const rad_ff_patch *root_patches, uint32_t root_count, double max_cone,
                              ff_cluster_tree *out);
 
-/* One element's bound (a cluster of one face). */
-ff_cluster_bound ff_element_bound(const rad_ff_patch *patch);
-
-/* The root of cluster c that holds the area fraction u in [0, 1) of it,
- * the roots taken in cluster order: a root drawn in proportion to its area. */
-uint32_t ff_cluster_pick_root(const ff_cluster_tree *t, uint32_t c, double u);
-
-/* The unoccluded coupling between two bounds r and s (clusters, or an
- * element and a cluster), and per direction the range that the factor from
- * any point of r's faces to s can take, visibility aside:
- *   coupling = P_r(w) P_s(-w) / (S_r S_s pi d^2), w the unit vector from r's
- *              centre to s's, d their distance (F_rs = coupling S_s);
- *   lo_rs, hi_rs: cos_x P_s / (pi d^2) at its least and largest over the
- *              faces' normals, the directions and the distances the two
- *              spheres allow (hi at most 1; infinite where the spheres meet).
- * facing 0: no face of r can face s, or none of s r (no link). */
-typedef struct ff_cluster_pair_bound {
-    double coupling;
-    double lo_rs, hi_rs, lo_sr, hi_sr;
-    int facing;
-} ff_cluster_pair_bound;
-ff_cluster_pair_bound ff_cluster_pair_estimate(const ff_cluster_bound *r, const ff_cluster_bound *s);
+/* The root of cluster c that holds the area fraction u in [0, 1) of it
+ * (ff_cluster_pick_in over the tree's arrays). */
+static inline uint32_t ff_cluster_pick_root(const ff_cluster_tree *t, uint32_t c, double u)
+{
+    return ff_cluster_pick_in(t->clusters, t->roots, t->area_before, c, u);
+}
 
 /* P(w) of cluster c from its parts: exact where its cone lies wholly in
  * front of w or behind it, summed over its faces in a leaf cluster, summed

@@ -522,28 +522,6 @@ typedef struct cluster_outcome {
     int must_split;       /* a self-link, or ends too close for a cluster link */
 } cluster_outcome;
 
-static uint64_t mix64(uint64_t x)
-{
-    x += 0x9E3779B97F4A7C15ull;
-    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-    return x ^ (x >> 31);
-}
-
-static double unit_of(uint64_t h) { return (double)(h >> 11) * 0x1.0p-53; }
-
-/* A point on side id for the draw h: on the element, or on a face of the
- * cluster drawn in proportion to its area. */
-static const rad_ff_patch *side_point(const ff_links *L, uint32_t id, uint64_t h, rad_vec3 *x)
-{
-    uint64_t h1 = mix64(h), h2 = mix64(h1), h3 = mix64(h2);
-    const rad_ff_patch *p =
-        ff_is_cluster(id) ? &L->patches[ff_cluster_pick_root(&L->clusters, ff_cluster_of(id), unit_of(h1))]
-                          : &L->patches[id];
-    *x = rad_ff_sample_point(p, unit_of(h2), unit_of(h3));
-    return p;
-}
-
 /* Levels below a cluster whose parts' shown areas are summed where their
  * normals disagree (ff_cluster_shown_in): 2^3 parts at most. */
 #define FF_CLUSTER_SHOWN_DEPTH 3
@@ -588,56 +566,25 @@ static int end_parts(const ff_links *L, uint32_t id, uint32_t parts[FF_CLUSTER_P
     return m;
 }
 
-/* A cluster link is made only between ends whose bounding spheres' radii
- * sum to less than this fraction of their centres' distance: nearer, the
- * bounds say nothing (their distance goes to 0). Between, the oracle
- * weighs the bounds' error. */
-#define FF_CLUSTER_ADMISSIBLE 0.9
 
-/* The pair (a, b), a cluster at one end at least, in two steps around
- * the tracing of its segments (trace_cluster_chunk): cluster_draw decides
- * whether it faces and may be linked, and draws FF_CLUSTER_RAYS segments
- * between points on the two ends that face each other (o->rays of them,
- * into segs); cluster_finish, told how many were blocked, sums the
- * coupling over the two ends' parts (end_parts, shown) times the visible
- * fraction. The error of F_ab is what the bounds
- * (ff_cluster_pair_estimate) allow a point of a's faces to see of b beyond
- * F_ab, the lower bound taken only where every segment was clear. */
-static void cluster_draw(const ff_links *L, uint32_t a, uint32_t b, cluster_outcome *o,
-                         ff_segment segs[FF_CLUSTER_RAYS])
+/* The pair (a, b), a cluster at one end at least, once the backend has
+ * decided it and traced its segments (ff_backend.cluster_draws,
+ * ff_cluster_draw): the coupling summed over the two ends' parts
+ * (end_parts, shown) times the visible fraction. The error of F_ab is what
+ * the bounds (ff_cluster_pair_estimate) allow a point of a's faces to see
+ * of b beyond F_ab, the lower bound taken only where every segment was
+ * clear. */
+static void cluster_finish(const ff_links *L, uint32_t a, uint32_t b, const ff_cluster_drawn *d, cluster_outcome *o)
 {
     memset(o, 0, sizeof *o);
-    if (a == b) {
-        o->facing = o->must_split = 1;
-        return;
-    }
-    ff_cluster_bound ba = node_bound(L, a), bb = node_bound(L, b);
-    ff_cluster_pair_bound pb = ff_cluster_pair_estimate(&ba, &bb);
-    if (!pb.facing) return;
-    o->facing = 1;
-    if (mixed_end(L, a) || mixed_end(L, b) ||
-        ba.radius + bb.radius >= FF_CLUSTER_ADMISSIBLE * rad_v3_length(rad_v3_sub(ba.centre, bb.centre))) {
-        o->must_split = 1;
-        return;
-    }
-    uint32_t valid = 0;
-    const uint64_t seed = mix64(((uint64_t)a << 32) | b);
-    for (uint32_t k = 0; k < 4 * FF_CLUSTER_RAYS && valid < FF_CLUSTER_RAYS; k++) {
-        rad_vec3 x, y;
-        const rad_ff_patch *px = side_point(L, a, seed + 2 * k, &x), *py = side_point(L, b, seed + 2 * k + 1, &y);
-        rad_vec3 d = rad_v3_sub(y, x);
-        if (rad_v3_dot(px->normal, d) <= 0 || rad_v3_dot(py->normal, d) >= 0) continue;
-        segs[valid++] = ff_segment_make(x, px->normal, px->face, y, py->normal, py->face, L->config.ray_delta);
-    }
-    o->rays = valid;
-}
-
-static void cluster_finish(const ff_links *L, uint32_t a, uint32_t b, uint32_t blocked, cluster_outcome *o)
-{
+    o->facing = d->facing;
+    o->must_split = d->must_split;
+    o->rays = d->rays;
+    o->blocked = d->blocked;
     if (!o->facing || o->must_split) return;
     ff_cluster_bound ba = node_bound(L, a), bb = node_bound(L, b);
     ff_cluster_pair_bound pb = ff_cluster_pair_estimate(&ba, &bb);
-    const uint32_t valid = o->rays;
+    const uint32_t valid = d->rays, blocked = d->blocked;
     const double V = valid ? 1.0 - (double)blocked / valid : 1.0;
     const int clear = valid == FF_CLUSTER_RAYS && blocked == 0;
     /* The coupling part by part: an end whose normals spread comes apart
@@ -651,107 +598,38 @@ static void cluster_finish(const ff_links *L, uint32_t a, uint32_t b, uint32_t b
     for (int i = 0; i < na; i++)
         for (int j = 0; j < nb; j++) {
             ff_cluster_bound bi = node_bound(L, pa[i]), bj = node_bound(L, pb_[j]);
-            rad_vec3 d = rad_v3_sub(bj.centre, bi.centre);
-            double dist2 = rad_v3_dot(d, d);
+            rad_vec3 dv = rad_v3_sub(bj.centre, bi.centre);
+            double dist2 = rad_v3_dot(dv, dv);
             if (!(dist2 > 0)) continue;
-            rad_vec3 w = rad_v3_scale(d, 1.0 / sqrt(dist2));
+            rad_vec3 w = rad_v3_scale(dv, 1.0 / sqrt(dist2));
             sum += shown(L, pa[i], w) * shown(L, pb_[j], rad_v3_scale(w, -1.0)) / (RAD_PI * dist2);
         }
     o->coupling = V * sum / (ba.area * bb.area);
-    o->blocked = blocked;
     double Fab = o->coupling * bb.area, Fba = o->coupling * ba.area;
     o->error_ab = fmax(pb.hi_rs - Fab, Fab - (clear ? pb.lo_rs : 0.0));
     o->error_ba = fmax(pb.hi_sr - Fba, Fba - (clear ? pb.lo_sr : 0.0));
 }
 
-/* Cluster pairs a round holds at once between drawing and finishing (their
- * segments: FF_CLUSTER_RAYS each, ~100 bytes a segment). */
-#define FF_CLUSTER_CHUNK 65536u
-
-/* Where the cluster links' segments are traced: the element backend
- * where it traces segments and is not the CPU's (a GPU), else the CPU
- * tracer. */
-static void segment_tracer(const ff_links *L, const ff_backend **backend, void **state)
+/* The cluster pairs jobs[0, m) into out[0, m): decided, drawn and traced
+ * by the element backend where it offers cluster_draws and is not the
+ * CPU's (a GPU), else by the CPU tracer (the same answers), then finished
+ * on the CPU's threads (`drawn`: m entries). */
+static rad_status cluster_pairs(ff_links *L, const ff_pair_job *jobs, size_t m, ff_cluster_drawn *drawn,
+                                cluster_outcome *out)
 {
-    if (L->backend->trace_segments && L->backend_state != L->tracer_state) {
-        *backend = L->backend;
-        *state = L->backend_state;
-    } else {
-        *backend = &ff_backend_cpu;
-        *state = L->tracer_state;
-    }
-}
-
-/* cluster_pairs' buffers: the segments to trace (in the tracer's row
- * memory: page-locked for a GPU, which reads them at twice the speed),
- * those drawn, the blocked flags and the offsets. RAD_ERR_NOMEM (logged)
- * with nothing left allocated. */
-typedef struct cluster_buffers {
-    const ff_backend *tracer;
-    void *state;
-    ff_segment *segs, *drawn;
-    uint8_t *blocked;
-    size_t *offsets;
-} cluster_buffers;
-
-static void cluster_buffers_free(cluster_buffers *b)
-{
-    if (b->segs) b->tracer->free_rows(b->state, (double *)b->segs);
-    free(b->drawn);
-    free(b->blocked);
-    free(b->offsets);
-    memset(b, 0, sizeof *b);
-}
-
-static rad_status cluster_buffers_make(const ff_links *L, cluster_buffers *b)
-{
-    const size_t n = (size_t)FF_CLUSTER_CHUNK * FF_CLUSTER_RAYS;
-    memset(b, 0, sizeof *b);
-    segment_tracer(L, &b->tracer, &b->state);
-    b->segs = (ff_segment *)b->tracer->alloc_rows(b->state, n * sizeof *b->segs / sizeof(double));
-    b->drawn = malloc(n * sizeof *b->drawn);
-    b->blocked = malloc(n);
-    b->offsets = malloc((FF_CLUSTER_CHUNK + 1) * sizeof *b->offsets);
-    if (b->segs && b->drawn && b->blocked && b->offsets) return RAD_OK;
-    rad_error("hierarchy: out of memory for the cluster links' segments");
-    cluster_buffers_free(b);
-    return RAD_ERR_NOMEM;
-}
-
-/* The cluster pairs jobs[0, m) into out[0, m): drawn on the CPU's threads
- * a chunk at a time, their segments traced together (segment_tracer),
- * then finished on the threads, in the buffers b (cluster_buffers_make). */
-static rad_status cluster_pairs(ff_links *L, const ff_pair_job *jobs, size_t m, cluster_outcome *out,
-                                const cluster_buffers *b)
-{
-    ff_segment *drawn = b->drawn, *segs = b->segs;
-    uint8_t *blocked = b->blocked;
-    size_t *offsets = b->offsets;
-    for (size_t c0 = 0; c0 < m; c0 += FF_CLUSTER_CHUNK) {
-        const size_t c = m - c0 < FF_CLUSTER_CHUNK ? m - c0 : FF_CLUSTER_CHUNK;
-        long long t0 = rad_clock_ns();
+    const int gpu = L->backend->cluster_draws && L->backend_state != L->tracer_state;
+    const ff_backend *b = gpu ? L->backend : &ff_backend_cpu;
+    const ff_cluster_view v = {L->clusters.clusters, L->clusters.roots, L->clusters.area_before, L->patches,
+                               L->config.cluster_cone, L->config.ray_delta};
+    long long t0 = rad_clock_ns();
+    rad_status st = b->cluster_draws(gpu ? L->backend_state : L->tracer_state, &v, L->clusters.count,
+                                     L->clusters.root_count, L->tree.element_count, jobs, m, drawn);
+    if (st != RAD_OK) return st;
+    long long t1 = rad_clock_ns();
 #pragma omp parallel for schedule(dynamic, 16)
-        for (size_t i = 0; i < c; i++)
-            cluster_draw(L, jobs[c0 + i].a, jobs[c0 + i].b, &out[c0 + i], drawn + i * FF_CLUSTER_RAYS);
-        offsets[0] = 0;
-        for (size_t i = 0; i < c; i++) offsets[i + 1] = offsets[i] + out[c0 + i].rays;
-#pragma omp parallel for schedule(static)
-        for (size_t i = 0; i < c; i++)
-            memcpy(segs + offsets[i], drawn + i * FF_CLUSTER_RAYS, out[c0 + i].rays * sizeof *segs);
-        long long t1 = rad_clock_ns();
-        rad_status st = b->tracer->trace_segments(b->state, segs, offsets[c], blocked);
-        if (st != RAD_OK) return st;
-        long long t2 = rad_clock_ns();
-#pragma omp parallel for schedule(dynamic, 16)
-        for (size_t i = 0; i < c; i++) {
-            uint32_t hit = 0;
-            for (size_t k = offsets[i]; k < offsets[i + 1]; k++) hit += blocked[k];
-            cluster_finish(L, jobs[c0 + i].a, jobs[c0 + i].b, hit, &out[c0 + i]);
-        }
-        L->cluster_seconds[0] += 1e-9 * (double)(t1 - t0);
-        L->cluster_seconds[1] += 1e-9 * (double)(t2 - t1);
-        L->cluster_seconds[2] += 1e-9 * (double)(rad_clock_ns() - t2);
-    }
+    for (size_t i = 0; i < m; i++) cluster_finish(L, jobs[i].a, jobs[i].b, &drawn[i], &out[i]);
+    L->cluster_seconds[0] += 1e-9 * (double)(t1 - t0);
+    L->cluster_seconds[1] += 1e-9 * (double)(rad_clock_ns() - t1);
     return RAD_OK;
 }
 
@@ -782,16 +660,18 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     cluster_outcome *cout = NULL; /* per pair with a cluster at an end, in list order */
     size_t out_cap = 0;
     job_list next = {0}, pairs = {0}, cpairs = {0};
-    cluster_buffers buffers = {0}; /* made on the first round with clusters */
+    ff_cluster_drawn *drawn = NULL; /* per pair with a cluster at an end, in list order */
     while (st == RAD_OK && list->count > 0) {
         size_t n = list->count;
         if (n > out_cap) {
             free(out);
             free(cout);
+            free(drawn);
             out = malloc(n * sizeof *out);
             cout = malloc(n * sizeof *cout);
+            drawn = malloc(n * sizeof *drawn);
             out_cap = n;
-            if (!out || !cout) {
+            if (!out || !cout || !drawn) {
                 rad_error("hierarchy: out of memory for %zu candidate pairs", n);
                 st = RAD_ERR_NOMEM;
                 break;
@@ -820,8 +700,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         if (clustered) {
             const size_t m = clustered;
             long long t0 = rad_clock_ns();
-            if (!buffers.segs) cst = cluster_buffers_make(L, &buffers);
-            if (cst == RAD_OK) cst = cluster_pairs(L, cpairs.jobs, m, cout, &buffers);
+            cst = cluster_pairs(L, cpairs.jobs, m, drawn, cout);
             counters->visibility_seconds += 1e-9 * (double)(rad_clock_ns() - t0);
             L->cluster_pairs += m;
             for (size_t i = 0; i < m; i++) L->cluster_rays += cout[i].rays;
@@ -887,7 +766,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     free(next.jobs);
     free(pairs.jobs);
     free(cpairs.jobs);
-    cluster_buffers_free(&buffers);
+    free(drawn);
     return st;
 }
 
@@ -1016,10 +895,14 @@ rad_status ff_links_refine(ff_links *L, const double *leaf_radiosity, ff_counter
 
 /* ---- export ---- */
 
+/* By source; a total order (a receiver links a source once, but were it
+ * twice, the scatter's order on the threads would not decide theirs). */
 static int by_source(const void *x, const void *y)
 {
     const rad_link *a = x, *b = y;
-    return (a->source > b->source) - (a->source < b->source);
+    if (a->source != b->source) return (a->source > b->source) - (a->source < b->source);
+    if (a->factor != b->factor) return (a->factor > b->factor) - (a->factor < b->factor);
+    return (a->error > b->error) - (a->error < b->error);
 }
 
 rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
@@ -1067,9 +950,16 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     if (C) memcpy(out->cluster_roots, L->clusters.roots, L->clusters.root_count * sizeof *out->cluster_roots);
     /* pair ids -> the file's: clusters after the nodes */
 #define EXPORT_ID(id) (ff_is_cluster(id) ? (uint32_t)n + ff_cluster_of(id) : (id))
+    /* Counted and scattered on the threads: a receiver's links land in
+     * any order, which the sort by source below makes one (a receiver
+     * links a source once). */
+#pragma omp parallel for schedule(static)
     for (size_t k = 0; k < L->link_count; k++) {
-        out->first_link[EXPORT_ID(L->links[k].a) + 1]++;
-        out->first_link[EXPORT_ID(L->links[k].b) + 1]++;
+        const uint32_t a = EXPORT_ID(L->links[k].a) + 1, b = EXPORT_ID(L->links[k].b) + 1;
+#pragma omp atomic
+        out->first_link[a]++;
+#pragma omp atomic
+        out->first_link[b]++;
     }
     for (size_t e = 0; e < ids; e++) out->first_link[e + 1] += out->first_link[e];
     out->link_count = out->first_link[ids];
@@ -1080,11 +970,17 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
         return RAD_ERR_NOMEM;
     }
     memcpy(fill, out->first_link, ids * sizeof *fill);
+#pragma omp parallel for schedule(static)
     for (size_t k = 0; k < L->link_count; k++) {
         const ff_link_pair *p = &L->links[k];
         uint32_t a = EXPORT_ID(p->a), b = EXPORT_ID(p->b);
-        out->links[fill[a]++] = (rad_link){.source = b, .error = p->error_ab, .factor = p->coupling * node_area(L, p->b)};
-        out->links[fill[b]++] = (rad_link){.source = a, .error = p->error_ba, .factor = p->coupling * node_area(L, p->a)};
+        uint64_t at_a, at_b;
+#pragma omp atomic capture
+        at_a = fill[a]++;
+#pragma omp atomic capture
+        at_b = fill[b]++;
+        out->links[at_a] = (rad_link){.source = b, .error = p->error_ab, .factor = p->coupling * node_area(L, p->b)};
+        out->links[at_b] = (rad_link){.source = a, .error = p->error_ba, .factor = p->coupling * node_area(L, p->a)};
     }
 #undef EXPORT_ID
     free(fill);
@@ -1157,6 +1053,9 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
         }
         for (int ch = 0; ch < 3; ch++) m[ch] /= k->area;
     }
+    /* each cluster's own links (one thread per cluster, in link order),
+     * then its parent's beta added, parents first */
+#pragma omp parallel for schedule(dynamic, 64)
     for (size_t c = 0; c < x->cluster_count; c++) {
         const size_t id = n + c;
         const double *rho = &L->cluster_rho[3 * c];
@@ -1170,9 +1069,10 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
                 beta[3 * id + ch] += rho[ch] * (l->error * hi[3 * s + ch] + rel * (l->factor + l->error) * dB);
             }
         }
-        if (x->clusters[c].parent != RAD_NO_ELEMENT)
-            for (int ch = 0; ch < 3; ch++) beta[3 * id + ch] += beta[3 * (n + x->clusters[c].parent) + ch];
     }
+    for (size_t c = 0; c < x->cluster_count; c++)
+        if (x->clusters[c].parent != RAD_NO_ELEMENT)
+            for (int ch = 0; ch < 3; ch++) beta[3 * (n + c) + ch] += beta[3 * (n + x->clusters[c].parent) + ch];
     /* Each node's own links (one thread per node, in link order), then
      * what its root's clusters and its ancestors add (parents first). */
 #pragma omp parallel for schedule(dynamic, 256)

@@ -100,14 +100,7 @@ typedef struct ff_links_config {
  * docs/hierarchy.md "Clusters"). */
 #define FF_CLUSTERS_AUTO_ROOTS 2048u
 
-/* Pair ids: elements are 0 .. 2^31 - 1, cluster c is FF_CLUSTER_ID(c). */
-#define FF_CLUSTER_BIT 0x80000000u
-#define FF_CLUSTER_ID(c) (FF_CLUSTER_BIT | (uint32_t)(c))
-static inline int ff_is_cluster(uint32_t id) { return (id & FF_CLUSTER_BIT) != 0; }
-static inline uint32_t ff_cluster_of(uint32_t id) { return id & ~FF_CLUSTER_BIT; }
-
-/* Shadow segments per link with a cluster at an end (ff_links.c). */
-#define FF_CLUSTER_RAYS 8u
+/* Pair ids and FF_CLUSTER_RAYS: ff_cluster_math.h. */
 
 /* A link as refinement holds it: both directions of one pair. */
 typedef struct ff_link_pair {
@@ -123,8 +116,8 @@ typedef struct ff_links {
     ff_links_config config;
     const ff_backend *backend;
     void *backend_state;
-    void *tracer_state;    /* a CPU backend's state: cluster links' shadow segments where the backend
-                              does not trace them (trace_segments) */
+    void *tracer_state;    /* a CPU backend's state: cluster pairs' draws and segments where the
+                              backend is the CPU's (ff_backend.cluster_draws) */
     rad_hierarchy tree;
     rad_ff_patch *patches; /* per element, the backend's frame */
     uint32_t *keys;        /* per element: its first leaf's patch index in the mesh of the leaves
@@ -147,7 +140,7 @@ typedef struct ff_links {
     ff_link_pair *links;
     size_t link_count, link_cap;
     uint64_t cluster_pairs, cluster_rays; /* candidates with a cluster at an end, their segments */
-    double cluster_seconds[3];            /* their wall: drawn, traced, finished (ff_links.c cluster_pairs) */
+    double cluster_seconds[2];            /* their wall: drawn and traced, finished (ff_links.c cluster_pairs) */
     /* what refinement did, all passes */
     uint64_t candidates, refined_pairs, rounds;
     uint32_t passes;

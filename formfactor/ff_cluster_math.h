@@ -1,0 +1,254 @@
+/* ff_cluster_math.h - the math of a pair with a cluster at an end, written
+ * once for the CPU and the GPU (RAD_HD): the bounds a link is weighed by
+ * (ff_clusters.h tells what they mean), a root drawn by area, and the
+ * drawing of a pair's shadow segments (ff_cluster_draw), which both
+ * backends' cluster_draws run (ff_backend.h) before ff_links.c finishes
+ * the pair on the CPU.
+ *
+ *     ff_cluster_view v = {clusters, roots, area_before, patches, cone, delta};
+ *     ff_cluster_drawn o;
+ *     ff_segment segs[FF_CLUSTER_RAYS];
+ *     ff_cluster_draw(&v, a, b, &o, segs);       // o.rays segments to trace
+ */
+#ifndef FF_CLUSTER_MATH_H
+#define FF_CLUSTER_MATH_H
+
+#include <math.h>
+#include <stdint.h>
+
+#include "ff_bvh.h"
+#include "rad_ff_kernel.h"
+#include "rad_links.h"
+#include "rad_math.h"
+
+/* The geometry a link between clusters or elements is bounded with. */
+typedef struct ff_cluster_bound {
+    rad_vec3 centre;
+    double radius;     /* every point of every face lies within it of centre */
+    double area;       /* S */
+    rad_vec3 vector_area; /* V */
+    rad_vec3 axis;     /* unit; every face normal within cone_angle of it */
+    double cone_angle; /* radians, in [0, pi] */
+    double moment[6];  /* M = sum A n n^T: xx, yy, zz, xy, xz, yz */
+} ff_cluster_bound;
+
+typedef struct ff_cluster {
+    rad_link_cluster link; /* parent, children, root range, area: what the file stores */
+    ff_cluster_bound bound;
+} ff_cluster;
+
+/* The unoccluded coupling between two bounds r and s (clusters, or an
+ * element and a cluster), and per direction the range that the factor from
+ * any point of r's faces to s can take, visibility aside:
+ *   coupling = P_r(w) P_s(-w) / (S_r S_s pi d^2), w the unit vector from r's
+ *              centre to s's, d their distance (F_rs = coupling S_s);
+ *   lo_rs, hi_rs: cos_x P_s / (pi d^2) at its least and largest over the
+ *              faces' normals, the directions and the distances the two
+ *              spheres allow (hi at most 1; infinite where the spheres meet).
+ * facing 0: no face of r can face s, or none of s r (no link). */
+typedef struct ff_cluster_pair_bound {
+    double coupling;
+    double lo_rs, hi_rs, lo_sr, hi_sr;
+    int facing;
+} ff_cluster_pair_bound;
+
+/* Pair ids: elements are 0 .. 2^31 - 1, cluster c is FF_CLUSTER_ID(c). */
+#define FF_CLUSTER_BIT 0x80000000u
+#define FF_CLUSTER_ID(c) (FF_CLUSTER_BIT | (uint32_t)(c))
+static inline RAD_HD int ff_is_cluster(uint32_t id) { return (id & FF_CLUSTER_BIT) != 0; }
+static inline RAD_HD uint32_t ff_cluster_of(uint32_t id) { return id & ~FF_CLUSTER_BIT; }
+
+/* Shadow segments per link with a cluster at an end. */
+#define FF_CLUSTER_RAYS 8u
+
+/* A cluster link is made only between ends whose bounding spheres' radii
+ * sum to less than this fraction of their centres' distance: nearer, the
+ * bounds say nothing (their distance goes to 0). Between, the oracle
+ * weighs the bounds' error. */
+#define FF_CLUSTER_ADMISSIBLE 0.9
+
+/* One element's bound (a cluster of one face). */
+static inline RAD_HD ff_cluster_bound ff_element_bound(const rad_ff_patch *p)
+{
+    ff_cluster_bound b;
+    b.centre = p->centre;
+    b.radius = p->radius;
+    b.area = p->area;
+    b.vector_area = rad_v3_scale(p->normal, p->area);
+    b.axis = p->normal;
+    b.cone_angle = 0;
+    rad_vec3 n = p->normal;
+    const double A = p->area;
+    b.moment[0] = A * n.x * n.x, b.moment[1] = A * n.y * n.y, b.moment[2] = A * n.z * n.z;
+    b.moment[3] = A * n.x * n.y, b.moment[4] = A * n.x * n.z, b.moment[5] = A * n.y * n.z;
+    return b;
+}
+
+/* The area b shows towards directions within beta of the unit w: an
+ * estimate and bounds (ff_clusters.h), and the range of cos between a
+ * face's normal and those directions. */
+typedef struct ff_shown_area {
+    double est, lo, hi, cos_lo, cos_hi;
+} ff_shown_area;
+
+static inline RAD_HD ff_shown_area ff_cluster_shown_towards(const ff_cluster_bound *b, rad_vec3 w, double beta)
+{
+    ff_shown_area a;
+    double theta = acos(fmax(-1.0, fmin(1.0, rad_v3_dot(b->axis, w))));
+    double widest = theta + b->cone_angle + beta, narrowest = theta - b->cone_angle - beta;
+    a.cos_hi = narrowest <= 0 ? 1.0 : cos(narrowest);
+    a.cos_lo = widest >= RAD_PI ? -1.0 : cos(widest);
+    double vw = rad_v3_dot(b->vector_area, w), S = b->area;
+    /* Each point sees the faces from its own direction, within beta of w:
+     * sum A n.w(y) lies within S beta of V.w (not |V| beta: the faces'
+     * normals may disagree, and each face takes its own worst direction). */
+    double slack = S * beta;
+    a.hi = a.cos_hi <= 0 ? 0.0 : fmin(S * a.cos_hi, 0.5 * (vw + slack + S));
+    a.lo = a.cos_lo >= 0 ? fmax(S * a.cos_lo, vw - slack) : fmax(0.0, vw - slack);
+    if (a.lo > a.hi) a.lo = a.hi;
+    /* The estimate at w itself: every face in front, P(w) = V.w exactly;
+     * else (V.w + T) / 2, T between its moment bounds (ff_clusters.h). */
+    const double *M = b->moment;
+    double q = w.x * w.x * M[0] + w.y * w.y * M[1] + w.z * w.z * M[2] +
+               2 * (w.x * w.y * M[3] + w.x * w.z * M[4] + w.y * w.z * M[5]);
+    q = fmax(0.0, q);
+    double t_hi = sqrt(S * q), t_lo = fmin(t_hi, fmax(q, fabs(vw)));
+    int in_front = theta + b->cone_angle <= 0.5 * RAD_PI;
+    double est = in_front ? vw : 0.5 * (vw + sqrt(t_hi * t_lo));
+    a.est = fmin(a.hi, fmax(a.lo, est));
+    return a;
+}
+
+static inline RAD_HD ff_cluster_pair_bound ff_cluster_pair_estimate(const ff_cluster_bound *r,
+                                                                    const ff_cluster_bound *s)
+{
+    ff_cluster_pair_bound p = {0, 0, 0, 0, 0, 0};
+    rad_vec3 d = rad_v3_sub(s->centre, r->centre);
+    double dist = rad_v3_length(d), reach = r->radius + s->radius;
+    if (!(dist > 0)) {
+        p.facing = 1;
+        p.hi_rs = p.hi_sr = INFINITY;
+        return p;
+    }
+    rad_vec3 w = rad_v3_scale(d, 1.0 / dist);
+    double beta = reach >= dist ? RAD_PI : asin(reach / dist);
+    ff_shown_area ar = ff_cluster_shown_towards(r, w, beta), as = ff_cluster_shown_towards(s, rad_v3_scale(w, -1.0), beta);
+    if (ar.hi <= 0 || as.hi <= 0) return p;
+    p.facing = 1;
+    p.coupling = ar.est * as.est / (r->area * s->area * RAD_PI * dist * dist);
+    double near = dist - reach, far = dist + reach;
+    if (near <= 0) {
+        p.hi_rs = p.hi_sr = INFINITY;
+    } else {
+        p.hi_rs = fmin(1.0, ar.cos_hi * as.hi / (RAD_PI * near * near));
+        p.hi_sr = fmin(1.0, as.cos_hi * ar.hi / (RAD_PI * near * near));
+    }
+    p.lo_rs = fmax(0.0, ar.cos_lo) * as.lo / (RAD_PI * far * far);
+    p.lo_sr = fmax(0.0, as.cos_lo) * ar.lo / (RAD_PI * far * far);
+    return p;
+}
+
+/* What the draws read: the cluster tree's arrays (ff_clusters.h), the
+ * elements (roots first) in the backend's frame, the cone beyond which a
+ * cluster links nothing (radians) and the segments' delta (ff_segment). */
+typedef struct ff_cluster_view {
+    const ff_cluster *clusters;
+    const uint32_t *roots;      /* in cluster order */
+    const double *area_before;  /* the roots' areas summed in cluster order */
+    const rad_ff_patch *patches; /* by element id */
+    double cone;
+    double delta;
+} ff_cluster_view;
+
+/* The root of cluster c that holds the area fraction u in [0, 1) of it,
+ * the roots taken in cluster order: a root drawn in proportion to its area. */
+static inline RAD_HD uint32_t ff_cluster_pick_in(const ff_cluster *clusters, const uint32_t *roots,
+                                                  const double *area_before, uint32_t c, double u)
+{
+    const rad_link_cluster *l = &clusters[c].link;
+    double lo_area = area_before[l->root_begin], want = lo_area + u * (area_before[l->root_end] - lo_area);
+    uint32_t lo = l->root_begin, hi = l->root_end - 1; /* the last k with area_before[k] <= want */
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo + 1) / 2;
+        if (area_before[mid] <= want)
+            lo = mid;
+        else
+            hi = mid - 1;
+    }
+    return roots[lo];
+}
+
+static inline RAD_HD uint64_t ff_cluster_mix64(uint64_t x)
+{
+    x += 0x9E3779B97F4A7C15ull;
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+    return x ^ (x >> 31);
+}
+
+static inline RAD_HD double ff_cluster_unit(uint64_t h) { return (double)(h >> 11) * 0x1.0p-53; }
+
+static inline RAD_HD ff_cluster_bound ff_cluster_view_bound(const ff_cluster_view *v, uint32_t id)
+{
+    return ff_is_cluster(id) ? v->clusters[ff_cluster_of(id)].bound : ff_element_bound(&v->patches[id]);
+}
+
+/* A point on side id for the draw h: on the element, or on a face of the
+ * cluster drawn in proportion to its area. */
+static inline RAD_HD const rad_ff_patch *ff_cluster_side_point(const ff_cluster_view *v, uint32_t id, uint64_t h,
+                                                               rad_vec3 *x)
+{
+    uint64_t h1 = ff_cluster_mix64(h), h2 = ff_cluster_mix64(h1), h3 = ff_cluster_mix64(h2);
+    const rad_ff_patch *p =
+        ff_is_cluster(id)
+            ? &v->patches[ff_cluster_pick_in(v->clusters, v->roots, v->area_before, ff_cluster_of(id), ff_cluster_unit(h1))]
+            : &v->patches[id];
+    *x = rad_ff_sample_point(p, ff_cluster_unit(h2), ff_cluster_unit(h3));
+    return p;
+}
+
+/* What drawing a pair came to. */
+typedef struct ff_cluster_drawn {
+    uint32_t rays;       /* segments drawn (facing each other at both ends) */
+    uint32_t blocked;    /* of them, blocked (cluster_draws sets it) */
+    uint8_t facing;      /* 0: no link */
+    uint8_t must_split;  /* a self-link, a mixed end or ends too close for a cluster link */
+} ff_cluster_drawn;
+
+/* The pair (a, b), a cluster at one end at least: whether it faces and
+ * may be linked, and if so FF_CLUSTER_RAYS segments between points drawn
+ * on the two ends (o->rays of them; at most 4 FF_CLUSTER_RAYS draws) whose
+ * ends face each other. A cluster whose normals spread beyond v->cone is
+ * a mixed end. */
+static inline RAD_HD void ff_cluster_draw(const ff_cluster_view *v, uint32_t a, uint32_t b, ff_cluster_drawn *o,
+                                          ff_segment segs[FF_CLUSTER_RAYS])
+{
+    o->rays = o->blocked = 0;
+    o->facing = o->must_split = 0;
+    if (a == b) {
+        o->facing = o->must_split = 1;
+        return;
+    }
+    ff_cluster_bound ba = ff_cluster_view_bound(v, a), bb = ff_cluster_view_bound(v, b);
+    ff_cluster_pair_bound pb = ff_cluster_pair_estimate(&ba, &bb);
+    if (!pb.facing) return;
+    o->facing = 1;
+    const int mixed = (ff_is_cluster(a) && ba.cone_angle > v->cone) || (ff_is_cluster(b) && bb.cone_angle > v->cone);
+    if (mixed || ba.radius + bb.radius >= FF_CLUSTER_ADMISSIBLE * rad_v3_length(rad_v3_sub(ba.centre, bb.centre))) {
+        o->must_split = 1;
+        return;
+    }
+    uint32_t valid = 0;
+    const uint64_t seed = ff_cluster_mix64(((uint64_t)a << 32) | b);
+    for (uint32_t k = 0; k < 4 * FF_CLUSTER_RAYS && valid < FF_CLUSTER_RAYS; k++) {
+        rad_vec3 x, y;
+        const rad_ff_patch *px = ff_cluster_side_point(v, a, seed + 2 * k, &x);
+        const rad_ff_patch *py = ff_cluster_side_point(v, b, seed + 2 * k + 1, &y);
+        rad_vec3 d = rad_v3_sub(y, x);
+        if (rad_v3_dot(px->normal, d) <= 0 || rad_v3_dot(py->normal, d) >= 0) continue;
+        segs[valid++] = ff_segment_make(x, px->normal, px->face, y, py->normal, py->face, v->delta);
+    }
+    o->rays = valid;
+}
+
+#endif
