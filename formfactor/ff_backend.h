@@ -169,7 +169,8 @@ typedef struct ff_backend {
                                 const ff_pair_job *jobs, size_t count, ff_pair_outcome *out, ff_counters *counters);
     /* Pairs with a cluster at an end (ff_links.c): out[k] for jobs[k],
      * k < count, as ff_cluster_draw decides and draws it, its segments
-     * traced through the occluders' BVH (out[k].blocked). v holds host
+     * traced through the occluders' BVH (out[k].blocked), coupled by
+     * ff_cluster_couple. v holds host
      * arrays: the tree's cluster_count clusters and root_count roots (the
      * same on every call of a run) and element_count elements (only ever
      * appended to, as compute_pairs' are). The same answers on every

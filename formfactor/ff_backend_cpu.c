@@ -246,6 +246,7 @@ static rad_status cpu_cluster_draws(void *state, const ff_cluster_view *v, uint3
         for (uint32_t r = 0; r < out[k].rays; r++)
             blocked += (uint32_t)ff_bvh_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &segs[r]);
         out[k].blocked = blocked;
+        ff_cluster_couple(v, jobs[k].a, jobs[k].b, &out[k]);
     }
     return RAD_OK;
 }

@@ -959,7 +959,8 @@ done:
 }
 
 /* ff_backend.cluster_draws: a thread per pair draws its segments
- * (ff_cluster_draw, as on the CPU) and traces them. */
+ * (ff_cluster_draw, as on the CPU), traces them and sums the coupling
+ * (ff_cluster_couple). */
 __global__ static void ff_cluster_draws_kernel(ff_cluster_view v, cuda_tracer t, const ff_pair_job *jobs,
                                                uint32_t count, ff_cluster_drawn *out)
 {
@@ -971,6 +972,7 @@ __global__ static void ff_cluster_draws_kernel(ff_cluster_view v, cuda_tracer t,
     uint32_t blocked = 0;
     for (uint32_t r = 0; r < o.rays; r++) blocked += (uint32_t)ff_bvh_occluded(t.nodes, t.tris, t.root, t.root_count, &segs[r]);
     o.blocked = blocked;
+    ff_cluster_couple(&v, jobs[k].a, jobs[k].b, &o);
     out[k] = o;
 }
 

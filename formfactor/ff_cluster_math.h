@@ -1,14 +1,16 @@
 /* ff_cluster_math.h - the math of a pair with a cluster at an end, written
  * once for the CPU and the GPU (RAD_HD): the bounds a link is weighed by
- * (ff_clusters.h tells what they mean), a root drawn by area, and the
- * drawing of a pair's shadow segments (ff_cluster_draw), which both
- * backends' cluster_draws run (ff_backend.h) before ff_links.c finishes
- * the pair on the CPU.
+ * (ff_clusters.h tells what they mean), a root drawn by area, the drawing
+ * of a pair's shadow segments (ff_cluster_draw) and its coupling and
+ * errors once they are traced (ff_cluster_couple), which both backends'
+ * cluster_draws run (ff_backend.h).
  *
  *     ff_cluster_view v = {clusters, roots, area_before, patches, cone, delta};
  *     ff_cluster_drawn o;
  *     ff_segment segs[FF_CLUSTER_RAYS];
  *     ff_cluster_draw(&v, a, b, &o, segs);       // o.rays segments to trace
+ *     o.blocked = ...;                           // of them, blocked
+ *     ff_cluster_couple(&v, a, b, &o);           // o.coupling, o.error_ab, o.error_ba
  */
 #ifndef FF_CLUSTER_MATH_H
 #define FF_CLUSTER_MATH_H
@@ -207,12 +209,15 @@ static inline RAD_HD const rad_ff_patch *ff_cluster_side_point(const ff_cluster_
     return p;
 }
 
-/* What drawing a pair came to. */
+/* What a pair came to: drawn (ff_cluster_draw), traced, coupled
+ * (ff_cluster_couple). */
 typedef struct ff_cluster_drawn {
-    uint32_t rays;       /* segments drawn (facing each other at both ends) */
-    uint32_t blocked;    /* of them, blocked (cluster_draws sets it) */
-    uint8_t facing;      /* 0: no link */
-    uint8_t must_split;  /* a self-link, a mixed end or ends too close for a cluster link */
+    double coupling;          /* c_ab, visibility included */
+    double error_ab, error_ba;
+    uint32_t rays;            /* segments drawn (facing each other at both ends) */
+    uint32_t blocked;         /* of them, blocked */
+    uint8_t facing;           /* 0: no link */
+    uint8_t must_split;       /* a self-link, a mixed end or ends too close for a cluster link */
 } ff_cluster_drawn;
 
 /* The pair (a, b), a cluster at one end at least: whether it faces and
@@ -223,6 +228,7 @@ typedef struct ff_cluster_drawn {
 static inline RAD_HD void ff_cluster_draw(const ff_cluster_view *v, uint32_t a, uint32_t b, ff_cluster_drawn *o,
                                           ff_segment segs[FF_CLUSTER_RAYS])
 {
+    o->coupling = o->error_ab = o->error_ba = 0;
     o->rays = o->blocked = 0;
     o->facing = o->must_split = 0;
     if (a == b) {
@@ -249,6 +255,142 @@ static inline RAD_HD void ff_cluster_draw(const ff_cluster_view *v, uint32_t a, 
         segs[valid++] = ff_segment_make(x, px->normal, px->face, y, py->normal, py->face, v->delta);
     }
     o->rays = valid;
+}
+
+/* A cluster whose normals lie within this of their axis (radians) is flat
+ * enough to be one part of a link's coupling. */
+#define FF_CLUSTER_FLAT_ANGLE 0.2
+/* Parts a link's end comes apart into at most (ff_cluster_end_parts). */
+#define FF_CLUSTER_PARTS 16
+
+/* P(w) of cluster c from its parts: exact where its cone lies wholly in
+ * front of w or behind it, summed over its faces in a leaf cluster, summed
+ * over its children down to three levels (2^3 parts at most) where their
+ * normals disagree (a room's corner: each wall's part is exact), the
+ * moment estimate below that. ff_cluster_shown_at decides c at `depth`
+ * levels left (1, *p set) or says its children are to be summed (0); the
+ * levels are functions of their own, not recursion, so that a GPU thread's
+ * stack is known. */
+static inline RAD_HD int ff_cluster_shown_at(const ff_cluster_view *v, uint32_t c, rad_vec3 w, int depth, double *p)
+{
+    const ff_cluster *cl = &v->clusters[c];
+    const ff_cluster_bound *b = &cl->bound;
+    double theta = acos(fmax(-1.0, fmin(1.0, rad_v3_dot(b->axis, w))));
+    if (theta + b->cone_angle <= 0.5 * RAD_PI) { /* all in front */
+        *p = fmax(0.0, rad_v3_dot(b->vector_area, w));
+        return 1;
+    }
+    if (theta - b->cone_angle >= 0.5 * RAD_PI) { /* all behind */
+        *p = 0.0;
+        return 1;
+    }
+    if (cl->link.child_count == 0) {
+        double sum = 0;
+        for (uint32_t k = cl->link.root_begin; k < cl->link.root_end; k++) {
+            const rad_ff_patch *f = &v->patches[v->roots[k]];
+            sum += f->area * fmax(0.0, rad_v3_dot(f->normal, w));
+        }
+        *p = sum;
+        return 1;
+    }
+    if (depth <= 0) {
+        *p = ff_cluster_shown_towards(b, w, 0.0).est;
+        return 1;
+    }
+    return 0;
+}
+
+#define FF_CLUSTER_SHOWN_LEVEL(name, depth, below)                                                   \
+    static inline RAD_HD double name(const ff_cluster_view *v, uint32_t c, rad_vec3 w)               \
+    {                                                                                                \
+        double p;                                                                                    \
+        if (ff_cluster_shown_at(v, c, w, depth, &p)) return p;                                       \
+        p = 0;                                                                                       \
+        const rad_link_cluster *l = &v->clusters[c].link;                                            \
+        for (uint32_t i = 0; i < l->child_count; i++) p += below(v, l->first_child + i, w);          \
+        return p;                                                                                    \
+    }
+static inline RAD_HD double ff_cluster_shown_0(const ff_cluster_view *v, uint32_t c, rad_vec3 w)
+{
+    double p = 0;
+    ff_cluster_shown_at(v, c, w, 0, &p);
+    return p;
+}
+FF_CLUSTER_SHOWN_LEVEL(ff_cluster_shown_1, 1, ff_cluster_shown_0)
+FF_CLUSTER_SHOWN_LEVEL(ff_cluster_shown_2, 2, ff_cluster_shown_1)
+FF_CLUSTER_SHOWN_LEVEL(ff_cluster_shown_3, 3, ff_cluster_shown_2)
+#undef FF_CLUSTER_SHOWN_LEVEL
+
+/* The area end id shows towards w: an element's A max(n.w, 0), a
+ * cluster's from its parts (ff_cluster_shown_3). */
+static inline RAD_HD double ff_cluster_shown(const ff_cluster_view *v, uint32_t id, rad_vec3 w)
+{
+    if (ff_is_cluster(id)) return ff_cluster_shown_3(v, ff_cluster_of(id), w);
+    return v->patches[id].area * fmax(0.0, rad_v3_dot(v->patches[id].normal, w));
+}
+
+/* End id as the parts its coupling is summed over (FF_CLUSTER_PARTS at
+ * most): a cluster whose normals spread beyond FF_CLUSTER_FLAT_ANGLE is
+ * replaced by its child clusters, or a leaf cluster by its faces, twice
+ * at most; anything else is one part. */
+static inline RAD_HD int ff_cluster_end_parts(const ff_cluster_view *v, uint32_t id, uint32_t parts[FF_CLUSTER_PARTS])
+{
+    int m = 1;
+    parts[0] = id;
+    for (int level = 0; level < 2; level++) {
+        uint32_t next[FF_CLUSTER_PARTS];
+        int k = 0;
+        for (int i = 0; i < m; i++) {
+            const ff_cluster *c = ff_is_cluster(parts[i]) ? &v->clusters[ff_cluster_of(parts[i])] : 0;
+            if (c && c->bound.cone_angle > FF_CLUSTER_FLAT_ANGLE && c->link.child_count == 2) {
+                next[k++] = FF_CLUSTER_ID(c->link.first_child);
+                next[k++] = FF_CLUSTER_ID(c->link.first_child + 1);
+            } else if (c && c->bound.cone_angle > FF_CLUSTER_FLAT_ANGLE && c->link.child_count == 0) {
+                for (uint32_t r = c->link.root_begin; r < c->link.root_end; r++) next[k++] = v->roots[r];
+            } else {
+                next[k++] = parts[i];
+            }
+        }
+        for (int i = 0; i < k; i++) parts[i] = next[i];
+        m = k;
+    }
+    return m;
+}
+
+/* The pair (a, b) once drawn and traced (o->rays, o->blocked): a linked
+ * pair's coupling, summed over the two ends' parts (ff_cluster_end_parts,
+ * ff_cluster_shown) times the visible fraction, and its errors: what the
+ * bounds (ff_cluster_pair_estimate) allow a point of a's faces to see of b
+ * beyond F_ab, the lower bound taken only where every segment was clear. */
+static inline RAD_HD void ff_cluster_couple(const ff_cluster_view *v, uint32_t a, uint32_t b, ff_cluster_drawn *o)
+{
+    if (!o->facing || o->must_split) return;
+    ff_cluster_bound ba = ff_cluster_view_bound(v, a), bb = ff_cluster_view_bound(v, b);
+    ff_cluster_pair_bound pb = ff_cluster_pair_estimate(&ba, &bb);
+    const uint32_t valid = o->rays, blocked = o->blocked;
+    const double V = valid ? 1.0 - (double)blocked / valid : 1.0;
+    const int clear = valid == FF_CLUSTER_RAYS && blocked == 0;
+    /* The coupling part by part: an end whose normals spread comes apart
+     * into its child clusters or faces (two levels), each with its own
+     * centre and shown area (a room's corner is two walls, each exact;
+     * from the corner's one centre, which lies off both walls, the
+     * moments put it 7-10 % high). */
+    uint32_t pa[FF_CLUSTER_PARTS], pb_[FF_CLUSTER_PARTS];
+    int na = ff_cluster_end_parts(v, a, pa), nb = ff_cluster_end_parts(v, b, pb_);
+    double sum = 0;
+    for (int i = 0; i < na; i++)
+        for (int j = 0; j < nb; j++) {
+            ff_cluster_bound bi = ff_cluster_view_bound(v, pa[i]), bj = ff_cluster_view_bound(v, pb_[j]);
+            rad_vec3 dv = rad_v3_sub(bj.centre, bi.centre);
+            double dist2 = rad_v3_dot(dv, dv);
+            if (!(dist2 > 0)) continue;
+            rad_vec3 w = rad_v3_scale(dv, 1.0 / sqrt(dist2));
+            sum += ff_cluster_shown(v, pa[i], w) * ff_cluster_shown(v, pb_[j], rad_v3_scale(w, -1.0)) / (RAD_PI * dist2);
+        }
+    o->coupling = V * sum / (ba.area * bb.area);
+    double Fab = o->coupling * bb.area, Fba = o->coupling * ba.area;
+    o->error_ab = fmax(pb.hi_rs - Fab, Fab - (clear ? pb.lo_rs : 0.0));
+    o->error_ba = fmax(pb.hi_sr - Fba, Fba - (clear ? pb.lo_sr : 0.0));
 }
 
 #endif

@@ -95,28 +95,6 @@ static ff_cluster_bound bound_of_roots(const rad_ff_patch *patches, const uint32
     return b;
 }
 
-double ff_cluster_shown_in(const ff_cluster_tree *t, const rad_ff_patch *root_patches, uint32_t c, rad_vec3 w,
-                           int depth)
-{
-    const ff_cluster *cl = &t->clusters[c];
-    const ff_cluster_bound *b = &cl->bound;
-    double theta = acos(fmax(-1.0, fmin(1.0, rad_v3_dot(b->axis, w))));
-    if (theta + b->cone_angle <= 0.5 * RAD_PI) return fmax(0.0, rad_v3_dot(b->vector_area, w)); /* all in front */
-    if (theta - b->cone_angle >= 0.5 * RAD_PI) return 0.0;                                     /* all behind */
-    if (cl->link.child_count == 0) {
-        double p = 0;
-        for (uint32_t k = cl->link.root_begin; k < cl->link.root_end; k++) {
-            const rad_ff_patch *f = &root_patches[t->roots[k]];
-            p += f->area * fmax(0.0, rad_v3_dot(f->normal, w));
-        }
-        return p;
-    }
-    if (depth <= 0) return ff_cluster_shown_towards(b, w, 0.0).est;
-    double p = 0;
-    for (uint32_t i = 0; i < cl->link.child_count; i++)
-        p += ff_cluster_shown_in(t, root_patches, cl->link.first_child + i, w, depth - 1);
-    return p;
-}
 
 /* ---- the tree ---- */
 

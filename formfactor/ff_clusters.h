@@ -68,13 +68,6 @@ static inline uint32_t ff_cluster_pick_root(const ff_cluster_tree *t, uint32_t c
     return ff_cluster_pick_in(t->clusters, t->roots, t->area_before, c, u);
 }
 
-/* P(w) of cluster c from its parts: exact where its cone lies wholly in
- * front of w or behind it, summed over its faces in a leaf cluster, summed
- * over its children down to `depth` levels where their normals disagree
- * (a room's corner: each wall's part is exact), the moment estimate
- * below that. The pair estimate's coupling takes these (ff_links.c). */
-double ff_cluster_shown_in(const ff_cluster_tree *t, const rad_ff_patch *root_patches, uint32_t c, rad_vec3 w,
-                           int depth);
 
 void ff_clusters_free(ff_cluster_tree *t); /* safe on zeroed */
 

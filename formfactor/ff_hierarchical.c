@@ -325,10 +325,8 @@ static rad_status write_stats(const hier_run *h)
     rad_json_uint(&w, h->links.cluster_pairs);
     rad_json_key(&w, "cluster_rays");
     rad_json_uint(&w, h->links.cluster_rays);
-    rad_json_key(&w, "cluster_seconds"); /* their wall: drawn and traced, finished */
-    rad_json_begin_array(&w, RAD_JSON_INLINE);
-    for (int k = 0; k < 2; k++) rad_json_number_fixed(&w, h->links.cluster_seconds[k], 3);
-    rad_json_end_array(&w);
+    rad_json_key(&w, "cluster_seconds"); /* their wall */
+    rad_json_number_fixed(&w, h->links.cluster_seconds, 3);
     rad_json_key(&w, "candidate_pairs");
     rad_json_uint(&w, h->links.candidates);
     rad_json_key(&w, "rounds");

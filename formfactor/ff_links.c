@@ -513,109 +513,12 @@ static rad_status split_pair(ff_links *L, uint32_t a, uint32_t b, job_list *next
 
 /* ---- pairs with a cluster at an end ---- */
 
-/* What a pair with a cluster at an end came to (cluster_pair). */
-typedef struct cluster_outcome {
-    double coupling;      /* c_ab, visibility included */
-    double error_ab, error_ba;
-    uint32_t rays, blocked;
-    int facing;           /* 0: no link */
-    int must_split;       /* a self-link, or ends too close for a cluster link */
-} cluster_outcome;
 
-/* Levels below a cluster whose parts' shown areas are summed where their
- * normals disagree (ff_cluster_shown_in): 2^3 parts at most. */
-#define FF_CLUSTER_SHOWN_DEPTH 3
-/* A cluster whose normals lie within this of their axis (radians) is flat
- * enough to be one part of a link's coupling. */
-#define FF_CLUSTER_FLAT_ANGLE 0.2
-
-/* The area end id shows towards w: an element's A max(n.w, 0), a
- * cluster's from its parts (ff_cluster_shown_in). */
-static double shown(const ff_links *L, uint32_t id, rad_vec3 w)
-{
-    if (ff_is_cluster(id)) return ff_cluster_shown_in(&L->clusters, L->patches, ff_cluster_of(id), w, FF_CLUSTER_SHOWN_DEPTH);
-    return L->patches[id].area * fmax(0.0, rad_v3_dot(L->patches[id].normal, w));
-}
-
-/* End id as the parts its coupling is summed over (FF_CLUSTER_PARTS at
- * most): a cluster whose normals spread beyond FF_CLUSTER_FLAT_ANGLE is
- * replaced by its child clusters, or a leaf cluster by its faces, twice
- * at most; anything else is one part. */
-#define FF_CLUSTER_PARTS 16
-static int end_parts(const ff_links *L, uint32_t id, uint32_t parts[FF_CLUSTER_PARTS])
-{
-    int m = 1;
-    parts[0] = id;
-    for (int level = 0; level < 2; level++) {
-        uint32_t next[FF_CLUSTER_PARTS];
-        int k = 0;
-        for (int i = 0; i < m; i++) {
-            const ff_cluster *c = ff_is_cluster(parts[i]) ? &L->clusters.clusters[ff_cluster_of(parts[i])] : NULL;
-            if (c && c->bound.cone_angle > FF_CLUSTER_FLAT_ANGLE && c->link.child_count == 2) {
-                next[k++] = FF_CLUSTER_ID(c->link.first_child);
-                next[k++] = FF_CLUSTER_ID(c->link.first_child + 1);
-            } else if (c && c->bound.cone_angle > FF_CLUSTER_FLAT_ANGLE && c->link.child_count == 0) {
-                for (uint32_t r = c->link.root_begin; r < c->link.root_end; r++) next[k++] = L->clusters.roots[r];
-            } else {
-                next[k++] = parts[i];
-            }
-        }
-        memcpy(parts, next, (size_t)k * sizeof *parts);
-        m = k;
-    }
-    return m;
-}
-
-
-/* The pair (a, b), a cluster at one end at least, once the backend has
- * decided it and traced its segments (ff_backend.cluster_draws,
- * ff_cluster_draw): the coupling summed over the two ends' parts
- * (end_parts, shown) times the visible fraction. The error of F_ab is what
- * the bounds (ff_cluster_pair_estimate) allow a point of a's faces to see
- * of b beyond F_ab, the lower bound taken only where every segment was
- * clear. */
-static void cluster_finish(const ff_links *L, uint32_t a, uint32_t b, const ff_cluster_drawn *d, cluster_outcome *o)
-{
-    memset(o, 0, sizeof *o);
-    o->facing = d->facing;
-    o->must_split = d->must_split;
-    o->rays = d->rays;
-    o->blocked = d->blocked;
-    if (!o->facing || o->must_split) return;
-    ff_cluster_bound ba = node_bound(L, a), bb = node_bound(L, b);
-    ff_cluster_pair_bound pb = ff_cluster_pair_estimate(&ba, &bb);
-    const uint32_t valid = d->rays, blocked = d->blocked;
-    const double V = valid ? 1.0 - (double)blocked / valid : 1.0;
-    const int clear = valid == FF_CLUSTER_RAYS && blocked == 0;
-    /* The coupling part by part: an end whose normals spread comes apart
-     * into its child clusters or faces (two levels), each with its
-     * own centre and shown area (a room's corner is two walls, each exact;
-     * from the corner's one centre, which lies off both walls, the
-     * moments put it 7-10 % high). */
-    uint32_t pa[FF_CLUSTER_PARTS], pb_[FF_CLUSTER_PARTS];
-    int na = end_parts(L, a, pa), nb = end_parts(L, b, pb_);
-    double sum = 0;
-    for (int i = 0; i < na; i++)
-        for (int j = 0; j < nb; j++) {
-            ff_cluster_bound bi = node_bound(L, pa[i]), bj = node_bound(L, pb_[j]);
-            rad_vec3 dv = rad_v3_sub(bj.centre, bi.centre);
-            double dist2 = rad_v3_dot(dv, dv);
-            if (!(dist2 > 0)) continue;
-            rad_vec3 w = rad_v3_scale(dv, 1.0 / sqrt(dist2));
-            sum += shown(L, pa[i], w) * shown(L, pb_[j], rad_v3_scale(w, -1.0)) / (RAD_PI * dist2);
-        }
-    o->coupling = V * sum / (ba.area * bb.area);
-    double Fab = o->coupling * bb.area, Fba = o->coupling * ba.area;
-    o->error_ab = fmax(pb.hi_rs - Fab, Fab - (clear ? pb.lo_rs : 0.0));
-    o->error_ba = fmax(pb.hi_sr - Fba, Fba - (clear ? pb.lo_sr : 0.0));
-}
-
-/* The cluster pairs jobs[0, m) into out[0, m): decided, drawn and traced
- * by the element backend where it offers cluster_draws and is not the
- * CPU's (a GPU), else by the CPU tracer (the same answers), then finished
- * on the CPU's threads (`drawn`: m entries). */
-static rad_status cluster_pairs(ff_links *L, const ff_pair_job *jobs, size_t m, ff_cluster_drawn *drawn,
-                                cluster_outcome *out)
+/* The cluster pairs jobs[0, m) into out[0, m): decided, drawn, traced
+ * and coupled (ff_cluster_math.h) by the element backend where it offers
+ * cluster_draws and is not the CPU's (a GPU), else by the CPU tracer's
+ * threads (the same answers). */
+static rad_status cluster_pairs(ff_links *L, const ff_pair_job *jobs, size_t m, ff_cluster_drawn *out)
 {
     const int gpu = L->backend->cluster_draws && L->backend_state != L->tracer_state;
     const ff_backend *b = gpu ? L->backend : &ff_backend_cpu;
@@ -623,14 +526,9 @@ static rad_status cluster_pairs(ff_links *L, const ff_pair_job *jobs, size_t m, 
                                L->config.cluster_cone, L->config.ray_delta};
     long long t0 = rad_clock_ns();
     rad_status st = b->cluster_draws(gpu ? L->backend_state : L->tracer_state, &v, L->clusters.count,
-                                     L->clusters.root_count, L->tree.element_count, jobs, m, drawn);
-    if (st != RAD_OK) return st;
-    long long t1 = rad_clock_ns();
-#pragma omp parallel for schedule(dynamic, 16)
-    for (size_t i = 0; i < m; i++) cluster_finish(L, jobs[i].a, jobs[i].b, &drawn[i], &out[i]);
-    L->cluster_seconds[0] += 1e-9 * (double)(t1 - t0);
-    L->cluster_seconds[1] += 1e-9 * (double)(rad_clock_ns() - t1);
-    return RAD_OK;
+                                     L->clusters.root_count, L->tree.element_count, jobs, m, out);
+    L->cluster_seconds += 1e-9 * (double)(rad_clock_ns() - t0);
+    return st;
 }
 
 /* One round's element pairs through the backend, with counters of their
@@ -657,21 +555,18 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
 {
     rad_status st = RAD_OK;
     ff_pair_outcome *out = NULL;  /* per element pair, in list order */
-    cluster_outcome *cout = NULL; /* per pair with a cluster at an end, in list order */
+    ff_cluster_drawn *cout = NULL; /* per pair with a cluster at an end, in list order */
     size_t out_cap = 0;
     job_list next = {0}, pairs = {0}, cpairs = {0};
-    ff_cluster_drawn *drawn = NULL; /* per pair with a cluster at an end, in list order */
     while (st == RAD_OK && list->count > 0) {
         size_t n = list->count;
         if (n > out_cap) {
             free(out);
             free(cout);
-            free(drawn);
             out = malloc(n * sizeof *out);
             cout = malloc(n * sizeof *cout);
-            drawn = malloc(n * sizeof *drawn);
             out_cap = n;
-            if (!out || !cout || !drawn) {
+            if (!out || !cout) {
                 rad_error("hierarchy: out of memory for %zu candidate pairs", n);
                 st = RAD_ERR_NOMEM;
                 break;
@@ -700,7 +595,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         if (clustered) {
             const size_t m = clustered;
             long long t0 = rad_clock_ns();
-            cst = cluster_pairs(L, cpairs.jobs, m, drawn, cout);
+            cst = cluster_pairs(L, cpairs.jobs, m, cout);
             counters->visibility_seconds += 1e-9 * (double)(rad_clock_ns() - t0);
             L->cluster_pairs += m;
             for (size_t i = 0; i < m; i++) L->cluster_rays += cout[i].rays;
@@ -718,7 +613,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
             uint32_t a = list->jobs[k].a, b = list->jobs[k].b;
             ff_link_pair p = {.a = a, .b = b};
             if (ff_is_cluster(a) || ff_is_cluster(b)) {
-                const cluster_outcome *c = &cout[kc++];
+                const ff_cluster_drawn *c = &cout[kc++];
                 if (!c->facing) continue;
                 if (c->must_split) {
                     near++;
@@ -766,7 +661,6 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     free(next.jobs);
     free(pairs.jobs);
     free(cpairs.jobs);
-    free(drawn);
     return st;
 }
 

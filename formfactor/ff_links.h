@@ -140,7 +140,7 @@ typedef struct ff_links {
     ff_link_pair *links;
     size_t link_count, link_cap;
     uint64_t cluster_pairs, cluster_rays; /* candidates with a cluster at an end, their segments */
-    double cluster_seconds[2];            /* their wall: drawn and traced, finished (ff_links.c cluster_pairs) */
+    double cluster_seconds;               /* their wall (ff_links.c cluster_pairs) */
     /* what refinement did, all passes */
     uint64_t candidates, refined_pairs, rounds;
     uint32_t passes;
