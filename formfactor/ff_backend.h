@@ -181,11 +181,6 @@ typedef struct ff_backend {
 } ff_backend;
 
 extern const ff_backend ff_backend_cpu;
-/* One shadow segment through the CPU backend's BVH (state from
- * ff_backend_cpu.create): 1 if something other than faces fx and fy lies
- * between x and y (ff_segment's rule). Thread-safe. The cluster links of
- * a hierarchical run (ff_links.c) trace with it. */
-int ff_backend_cpu_occluded(void *state, rad_vec3 x, rad_vec3 nx, uint32_t fx, rad_vec3 y, rad_vec3 ny, uint32_t fy);
 /* In builds without CUDA its create() fails with RAD_ERR_UNSUPPORTED. */
 extern const ff_backend ff_backend_cuda;
 

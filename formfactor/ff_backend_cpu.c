@@ -225,12 +225,6 @@ static rad_status cpu_compute_pairs(void *state, const rad_ff_patch *patches, co
     return RAD_OK;
 }
 
-int ff_backend_cpu_occluded(void *state, rad_vec3 x, rad_vec3 nx, uint32_t fx, rad_vec3 y, rad_vec3 ny, uint32_t fy)
-{
-    const cpu_state *s = state;
-    cpu_tracer tracer = {&s->bvh, s->setup.ray_delta};
-    return cpu_occluded(&tracer, x, nx, fx, y, ny, fy);
-}
 
 static rad_status cpu_cluster_draws(void *state, const ff_cluster_view *v, uint32_t cluster_count,
                                     uint32_t root_count, size_t element_count, const ff_pair_job *jobs, size_t count,

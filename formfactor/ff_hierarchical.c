@@ -36,7 +36,8 @@ typedef struct hier_run {
     uint32_t *triangle_face, triangle_count;
     const ff_backend *backend; /* element pairs: CUDA's under --backend cuda|auto with a GPU, else the CPU's */
     void *backend_state;
-    void *tracer_state;        /* the CPU backend's, for cluster links: backend_state, or its own beside CUDA's */
+    void *tracer_state;        /* the CPU backend's, for cluster pairs where the backend does not draw them
+                                  (ff_backend.cluster_draws): backend_state, or its own; else NULL */
     ff_links links;
     rad_links exported;
     rad_mesh leaves;
@@ -177,10 +178,10 @@ static rad_status build_links(hier_run *h)
                  FF_CLUSTERS_AUTO_ROOTS);
     if (h->backend == &ff_backend_cpu)
         h->tracer_state = h->backend_state;
-    else if (config.clusters && (st = ff_backend_cpu.create(&su, &h->tracer_state)) != RAD_OK)
+    else if (config.clusters && !h->backend->cluster_draws && (st = ff_backend_cpu.create(&su, &h->tracer_state)) != RAD_OK)
         return st;
-    rad_info("element pairs on the %s backend%s", h->backend->name,
-             h->backend != &ff_backend_cpu && config.clusters ? " (cluster links on the CPU)" : "");
+    rad_info("element pairs%s on the %s backend", config.clusters && h->backend->cluster_draws ? " and cluster pairs" : "",
+             h->backend->name);
     if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, h->backend, h->backend_state,
                             h->tracer_state)) != RAD_OK)
         return st;

@@ -101,7 +101,7 @@ static void cluster_values(ff_links *L, const double *lo, const double *hi);
 
 static rad_status clusters_init(ff_links *L)
 {
-    if (!L->tracer_state) {
+    if (!L->backend->cluster_draws && !L->tracer_state) {
         rad_error("internal: clusters without a CPU tracer for their links");
         return RAD_ERR_INVALID;
     }
@@ -516,16 +516,16 @@ static rad_status split_pair(ff_links *L, uint32_t a, uint32_t b, job_list *next
 
 /* The cluster pairs jobs[0, m) into out[0, m): decided, drawn, traced
  * and coupled (ff_cluster_math.h) by the element backend where it offers
- * cluster_draws and is not the CPU's (a GPU), else by the CPU tracer's
- * threads (the same answers). */
+ * cluster_draws (the CPU's and CUDA's do; the same answers), else by the
+ * CPU tracer's. */
 static rad_status cluster_pairs(ff_links *L, const ff_pair_job *jobs, size_t m, ff_cluster_drawn *out)
 {
-    const int gpu = L->backend->cluster_draws && L->backend_state != L->tracer_state;
-    const ff_backend *b = gpu ? L->backend : &ff_backend_cpu;
+    const int own = L->backend->cluster_draws != NULL;
+    const ff_backend *b = own ? L->backend : &ff_backend_cpu;
     const ff_cluster_view v = {L->clusters.clusters, L->clusters.roots, L->clusters.area_before, L->patches,
                                L->config.cluster_cone, L->config.ray_delta};
     long long t0 = rad_clock_ns();
-    rad_status st = b->cluster_draws(gpu ? L->backend_state : L->tracer_state, &v, L->clusters.count,
+    rad_status st = b->cluster_draws(own ? L->backend_state : L->tracer_state, &v, L->clusters.count,
                                      L->clusters.root_count, L->tree.element_count, jobs, m, out);
     L->cluster_seconds += 1e-9 * (double)(rad_clock_ns() - t0);
     return st;
@@ -588,7 +588,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
          * waits on the device on a thread of its own), else in turn. */
         element_call call = {L, &pairs, out, {0}, RAD_OK};
         pthread_t gpu_thread;
-        const int overlap = pairs.count && clustered && L->tracer_state != L->backend_state &&
+        const int overlap = pairs.count && clustered && L->backend != &ff_backend_cpu &&
                             pthread_create(&gpu_thread, NULL, element_pairs_thread, &call) == 0;
         if (pairs.count && !overlap) element_pairs_thread(&call);
         rad_status cst = RAD_OK;

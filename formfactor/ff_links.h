@@ -116,8 +116,8 @@ typedef struct ff_links {
     ff_links_config config;
     const ff_backend *backend;
     void *backend_state;
-    void *tracer_state;    /* a CPU backend's state: cluster pairs' draws and segments where the
-                              backend is the CPU's (ff_backend.cluster_draws) */
+    void *tracer_state;    /* a CPU backend's state: the cluster pairs where the backend offers no
+                              cluster_draws (ff_links_init); may be NULL */
     rad_hierarchy tree;
     rad_ff_patch *patches; /* per element, the backend's frame */
     uint32_t *keys;        /* per element: its first leaf's patch index in the mesh of the leaves
@@ -148,10 +148,11 @@ typedef struct ff_links {
 
 /* Roots from `base` (the --subdiv 0 mesh, which must outlive the links),
  * element patches through ff_patch_make, the backend (already created
- * over the scene's occluders) through its compute_pairs. tracer_state:
- * ff_backend_cpu's state over the same occluders, which traces cluster
- * links (the backend's own where it is the CPU's); needed with
- * config.clusters only. */
+ * over the scene's occluders) through its compute_pairs, and the cluster
+ * pairs through its cluster_draws. tracer_state: ff_backend_cpu's state
+ * over the same occluders, which draws the cluster pairs where the
+ * backend does not (the backend's own where it is the CPU's); needed
+ * with config.clusters and such a backend only, else NULL is fine. */
 rad_status ff_links_init(ff_links *links, const rad_scene *scene, const rad_mesh *base, const double centre[3],
                          const ff_links_config *config, const ff_backend *backend, void *backend_state,
                          void *tracer_state);
