@@ -173,9 +173,10 @@ typedef struct ff_backend {
      * ff_cluster_couple. v holds host
      * arrays: the tree's cluster_count clusters and root_count roots (the
      * same on every call of a run) and element_count elements (only ever
-     * appended to, as compute_pairs' are). The same answers on every
-     * backend; safe beside a compute_pairs call from another thread. NULL:
-     * not offered. */
+     * appended to, as compute_pairs' are). The same math on every backend
+     * (the GPU's acos, asin and cos may differ from the C library's in the
+     * last bits, as its element pairs' atan2 does); safe beside a
+     * compute_pairs call from another thread. NULL: not offered. */
     rad_status (*cluster_draws)(void *state, const ff_cluster_view *v, uint32_t cluster_count, uint32_t root_count,
                                 size_t element_count, const ff_pair_job *jobs, size_t count, ff_cluster_drawn *out);
 } ff_backend;

@@ -209,6 +209,7 @@ struct cuda_state {
     ff_pair_job *d_cluster_jobs;
     ff_cluster_drawn *d_drawn;
     size_t cluster_job_capacity;
+    int clusters_uploaded;
 };
 
 /* Pass 1: thread per pair, the classification (ff_pair_class.h) the CPU
@@ -990,23 +991,29 @@ static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, uint
         return RAD_ERR_INVALID;
     }
     RAD_CUDA_TRY(cudaSetDevice(s->device)); /* per host thread */
-    if (!s->d_clusters) { /* the tree: the same on every call of a run */
-        RAD_CUDA_TRY(cudaMalloc(&s->d_clusters, (cluster_count ? cluster_count : 1) * sizeof *s->d_clusters));
-        RAD_CUDA_TRY(cudaMalloc(&s->d_roots, ((size_t)root_count + 1) * sizeof *s->d_roots));
-        RAD_CUDA_TRY(cudaMalloc(&s->d_area_before, ((size_t)root_count + 1) * sizeof *s->d_area_before));
+    if (!s->clusters_uploaded) { /* the tree: the same on every call of a run */
+        if (!s->d_clusters)
+            RAD_CUDA_TRY(cudaMalloc(&s->d_clusters, (cluster_count ? cluster_count : 1) * sizeof *s->d_clusters));
+        if (!s->d_roots) RAD_CUDA_TRY(cudaMalloc(&s->d_roots, ((size_t)root_count + 1) * sizeof *s->d_roots));
+        if (!s->d_area_before)
+            RAD_CUDA_TRY(cudaMalloc(&s->d_area_before, ((size_t)root_count + 1) * sizeof *s->d_area_before));
         RAD_CUDA_TRY(cudaMemcpy(s->d_clusters, v->clusters, cluster_count * sizeof *s->d_clusters,
                                 cudaMemcpyHostToDevice));
         RAD_CUDA_TRY(cudaMemcpy(s->d_roots, v->roots, root_count * sizeof *s->d_roots, cudaMemcpyHostToDevice));
         RAD_CUDA_TRY(cudaMemcpy(s->d_area_before, v->area_before, ((size_t)root_count + 1) * sizeof *s->d_area_before,
                                 cudaMemcpyHostToDevice));
+        s->clusters_uploaded = 1;
     }
     if (element_count > s->cluster_element_capacity) { /* grown: the uploaded ones move along */
         size_t cap = element_count + element_count / 2;
         rad_ff_patch *grown = NULL;
         RAD_CUDA_TRY(cudaMalloc(&grown, cap * sizeof *grown));
-        if (s->cluster_elements_uploaded)
-            RAD_CUDA_TRY(cudaMemcpy(grown, s->d_cluster_elements, s->cluster_elements_uploaded * sizeof *grown,
-                                    cudaMemcpyDeviceToDevice));
+        if (s->cluster_elements_uploaded &&
+            cudaMemcpy(grown, s->d_cluster_elements, s->cluster_elements_uploaded * sizeof *grown,
+                       cudaMemcpyDeviceToDevice) != cudaSuccess) {
+            cudaFree(grown);
+            RAD_CUDA_TRY(cudaGetLastError());
+        }
         cudaFree(s->d_cluster_elements);
         s->d_cluster_elements = grown;
         s->cluster_element_capacity = cap;

@@ -6,8 +6,7 @@
  *
  *     ff_cluster_tree t;
  *     ff_clusters_build(root_patches, root_count, max_cone, &t);
- *     ... t.clusters[c], t.roots[t.clusters[c].root_begin .. root_end) ...
- *     ff_cluster_bound b = ff_cluster_bound_of(&t.clusters[c]);
+ *     ... t.clusters[c].bound, t.roots[t.clusters[c].link.root_begin .. root_end) ...
  *     ff_clusters_free(&t);
  *
  * The tree is built top down: a cluster's roots are split at the median of

@@ -183,6 +183,10 @@ rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *ba
     L->backend = backend;
     L->backend_state = backend_state;
     L->tracer_state = tracer_state;
+    if (config->clusters && !(config->ray_delta > 0)) {
+        rad_error("internal: clusters without the shadow segments' delta (ff_links_config.ray_delta)");
+        return RAD_ERR_INVALID;
+    }
     if (!backend->compute_pairs) {
         rad_error("the %s backend cannot compute hierarchical links", backend->name);
         return RAD_ERR_UNSUPPORTED;
@@ -516,7 +520,7 @@ static rad_status split_pair(ff_links *L, uint32_t a, uint32_t b, job_list *next
 
 /* The cluster pairs jobs[0, m) into out[0, m): decided, drawn, traced
  * and coupled (ff_cluster_math.h) by the element backend where it offers
- * cluster_draws (the CPU's and CUDA's do; the same answers), else by the
+ * cluster_draws (the CPU's and CUDA's do, the same math), else by the
  * CPU tracer's. */
 static rad_status cluster_pairs(ff_links *L, const ff_pair_job *jobs, size_t m, ff_cluster_drawn *out)
 {
@@ -583,9 +587,11 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         }
         if (st != RAD_OK) break;
         const size_t clustered = cpairs.count;
-        /* The element pairs on the backend and the cluster pairs on the
-         * CPU's threads: at once where the backend is a GPU (its call
-         * waits on the device on a thread of its own), else in turn. */
+        /* The element pairs and the cluster pairs, both on the backend:
+         * the element pairs' call on a thread of its own where the backend
+         * is a GPU (the two calls' kernels then queue on the device one
+         * after the other, the host's copies and setup beside them), else
+         * in turn. */
         element_call call = {L, &pairs, out, {0}, RAD_OK};
         pthread_t gpu_thread;
         const int overlap = pairs.count && clustered && L->backend != &ff_backend_cpu &&

@@ -51,12 +51,6 @@ rad_status ff_solve_run(ff_comm *comm, ff_solve *solve, const uint32_t *row_begi
                         int threads);
 void ff_solve_free(ff_solve *solve); /* NULL is fine */
 
-/* formfactor --method hierarchical --radiosity: the links and their
- * leaves, as they would be written with `info` as the header, solved in
- * memory by solve's stage for links (solve/links.h) exactly as `solve`
- * solves that file: the writer's checks (rad_ff_links_info), then the
- * same backend choice and bytes; `flat` (NULL: none) is the flat solve
- * already run. One process (the rank that made the links). */
 /* A flat solve formfactor ran on the links from B = E by Gauss-Seidel
  * with ff_solve_channels' channels, which ff_solve_links takes as its
  * own where solve would run the same one (solve/links.h,
@@ -70,6 +64,12 @@ typedef struct ff_solve_flat {
 /* The channels solve solves the leaves in: 1 for a grey scene, else 3. */
 int ff_solve_channels(const rad_mesh *leaves);
 
+/* formfactor --method hierarchical --radiosity: the links and their
+ * leaves, as they would be written with `info` as the header, solved in
+ * memory by solve's stage for links (solve/links.h) exactly as `solve`
+ * solves that file: the writer's checks (rad_ff_links_info), then the
+ * same backend choice and bytes; `flat` (NULL: none) is the flat solve
+ * already run. One process (the rank that made the links). */
 rad_status ff_solve_links(const rad_ff_info *info, const rad_mesh *leaves, const rad_links *links,
                           const ff_solve_flat *flat, const ff_options *options, int threads);
 

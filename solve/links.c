@@ -326,12 +326,16 @@ static rad_status write_outputs(const links_state *s)
     return solve_comm_agree(s->options->comm, status);
 }
 
-/* Whether the flat solve handed in is the one `o` would run (from B = E;
- * converged, so the iteration limits do not matter). */
+/* Whether the flat solve handed in is the one `o` would run (from B = E,
+ * converged within o's iteration limit: the same sweeps). */
 static int flat_taken(const solve_links_flat *given, const rad_lsolve_options *o)
 {
-    return given && !o->warm_start && given->result.converged && given->tolerance == o->tolerance &&
-           given->method == o->method && given->channels == o->channels;
+    if (!given || o->warm_start || !given->result.converged || given->tolerance != o->tolerance ||
+        given->method != o->method || given->channels != o->channels)
+        return 0;
+    for (int c = 0; c < given->channels; c++)
+        if (given->result.iterations[c] > o->max_iterations) return 0;
+    return 1;
 }
 
 rad_status solve_links_solve(const solve_options *options, const solve_links_input *in)

@@ -32,7 +32,6 @@
  * solve_links_solve. The file stays open (the caller closes it). */
 rad_status solve_links_run(const solve_options *options, rad_ff_file *file);
 
-/* The links, as read, and where they came from. */
 /* A flat solve already run on the links from B = E (rad_lsolve, the
  * channels as solve_mesh_is_grey says), which solve_links_solve takes as
  * its own where it converged to the tolerance and by the method the solve
@@ -46,6 +45,7 @@ typedef struct solve_links_flat {
     int channels; /* 1 or 3 */
 } solve_links_flat;
 
+/* The links, as read, and where they came from. */
 typedef struct solve_links_input {
     const rad_ff_info *info;  /* the file's header: fingerprint, flags, scene path */
     const rad_mesh *leaves;   /* the leaves mesh (the file's patch table) */
