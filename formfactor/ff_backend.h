@@ -168,17 +168,15 @@ typedef struct ff_backend {
     rad_status (*compute_pairs)(void *state, const rad_ff_patch *patches, const uint32_t *keys,
                                 const ff_pair_job *jobs, size_t count, ff_pair_outcome *out, ff_counters *counters);
     /* Pairs with a cluster at an end (ff_links.c): out[k] for jobs[k],
-     * k < count, as ff_cluster_draw decides and draws it, its segments
-     * traced through the occluders' BVH (out[k].blocked), coupled by
-     * ff_cluster_couple. v holds host
-     * arrays: the tree's cluster_count clusters and root_count roots (the
-     * same on every call of a run) and element_count elements (only ever
+     * k < count, as ff_cluster_pair decides, draws, traces and couples it
+     * through the occluders' BVH. v holds host arrays: the cluster tree's
+     * (the same on every call of a run) and the elements (only ever
      * appended to, as compute_pairs' are). The same math on every backend
      * (the GPU's acos, asin and cos may differ from the C library's in the
      * last bits, as its element pairs' atan2 does); safe beside a
      * compute_pairs call from another thread. NULL: not offered. */
-    rad_status (*cluster_draws)(void *state, const ff_cluster_view *v, uint32_t cluster_count, uint32_t root_count,
-                                size_t element_count, const ff_pair_job *jobs, size_t count, ff_cluster_drawn *out);
+    rad_status (*cluster_draws)(void *state, const ff_cluster_view *v, const ff_pair_job *jobs, size_t count,
+                                ff_cluster_drawn *out);
 } ff_backend;
 
 extern const ff_backend ff_backend_cpu;

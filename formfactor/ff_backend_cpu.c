@@ -225,23 +225,13 @@ static rad_status cpu_compute_pairs(void *state, const rad_ff_patch *patches, co
     return RAD_OK;
 }
 
-
-static rad_status cpu_cluster_draws(void *state, const ff_cluster_view *v, uint32_t cluster_count,
-                                    uint32_t root_count, size_t element_count, const ff_pair_job *jobs, size_t count,
+static rad_status cpu_cluster_draws(void *state, const ff_cluster_view *v, const ff_pair_job *jobs, size_t count,
                                     ff_cluster_drawn *out)
 {
     const cpu_state *s = state;
-    (void)cluster_count, (void)root_count, (void)element_count;
 #pragma omp parallel for schedule(dynamic, 16) num_threads(s->setup.threads)
-    for (size_t k = 0; k < count; k++) {
-        ff_segment segs[FF_CLUSTER_RAYS];
-        ff_cluster_draw(v, jobs[k].a, jobs[k].b, &out[k], segs);
-        uint32_t blocked = 0;
-        for (uint32_t r = 0; r < out[k].rays; r++)
-            blocked += (uint32_t)ff_bvh_occluded(s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, &segs[r]);
-        out[k].blocked = blocked;
-        ff_cluster_couple(v, jobs[k].a, jobs[k].b, &out[k]);
-    }
+    for (size_t k = 0; k < count; k++)
+        ff_cluster_pair(v, s->bvh.nodes, s->bvh.tris, s->bvh.root, s->bvh.root_count, jobs[k].a, jobs[k].b, &out[k]);
     return RAD_OK;
 }
 

@@ -168,6 +168,15 @@ struct cuda_params {
     uint32_t pair_count;
 };
 
+/* A device copy of a hierarchy's elements, as far as uploaded (they are
+ * only appended to, ff_backend.h), and their keys (NULL in a copy kept
+ * without them). */
+struct cuda_elements {
+    rad_ff_patch *patches;
+    uint32_t *keys;
+    size_t capacity, uploaded;
+};
+
 struct cuda_state {
     ff_setup setup;
     int device; /* the CUDA device, set again by calls that may come from another host thread */
@@ -191,9 +200,7 @@ struct cuda_state {
     ff_cuda_records *records;   /* compute_records' buffers; NULL until its first call */
     /* compute_pairs: the elements as far as uploaded (they are appended,
      * never changed, ff_backend.h), the jobs, their outcomes and lists. */
-    rad_ff_patch *d_elements;
-    uint32_t *d_keys;
-    size_t element_capacity, elements_uploaded;
+    cuda_elements elements;
     ff_pair_job *d_jobs;
     ff_pair_outcome *d_outcomes;
     uint32_t *d_job_list;
@@ -204,8 +211,7 @@ struct cuda_state {
     ff_cluster *d_clusters;
     uint32_t *d_roots;
     double *d_area_before;
-    rad_ff_patch *d_cluster_elements;
-    size_t cluster_element_capacity, cluster_elements_uploaded;
+    cuda_elements cluster_elements;
     ff_pair_job *d_cluster_jobs;
     ff_cluster_drawn *d_drawn;
     size_t cluster_job_capacity;
@@ -502,15 +508,15 @@ static void cuda_destroy(void *state)
     cudaFree(s->d_ray_pairs);
     cudaFree(s->d_counters);
     cudaFree(s->d_area);
-    cudaFree(s->d_elements);
-    cudaFree(s->d_keys);
+    cudaFree(s->elements.patches);
+    cudaFree(s->elements.keys);
     cudaFree(s->d_jobs);
     cudaFree(s->d_outcomes);
     cudaFree(s->d_job_list);
     cudaFree(s->d_clusters);
     cudaFree(s->d_roots);
     cudaFree(s->d_area_before);
-    cudaFree(s->d_cluster_elements);
+    cudaFree(s->cluster_elements.patches);
     cudaFree(s->d_cluster_jobs);
     cudaFree(s->d_drawn);
     ff_cuda_records_free(s->records);
@@ -820,39 +826,37 @@ static rad_status cuda_compute_records(void *state, uint32_t row_begin, uint32_t
 
 /* Elements [0, count) and their keys on the device: the buffers grown
  * (keeping what is there), the elements past those uploaded copied. */
-static rad_status upload_elements(cuda_state *s, const rad_ff_patch *patches, const uint32_t *keys, size_t count)
+static rad_status upload_elements(cuda_elements *e, const rad_ff_patch *patches, const uint32_t *keys, size_t count)
 {
     rad_status status = RAD_OK;
-    if (count > s->element_capacity) {
-        size_t cap = s->element_capacity ? 2 * s->element_capacity : 4096;
+    if (count > e->capacity) {
+        size_t cap = e->capacity ? 2 * e->capacity : 4096;
         while (cap < count) cap *= 2;
         rad_ff_patch *elements = NULL;
         uint32_t *element_keys = NULL;
         cudaError_t err = cudaMalloc(&elements, cap * sizeof *elements);
-        if (err == cudaSuccess) err = cudaMalloc(&element_keys, cap * sizeof *element_keys);
-        if (err == cudaSuccess && s->elements_uploaded) {
-            err = cudaMemcpy(elements, s->d_elements, s->elements_uploaded * sizeof *elements,
-                             cudaMemcpyDeviceToDevice);
-            if (err == cudaSuccess)
-                err = cudaMemcpy(element_keys, s->d_keys, s->elements_uploaded * sizeof *element_keys,
-                                 cudaMemcpyDeviceToDevice);
+        if (err == cudaSuccess && keys) err = cudaMalloc(&element_keys, cap * sizeof *element_keys);
+        if (err == cudaSuccess && e->uploaded) {
+            err = cudaMemcpy(elements, e->patches, e->uploaded * sizeof *elements, cudaMemcpyDeviceToDevice);
+            if (err == cudaSuccess && keys)
+                err = cudaMemcpy(element_keys, e->keys, e->uploaded * sizeof *element_keys, cudaMemcpyDeviceToDevice);
         }
         if (err != cudaSuccess) {
             cudaFree(elements);
             cudaFree(element_keys);
         }
         RAD_CUDA_TRY(err);
-        cudaFree(s->d_elements);
-        cudaFree(s->d_keys);
-        s->d_elements = elements;
-        s->d_keys = element_keys;
-        s->element_capacity = cap;
+        cudaFree(e->patches);
+        cudaFree(e->keys);
+        e->patches = elements;
+        e->keys = element_keys;
+        e->capacity = cap;
     }
-    if (count > s->elements_uploaded) {
-        const size_t from = s->elements_uploaded, more = count - from;
-        RAD_CUDA_TRY(cudaMemcpy(s->d_elements + from, patches + from, more * sizeof *patches, cudaMemcpyHostToDevice));
-        RAD_CUDA_TRY(cudaMemcpy(s->d_keys + from, keys + from, more * sizeof *keys, cudaMemcpyHostToDevice));
-        s->elements_uploaded = count;
+    if (count > e->uploaded) {
+        const size_t from = e->uploaded, more = count - from;
+        RAD_CUDA_TRY(cudaMemcpy(e->patches + from, patches + from, more * sizeof *patches, cudaMemcpyHostToDevice));
+        if (keys) RAD_CUDA_TRY(cudaMemcpy(e->keys + from, keys + from, more * sizeof *keys, cudaMemcpyHostToDevice));
+        e->uploaded = count;
     }
 done:
     return status;
@@ -886,7 +890,7 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
         const size_t top = (jobs[k].a > jobs[k].b ? jobs[k].a : jobs[k].b) + (size_t)1;
         if (top > elements) elements = top;
     }
-    if ((status = upload_elements(s, patches, keys, elements)) != RAD_OK) return status;
+    if ((status = upload_elements(&s->elements, patches, keys, elements)) != RAD_OK) return status;
     if (count > s->job_capacity) {
         cudaFree(s->d_jobs);
         cudaFree(s->d_outcomes);
@@ -904,8 +908,8 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
     RAD_CUDA_TRY(cudaMemcpy(s->d_jobs, jobs, count * sizeof *jobs, cudaMemcpyHostToDevice));
     RAD_CUDA_TRY(cudaMemset(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT));
     RAD_CUDA_TRY(cudaMemset(s->d_pair_counts, 0, L_COUNT * sizeof(uint32_t)));
-    p.patches = s->d_elements;
-    p.keys = s->d_keys;
+    p.patches = s->elements.patches;
+    p.keys = s->elements.keys;
     p.jobs = s->d_jobs;
     p.out = s->d_outcomes;
     p.list = s->d_job_list;
@@ -919,7 +923,7 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
     p.tracer.root_count = s->root_count;
     p.tracer.delta = su->ray_delta;
     p.pair = ff_pair_params(su);
-    p.rules = ff_pair_rules_make(su, s->d_elements, s->d_nodes, s->d_tris, s->root, s->root_count);
+    p.rules = ff_pair_rules_make(su, s->elements.patches, s->d_nodes, s->d_tris, s->root, s->root_count);
     p.rules.pairs_once = 0;
     p.rules.reuse_old = NULL;
     p.counters = s->d_counters;
@@ -959,27 +963,19 @@ done:
     return status;
 }
 
-/* ff_backend.cluster_draws: a thread per pair draws its segments
- * (ff_cluster_draw, as on the CPU), traces them and sums the coupling
- * (ff_cluster_couple). */
+/* ff_backend.cluster_draws: a thread per pair (ff_cluster_pair). */
 __global__ static void ff_cluster_draws_kernel(ff_cluster_view v, cuda_tracer t, const ff_pair_job *jobs,
                                                uint32_t count, ff_cluster_drawn *out)
 {
     uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
     if (k >= count) return;
-    ff_segment segs[FF_CLUSTER_RAYS];
     ff_cluster_drawn o;
-    ff_cluster_draw(&v, jobs[k].a, jobs[k].b, &o, segs);
-    uint32_t blocked = 0;
-    for (uint32_t r = 0; r < o.rays; r++) blocked += (uint32_t)ff_bvh_occluded(t.nodes, t.tris, t.root, t.root_count, &segs[r]);
-    o.blocked = blocked;
-    ff_cluster_couple(&v, jobs[k].a, jobs[k].b, &o);
+    ff_cluster_pair(&v, t.nodes, t.tris, t.root, t.root_count, jobs[k].a, jobs[k].b, &o);
     out[k] = o;
 }
 
-static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, uint32_t cluster_count,
-                                     uint32_t root_count, size_t element_count, const ff_pair_job *jobs,
-                                     size_t count, ff_cluster_drawn *out)
+static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, const ff_pair_job *jobs, size_t count,
+                                     ff_cluster_drawn *out)
 {
     cuda_state *s = (cuda_state *)state;
     rad_status status = RAD_OK;
@@ -992,39 +988,18 @@ static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, uint
     }
     RAD_CUDA_TRY(cudaSetDevice(s->device)); /* per host thread */
     if (!s->clusters_uploaded) { /* the tree: the same on every call of a run */
-        if (!s->d_clusters)
-            RAD_CUDA_TRY(cudaMalloc(&s->d_clusters, (cluster_count ? cluster_count : 1) * sizeof *s->d_clusters));
-        if (!s->d_roots) RAD_CUDA_TRY(cudaMalloc(&s->d_roots, ((size_t)root_count + 1) * sizeof *s->d_roots));
-        if (!s->d_area_before)
-            RAD_CUDA_TRY(cudaMalloc(&s->d_area_before, ((size_t)root_count + 1) * sizeof *s->d_area_before));
-        RAD_CUDA_TRY(cudaMemcpy(s->d_clusters, v->clusters, cluster_count * sizeof *s->d_clusters,
+        const size_t clusters = v->cluster_count ? v->cluster_count : 1, roots = (size_t)v->root_count + 1;
+        if (!s->d_clusters) RAD_CUDA_TRY(cudaMalloc(&s->d_clusters, clusters * sizeof *s->d_clusters));
+        if (!s->d_roots) RAD_CUDA_TRY(cudaMalloc(&s->d_roots, roots * sizeof *s->d_roots));
+        if (!s->d_area_before) RAD_CUDA_TRY(cudaMalloc(&s->d_area_before, roots * sizeof *s->d_area_before));
+        RAD_CUDA_TRY(cudaMemcpy(s->d_clusters, v->clusters, v->cluster_count * sizeof *s->d_clusters,
                                 cudaMemcpyHostToDevice));
-        RAD_CUDA_TRY(cudaMemcpy(s->d_roots, v->roots, root_count * sizeof *s->d_roots, cudaMemcpyHostToDevice));
-        RAD_CUDA_TRY(cudaMemcpy(s->d_area_before, v->area_before, ((size_t)root_count + 1) * sizeof *s->d_area_before,
+        RAD_CUDA_TRY(cudaMemcpy(s->d_roots, v->roots, v->root_count * sizeof *s->d_roots, cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpy(s->d_area_before, v->area_before, roots * sizeof *s->d_area_before,
                                 cudaMemcpyHostToDevice));
         s->clusters_uploaded = 1;
     }
-    if (element_count > s->cluster_element_capacity) { /* grown: the uploaded ones move along */
-        size_t cap = element_count + element_count / 2;
-        rad_ff_patch *grown = NULL;
-        RAD_CUDA_TRY(cudaMalloc(&grown, cap * sizeof *grown));
-        if (s->cluster_elements_uploaded &&
-            cudaMemcpy(grown, s->d_cluster_elements, s->cluster_elements_uploaded * sizeof *grown,
-                       cudaMemcpyDeviceToDevice) != cudaSuccess) {
-            cudaFree(grown);
-            RAD_CUDA_TRY(cudaGetLastError());
-        }
-        cudaFree(s->d_cluster_elements);
-        s->d_cluster_elements = grown;
-        s->cluster_element_capacity = cap;
-    }
-    if (element_count > s->cluster_elements_uploaded) {
-        RAD_CUDA_TRY(cudaMemcpy(s->d_cluster_elements + s->cluster_elements_uploaded,
-                                v->patches + s->cluster_elements_uploaded,
-                                (element_count - s->cluster_elements_uploaded) * sizeof *v->patches,
-                                cudaMemcpyHostToDevice));
-        s->cluster_elements_uploaded = element_count;
-    }
+    if ((status = upload_elements(&s->cluster_elements, v->patches, NULL, v->element_count)) != RAD_OK) return status;
     if (count > s->cluster_job_capacity) {
         cudaFree(s->d_cluster_jobs);
         cudaFree(s->d_drawn);
@@ -1041,7 +1016,7 @@ static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, uint
     dv.clusters = s->d_clusters;
     dv.roots = s->d_roots;
     dv.area_before = s->d_area_before;
-    dv.patches = s->d_cluster_elements;
+    dv.patches = s->cluster_elements.patches;
     t.nodes = s->d_nodes;
     t.tris = s->d_tris;
     t.root = s->root;

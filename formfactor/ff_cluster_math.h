@@ -5,12 +5,11 @@
  * errors once they are traced (ff_cluster_couple), which both backends'
  * cluster_draws run (ff_backend.h).
  *
- *     ff_cluster_view v = {clusters, roots, area_before, patches, cone, delta};
+ *     ff_cluster_view v = {clusters, roots, area_before, patches, counts, cone, delta};
  *     ff_cluster_drawn o;
- *     ff_segment segs[FF_CLUSTER_RAYS];
- *     ff_cluster_draw(&v, a, b, &o, segs);       // o.rays segments to trace
- *     o.blocked = ...;                           // of them, blocked
- *     ff_cluster_couple(&v, a, b, &o);           // o.coupling, o.error_ab, o.error_ba
+ *     ff_cluster_pair(&v, bvh nodes, tris, root, root_count, a, b, &o);
+ *     // = ff_cluster_draw (o.rays segments), ff_bvh_occluded on each
+ *     //   (o.blocked), ff_cluster_couple (o.coupling, o.error_ab, o.error_ba)
  */
 #ifndef FF_CLUSTER_MATH_H
 #define FF_CLUSTER_MATH_H
@@ -156,8 +155,10 @@ static inline RAD_HD ff_cluster_pair_bound ff_cluster_pair_estimate(const ff_clu
 typedef struct ff_cluster_view {
     const ff_cluster *clusters;
     const uint32_t *roots;      /* in cluster order */
-    const double *area_before;  /* the roots' areas summed in cluster order */
-    const rad_ff_patch *patches; /* by element id */
+    const double *area_before;  /* root_count + 1: the roots' areas summed in cluster order */
+    const rad_ff_patch *patches; /* element_count, by element id (roots first) */
+    uint32_t cluster_count, root_count;
+    size_t element_count;
     double cone;
     double delta;
 } ff_cluster_view;
@@ -391,6 +392,20 @@ static inline RAD_HD void ff_cluster_couple(const ff_cluster_view *v, uint32_t a
     double Fab = o->coupling * bb.area, Fba = o->coupling * ba.area;
     o->error_ab = fmax(pb.hi_rs - Fab, Fab - (clear ? pb.lo_rs : 0.0));
     o->error_ba = fmax(pb.hi_sr - Fba, Fba - (clear ? pb.lo_sr : 0.0));
+}
+
+/* The pair (a, b) whole: drawn, its segments traced through the BVH
+ * (ff_bvh.h), coupled: what both backends' cluster_draws run per pair. */
+static inline RAD_HD void ff_cluster_pair(const ff_cluster_view *v, const ff_bvh_node *nodes, const ff_bvh_tri *tris,
+                                          int32_t root, uint32_t root_count, uint32_t a, uint32_t b,
+                                          ff_cluster_drawn *o)
+{
+    ff_segment segs[FF_CLUSTER_RAYS];
+    ff_cluster_draw(v, a, b, o, segs);
+    uint32_t blocked = 0;
+    for (uint32_t r = 0; r < o->rays; r++) blocked += (uint32_t)ff_bvh_occluded(nodes, tris, root, root_count, &segs[r]);
+    o->blocked = blocked;
+    ff_cluster_couple(v, a, b, o);
 }
 
 #endif

@@ -36,8 +36,6 @@ typedef struct hier_run {
     uint32_t *triangle_face, triangle_count;
     const ff_backend *backend; /* element pairs: CUDA's under --backend cuda|auto with a GPU, else the CPU's */
     void *backend_state;
-    void *tracer_state;        /* the CPU backend's, for cluster pairs where the backend does not draw them
-                                  (ff_backend.cluster_draws): backend_state, or its own; else NULL */
     ff_links links;
     rad_links exported;
     rad_mesh leaves;
@@ -45,8 +43,8 @@ typedef struct hier_run {
     rad_lsolve_result solution;
     ff_counters counters;
     double error_bound;
-    double solved_tol; /* the tolerance the last flat solve met */
-    int solved_cold;   /* ... from B = E, as solve would (ff_solve_links may take it) */
+    rad_lsolve_options solved_with; /* the last flat solve's (from B = E unless warm_start: ff_solve_links
+                                       may take such a one as its own) */
     int threads;
     int cpu_first;      /* --backend auto takes the CPU without asking CUDA (cpu_first_under_auto) */
     double most_leaves; /* faces x 4^level: what it decides by */
@@ -88,8 +86,7 @@ static rad_status solve_flat(hier_run *h, double tol, int warm)
     const double t0 = rad_clock_seconds();
     rad_status st = rad_lsolve(&h->exported, &h->leaves, &o, h->B, &h->solution);
     h->seconds_solve += rad_clock_seconds() - t0;
-    h->solved_tol = tol;
-    h->solved_cold = !warm;
+    h->solved_with = o;
     return st;
 }
 
@@ -176,14 +173,8 @@ static rad_status build_links(hier_run *h)
     if (opt->clusters < 0)
         rad_info("--clusters auto: %s (%zu faces; on from %u)", config.clusters ? "on" : "off", h->base.patch_count,
                  FF_CLUSTERS_AUTO_ROOTS);
-    if (h->backend == &ff_backend_cpu)
-        h->tracer_state = h->backend_state;
-    else if (config.clusters && !h->backend->cluster_draws && (st = ff_backend_cpu.create(&su, &h->tracer_state)) != RAD_OK)
-        return st;
-    rad_info("element pairs%s on the %s backend", config.clusters && h->backend->cluster_draws ? " and cluster pairs" : "",
-             h->backend->name);
-    if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, h->backend, h->backend_state,
-                            h->tracer_state)) != RAD_OK)
+    rad_info("element pairs%s on the %s backend", config.clusters ? " and cluster pairs" : "", h->backend->name);
+    if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, h->backend, h->backend_state)) != RAD_OK)
         return st;
     h->seconds_setup = rad_clock_seconds() - t_setup;
     for (uint32_t pass = 0; pass < opt->passes && st == RAD_OK; pass++) {
@@ -208,7 +199,7 @@ static rad_status build_links(hier_run *h)
                      h->seconds_links, h->solution.iterations[0]);
     }
     /* a pass that refined nothing left the last solution at the oracle's tolerance */
-    if (st == RAD_OK && h->solved_tol > HIER_FINAL_TOL) st = solve_flat(h, HIER_FINAL_TOL, 1);
+    if (st == RAD_OK && h->solved_with.tolerance > HIER_FINAL_TOL) st = solve_flat(h, HIER_FINAL_TOL, 1);
     if (st == RAD_OK) {
         const double t0 = rad_clock_seconds();
         h->error_bound = ff_links_error_bound(&h->links, &h->exported, h->B);
@@ -240,8 +231,10 @@ static rad_status write_links(hier_run *h)
     const ff_options *opt = h->opt;
     const rad_ff_info info = links_info(h);
     double t0 = rad_clock_seconds();
-    const ff_solve_flat flat = {.B = h->B, .result = h->solution, .tolerance = h->solved_tol};
-    rad_status st = opt->radiosity_path ? ff_solve_links(&info, &h->leaves, &h->exported, h->solved_cold ? &flat : NULL,
+    const rad_lsolve_options *o = &h->solved_with;
+    const solve_links_flat flat = {
+        .B = h->B, .result = h->solution, .tolerance = o->tolerance, .method = o->method, .channels = o->channels};
+    rad_status st = opt->radiosity_path ? ff_solve_links(&info, &h->leaves, &h->exported, o->warm_start ? NULL : &flat,
                                                          opt, h->threads)
                                         : rad_ff_write_links(opt->output, &info, &h->leaves, &h->exported);
     h->seconds_write = rad_clock_seconds() - t0;
@@ -375,9 +368,8 @@ static rad_status write_stats(const hier_run *h)
 /* The backends' states (and a GPU's buffers); the links stay. */
 static void release_backends(hier_run *h)
 {
-    if (h->tracer_state && h->tracer_state != h->backend_state) ff_backend_cpu.destroy(h->tracer_state);
     if (h->backend_state) h->backend->destroy(h->backend_state);
-    h->tracer_state = h->backend_state = NULL;
+    h->backend_state = NULL;
 }
 
 rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)

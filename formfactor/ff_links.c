@@ -101,9 +101,9 @@ static void cluster_values(ff_links *L, const double *lo, const double *hi);
 
 static rad_status clusters_init(ff_links *L)
 {
-    if (!L->backend->cluster_draws && !L->tracer_state) {
-        rad_error("internal: clusters without a CPU tracer for their links");
-        return RAD_ERR_INVALID;
+    if (!L->backend->cluster_draws) {
+        rad_error("the %s backend cannot compute cluster links", L->backend->name);
+        return RAD_ERR_UNSUPPORTED;
     }
     if (L->tree.base->patch_count >= FF_CLUSTER_BIT / 2) {
         rad_error("clusters: %zu faces, more than a hierarchy with clusters numbers", L->tree.base->patch_count);
@@ -172,8 +172,7 @@ static rad_status root_keys(ff_links *L)
 }
 
 rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *base, const double centre[3],
-                         const ff_links_config *config, const ff_backend *backend, void *backend_state,
-                         void *tracer_state)
+                         const ff_links_config *config, const ff_backend *backend, void *backend_state)
 {
     memset(L, 0, sizeof *L);
     L->scene = scene;
@@ -182,7 +181,6 @@ rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *ba
     if (!(L->config.cluster_cone > 0)) L->config.cluster_cone = RAD_PI; /* 0: no cone, as pi */
     L->backend = backend;
     L->backend_state = backend_state;
-    L->tracer_state = tracer_state;
     if (config->clusters && !(config->ray_delta > 0)) {
         rad_error("internal: clusters without the shadow segments' delta (ff_links_config.ray_delta)");
         return RAD_ERR_INVALID;
@@ -518,21 +516,20 @@ static rad_status split_pair(ff_links *L, uint32_t a, uint32_t b, job_list *next
 /* ---- pairs with a cluster at an end ---- */
 
 
-/* The cluster pairs jobs[0, m) into out[0, m): decided, drawn, traced
- * and coupled (ff_cluster_math.h) by the element backend where it offers
- * cluster_draws (the CPU's and CUDA's do, the same math), else by the
- * CPU tracer's. */
-static rad_status cluster_pairs(ff_links *L, const ff_pair_job *jobs, size_t m, ff_cluster_drawn *out)
+/* The cluster pairs jobs[0, m) into out[0, m), each decided, drawn,
+ * traced and coupled (ff_cluster_pair) by the backend's cluster_draws. */
+static rad_status cluster_pairs(const ff_links *L, const ff_pair_job *jobs, size_t m, ff_cluster_drawn *out)
 {
-    const int own = L->backend->cluster_draws != NULL;
-    const ff_backend *b = own ? L->backend : &ff_backend_cpu;
-    const ff_cluster_view v = {L->clusters.clusters, L->clusters.roots, L->clusters.area_before, L->patches,
-                               L->config.cluster_cone, L->config.ray_delta};
-    long long t0 = rad_clock_ns();
-    rad_status st = b->cluster_draws(own ? L->backend_state : L->tracer_state, &v, L->clusters.count,
-                                     L->clusters.root_count, L->tree.element_count, jobs, m, out);
-    L->cluster_seconds += 1e-9 * (double)(rad_clock_ns() - t0);
-    return st;
+    const ff_cluster_view v = {.clusters = L->clusters.clusters,
+                               .roots = L->clusters.roots,
+                               .area_before = L->clusters.area_before,
+                               .patches = L->patches,
+                               .cluster_count = L->clusters.count,
+                               .root_count = L->clusters.root_count,
+                               .element_count = L->tree.element_count,
+                               .cone = L->config.cluster_cone,
+                               .delta = L->config.ray_delta};
+    return L->backend->cluster_draws(L->backend_state, &v, jobs, m, out);
 }
 
 /* One round's element pairs through the backend, with counters of their
@@ -602,7 +599,9 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
             const size_t m = clustered;
             long long t0 = rad_clock_ns();
             cst = cluster_pairs(L, cpairs.jobs, m, cout);
-            counters->visibility_seconds += 1e-9 * (double)(rad_clock_ns() - t0);
+            const double seconds = 1e-9 * (double)(rad_clock_ns() - t0);
+            counters->visibility_seconds += seconds;
+            L->cluster_seconds += seconds;
             L->cluster_pairs += m;
             for (size_t i = 0; i < m; i++) L->cluster_rays += cout[i].rays;
         }

@@ -116,8 +116,6 @@ typedef struct ff_links {
     ff_links_config config;
     const ff_backend *backend;
     void *backend_state;
-    void *tracer_state;    /* a CPU backend's state: the cluster pairs where the backend offers no
-                              cluster_draws (ff_links_init); may be NULL */
     rad_hierarchy tree;
     rad_ff_patch *patches; /* per element, the backend's frame */
     uint32_t *keys;        /* per element: its first leaf's patch index in the mesh of the leaves
@@ -140,7 +138,7 @@ typedef struct ff_links {
     ff_link_pair *links;
     size_t link_count, link_cap;
     uint64_t cluster_pairs, cluster_rays; /* candidates with a cluster at an end, their segments */
-    double cluster_seconds;               /* their wall (ff_links.c cluster_pairs) */
+    double cluster_seconds;               /* their wall (the backend's cluster_draws) */
     /* what refinement did, all passes */
     uint64_t candidates, refined_pairs, rounds;
     uint32_t passes;
@@ -148,14 +146,10 @@ typedef struct ff_links {
 
 /* Roots from `base` (the --subdiv 0 mesh, which must outlive the links),
  * element patches through ff_patch_make, the backend (already created
- * over the scene's occluders) through its compute_pairs, and the cluster
- * pairs through its cluster_draws. tracer_state: ff_backend_cpu's state
- * over the same occluders, which draws the cluster pairs where the
- * backend does not (the backend's own where it is the CPU's); needed
- * with config.clusters and such a backend only, else NULL is fine. */
+ * over the scene's occluders) through its compute_pairs, and with
+ * config.clusters the cluster pairs through its cluster_draws. */
 rad_status ff_links_init(ff_links *links, const rad_scene *scene, const rad_mesh *base, const double centre[3],
-                         const ff_links_config *config, const ff_backend *backend, void *backend_state,
-                         void *tracer_state);
+                         const ff_links_config *config, const ff_backend *backend, void *backend_state);
 
 /* One pass of refinement. The first pass starts from every pair of roots
  * (from the root cluster's self-link with config.clusters);

@@ -105,7 +105,7 @@ void ff_solve_free(ff_solve *s)
 int ff_solve_channels(const rad_mesh *leaves) { return solve_mesh_is_grey(leaves) ? 1 : 3; }
 
 rad_status ff_solve_links(const rad_ff_info *info, const rad_mesh *leaves, const rad_links *links,
-                          const ff_solve_flat *flat, const ff_options *options, int threads)
+                          const solve_links_flat *flat, const ff_options *options, int threads)
 {
     solve_options so = {.input = FF_SOLVE_LINKS_NAME,
                         .output = options->radiosity_path,
@@ -114,14 +114,6 @@ rad_status ff_solve_links(const rad_ff_info *info, const rad_mesh *leaves, const
     rad_ff_info header; /* the file's, after the writer's checks */
     rad_status status = rad_ff_links_info(FF_SOLVE_LINKS_NAME, info, leaves, links, &header);
     if (status != RAD_OK) return status;
-    solve_links_flat given;
-    if (flat)
-        given = (solve_links_flat){.B = flat->B,
-                                   .result = flat->result,
-                                   .tolerance = flat->tolerance,
-                                   .method = RAD_LSOLVE_GAUSS_SEIDEL,
-                                   .channels = ff_solve_channels(leaves)};
-    solve_links_input in = {
-        .info = &header, .leaves = leaves, .links = links, .load_seconds = 0, .flat = flat ? &given : NULL};
+    solve_links_input in = {.info = &header, .leaves = leaves, .links = links, .load_seconds = 0, .flat = flat};
     return solve_links_solve(&so, &in);
 }

@@ -23,6 +23,7 @@
 #include "ff_options.h"
 #include "rad_ffile.h"
 #include "rad_links.h"
+#include "links.h" /* solve's: solve_links_flat */
 #include "rad_lsolve.h"
 #include "rad_status.h"
 
@@ -51,16 +52,6 @@ rad_status ff_solve_run(ff_comm *comm, ff_solve *solve, const uint32_t *row_begi
                         int threads);
 void ff_solve_free(ff_solve *solve); /* NULL is fine */
 
-/* A flat solve formfactor ran on the links from B = E by Gauss-Seidel
- * with ff_solve_channels' channels, which ff_solve_links takes as its
- * own where solve would run the same one (solve/links.h,
- * solve_links_flat). */
-typedef struct ff_solve_flat {
-    const double *B; /* 3 per leaf */
-    rad_lsolve_result result;
-    double tolerance;
-} ff_solve_flat;
-
 /* The channels solve solves the leaves in: 1 for a grey scene, else 3. */
 int ff_solve_channels(const rad_mesh *leaves);
 
@@ -68,9 +59,10 @@ int ff_solve_channels(const rad_mesh *leaves);
  * leaves, as they would be written with `info` as the header, solved in
  * memory by solve's stage for links (solve/links.h) exactly as `solve`
  * solves that file: the writer's checks (rad_ff_links_info), then the
- * same backend choice and bytes; `flat` (NULL: none) is the flat solve
- * already run. One process (the rank that made the links). */
+ * same backend choice and bytes; `flat` (NULL: none) is a flat solve
+ * already run from B = E, which solve takes as its own where it is the
+ * one it would run. One process (the rank that made the links). */
 rad_status ff_solve_links(const rad_ff_info *info, const rad_mesh *leaves, const rad_links *links,
-                          const ff_solve_flat *flat, const ff_options *options, int threads);
+                          const solve_links_flat *flat, const ff_options *options, int threads);
 
 #endif

@@ -66,7 +66,7 @@ static int make_links(const world *w, double tol, uint32_t depth, int threads, r
     ff_links L;
     ff_links_config config = {.link_tol = tol, .oracle = FF_ORACLE_ERROR, .max_level = depth, .min_area = 0};
     ff_counters counters = {0};
-    int ok = ff_links_init(&L, &w->scene, &w->base, w->centre, &config, &ff_backend_cpu, state, state) == RAD_OK &&
+    int ok = ff_links_init(&L, &w->scene, &w->base, w->centre, &config, &ff_backend_cpu, state) == RAD_OK &&
              ff_links_refine(&L, NULL, &counters, NULL) == RAD_OK && ff_links_export(&L, out, leaves) == RAD_OK;
     ff_links_free(&L);
     ff_backend_cpu.destroy(state);
