@@ -30,10 +30,10 @@ extern "C" {
 
 #define TILE RAD_FF_TILE_COLUMNS
 #define NOT_LISTED 0xffffffffu
-/* Column segments per row in the finishing kernel: enough blocks to fill
- * the GPU when a round has few rows (267 rows of 47 104 columns: 9 x 32
- * blocks), each segment at least 1024 columns. */
-#define SEGMENTS_MAX 32u
+/* Column segments per row in the finishing kernel: enough one-warp blocks
+ * to fill the GPU when a round has few rows (712 rows of 188 416 columns:
+ * 23 x 128 blocks), each segment at least 1024 columns. */
+#define SEGMENTS_MAX 128u
 
 /* One row's share of ff_rows_summary. */
 struct row_stats {
@@ -59,9 +59,13 @@ struct ff_cuda_records {
 
 
 /* Block (x, y): rows [32 x, 32 x + 32), columns [y cols, (y + 1) cols) -
- * one segment of the row; its partial sums into stats[row * segments + y]. */
-__global__ static void finish_kernel(double *values, double *errors, const double *area, uint32_t n, uint32_t rows,
-                                     uint32_t cols, row_stats *stats)
+ * one segment of the row; its partial sums into stats[row * segments + y].
+ * Each lane loads its column of the 32 rows before it stores any (32
+ * loads in flight per warp: the kernel is bound by memory latency, not
+ * bandwidth, with one warp per block). */
+__global__ static void finish_kernel(double *__restrict__ values, double *__restrict__ errors,
+                                     const double *__restrict__ area, uint32_t n, uint32_t rows, uint32_t cols,
+                                     row_stats *__restrict__ stats)
 {
     __shared__ double v_tile[32][33], e_tile[32][33];
     const uint32_t lane = threadIdx.x, r0 = blockIdx.x * 32u, mine = r0 + lane;
@@ -69,32 +73,43 @@ __global__ static void finish_kernel(double *values, double *errors, const doubl
     const uint32_t c0 = blockIdx.y * cols, c1 = n - c0 < cols ? n : c0 + cols;
     row_stats s = {0, 0, 0, 0, 0, 0, 0};
     for (uint32_t j0 = c0; j0 < c1; j0 += 32u) {
-        uint32_t j = j0 + lane, width = c1 - j0 < 32u ? c1 - j0 : 32u;
-        double a = j < c1 ? area[j] : 0;
-        for (uint32_t r = 0; r < here && j < c1; r++) {
-            size_t at = (size_t)(r0 + r) * n + j;
-            double v = values[at] * a;
-            values[at] = v;
-            v_tile[r][lane] = v;
-            if (errors) {
-                double e = errors[at] * a;
-                errors[at] = e;
-                e_tile[r][lane] = e;
+        const uint32_t j = j0 + lane, width = c1 - j0 < 32u ? c1 - j0 : 32u;
+        const int inside = j < c1;
+        const double a = inside ? area[j] : 0;
+        double v[32];
+#pragma unroll
+        for (uint32_t r = 0; r < 32u; r++) v[r] = r < here && inside ? values[(size_t)(r0 + r) * n + j] : 0;
+#pragma unroll
+        for (uint32_t r = 0; r < 32u; r++) {
+            if (!(r < here && inside)) continue;
+            v[r] *= a;
+            values[(size_t)(r0 + r) * n + j] = v[r];
+            v_tile[r][lane] = v[r];
+        }
+        if (errors) {
+#pragma unroll
+            for (uint32_t r = 0; r < 32u; r++) v[r] = r < here && inside ? errors[(size_t)(r0 + r) * n + j] : 0;
+#pragma unroll
+            for (uint32_t r = 0; r < 32u; r++) {
+                if (!(r < here && inside)) continue;
+                v[r] *= a;
+                errors[(size_t)(r0 + r) * n + j] = v[r];
+                e_tile[r][lane] = v[r];
             }
         }
         __syncwarp();
         if (lane < here) {
             for (uint32_t k = 0; k < width; k++) {
-                double v = v_tile[lane][k];
-                s.sum += v;
-                if (!errors || !(v > 0)) continue;
+                double x = v_tile[lane][k];
+                s.sum += x;
+                if (!errors || !(x > 0)) continue;
                 double e = e_tile[lane][k];
                 s.error_sum += e;
-                s.error_relative_sum += e / v;
+                s.error_relative_sum += e / x;
                 s.error_count++;
                 if (e > s.error_max) {
                     s.error_max = e;
-                    s.error_max_value = v;
+                    s.error_max_value = x;
                     s.error_max_column = j0 + k;
                 }
             }
@@ -134,9 +149,12 @@ __device__ static inline int stored_nonzero(double v, uint32_t element)
 
 __device__ static inline uint64_t align8(uint64_t x) { return (x + 7u) & ~(uint64_t)7u; }
 
+/* Tiles a warp tests at once (TILES_AT_ONCE x 2 loads in flight per lane). */
+#define TILES_AT_ONCE 8u
+
 /* A warp per row: which tiles are listed, their places, the record size. */
-__global__ static void tiles_kernel(const double *values, uint32_t n, uint32_t rows, uint32_t element,
-                                    uint32_t *place, uint64_t *size)
+__global__ static void tiles_kernel(const double *__restrict__ values, uint32_t n, uint32_t rows, uint32_t element,
+                                    uint32_t *__restrict__ place, uint64_t *__restrict__ size)
 {
     const uint32_t lane = threadIdx.x % 32u, row = (blockIdx.x * blockDim.x + threadIdx.x) / 32u;
     if (row >= rows) return;
@@ -144,22 +162,40 @@ __global__ static void tiles_kernel(const double *values, uint32_t n, uint32_t r
     const double *v = values + (size_t)row * n;
     uint32_t listed = 0;
     uint64_t value_bytes = 0, element_bytes = element == RAD_ELEMENT_F32 ? 4u : 8u;
-    for (uint32_t t = 0; t < tiles; t++) {
-        uint32_t j = t * TILE + lane, width = n - t * TILE < TILE ? n - t * TILE : TILE;
-        int any = (j < n && stored_nonzero(v[j], element)) || (j + 32u < n && stored_nonzero(v[j + 32u], element));
-        int listed_here = __any_sync(0xffffffffu, any);
-        if (lane == 0) place[(size_t)row * tiles + t] = listed_here ? listed : NOT_LISTED;
-        if (listed_here) {
-            listed++;
-            value_bytes += width * element_bytes;
+    for (uint32_t t0 = 0; t0 < tiles; t0 += TILES_AT_ONCE) {
+        double lo[TILES_AT_ONCE], hi[TILES_AT_ONCE];
+#pragma unroll
+        for (uint32_t q = 0; q < TILES_AT_ONCE; q++) {
+            const uint32_t j = (t0 + q) * TILE + lane; /* past the row: not stored, so not listed */
+            lo[q] = j < n ? v[j] : 0.0;
+            hi[q] = j + 32u < n ? v[j + 32u] : 0.0;
+        }
+#pragma unroll
+        for (uint32_t q = 0; q < TILES_AT_ONCE; q++) {
+            const uint32_t t = t0 + q;
+            if (t >= tiles) break; /* the same t on every lane */
+            const uint32_t width = n - t * TILE < TILE ? n - t * TILE : TILE;
+            int any = stored_nonzero(lo[q], element) || stored_nonzero(hi[q], element);
+            int listed_here = __any_sync(0xffffffffu, any);
+            if (lane == 0) place[(size_t)row * tiles + t] = listed_here ? listed : NOT_LISTED;
+            if (listed_here) {
+                listed++;
+                value_bytes += width * element_bytes;
+            }
         }
     }
     if (lane == 0) size[row] = align8(4u + 4u * (uint64_t)listed) + align8(value_bytes);
 }
 
-/* A warp per row: its record at out + at[row] (zeroed before). */
-__global__ static void records_kernel(const double *values, uint32_t n, uint32_t rows, uint32_t element,
-                                      const uint32_t *place, const uint64_t *at, unsigned char *out)
+/* Listed tiles a warp copies at once (2 loads each in flight per lane). */
+#define COPIES_AT_ONCE 4
+
+/* A warp per row: its record at out + at[row] (zeroed before). The warp
+ * reads 32 tiles' places at once and copies the listed ones,
+ * COPIES_AT_ONCE at a time, loading before it stores. */
+__global__ static void records_kernel(const double *__restrict__ values, uint32_t n, uint32_t rows, uint32_t element,
+                                      const uint32_t *__restrict__ place, const uint64_t *__restrict__ at,
+                                      unsigned char *__restrict__ out)
 {
     const uint32_t lane = threadIdx.x % 32u, row = (blockIdx.x * blockDim.x + threadIdx.x) / 32u;
     if (row >= rows) return;
@@ -168,20 +204,45 @@ __global__ static void records_kernel(const double *values, uint32_t n, uint32_t
     const uint32_t *row_place = place + (size_t)row * tiles;
     unsigned char *rec = out + at[row];
     uint32_t listed = 0;
-    for (uint32_t t = 0; t < tiles; t++) listed += row_place[t] != NOT_LISTED;
-    uint64_t values_at = align8(4u + 4u * (uint64_t)listed);
+    for (uint32_t t = lane; t < tiles; t += 32u) listed += row_place[t] != NOT_LISTED;
+    listed = __reduce_add_sync(0xffffffffu, listed);
+    const uint64_t values_at = align8(4u + 4u * (uint64_t)listed);
     if (lane == 0) *(uint32_t *)rec = listed;
-    for (uint32_t t = 0; t < tiles; t++) {
-        uint32_t k = row_place[t];
-        if (k == NOT_LISTED) continue;
-        if (lane == 0) *(uint32_t *)(rec + 4u + 4u * (uint64_t)k) = t;
-        for (uint32_t e = lane; e < TILE; e += 32u) {
-            uint32_t j = t * TILE + e;
-            if (j >= n) break;
-            if (element == RAD_ELEMENT_F32)
-                ((float *)(rec + values_at))[(size_t)k * TILE + e] = (float)v[j];
-            else
-                ((double *)(rec + values_at))[(size_t)k * TILE + e] = v[j];
+    for (uint32_t t0 = 0; t0 < tiles; t0 += 32u) {
+        const uint32_t k_mine = t0 + lane < tiles ? row_place[t0 + lane] : NOT_LISTED;
+        if (k_mine != NOT_LISTED) *(uint32_t *)(rec + 4u + 4u * (uint64_t)k_mine) = t0 + lane;
+        uint32_t mask = __ballot_sync(0xffffffffu, k_mine != NOT_LISTED);
+        while (mask) { /* the same mask on every lane */
+            uint32_t t[COPIES_AT_ONCE], k[COPIES_AT_ONCE];
+            double lo[COPIES_AT_ONCE], hi[COPIES_AT_ONCE];
+            int count = 0;
+#pragma unroll
+            for (int q = 0; q < COPIES_AT_ONCE; q++) {
+                const int bit = mask ? __ffs(mask) - 1 : 0;
+                const int take = mask != 0;
+                mask &= mask - 1u;
+                t[q] = t0 + (uint32_t)bit;
+                k[q] = __shfl_sync(0xffffffffu, k_mine, bit);
+                count += take;
+                const uint32_t j = t[q] * TILE + lane;
+                lo[q] = take && j < n ? v[j] : 0.0;
+                hi[q] = take && j + 32u < n ? v[j + 32u] : 0.0;
+            }
+#pragma unroll
+            for (int q = 0; q < COPIES_AT_ONCE; q++) {
+                if (q >= count) break;
+                const uint32_t j = t[q] * TILE + lane;
+                const size_t slot = (size_t)k[q] * TILE + lane;
+                if (element == RAD_ELEMENT_F32) {
+                    float *to = (float *)(rec + values_at);
+                    if (j < n) to[slot] = (float)lo[q];
+                    if (j + 32u < n) to[slot + 32u] = (float)hi[q];
+                } else {
+                    double *to = (double *)(rec + values_at);
+                    if (j < n) to[slot] = lo[q];
+                    if (j + 32u < n) to[slot + 32u] = hi[q];
+                }
+            }
         }
     }
 }

@@ -78,6 +78,12 @@ typedef struct solve_gpu_tiles {
     float *values;         /* tile_count * RAD_FF_TILE_COLUMNS: F_ij rounded to float, zero-padded */
     double *diag;          /* n: F_ii of each held row in double (Jacobi's divisor, CG's preconditioner) */
     int exact;             /* 1 when every float is its double (an f32 file) */
+    /* Where the values come from: F's rows [source_begin, source_begin + n).
+     * With values NULL (solve_gpu_tiles_layout_rows) they are converted
+     * while they are copied (solve_gpu_tiles_fill), and exact is known only
+     * then (solve_gpu_exact). */
+    const solve_rows *source;
+    size_t source_begin;
 } solve_gpu_tiles;
 
 /* Rows per OpenMP thread pass, as SOLVE_PARALLEL_MIN_ROWS (run.h). */
@@ -89,6 +95,15 @@ rad_status solve_gpu_tiles_make(const solve_rows *F, solve_gpu_tiles *out_tiles)
 /* The same for rows [row_begin, row_end) only (F holds them: a rank's block). */
 rad_status solve_gpu_tiles_make_rows(const solve_rows *F, size_t row_begin, size_t row_end, solve_gpu_tiles *out_tiles);
 void solve_gpu_tiles_free(solve_gpu_tiles *tiles); /* safe on zeroed */
+/* The layout alone (row_tiles, tile_column, diag; values NULL): the values
+ * are streamed from F when solve_gpu_create_ranks copies them, so the host
+ * never holds the float matrix whole. */
+rad_status solve_gpu_tiles_layout_rows(const solve_rows *F, size_t row_begin, size_t row_end,
+                                       solve_gpu_tiles *out_tiles);
+/* Held rows [first, end)'s tile values, from tiles->source, into `to`
+ * (tile row_tiles[first] at to[0]; zero-padded floats), on the host's
+ * threads. Returns 1 when every float is its double. */
+int solve_gpu_tiles_fill(const solve_gpu_tiles *tiles, size_t first, size_t end, float *to);
 
 /* Copies `tiles` (area: n patch areas) to device 0. Errors (no device, not
  * enough GPU memory, a failed CUDA call) are logged; *out_gpu is set only
@@ -125,6 +140,8 @@ void solve_gpu_destroy(solve_gpu *gpu); /* safe on NULL */
 /* 1 when every entry of F is a float exactly (f32 files): the device
  * matrix is F itself. Otherwise it is F rounded to float. */
 int solve_gpu_exact(const solve_gpu *gpu);
+/* Sets it: the ranks' agreement, each having streamed its own rows. */
+void solve_gpu_set_exact(solve_gpu *gpu, int exact);
 /* The device's name, e.g. "NVIDIA H100 80GB HBM3". */
 const char *solve_gpu_device_name(const solve_gpu *gpu);
 /* Bytes of device memory the matrix takes. */

@@ -354,6 +354,7 @@ extern "C" void solve_gpu_prestart_join(void) { rad_cuda_prestart_join(); }
 extern "C" int solve_gpu_device_count(void) { return rad_cuda_device_count(); }
 
 extern "C" int solve_gpu_exact(const solve_gpu *gpu) { return gpu->exact; }
+extern "C" void solve_gpu_set_exact(solve_gpu *gpu, int exact) { gpu->exact = exact; }
 extern "C" const char *solve_gpu_device_name(const solve_gpu *gpu) { return gpu->name; }
 extern "C" size_t solve_gpu_matrix_bytes(const solve_gpu *gpu) { return gpu->matrix_bytes; }
 
@@ -436,6 +437,54 @@ static rad_status set_ranks(solve_gpu *g, const solve_gpu_tiles *tiles, const so
     return RAD_OK;
 }
 
+/* Bytes of each page-locked buffer a streamed upload fills in turn. */
+#define STREAM_STAGE_BYTES ((size_t)64 << 20)
+
+/* The values of streamed tiles (values NULL): converted from the source
+ * rows by the host's threads into one page-locked buffer while the other
+ * is copied to the device; sets g->exact from what they held. */
+static rad_status stream_values(solve_gpu *g, const solve_gpu_tiles *tiles)
+{
+    rad_status status = RAD_OK;
+    const size_t tile_bytes = GPU_TILE * sizeof(float), rows = tiles->n;
+    size_t stage_bytes = STREAM_STAGE_BYTES;
+    for (size_t r = 0; r < rows; r++) { /* a row's tiles must fit one buffer */
+        size_t bytes = (size_t)(tiles->row_tiles[r + 1] - tiles->row_tiles[r]) * tile_bytes;
+        if (bytes > stage_bytes) stage_bytes = bytes;
+    }
+    float *stage[2] = {NULL, NULL};
+    cudaEvent_t copied[2] = {NULL, NULL};
+    cudaStream_t stream = NULL;
+    int used[2] = {0, 0}, exact = 1;
+    RAD_CUDA_TRY(cudaStreamCreateWithFlags(&stream, cudaStreamNonBlocking));
+    for (int k = 0; k < 2; k++) {
+        RAD_CUDA_TRY(cudaMallocHost(&stage[k], stage_bytes));
+        RAD_CUDA_TRY(cudaEventCreateWithFlags(&copied[k], cudaEventDisableTiming));
+    }
+    for (size_t first = 0, k = 0; first < rows; k ^= 1) {
+        size_t end = first + 1;
+        while (end < rows && (tiles->row_tiles[end + 1] - tiles->row_tiles[first]) * tile_bytes <= stage_bytes) end++;
+        if (used[k]) RAD_CUDA_TRY(cudaEventSynchronize(copied[k])); /* its last copy is done */
+        exact = solve_gpu_tiles_fill(tiles, first, end, stage[k]) && exact;
+        const size_t bytes = (size_t)(tiles->row_tiles[end] - tiles->row_tiles[first]) * tile_bytes;
+        RAD_CUDA_TRY(cudaMemcpyAsync(g->values + tiles->row_tiles[first] * GPU_TILE, stage[k], bytes,
+                                     cudaMemcpyHostToDevice, stream));
+        RAD_CUDA_TRY(cudaEventRecord(copied[k], stream));
+        used[k] = 1;
+        first = end;
+    }
+    RAD_CUDA_TRY(cudaStreamSynchronize(stream));
+    g->exact = exact;
+done:
+    if (stream) cudaStreamSynchronize(stream); /* no copy left reading a buffer freed below */
+    for (int k = 0; k < 2; k++) {
+        if (copied[k]) cudaEventDestroy(copied[k]);
+        cudaFreeHost(stage[k]);
+    }
+    if (stream) cudaStreamDestroy(stream);
+    return status;
+}
+
 extern "C" rad_status solve_gpu_create_ranks(const solve_gpu_tiles *tiles, const double *area,
                                              const solve_gpu_ranks *ranks, solve_gpu **out_gpu)
 {
@@ -493,7 +542,10 @@ extern "C" rad_status solve_gpu_create_ranks(const solve_gpu_tiles *tiles, const
     RAD_CUDA_TRY(cudaMemcpy(g->row_tiles, tiles->row_tiles, (rows + 1) * sizeof(uint64_t), cudaMemcpyHostToDevice));
     if (count) {
         RAD_CUDA_TRY(cudaMemcpy(g->tile_column, tiles->tile_column, count * sizeof(uint32_t), cudaMemcpyHostToDevice));
-        RAD_CUDA_TRY(cudaMemcpy(g->values, tiles->values, count * GPU_TILE * sizeof(float), cudaMemcpyHostToDevice));
+        if (tiles->values)
+            RAD_CUDA_TRY(cudaMemcpy(g->values, tiles->values, count * GPU_TILE * sizeof(float), cudaMemcpyHostToDevice));
+        else if ((status = stream_values(g, tiles)) != RAD_OK)
+            goto done;
     }
     if (rows)
         RAD_CUDA_TRY(cudaMemcpy(g->diag + g->row_begin, tiles->diag, rows * sizeof(double), cudaMemcpyHostToDevice));

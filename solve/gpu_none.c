@@ -31,6 +31,7 @@ size_t solve_gpu_row_quantum(size_t n)
 
 void solve_gpu_destroy(solve_gpu *gpu) { (void)gpu; }
 int solve_gpu_exact(const solve_gpu *gpu) { return (void)gpu, 0; }
+void solve_gpu_set_exact(solve_gpu *gpu, int exact) { (void)gpu, (void)exact; }
 const char *solve_gpu_device_name(const solve_gpu *gpu) { return (void)gpu, "none"; }
 size_t solve_gpu_matrix_bytes(const solve_gpu *gpu) { return (void)gpu, 0; }
 

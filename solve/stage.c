@@ -214,12 +214,11 @@ static rad_status upload_matrix(stage_state *s, const char *input, solve_backend
     if (*backend != SOLVE_BACKEND_CUDA) return RAD_OK;
     solve_gpu_tiles tiles;
     const solve_matrix *m = &s->matrix;
-    rad_status status = solve_gpu_tiles_make_rows(&m->rows, m->row_begin, m->row_end, &tiles);
+    /* The layout on the host; the values are converted to floats while they
+     * are copied (solve_gpu_tiles_layout_rows), never held whole here. */
+    rad_status status = solve_gpu_tiles_layout_rows(&m->rows, m->row_begin, m->row_end, &tiles);
     double built = rad_clock_seconds() - t;
-    /* exact (no refinement rounds) only where every rank's rows are floats */
-    double inexact = solve_comm_max(s->comm, status == RAD_OK && !tiles.exact ? 1.0 : 0.0);
     if (status == RAD_OK) {
-        tiles.exact = inexact == 0.0;
         int devices = solve_gpu_device_count();
         solve_gpu_ranks ranks = {.n = m->patch_count, .ranks = (size_t)s->ranks, .row_split = s->row_split,
                                  .rank = (size_t)s->rank, .device = devices > 0 ? s->rank % devices : 0,
@@ -227,6 +226,9 @@ static rad_status upload_matrix(stage_state *s, const char *input, solve_backend
         status = solve_gpu_create_ranks(&tiles, m->area, &ranks, &s->gpu);
         solve_gpu_tiles_free(&tiles);
     }
+    /* exact (no refinement rounds) only where every rank's rows are floats */
+    double inexact = solve_comm_max(s->comm, status == RAD_OK && !solve_gpu_exact(s->gpu) ? 1.0 : 0.0);
+    if (status == RAD_OK) solve_gpu_set_exact(s->gpu, inexact == 0.0);
     if (s->ranks > 1) status = solve_comm_agree(s->comm, status);
     if (status != RAD_OK) {
         solve_gpu_destroy(s->gpu);
@@ -239,8 +241,8 @@ static rad_status upload_matrix(stage_state *s, const char *input, solve_backend
     *out_seconds = rad_clock_seconds() - t;
     char where[64] = "";
     if (s->ranks > 1) snprintf(where, sizeof where, " on each of %d ranks (its rows; rank 0's)", s->ranks);
-    rad_info("%s: backend cuda%s: %s, the matrix resident as float tiles (%.2f GiB, %s) in %.2f s (tiles built "
-             "on the host in %.2f s, then copied)",
+    rad_info("%s: backend cuda%s: %s, the matrix resident as float tiles (%.2f GiB, %s) in %.2f s (its layout "
+             "built on the host in %.2f s, the values converted to floats as they were copied)",
              input, where, solve_gpu_device_name(s->gpu), solve_gpu_matrix_bytes(s->gpu) / 1073741824.0,
              solve_gpu_exact(s->gpu) ? "exact: the file stores f32"
                                      : "rounded from double: results refined against the double matrix",

@@ -5,7 +5,9 @@
  * tiles: every entry rounded to float at its column, zero padding, the
  * diagonal in double, and `exact` set only when every entry is a float.
  * A block of rows (a rank's, solve_gpu_tiles_make_rows) gives those rows'
- * tiles, from a view that holds only them as from one that holds all. */
+ * tiles, from a view that holds only them as from one that holds all.
+ * The streamed form (the layout alone, the values filled a few rows at a
+ * time as the upload copies them) gives the same floats and `exact`. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -63,6 +65,38 @@ static void check_block(const solve_rows *rows, const solve_gpu_tiles *all, size
     solve_gpu_tiles_free(&t);
 }
 
+/* The layout of rows [a, b), its values filled in pieces of `piece` rows
+ * (as solve_gpu_create_ranks streams them), against `all`'s. */
+static void check_streamed(const solve_rows *rows, const solve_gpu_tiles *all, size_t a, size_t b, size_t piece,
+                           int expect_exact, const char *what)
+{
+    solve_gpu_tiles t;
+    RAD_CHECK(solve_gpu_tiles_layout_rows(rows, a, b, &t) == RAD_OK);
+    RAD_CHECK(t.values == NULL && t.tile_count == all->row_tiles[b] - all->row_tiles[a]);
+    float *values = malloc((t.tile_count ? t.tile_count : 1) * T * sizeof *values);
+    RAD_CHECK(values != NULL);
+    memset(values, 0xff, t.tile_count * T * sizeof *values); /* NaNs where nothing was filled */
+    int exact = 1;
+    for (size_t first = 0; first < t.n; first += piece) {
+        size_t end = first + piece < t.n ? first + piece : t.n;
+        exact = solve_gpu_tiles_fill(&t, first, end, values + t.row_tiles[first] * T) && exact;
+    }
+    t.values = values; /* freed with t */
+    size_t wrong = 0;
+    for (size_t r = 0; r < t.n; r++) {
+        wrong += t.diag[r] != all->diag[a + r];
+        for (uint64_t k = t.row_tiles[r]; k < t.row_tiles[r + 1]; k++) {
+            const uint64_t m = all->row_tiles[a + r] + (k - t.row_tiles[r]);
+            wrong += t.tile_column[k] != all->tile_column[m];
+            wrong += memcmp(values + k * T, all->values + m * T, T * sizeof *values) != 0;
+        }
+    }
+    fprintf(stderr, "%s, rows [%zu, %zu) in pieces of %zu: %zu tiles, %zu wrong, exact %d\n", what, a, b, piece,
+            t.tile_count, wrong, exact);
+    RAD_CHECK(wrong == 0 && exact == expect_exact);
+    solve_gpu_tiles_free(&t);
+}
+
 int main(void)
 {
     /* rows 0..63 touch only columns 64..127; the rest are full */
@@ -92,6 +126,12 @@ int main(void)
                          .values = values};
     check(&dense, 0, "dense, f64 entries");
     check(&sparse, 0, "sparse, f64 entries");
+    {
+        solve_gpu_tiles whole;
+        RAD_CHECK(solve_gpu_tiles_make(&sparse, &whole) == RAD_OK);
+        check_streamed(&sparse, &whole, 0, N, 7, 0, "sparse, f64 entries, streamed");
+        solve_gpu_tiles_free(&whole);
+    }
     for (size_t k = 0; k < N * N; k++) F[k] = (float)F[k];
     for (size_t k = 0; k < used; k++) values[k] = (float)values[k];
     check(&dense, 1, "dense, f32 entries");
@@ -104,10 +144,14 @@ int main(void)
     held.row_tiles = row_tiles + 40; /* holds rows [40, 97): its index starts at row 40's */
     held.first_row = 40;
     check_block(&held, &all, 40, 97, "sparse, only the block held");
+    check_streamed(&sparse, &all, 0, N, 1, 1, "sparse, f32 entries, streamed");
+    check_streamed(&held, &all, 40, 97, 13, 1, "sparse, only the block held, streamed");
     solve_gpu_tiles_free(&all);
     RAD_CHECK(solve_gpu_tiles_make(&dense, &all) == RAD_OK);
+    check_streamed(&dense, &all, 0, N, 150, 1, "dense, f32 entries, streamed whole");
     solve_rows dense_held = {.n = N, .dense = F + 40 * N, .first_row = 40};
     check_block(&dense_held, &all, 40, 97, "dense, only the block held");
+    check_streamed(&dense_held, &all, 40, 97, 5, 1, "dense, only the block held, streamed");
     solve_gpu_tiles_free(&all);
     return rad_test_finish();
 }
