@@ -211,12 +211,15 @@ static void plan_tree_lists(shaped_plan *p)
 }
 
 /* The pair of every link: the link at its source back to its receiver
- * (sources ascend per receiver; receivers and sources are ids).
- * RAD_ERR_INVALID for one without. */
+ * (sources ascend per receiver; receivers and sources are ids), found by
+ * a binary search in the source's links, receivers on the threads.
+ * RAD_ERR_INVALID for one without (the first such link named). */
 static rad_status plan_pairs(shaped_plan *p)
 {
     const rad_links *L = p->L;
     const uint32_t ids = (uint32_t)rad_links_id_count(L);
+    uint64_t bad = UINT64_MAX;
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads) reduction(min : bad)
     for (uint32_t r = 0; r < ids; r++)
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
             const uint32_t s = L->links[k].source;
@@ -227,36 +230,64 @@ static rad_status plan_pairs(shaped_plan *p)
                 else hi = mid;
             }
             if (lo == L->first_link[s + 1] || L->links[lo].source != r) {
-                rad_error("links: link %llu (id %u <- %u) has no link back: links come in pairs",
-                          (unsigned long long)k, r, s);
-                return RAD_ERR_INVALID;
+                bad = k < bad ? k : bad;
+                break;
             }
             p->reverse[k] = lo;
         }
+    if (bad != UINT64_MAX) {
+        uint32_t r = 0;
+        while (L->first_link[r + 1] <= bad) r++;
+        rad_error("links: link %llu (id %u <- %u) has no link back: links come in pairs", (unsigned long long)bad, r,
+                  L->links[bad].source);
+        return RAD_ERR_INVALID;
+    }
     return RAD_OK;
 }
 
-/* Which receiver ends to shape (shaped.h, "Which ends"), their offsets.
- * A link at or from a cluster stays flat (so does its pair). */
-static void plan_ends(shaped_plan *p, const double *node_B, const double *spread, double floor)
+/* Which receiver ends to shape (shaped.h, "Which ends"), their offsets:
+ * the ends decided on the threads, receiver by receiver (`weights`, ids
+ * + 1 of scratch: each receiver's point factors, then where they start),
+ * then placed in link order as one pass would place them. A link at or
+ * from a cluster stays flat (so does its pair). */
+static void plan_ends(shaped_plan *p, const double *node_B, const double *spread, double floor, uint64_t *weights)
 {
     const rad_links *L = p->L;
     const uint64_t ids = rad_links_id_count(L);
-    p->weight_count = 0;
-    for (uint32_t r = 0; r < ids; r++)
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
+    for (uint64_t r = 0; r < ids; r++) {
+        uint64_t shaped = 0;
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
             const rad_link *l = &L->links[k], *back = &L->links[p->reverse[k]];
             if (r >= L->node_count || l->source >= L->node_count) {
                 p->at[k] = NO_WEIGHTS;
                 continue;
             }
-            const double rho_r = max3(&p->rho[3 * (size_t)r]), rho_s = max3(&p->rho[3 * (size_t)l->source]);
-            const int shape =
-                !shaped_plan_is_leaf(p, r) && (rho_r * l->error * max3(&node_B[3 * (size_t)l->source]) >= floor ||
-                                               rho_s * back->factor * spread[r] >= floor);
-            p->at[k] = shape ? p->weight_count : NO_WEIGHTS;
-            if (shape) p->weight_count += p->count[r];
+            const double rho_r = max3(&p->rho[3 * r]), rho_s = max3(&p->rho[3 * (size_t)l->source]);
+            const int shape = !shaped_plan_is_leaf(p, (uint32_t)r) &&
+                              (rho_r * l->error * max3(&node_B[3 * (size_t)l->source]) >= floor ||
+                               rho_s * back->factor * spread[r] >= floor);
+            p->at[k] = shape ? 0 : NO_WEIGHTS;
+            shaped += shape;
         }
+        weights[r] = r < L->node_count ? shaped * p->count[r] : 0;
+    }
+    uint64_t total = 0;
+    for (uint64_t r = 0; r < ids; r++) {
+        const uint64_t w = weights[r];
+        weights[r] = total;
+        total += w;
+    }
+    p->weight_count = total;
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
+    for (uint64_t r = 0; r < L->node_count; r++) {
+        uint64_t at = weights[r];
+        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
+            if (p->at[k] != NO_WEIGHTS) {
+                p->at[k] = at;
+                at += p->count[r];
+            }
+    }
 }
 
 /* The shaped ends' point factors on the host (in parallel over the
@@ -302,13 +333,21 @@ rad_status shaped_plan_factors(shaped_plan *p)
     return RAD_OK;
 }
 
-/* Every receiver's shaped links listed, with each one's receiver. */
+/* Every receiver's shaped links listed, with each one's receiver:
+ * counted, placed and weighed receiver by receiver on the threads. */
 rad_status shaped_plan_lists(shaped_plan *p)
 {
     const rad_links *L = p->L;
     const uint64_t ids = rad_links_id_count(L);
-    uint64_t m = 0;
-    for (uint64_t k = 0; k < L->link_count; k++) m += p->at[k] != NO_WEIGHTS;
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
+    for (uint64_t r = 0; r < ids; r++) {
+        uint64_t m = 0;
+        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) m += p->at[k] != NO_WEIGHTS;
+        p->shaped_first[r + 1] = m;
+    }
+    p->shaped_first[0] = 0;
+    for (uint64_t r = 0; r < ids; r++) p->shaped_first[r + 1] += p->shaped_first[r];
+    const uint64_t m = p->shaped_first[ids];
     p->shaped = malloc((m ? m : 1) * sizeof *p->shaped);
     p->shaped_receiver = malloc((m ? m : 1) * sizeof *p->shaped_receiver);
     if (!p->shaped || !p->shaped_receiver) {
@@ -316,26 +355,28 @@ rad_status shaped_plan_lists(shaped_plan *p)
         return RAD_ERR_NOMEM;
     }
     p->shaped_count = m;
-    m = 0;
-    for (uint64_t r = 0; r < ids; r++) {
-        p->shaped_first[r] = m;
-        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
-            if (p->at[k] != NO_WEIGHTS) {
-                p->shaped_receiver[m] = (uint32_t)r;
-                p->shaped[m++] = k;
-            }
-    }
-    p->shaped_first[ids] = m;
     p->view.shaped = p->shaped;
     /* a sweep reads, for a link k at receiver r < s in r's tree: r's point
      * factors where k's end is shaped (the update of r's leaves), s's where
      * the pair's other end is (S, what s sends, summed over s's leaves) */
-    for (uint32_t r = 0; r < L->node_count; r++)
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
+    for (uint64_t r = 0; r < ids; r++) {
+        uint64_t at = p->shaped_first[r], work = 0;
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
+            if (p->at[k] != NO_WEIGHTS) {
+                p->shaped_receiver[at] = (uint32_t)r;
+                p->shaped[at++] = k;
+            }
+            if (r >= L->node_count) continue;
             const uint32_t s = L->links[k].source;
-            if (p->at[k] != NO_WEIGHTS) p->tree_work[L->nodes[r].root] += p->count[r];
-            if (s < L->node_count && p->at[p->reverse[k]] != NO_WEIGHTS) p->tree_work[L->nodes[r].root] += p->count[s];
+            if (p->at[k] != NO_WEIGHTS) work += p->count[r];
+            if (s < L->node_count && p->at[p->reverse[k]] != NO_WEIGHTS) work += p->count[s];
         }
+        if (work) {
+#pragma omp atomic
+            p->tree_work[L->nodes[r].root] += work;
+        }
+    }
     return RAD_OK;
 }
 
@@ -410,7 +451,14 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
             area += L->nodes[i].area;
         }
         const double mean = area > 0 ? reflected / area : all_area > 0 ? all / all_area : 0;
-        plan_ends(p, node_B, spread, gate * mean);
+        uint64_t *weights = malloc((ids + 1) * sizeof *weights);
+        if (weights) {
+            plan_ends(p, node_B, spread, gate * mean, weights);
+            free(weights);
+        } else {
+            rad_error("links: out of memory for the shaped solve's ends over %llu ids", (unsigned long long)ids);
+            status = RAD_ERR_NOMEM;
+        }
     }
     free(spread);
     free(lo);
@@ -434,25 +482,43 @@ rad_status shaped_plan_device(const shaped_plan *p, shaped_device_arrays *a, sol
 {
     const rad_links *L = p->L;
     const uint32_t n = L->node_count, ids = (uint32_t)rad_links_id_count(L);
-    uint64_t ends = 0;
-    for (uint64_t k = 0; k < L->link_count; k++) ends += p->at[k] != NO_WEIGHTS;
     memset(a, 0, sizeof *a);
+    /* the ends (at nodes only) in link order: counted, then placed,
+     * receiver by receiver on the threads */
+    uint64_t *first_end = malloc(((size_t)n + 1) * sizeof *first_end);
+    if (!first_end) {
+        rad_error("links: out of memory for the shaped solve's device plan over %u ids", ids);
+        return RAD_ERR_NOMEM;
+    }
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
+    for (uint32_t r = 0; r < n; r++) {
+        uint64_t count = 0;
+        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) count += p->at[k] != NO_WEIGHTS;
+        first_end[r + 1] = count;
+    }
+    first_end[0] = 0;
+    for (uint32_t r = 0; r < n; r++) first_end[r + 1] += first_end[r];
+    const uint64_t ends = first_end[n];
     a->ends = malloc((ends ? ends : 1) * sizeof *a->ends);
     a->end_receiver = malloc((ends ? ends : 1) * sizeof *a->end_receiver);
     a->depth = malloc((size_t)ids * sizeof *a->depth);
     a->depth_order = malloc((size_t)ids * sizeof *a->depth_order);
     a->depth_first = calloc((size_t)ids + 2, sizeof *a->depth_first);
     if (!a->ends || !a->end_receiver || !a->depth || !a->depth_order || !a->depth_first) {
+        free(first_end);
         rad_error("links: out of memory for the shaped solve's device plan over %u ids", ids);
         return RAD_ERR_NOMEM;
     }
-    uint64_t e = 0;
-    for (uint32_t r = 0; r < n; r++) /* ends are at nodes only */
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
+    for (uint32_t r = 0; r < n; r++) {
+        uint64_t e = first_end[r];
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
             if (p->at[k] != NO_WEIGHTS) {
                 a->ends[e] = k;
                 a->end_receiver[e++] = r;
             }
+    }
+    free(first_end);
     uint32_t depths = 0;
     for (uint32_t t = 0; t < ids; t++) { /* the clusters first, then the nodes */
         const uint32_t i = t < L->cluster_count ? n + t : t - L->cluster_count;
