@@ -54,6 +54,14 @@ typedef struct piece {
     int live;
 } piece;
 
+/* A face in the index of parallel faces (near_index_build): its normal's
+ * bin and its first corner's offset along the bin's direction. */
+typedef struct near_entry {
+    uint64_t bin;
+    double offset;
+    uint32_t face;
+} near_entry;
+
 typedef struct cutter {
     const rad_scene *scene;
     double tol, min_length, offset; /* absolute, scene units */
@@ -83,7 +91,11 @@ typedef struct cutter {
     size_t out_count, out_cap;
     size_t faces_cut, hidden;
     const int *face_level; /* NULL = 0 */
-    rad_face_grid grid;    /* the faces' boxes grown by `near` */
+    rad_face_grid grid;    /* the faces' boxes grown by the gap */
+    near_entry *near_index; /* the faces by normal bin, then by offset along it (near_index_build) */
+    size_t near_index_count;
+    double near_slack;      /* how far the index's offsets may stray from a face's own (near_band) */
+    rad_vec3 centre;        /* of the scene's box: the offsets' origin */
     uint32_t *stamp;       /* per face: the cut_face call that last listed it */
     uint32_t stamp_now;
     uint32_t *cand;        /* the faces near the face being cut, ascending */
@@ -604,6 +616,110 @@ static int may_near_miss(const cutter *C, uint32_t f, uint32_t g)
     return d > C->gap && d <= C->near && boxes_meet(&C->box[f], &C->box[g], C->near);
 }
 
+/* Near misses come only from parallel faces (normals within 4.5e-5 of
+ * each other: |n - m|^2 = 2 - 2 n.m < 2e-9) whose planes lie between the gap
+ * and `near` apart. Those are found in an index, not in the grid: the grid
+ * would have to list every face in every cell within `near` of it (a
+ * hundred times the cells at 10^6 faces, and every face of a dense object
+ * in each). Normals fall in bins of NEAR_BIN per component, so two parallel
+ * faces' bins differ by at most one in each; within a bin the faces go by
+ * their first corner's offset along the bin's direction, which strays from
+ * the offset along a face's own normal by at most near_slack. */
+#define NEAR_BIN 1e-4
+#define NEAR_BIN_BIAS ((int64_t)1 << 20) /* bin numbers (|n| <= 2: within 20 001) made positive, 21 bits each */
+
+static int near_bin_of(rad_vec3 n, int64_t out[3])
+{
+    const double c[3] = {n.x, n.y, n.z};
+    for (int a = 0; a < 3; a++) {
+        if (!(fabs(c[a]) <= 2.0)) return 0; /* not a normal: no near miss can be found for it */
+        out[a] = (int64_t)floor(c[a] / NEAR_BIN);
+    }
+    return 1;
+}
+
+static uint64_t near_bin_key(const int64_t b[3])
+{
+    return (uint64_t)(b[0] + NEAR_BIN_BIAS) << 42 | (uint64_t)(b[1] + NEAR_BIN_BIAS) << 21 | (uint64_t)(b[2] + NEAR_BIN_BIAS);
+}
+
+/* The bin's direction: its centre. */
+static rad_vec3 near_bin_direction(const int64_t b[3])
+{
+    return rad_v3((b[0] + 0.5) * NEAR_BIN, (b[1] + 0.5) * NEAR_BIN, (b[2] + 0.5) * NEAR_BIN);
+}
+
+static double near_offset(const cutter *C, rad_vec3 direction, uint32_t f)
+{
+    return rad_v3_dot(direction, rad_v3_sub(face_corner(C, f, 0), C->centre));
+}
+
+static int near_entry_order(const void *a, const void *b)
+{
+    const near_entry *x = a, *y = b;
+    if (x->bin != y->bin) return x->bin < y->bin ? -1 : 1;
+    if (x->offset != y->offset) return x->offset < y->offset ? -1 : 1;
+    return (x->face > y->face) - (x->face < y->face);
+}
+
+static rad_status near_index_build(cutter *C, uint32_t face_count, double diameter)
+{
+    C->near_index = malloc((face_count ? face_count : 1) * sizeof *C->near_index);
+    if (!C->near_index) return RAD_ERR_NOMEM;
+    size_t m = 0;
+    for (uint32_t f = 0; f < face_count; f++) {
+        int64_t b[3];
+        if (!near_bin_of(C->normal[f], b)) continue;
+        C->near_index[m++] = (near_entry){.bin = near_bin_key(b), .offset = near_offset(C, near_bin_direction(b), f),
+                                          .face = f};
+    }
+    C->near_index_count = m;
+    qsort(C->near_index, m, sizeof *C->near_index, near_entry_order);
+    /* A face's normal and a neighbouring bin's direction differ by at most
+     * 1.5 NEAR_BIN per component (2.6 NEAR_BIN in all); two first corners
+     * lie within the diameter of each other. */
+    C->near_slack = 3.0 * NEAR_BIN * diameter + 1e-9 * diameter;
+    return RAD_OK;
+}
+
+/* The first entry of bin `key` with offset >= at (the bin's end if none). */
+static size_t near_lower(const cutter *C, uint64_t key, double at)
+{
+    size_t lo = 0, hi = C->near_index_count;
+    while (lo < hi) {
+        const size_t mid = lo + (hi - lo) / 2;
+        const near_entry *e = &C->near_index[mid];
+        if (e->bin < key || (e->bin == key && e->offset < at)) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo;
+}
+
+/* Adds to C->cand the faces not stamped yet that may be near misses of f
+ * (may_near_miss), stamping them. */
+static void near_candidates(cutter *C, uint32_t f)
+{
+    int64_t b[3];
+    if (!near_bin_of(C->normal[f], b)) return;
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                const int64_t nb[3] = {b[0] + dx, b[1] + dy, b[2] + dz};
+                const uint64_t key = near_bin_key(nb);
+                const double at = near_offset(C, near_bin_direction(nb), f);
+                const double from = at + C->gap - C->near_slack, to = at + C->near + C->near_slack;
+                for (size_t i = near_lower(C, key, from); i < C->near_index_count; i++) {
+                    const near_entry *e = &C->near_index[i];
+                    if (e->bin != key || e->offset > to) break;
+                    const uint32_t g = e->face;
+                    if (C->stamp[g] == C->stamp_now || !may_near_miss(C, f, g)) continue;
+                    C->stamp[g] = C->stamp_now;
+                    if (!GROW(C, cand, cand_cap, C->cand_count + 1)) return;
+                    C->cand[C->cand_count++] = g;
+                }
+            }
+}
+
 static int ascending(const void *a, const void *b)
 {
     const uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
@@ -611,8 +727,9 @@ static int ascending(const void *a, const void *b)
 }
 
 /* C->cand: the faces cut_face's loops act on - boxes within the gap of
- * f's, or parallel and within `near` - once each, ascending (what a loop
- * over every face would reach, in its order). */
+ * f's (from the grid), or parallel and within `near` (from the grid, and
+ * the rest from the index of parallel faces) - once each, ascending (what
+ * a loop over every face would reach, in its order). */
 static void near_faces(cutter *C, uint32_t f)
 {
     uint32_t lo[3], hi[3];
@@ -635,6 +752,7 @@ static void near_faces(cutter *C, uint32_t f)
                     C->cand[C->cand_count++] = g;
                 }
             }
+    near_candidates(C, f);
     qsort(C->cand, C->cand_count, sizeof *C->cand, ascending);
 }
 
@@ -705,8 +823,12 @@ rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, 
     C.near = RAD_CONTACT_NEAR * scene_diameter;
     C.min_length = RAD_CONTACT_MIN_LENGTH * scene_diameter;
     C.offset = RAD_CONTACT_OFFSET * scene_diameter;
+    C.centre = rad_v3(0.5 * (scene_box.lo[0] + scene_box.hi[0]), 0.5 * (scene_box.lo[1] + scene_box.hi[1]),
+                      0.5 * (scene_box.lo[2] + scene_box.hi[2]));
     C.stamp = calloc(nf ? nf : 1, sizeof *C.stamp);
-    if (!C.stamp || rad_face_grid_build(C.box, (uint32_t)nf, fmax(C.near, C.gap), &C.grid) != RAD_OK) goto done;
+    if (!C.stamp || rad_face_grid_build(C.box, (uint32_t)nf, C.gap, &C.grid) != RAD_OK ||
+        near_index_build(&C, (uint32_t)nf, scene_diameter) != RAD_OK)
+        goto done;
     for (uint32_t f = 0; f < nf && !C.failed; f++) cut_face(&C, f);
     if (C.failed) goto done;
     double *shrunk = realloc(C.pos, (C.vertex_count ? C.vertex_count : 1) * 3 * sizeof *shrunk);
@@ -727,6 +849,7 @@ done:
     free(C.stamp);
     free(C.cand);
     rad_face_grid_free(&C.grid);
+    free(C.near_index);
     free(C.pos);
     free(C.pool);
     free(C.line);
