@@ -283,6 +283,97 @@ static void test_coplanar_overlap(void)
     rad_scene_free(&scene);
 }
 
+/* Near misses (rad_contact_cut.near_count): faces parallel to the floor,
+ * facing up as it does, over it by more than the gap but at most
+ * RAD_CONTACT_NEAR. A tall room (10 x 100 x 10 m, walls in 0.5 m quads:
+ * 16 800 faces, diameter 101: gap 0.10, near 1.01) makes the face grid's
+ * layers 0.84 m high, so a panel 0.95 m over the floor lies in the next
+ * layer: only the index of parallel faces finds it. `near` (flat) and
+ * `tilted` (its normal 3e-5 off the floor's: parallel by the test, 1 - cos
+ * = 4.5e-10, but in the neighbouring bin of the index) are near misses;
+ * `far` (1.5 m up), `close` (5 cm: a gap contact) and `down` (facing the
+ * other way) are not. */
+static char *near_obj;
+
+static void near_quad(char **at, size_t *vertex, const double (*c)[3])
+{
+    for (int k = 0; k < 4; k++) *at += sprintf(*at, "v %.9g %.9g %.9g\n", c[k][0], c[k][1], c[k][2]);
+    *at += sprintf(*at, "f %zu %zu %zu %zu\n", *vertex + 1, *vertex + 2, *vertex + 3, *vertex + 4);
+    *vertex += 4;
+}
+
+static void near_build(void)
+{
+    near_obj = malloc((size_t)8 << 20);
+    RAD_CHECK(near_obj != NULL);
+    char *at = near_obj;
+    size_t vertex = 0;
+    const double d = 0.5;
+    at += sprintf(at, "mtllib s.mtl\nusemtl grey\no room\n");
+    for (int i = 0; i < 20; i++)
+        for (int j = 0; j < 20; j++) {
+            const double x = i * d, z = j * d;
+            const double floor[4][3] = {{x, 0, z}, {x, 0, z + d}, {x + d, 0, z + d}, {x + d, 0, z}};
+            const double ceiling[4][3] = {{x, 100, z}, {x + d, 100, z}, {x + d, 100, z + d}, {x, 100, z + d}};
+            near_quad(&at, &vertex, floor);
+            near_quad(&at, &vertex, ceiling);
+        }
+    for (int i = 0; i < 20; i++)
+        for (int j = 0; j < 200; j++) {
+            const double u = i * d, y = j * d;
+            const double w0[4][3] = {{0, y, u}, {0, y + d, u}, {0, y + d, u + d}, {0, y, u + d}};
+            const double w1[4][3] = {{10, y, u}, {10, y, u + d}, {10, y + d, u + d}, {10, y + d, u}};
+            const double w2[4][3] = {{u, y, 0}, {u + d, y, 0}, {u + d, y + d, 0}, {u, y + d, 0}};
+            const double w3[4][3] = {{u, y, 10}, {u, y + d, 10}, {u + d, y + d, 10}, {u + d, y, 10}};
+            near_quad(&at, &vertex, w0);
+            near_quad(&at, &vertex, w1);
+            near_quad(&at, &vertex, w2);
+            near_quad(&at, &vertex, w3);
+        }
+    const double panels[5][4][3] = {
+        {{1.1, 0.95, 1.1}, {1.1, 0.95, 2.1}, {2.1, 0.95, 2.1}, {2.1, 0.95, 1.1}},                 /* near */
+        {{3.1, 1.5, 1.1}, {3.1, 1.5, 2.1}, {4.1, 1.5, 2.1}, {4.1, 1.5, 1.1}},                     /* far */
+        {{5.1, 0.949985, 5.1}, {5.1, 0.949985, 6.1}, {6.1, 0.950015, 6.1}, {6.1, 0.950015, 5.1}}, /* tilted */
+        {{8.1, 0.05, 8.1}, {8.1, 0.05, 9.1}, {9.1, 0.05, 9.1}, {9.1, 0.05, 8.1}},                 /* close */
+        {{1.1, 0.95, 7.1}, {2.1, 0.95, 7.1}, {2.1, 0.95, 8.1}, {1.1, 0.95, 8.1}}};                /* down */
+    const char *names[5] = {"near", "far", "tilted", "close", "down"};
+    for (int k = 0; k < 5; k++) {
+        at += sprintf(at, "o %s\n", names[k]);
+        near_quad(&at, &vertex, panels[k]);
+    }
+}
+
+static rad_status near_read(const char *path, char **out_data, size_t *out_size, void *user)
+{
+    (void)user;
+    const char *text = strstr(path, ".mtl") ? "newmtl grey\nKd 0.5 0.5 0.5\n" : near_obj;
+    *out_size = strlen(text);
+    *out_data = malloc(*out_size + 1);
+    if (!*out_data) return RAD_ERR_NOMEM;
+    memcpy(*out_data, text, *out_size + 1);
+    return RAD_OK;
+}
+
+static void test_near_misses(void)
+{
+    near_build();
+    rad_scene scene;
+    rad_scene_options so = {.read_file = near_read};
+    RAD_CHECK(rad_scene_load_file("near.obj", &so, &scene) == RAD_OK);
+    RAD_CHECK(scene.face_count == 16805);
+    const uint32_t first_panel = 16800; /* near, far, tilted, close, down */
+    rad_contact_cut cut;
+    RAD_CHECK(rad_contact_cut_build(&scene, NULL, &cut) == RAD_OK);
+    fprintf(stderr, "near misses: %zu, the first: face %u under face %u, %.6g apart\n", cut.near_count, cut.near_face,
+            cut.near_cover, cut.near_distance);
+    RAD_CHECK(cut.near_count == 2); /* near and tilted, each over one floor quad */
+    RAD_CHECK(cut.near_face < 800 && cut.near_cover == first_panel);
+    RAD_CHECK_REL(cut.near_distance, 0.95, 1e-12);
+    rad_contact_cut_free(&cut);
+    rad_scene_free(&scene);
+    free(near_obj);
+}
+
 static void test_no_contacts(void)
 {
     const char *names[] = {RAD_SCENES "/closed_box.obj", RAD_SCENES "/cornell_sphere.obj"};
@@ -312,6 +403,7 @@ static void test_no_contacts(void)
 
 int main(void)
 {
+    test_near_misses();
     test_cornell_box();
     test_contact_room();
     test_gap_contact();
