@@ -250,10 +250,10 @@ static const char *const overlap_obj =
     "o dup_b\nf 9 10 11 12\n"
     "o beside\nv 3 0 2\nv 3 0 0\nf 7 13 14\nf 7 14 8\n";
 
-static rad_status overlap_read(const char *path, char **out_data, size_t *out_size, void *user)
+/* A scene read from memory: `user` is the OBJ's text; every .mtl is one grey. */
+static rad_status text_read(const char *path, char **out_data, size_t *out_size, void *user)
 {
-    (void)user;
-    const char *text = strstr(path, ".mtl") ? "newmtl grey\nKd 0.5 0.5 0.5\n" : overlap_obj;
+    const char *text = strstr(path, ".mtl") ? "newmtl grey\nKd 0.5 0.5 0.5\n" : (const char *)user;
     *out_size = strlen(text);
     *out_data = malloc(*out_size + 1);
     if (!*out_data) return RAD_ERR_NOMEM;
@@ -264,7 +264,7 @@ static rad_status overlap_read(const char *path, char **out_data, size_t *out_si
 static void test_coplanar_overlap(void)
 {
     rad_scene scene;
-    rad_scene_options so = {.read_file = overlap_read};
+    rad_scene_options so = {.read_file = text_read, .read_file_user = (void *)overlap_obj};
     RAD_CHECK(rad_scene_load_file("overlap.obj", &so, &scene) == RAD_OK);
     rad_mesh m;
     rad_mesh_options mo = {.subdiv = 1};
@@ -293,8 +293,6 @@ static void test_coplanar_overlap(void)
  * = 4.5e-10, but in the neighbouring bin of the index) are near misses;
  * `far` (1.5 m up), `close` (5 cm: a gap contact) and `down` (facing the
  * other way) are not. */
-static char *near_obj;
-
 static void near_quad(char **at, size_t *vertex, const double (*c)[3])
 {
     for (int k = 0; k < 4; k++) *at += sprintf(*at, "v %.9g %.9g %.9g\n", c[k][0], c[k][1], c[k][2]);
@@ -302,11 +300,12 @@ static void near_quad(char **at, size_t *vertex, const double (*c)[3])
     *vertex += 4;
 }
 
-static void near_build(void)
+/* The room's OBJ text (malloc'd). */
+static char *near_build(void)
 {
-    near_obj = malloc((size_t)8 << 20);
-    RAD_CHECK(near_obj != NULL);
-    char *at = near_obj;
+    char *text = malloc((size_t)8 << 20), *at = text;
+    RAD_CHECK(text != NULL);
+    if (!text) return NULL;
     size_t vertex = 0;
     const double d = 0.5;
     at += sprintf(at, "mtllib s.mtl\nusemtl grey\no room\n");
@@ -341,24 +340,15 @@ static void near_build(void)
         at += sprintf(at, "o %s\n", names[k]);
         near_quad(&at, &vertex, panels[k]);
     }
-}
-
-static rad_status near_read(const char *path, char **out_data, size_t *out_size, void *user)
-{
-    (void)user;
-    const char *text = strstr(path, ".mtl") ? "newmtl grey\nKd 0.5 0.5 0.5\n" : near_obj;
-    *out_size = strlen(text);
-    *out_data = malloc(*out_size + 1);
-    if (!*out_data) return RAD_ERR_NOMEM;
-    memcpy(*out_data, text, *out_size + 1);
-    return RAD_OK;
+    return text;
 }
 
 static void test_near_misses(void)
 {
-    near_build();
+    char *text = near_build();
+    if (!text) return;
     rad_scene scene;
-    rad_scene_options so = {.read_file = near_read};
+    rad_scene_options so = {.read_file = text_read, .read_file_user = text};
     RAD_CHECK(rad_scene_load_file("near.obj", &so, &scene) == RAD_OK);
     RAD_CHECK(scene.face_count == 16805);
     const uint32_t first_panel = 16800; /* near, far, tilted, close, down */
@@ -371,7 +361,7 @@ static void test_near_misses(void)
     RAD_CHECK_REL(cut.near_distance, 0.95, 1e-12);
     rad_contact_cut_free(&cut);
     rad_scene_free(&scene);
-    free(near_obj);
+    free(text);
 }
 
 static void test_no_contacts(void)
