@@ -91,7 +91,7 @@ typedef struct cutter {
     size_t out_count, out_cap;
     size_t faces_cut, hidden;
     const int *face_level; /* NULL = 0 */
-    rad_face_grid grid;    /* the faces' boxes grown by the gap */
+    rad_face_grid grid;    /* the faces' boxes grown by the gap (and the tolerance) */
     near_entry *near_index; /* the faces by normal bin, then by offset along it (near_index_build) */
     size_t near_index_count;
     double near_slack;      /* how far the index's offsets may stray from a face's own (near_band) */
@@ -826,7 +826,9 @@ rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, 
     C.centre = rad_v3(0.5 * (scene_box.lo[0] + scene_box.hi[0]), 0.5 * (scene_box.lo[1] + scene_box.hi[1]),
                       0.5 * (scene_box.lo[2] + scene_box.hi[2]));
     C.stamp = calloc(nf ? nf : 1, sizeof *C.stamp);
-    if (!C.stamp || rad_face_grid_build(C.box, (uint32_t)nf, C.gap, &C.grid) != RAD_OK ||
+    /* the grid's margin a tolerance over the gap: boxes_meet(gap) rounds
+     * differently from the grid's placement, by an ulp */
+    if (!C.stamp || rad_face_grid_build(C.box, (uint32_t)nf, C.gap + C.tol, &C.grid) != RAD_OK ||
         near_index_build(&C, (uint32_t)nf, scene_diameter) != RAD_OK)
         goto done;
     for (uint32_t f = 0; f < nf && !C.failed; f++) cut_face(&C, f);

@@ -205,7 +205,11 @@ __global__ static void records_kernel(const double *__restrict__ values, uint32_
     unsigned char *rec = out + at[row];
     uint32_t listed = 0;
     for (uint32_t t = lane; t < tiles; t += 32u) listed += row_place[t] != NOT_LISTED;
+#if __CUDA_ARCH__ >= 800
     listed = __reduce_add_sync(0xffffffffu, listed);
+#else /* no warp reduction before compute capability 8.0 (V100: README) */
+    for (int lanes = 16; lanes > 0; lanes /= 2) listed += __shfl_xor_sync(0xffffffffu, listed, lanes);
+#endif
     const uint64_t values_at = align8(4u + 4u * (uint64_t)listed);
     if (lane == 0) *(uint32_t *)rec = listed;
     for (uint32_t t0 = 0; t0 < tiles; t0 += 32u) {

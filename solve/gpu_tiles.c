@@ -31,6 +31,7 @@ rad_status solve_gpu_tiles_layout_rows(const solve_rows *F, size_t row_begin, si
     const size_t r0 = row_begin - F->first_row; /* F's own index of the first */
     solve_gpu_tiles t = {.n = n,
                          .tile_count = F->dense ? n * per_row : (size_t)(F->row_tiles[r0 + n] - F->row_tiles[r0]),
+                         .exact = 1, /* until values say otherwise: none (a rank without tiles) are exact */
                          .source = F,
                          .source_begin = row_begin};
     t.row_tiles = malloc((n + 1) * sizeof *t.row_tiles);

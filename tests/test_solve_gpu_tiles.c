@@ -145,6 +145,12 @@ int main(void)
     held.first_row = 40;
     check_block(&held, &all, 40, 97, "sparse, only the block held");
     check_streamed(&sparse, &all, 0, N, 1, 1, "sparse, f32 entries, streamed");
+    { /* a rank without rows (the split leaves the last ones empty) holds no float that is not exact */
+        solve_gpu_tiles none;
+        RAD_CHECK(solve_gpu_tiles_layout_rows(&sparse, 60, 60, &none) == RAD_OK);
+        RAD_CHECK(none.n == 0 && none.tile_count == 0 && none.exact == 1);
+        solve_gpu_tiles_free(&none);
+    }
     check_streamed(&held, &all, 40, 97, 13, 1, "sparse, only the block held, streamed");
     solve_gpu_tiles_free(&all);
     RAD_CHECK(solve_gpu_tiles_make(&dense, &all) == RAD_OK);
