@@ -95,7 +95,6 @@ static ff_cluster_bound bound_of_roots(const rad_ff_patch *patches, const uint32
     return b;
 }
 
-
 /* ---- the tree ---- */
 
 /* A cluster is split by orientation only where its centres' box is

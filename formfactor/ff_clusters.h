@@ -60,14 +60,6 @@ typedef struct ff_cluster_tree {
 rad_status ff_clusters_build(const rad_ff_patch *root_patches, uint32_t root_count, double max_cone,
                              ff_cluster_tree *out);
 
-/* The root of cluster c that holds the area fraction u in [0, 1) of it
- * (ff_cluster_pick_in over the tree's arrays). */
-static inline uint32_t ff_cluster_pick_root(const ff_cluster_tree *t, uint32_t c, double u)
-{
-    return ff_cluster_pick_in(t->clusters, t->roots, t->area_before, c, u);
-}
-
-
 void ff_clusters_free(ff_cluster_tree *t); /* safe on zeroed */
 
 #endif

@@ -515,7 +515,6 @@ static rad_status split_pair(ff_links *L, uint32_t a, uint32_t b, job_list *next
 
 /* ---- pairs with a cluster at an end ---- */
 
-
 /* The cluster pairs jobs[0, m) into out[0, m), each decided, drawn,
  * traced and coupled (ff_cluster_pair) by the backend's cluster_draws. */
 static rad_status cluster_pairs(const ff_links *L, const ff_pair_job *jobs, size_t m, ff_cluster_drawn *out)

@@ -333,9 +333,12 @@ rad_status shaped_plan_factors(shaped_plan *p)
     return RAD_OK;
 }
 
-/* Every receiver's shaped links listed, with each one's receiver:
- * counted, placed and weighed receiver by receiver on the threads. */
-rad_status shaped_plan_lists(shaped_plan *p)
+/* The links whose receiver end has point factors (at set), receiver by
+ * receiver in link order, counted and placed on the threads: receiver r's
+ * are (*out_links)[first[r] .. first[r + 1]) (first: ids + 1), each with
+ * its receiver; *out_count of them. RAD_ERR_NOMEM (logged). */
+static rad_status list_ends(const shaped_plan *p, uint64_t *first, uint64_t **out_links, uint32_t **out_receivers,
+                            uint64_t *out_count)
 {
     const rad_links *L = p->L;
     const uint64_t ids = rad_links_id_count(L);
@@ -343,31 +346,49 @@ rad_status shaped_plan_lists(shaped_plan *p)
     for (uint64_t r = 0; r < ids; r++) {
         uint64_t m = 0;
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) m += p->at[k] != NO_WEIGHTS;
-        p->shaped_first[r + 1] = m;
+        first[r + 1] = m;
     }
-    p->shaped_first[0] = 0;
-    for (uint64_t r = 0; r < ids; r++) p->shaped_first[r + 1] += p->shaped_first[r];
-    const uint64_t m = p->shaped_first[ids];
-    p->shaped = malloc((m ? m : 1) * sizeof *p->shaped);
-    p->shaped_receiver = malloc((m ? m : 1) * sizeof *p->shaped_receiver);
-    if (!p->shaped || !p->shaped_receiver) {
+    first[0] = 0;
+    for (uint64_t r = 0; r < ids; r++) first[r + 1] += first[r];
+    const uint64_t m = first[ids];
+    uint64_t *links = malloc((m ? m : 1) * sizeof *links);
+    uint32_t *receivers = malloc((m ? m : 1) * sizeof *receivers);
+    if (!links || !receivers) {
+        free(links);
+        free(receivers);
         rad_error("links: out of memory for the shaped solve's %llu shaped links", (unsigned long long)m);
         return RAD_ERR_NOMEM;
     }
-    p->shaped_count = m;
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
+    for (uint64_t r = 0; r < ids; r++) {
+        uint64_t at = first[r];
+        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
+            if (p->at[k] != NO_WEIGHTS) {
+                receivers[at] = (uint32_t)r;
+                links[at++] = k;
+            }
+    }
+    *out_links = links;
+    *out_receivers = receivers;
+    *out_count = m;
+    return RAD_OK;
+}
+
+/* Every receiver's shaped links listed, with each one's receiver, and
+ * the trees' work they add. */
+rad_status shaped_plan_lists(shaped_plan *p)
+{
+    const rad_links *L = p->L;
+    rad_status status = list_ends(p, p->shaped_first, &p->shaped, &p->shaped_receiver, &p->shaped_count);
+    if (status != RAD_OK) return status;
     p->view.shaped = p->shaped;
     /* a sweep reads, for a link k at receiver r < s in r's tree: r's point
      * factors where k's end is shaped (the update of r's leaves), s's where
      * the pair's other end is (S, what s sends, summed over s's leaves) */
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
-    for (uint64_t r = 0; r < ids; r++) {
-        uint64_t at = p->shaped_first[r], work = 0;
+    for (uint32_t r = 0; r < L->node_count; r++) {
+        uint64_t work = 0;
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
-            if (p->at[k] != NO_WEIGHTS) {
-                p->shaped_receiver[at] = (uint32_t)r;
-                p->shaped[at++] = k;
-            }
-            if (r >= L->node_count) continue;
             const uint32_t s = L->links[k].source;
             if (p->at[k] != NO_WEIGHTS) work += p->count[r];
             if (s < L->node_count && p->at[p->reverse[k]] != NO_WEIGHTS) work += p->count[s];
@@ -483,42 +504,20 @@ rad_status shaped_plan_device(const shaped_plan *p, shaped_device_arrays *a, sol
     const rad_links *L = p->L;
     const uint32_t n = L->node_count, ids = (uint32_t)rad_links_id_count(L);
     memset(a, 0, sizeof *a);
-    /* the ends (at nodes only) in link order: counted, then placed,
-     * receiver by receiver on the threads */
-    uint64_t *first_end = malloc(((size_t)n + 1) * sizeof *first_end);
-    if (!first_end) {
-        rad_error("links: out of memory for the shaped solve's device plan over %u ids", ids);
-        return RAD_ERR_NOMEM;
-    }
-#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
-    for (uint32_t r = 0; r < n; r++) {
-        uint64_t count = 0;
-        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) count += p->at[k] != NO_WEIGHTS;
-        first_end[r + 1] = count;
-    }
-    first_end[0] = 0;
-    for (uint32_t r = 0; r < n; r++) first_end[r + 1] += first_end[r];
-    const uint64_t ends = first_end[n];
-    a->ends = malloc((ends ? ends : 1) * sizeof *a->ends);
-    a->end_receiver = malloc((ends ? ends : 1) * sizeof *a->end_receiver);
-    a->depth = malloc((size_t)ids * sizeof *a->depth);
-    a->depth_order = malloc((size_t)ids * sizeof *a->depth_order);
-    a->depth_first = calloc((size_t)ids + 2, sizeof *a->depth_first);
-    if (!a->ends || !a->end_receiver || !a->depth || !a->depth_order || !a->depth_first) {
+    /* the ends in link order (at nodes only: a link at a cluster is never shaped) */
+    uint64_t *first_end = malloc(((size_t)ids + 1) * sizeof *first_end), ends = 0;
+    if (first_end) {
+        rad_status status = list_ends(p, first_end, &a->ends, &a->end_receiver, &ends);
         free(first_end);
+        if (status != RAD_OK) return status;
+        a->depth = malloc((size_t)ids * sizeof *a->depth);
+        a->depth_order = malloc((size_t)ids * sizeof *a->depth_order);
+        a->depth_first = calloc((size_t)ids + 2, sizeof *a->depth_first);
+    }
+    if (!first_end || !a->depth || !a->depth_order || !a->depth_first) {
         rad_error("links: out of memory for the shaped solve's device plan over %u ids", ids);
         return RAD_ERR_NOMEM;
     }
-#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
-    for (uint32_t r = 0; r < n; r++) {
-        uint64_t e = first_end[r];
-        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
-            if (p->at[k] != NO_WEIGHTS) {
-                a->ends[e] = k;
-                a->end_receiver[e++] = r;
-            }
-    }
-    free(first_end);
     uint32_t depths = 0;
     for (uint32_t t = 0; t < ids; t++) { /* the clusters first, then the nodes */
         const uint32_t i = t < L->cluster_count ? n + t : t - L->cluster_count;

@@ -121,8 +121,8 @@ static ff_cluster_bound tree_bound(const rad_ff_patch *p, int count)
         }
     }
     /* a root drawn by area: the first and last of the whole range */
-    RAD_CHECK(ff_cluster_pick_root(&t, 0, 0.0) == t.roots[0]);
-    RAD_CHECK(ff_cluster_pick_root(&t, 0, 1.0 - 1e-15) == t.roots[count - 1]);
+    RAD_CHECK(ff_cluster_pick_in(t.clusters, t.roots, t.area_before, 0, 0.0) == t.roots[0]);
+    RAD_CHECK(ff_cluster_pick_in(t.clusters, t.roots, t.area_before, 0, 1.0 - 1e-15) == t.roots[count - 1]);
     ff_cluster_bound b = t.clusters[0].bound;
     ff_clusters_free(&t);
     return b;
