@@ -102,6 +102,9 @@ typedef struct lsolve_plan {
     double *cluster_area; /* cluster_count: the areas a cluster's pull weighs, summed */
     uint64_t cluster_links; /* the links the clusters receive */
     int threads;          /* >= 1 */
+    /* Closure (rad_closure.h), NULL without: per node, a leaf's scale s
+     * (1 at split nodes) and its row of S K S (for the escaped power). */
+    double *scale, *closed_row;
 } lsolve_plan;
 
 /* One channel's vectors over the ids (nodes, then clusters). */
@@ -310,6 +313,8 @@ static void plan_free(lsolve_plan *p)
     free(p->row_sum);
     free(p->root_cluster);
     free(p->cluster_area);
+    free(p->scale);
+    free(p->closed_row);
 }
 
 /* The id above node i: its parent; for a root its leaf cluster (with
@@ -441,8 +446,9 @@ static double tree_update(const lsolve_plan *p, const lsolve_vectors *v, double 
             if (both) G_old[i] += h;
         }
         if (nodes[i].first_child != RAD_NO_ELEMENT) continue;
-        v->B[i] = v->E[i] + v->G[i];
-        const double r = fabs(v->E[i] + G_old[i] - v->old[i]);
+        const double gain = p->scale ? p->scale[i] * p->scale[i] : 1; /* closure: C = S E + rho S^2 K C */
+        v->B[i] = v->E[i] + gain * v->G[i];
+        const double r = fabs(v->E[i] + gain * G_old[i] - v->old[i]);
         if (r > rmax) rmax = r;
         not_a_number |= isnan(r);
     }
@@ -539,8 +545,9 @@ static void channel_start(const lsolve_plan *p, const rad_mesh *leaves, int c, i
         v->rho[i] = patch->rho[c];
         v->E[i] = patch->emission[c];
         if (L->nodes[i].first_child != RAD_NO_ELEMENT) continue;
+        if (p->scale) v->E[i] *= p->scale[i]; /* closure: the solve runs on C = S B */
         if (v->E[i] > v->e_norm) v->e_norm = v->E[i];
-        v->B[i] = warm_start ? B_in[3 * (size_t)L->nodes[i].leaf + c] : v->E[i];
+        v->B[i] = warm_start ? B_in[3 * (size_t)L->nodes[i].leaf + c] * (p->scale ? p->scale[i] : 1) : v->E[i];
     }
     if (v->e_norm == 0) /* nothing emits: B = 0 */
         for (uint32_t i = 0; i < L->node_count; i++) v->B[i] = 0;
@@ -609,6 +616,13 @@ static void channel_balance(const lsolve_plan *p, const lsolve_vectors *v, doubl
         const uint32_t up = node_up(p, i);
         if (up != RAD_NO_ELEMENT) scratch[i] += scratch[up]; /* H: pushed down */
         if (e->first_child != RAD_NO_ELEMENT) continue;
+        if (p->scale) { /* closure: B = C / s, H = s K C, rows those of S K S */
+            const double si = p->scale[i];
+            sums[0] += e->area * v->E[i] / si;
+            sums[1] += e->area * (1 - v->rho[i]) * si * scratch[i];
+            sums[2] += e->area * B[i] / si * (1 - p->closed_row[i]);
+            continue;
+        }
         sums[0] += e->area * v->E[i];
         sums[1] += e->area * (1 - v->rho[i]) * scratch[i];
         sums[2] += e->area * B[i] * (1 - p->row_sum[i]);
@@ -656,8 +670,67 @@ static rad_status solve_channel(const lsolve_plan *p, const rad_mesh *leaves, co
     sums[0] = sums[1] = sums[2] = 0;
     channel_balance(p, &v, v.G, sums);
     for (uint32_t i = 0; i < links->node_count; i++)
-        if (links->nodes[i].first_child == RAD_NO_ELEMENT) solved[3 * (size_t)links->nodes[i].leaf + c] = v.B[i];
+        if (links->nodes[i].first_child == RAD_NO_ELEMENT)
+            solved[3 * (size_t)links->nodes[i].leaf + c] = p->scale ? v.B[i] / p->scale[i] : v.B[i];
     return RAD_OK;
+}
+
+/* ---- closure (rad_closure.h) ---- */
+
+typedef struct lsolve_apply_ctx {
+    const lsolve_plan *p;
+    lsolve_vectors v;    /* rho 1, E 0: one Jacobi sweep maps old to K old */
+    const uint32_t *node_of; /* leaf patch -> its node */
+} lsolve_apply_ctx;
+
+/* y = K x by leaf patch: x at the leaves, pulled up; one Jacobi sweep. */
+static void lsolve_apply(void *ctx, const double *x, double *y)
+{
+    lsolve_apply_ctx *a = ctx;
+    const lsolve_plan *p = a->p;
+    const rad_links *L = p->links;
+    for (uint32_t l = 0; l < L->leaf_count; l++) a->v.B[a->node_of[l]] = x[l];
+    for (uint32_t i = L->node_count; i-- > 0;)
+        if (L->nodes[i].first_child != RAD_NO_ELEMENT) pull_node(p, i, a->v.B);
+    pull_clusters(p, a->v.B);
+    jacobi_sweep(p, &a->v);
+    for (uint32_t l = 0; l < L->leaf_count; l++) y[l] = a->v.B[a->node_of[l]];
+}
+
+/* The plan's scale and closed_row, from the scales s of K with `block`
+ * (6 doubles per id) for the sweeps' vectors. */
+static rad_status plan_closure(lsolve_plan *p, double *block, rad_closure_result *out)
+{
+    const rad_links *L = p->links;
+    const size_t n = rad_links_id_count(L), m = L->leaf_count;
+    uint32_t *node_of = malloc((m ? m : 1) * sizeof *node_of);
+    double *s = malloc((m ? m : 1) * sizeof *s), *row = malloc((m ? m : 1) * sizeof *row);
+    p->scale = malloc((size_t)L->node_count * sizeof *p->scale);
+    p->closed_row = malloc((size_t)L->node_count * sizeof *p->closed_row);
+    if (!node_of || !s || !row || !p->scale || !p->closed_row) {
+        free(node_of), free(s), free(row);
+        rad_error("links: out of memory for the closure's scales of %zu leaves", m);
+        return RAD_ERR_NOMEM;
+    }
+    lsolve_apply_ctx a = {.p = p, .node_of = node_of,
+                          .v = {.rho = block, .E = block + n, .B = block + 2 * n, .old = block + 3 * n,
+                                .G = block + 4 * n, .G_old = block + 4 * n}};
+    for (size_t i = 0; i < n; i++) a.v.rho[i] = 1, a.v.E[i] = 0;
+    for (uint32_t i = 0; i < L->node_count; i++)
+        if (L->nodes[i].first_child == RAD_NO_ELEMENT) node_of[L->nodes[i].leaf] = i;
+    double *keep = p->scale; /* the sweeps below run without closure */
+    p->scale = NULL;
+    rad_status status = rad_closure_scales(m, lsolve_apply, &a, 0, 0, s, row, out);
+    p->scale = keep;
+    if (status == RAD_OK) {
+        for (uint32_t i = 0; i < L->node_count; i++) p->scale[i] = 1, p->closed_row[i] = 0;
+        for (size_t l = 0; l < m; l++) p->scale[node_of[l]] = s[l], p->closed_row[node_of[l]] = row[l];
+    } else {
+        free(p->scale), free(p->closed_row);
+        p->scale = p->closed_row = NULL;
+    }
+    free(node_of), free(s), free(row);
+    return status;
 }
 
 /* Whether the three channels go on up to three threads at once (of the
@@ -699,6 +772,7 @@ rad_status rad_lsolve(const rad_links *links, const rad_mesh *leaves, const rad_
     rad_lsolve_result result;
     memset(&result, 0, sizeof result);
     result.converged = 1;
+    if (status == RAD_OK && o.closure) status = plan_closure(&plan, block, &result.closure);
     double sums[3][3] = {{0}};
     rad_status channel_status[3] = {RAD_OK, RAD_OK, RAD_OK};
     lsolve_channel_run runs[3];

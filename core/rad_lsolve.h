@@ -35,6 +35,7 @@
 
 #include <stdint.h>
 
+#include "rad_closure.h"
 #include "rad_links.h"
 #include "rad_mesh.h"
 #include "rad_status.h"
@@ -51,6 +52,7 @@ typedef struct rad_lsolve_options {
     uint64_t group_links;      /* Gauss-Seidel in groups of consecutive trees of at least this many links
                                   (rad_lsolve.c); 0 (default): tree by tree below 4 M links, groups of
                                   65 536 links from there */
+    int closure;               /* 1: the scene is closed; every leaf's row balanced to 1 first (rad_closure.h) */
 } rad_lsolve_options;
 
 rad_lsolve_options rad_lsolve_defaults(void);
@@ -65,6 +67,7 @@ typedef struct rad_lsolve_result {
      * its root's clusters' links' F), summed over the channels;
      * imbalance = (absorbed + escaped - emitted) / emitted. */
     double emitted, absorbed, escaped, imbalance;
+    rad_closure_result closure; /* with options.closure: the scales found (their sweeps' time included in seconds) */
     double seconds;
 } rad_lsolve_result;
 

@@ -47,6 +47,7 @@ typedef struct hier_run {
                                        may take such a one as its own) */
     int threads;
     int cpu_first;      /* --backend auto takes the CPU without asking CUDA (cpu_first_under_auto) */
+    ff_closed_result closed; /* --closure: closed 1 marks the file (RAD_FF_FLAG_CLOSED); rays 0: not tested */
     double most_leaves; /* faces x 4^level: what it decides by */
     double seconds_load, seconds_setup, seconds_links, seconds_export, seconds_bound, seconds_solve, seconds_write,
         seconds_total; /* seconds_bound: the error bound's share of seconds_export */
@@ -119,6 +120,35 @@ static rad_status export_and_solve(hier_run *h, double tol, int last)
     return st == RAD_OK ? solve_flat(h, tol, warm) : st;
 }
 
+/* --closure: on marks the file closed, auto where the scene is (a convex
+ * enclosure seen from inside is without a ray; else ff_scene_is_closed). */
+static rad_status decide_closure(hier_run *h, const ff_setup *su, const double centre[3])
+{
+    const int asked = h->opt->closure;
+    if (asked == 0) return RAD_OK;
+    if (asked > 0 || su->scene_convex) {
+        h->closed.closed = 1;
+        h->closed.open_patch = -1;
+        rad_info("--closure %s: the scene is closed%s: the solve balances every leaf's row to 1", asked > 0 ? "on" : "auto",
+                 asked > 0 ? " (as asked)" : " (a convex enclosure seen from inside)");
+        return RAD_OK;
+    }
+    const double t0 = rad_clock_seconds();
+    rad_status st = ff_scene_is_closed(&h->base, centre, h->triangles, h->triangle_face, h->triangle_count, &h->closed);
+    if (st != RAD_OK) return st;
+    if (h->closed.closed) {
+        rad_info("--closure auto: the scene is closed (%llu rays from its %zu faces all met fronts, %.2f s): the solve "
+                 "balances every leaf's row to 1",
+                 (unsigned long long)h->closed.rays, h->base.patch_count, rad_clock_seconds() - t0);
+    } else {
+        const rad_patch *p = &h->base.patches[h->closed.open_patch];
+        rad_info("--closure auto: off - the scene is open: a ray from the face of line %u %s (%.2f s)",
+                 h->scene.faces[p->source_face].line, h->closed.escaped ? "leaves the scene" : "meets a face's back",
+                 rad_clock_seconds() - t0);
+    }
+    return RAD_OK;
+}
+
 /* Whether --backend auto takes the CPU without asking CUDA: where the
  * leaves may reach fewer than FF_HIER_CPU_LEAVES_PER_THREAD a thread
  * (faces x 4^level, *most), the CPU's threads finish before CUDA has
@@ -158,6 +188,7 @@ static rad_status build_links(hier_run *h)
     if (h->cpu_first)
         rad_info("--backend auto: the CPU (at most %.0f leaves, under %u a thread on %d threads; a GPU from there)",
                  h->most_leaves, FF_HIER_CPU_LEAVES_PER_THREAD, h->threads);
+    if ((st = decide_closure(h, &su, centre)) != RAD_OK) return st;
     h->backend = gpus > 0 ? &ff_backend_cuda : &ff_backend_cpu;
     if ((st = h->backend->create(&su, &h->backend_state)) != RAD_OK) return st;
     double total_area = 0;
@@ -218,7 +249,8 @@ static rad_ff_info links_info(const hier_run *h)
                         .element_type = RAD_ELEMENT_F64, .estimator = opt->estimator, .samples = opt->samples,
                         .shadow_rays = opt->shadow_rays, .seed = opt->seed,
                         .scene_fingerprint = h->scene.fingerprint, .subdiv = (int32_t)h->links.config.max_level,
-                        .flags = RAD_FF_FLAG_RECIPROCAL | (opt->ke_radiance ? RAD_FF_FLAG_KE_RADIANCE : 0),
+                        .flags = RAD_FF_FLAG_RECIPROCAL | (opt->ke_radiance ? RAD_FF_FLAG_KE_RADIANCE : 0) |
+                                 (h->closed.closed ? RAD_FF_FLAG_CLOSED : 0),
                         .group_count = (uint32_t)h->leaves.group_count, .layout = RAD_FF_LAYOUT_LINKS};
     snprintf(info.scene_name, sizeof info.scene_name, "%s", opt->scene_path ? opt->scene_path : rad_default_scene_name);
     return info;
@@ -315,6 +347,10 @@ static rad_status write_stats(const hier_run *h)
     rad_json_number(&w, (double)x->link_count / x->node_count);
     rad_json_key(&w, "clusters");
     rad_json_uint(&w, x->cluster_count);
+    rad_json_key(&w, "closed"); /* --closure: the file marked closed (RAD_FF_FLAG_CLOSED) */
+    rad_json_bool(&w, h->closed.closed);
+    rad_json_key(&w, "closure_rays");
+    rad_json_uint(&w, h->closed.rays);
     rad_json_key(&w, "cluster_pairs");
     rad_json_uint(&w, h->links.cluster_pairs);
     rad_json_key(&w, "cluster_rays");

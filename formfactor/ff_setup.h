@@ -41,6 +41,24 @@ rad_status ff_occluders_build(const rad_scene *scene, const double centre[3], do
  * others and no shadow ray is needed. */
 int ff_scene_is_convex_enclosure(const rad_scene *scene, double eps);
 
+/* Is the scene closed: does every face's hemisphere meet other faces'
+ * fronts only (ff_closed.c)? FF_CLOSED_RAYS rays from each patch of the
+ * base mesh (cosine-distributed from points spread over it) to their first
+ * hit among the occluders (ff_occluders_build's, moved by -centre), which
+ * must exist and face the ray. closed 0 as soon as one ray escapes or
+ * meets a back: open_patch is such a patch (the lowest found), escaped
+ * whether its ray met nothing. RAD_ERR_NOMEM (the BVH). Threads:
+ * OpenMP's. The scene's closure (rad_closure.h) is off where it is not. */
+#define FF_CLOSED_RAYS 16u
+typedef struct ff_closed_result {
+    int closed;
+    uint64_t rays;      /* cast (every patch's when closed) */
+    int64_t open_patch; /* -1 when closed */
+    uint64_t escaped;   /* of the failing rays found, those that met nothing */
+} ff_closed_result;
+rad_status ff_scene_is_closed(const rad_mesh *base, const double centre[3], const double *triangles,
+                              const uint32_t *triangle_face, uint32_t triangle_count, ff_closed_result *out);
+
 /* Tolerance of the facing test: 1e-11 of the scene's bounding-box diagonal
  * (rounding, not geometry: faces 1e-9 of the scene apart face each other;
  * pieces of one face never do, rad_ff_pair_facing). */

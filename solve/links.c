@@ -146,6 +146,7 @@ typedef struct links_state {
     rad_lsolve_result result;
     rad_status solved; /* RAD_OK or RAD_ERR_NOT_CONVERGED */
     int shaped;        /* the shaped solve ran (shaped.h) */
+    int closure;       /* the rows balanced to 1 (rad_closure.h) */
     solve_shaped_result shape;
     solve_row_sum_summary row_sums;
     double *row_sum;   /* by leaf */
@@ -246,7 +247,8 @@ static rad_status shape(links_state *s)
                                     .gate = SHAPE_GATE_OF_LINK_TOL * s->in->links->link_tol,
                                     .tolerance = s->solve.tolerance,
                                     .max_iterations = s->solve.max_iterations,
-                                    .channels = s->grey ? 1 : 3};
+                                    .channels = s->grey ? 1 : 3,
+                                    .closure = s->closure};
     rad_status status = solve_shaped(s->in->links, s->in->leaves, &o, s->radiosity, &s->shape);
     /* each rank solved alone (a GPU may fail on one): a failure anywhere is every rank's */
     const rad_status failed = solve_comm_agree(s->options->comm, status == RAD_ERR_NOT_CONVERGED ? RAD_OK : status);
@@ -299,7 +301,8 @@ static rad_status write_outputs(const links_state *s)
                                      .error_bound = in->links->error_bound,
                                      .balance = {s->result.emitted, s->result.absorbed, s->result.escaped,
                                                  s->result.imbalance},
-                                     .shaped = s->shaped ? &s->shape : NULL};
+                                     .shaped = s->shaped ? &s->shape : NULL,
+                                     .closure = !s->closure ? NULL : s->shaped ? &s->shape.closure : &s->result.closure};
     solve_stats st = {
         .input = s->input,
         .output = s->output,
@@ -330,7 +333,7 @@ static rad_status write_outputs(const links_state *s)
  * converged within o's iteration limit: the same sweeps). */
 static int flat_taken(const solve_links_flat *given, const rad_lsolve_options *o)
 {
-    if (!given || o->warm_start || !given->result.converged || given->tolerance != o->tolerance ||
+    if (!given || o->warm_start || o->closure || !given->result.converged || given->tolerance != o->tolerance ||
         given->method != o->method || given->channels != o->channels)
         return 0;
     for (int c = 0; c < given->channels; c++)
@@ -388,6 +391,12 @@ rad_status solve_links_solve(const solve_options *options, const solve_links_inp
         rad_lsolve_options flat = s.solve;
         if (!options->no_shape && flat.tolerance < SOLVE_LINKS_FLAT_START_TOL)
             flat.tolerance = SOLVE_LINKS_FLAT_START_TOL;
+        s.closure = options->closure == SOLVE_CLOSURE_ON ||
+                    (options->closure == SOLVE_CLOSURE_AUTO && in->info && (in->info->flags & RAD_FF_FLAG_CLOSED));
+        if (s.closure)
+            rad_info("%s: closure: the scene is closed%s; every leaf's row balanced to 1 (reciprocity kept)", s.input,
+                     options->closure == SOLVE_CLOSURE_ON ? " (--closure on)" : " (formfactor found it so)");
+        flat.closure = s.closure && options->no_shape; /* the shaped solve balances its own operator */
         if (flat_taken(in->flat, &flat)) {
             memcpy(s.radiosity, in->flat->B, 3 * leaves->patch_count * sizeof *s.radiosity);
             s.result = in->flat->result;

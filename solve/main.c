@@ -54,6 +54,11 @@ static const char usage_text[] =
     "                      (docs/solve.md, \"Results by surface\")\n"
     "  --shape on|off      links only: spread each link over its elements'\n"
     "                      leaves by the point factor (default: on)\n"
+    "  --closure auto|on|off  links only: scale the links so that every\n"
+    "                      leaf's row sums to 1, as a closed scene's do,\n"
+    "                      keeping reciprocity (the furnace then exact;\n"
+    "                      docs/hierarchy.md, \"Closure\"); auto (default):\n"
+    "                      where formfactor found the scene closed\n"
     "  -q, --quiet         only warnings and errors on stderr\n"
     "  -h, --help          this text\n"
     "      --version       print the version\n"
@@ -105,7 +110,7 @@ static rad_status parse_count(const char *text, uint32_t *out)
  * "--name=VALUE", "-o VALUE"; options and the input in any order. */
 static rad_status parse_args(int argc, char **argv, cli *out)
 {
-    enum { O_METHOD = 256, O_TOL, O_MAX_ITER, O_STATS, O_ERRORS, O_BY_GROUP, O_VERSION, O_BACKEND, O_SHAPE };
+    enum { O_METHOD = 256, O_TOL, O_MAX_ITER, O_STATS, O_ERRORS, O_BY_GROUP, O_VERSION, O_BACKEND, O_SHAPE, O_CLOSURE };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},       {"method", required_argument, 0, O_METHOD},
         {"tol", required_argument, 0, O_TOL},         {"max-iter", required_argument, 0, O_MAX_ITER},
@@ -113,6 +118,7 @@ static rad_status parse_args(int argc, char **argv, cli *out)
         {"by-group", required_argument, 0, O_BY_GROUP}, {"quiet", no_argument, 0, 'q'},
         {"help", no_argument, 0, 'h'},                {"version", no_argument, 0, O_VERSION},
         {"backend", required_argument, 0, O_BACKEND}, {"shape", required_argument, 0, O_SHAPE},
+        {"closure", required_argument, 0, O_CLOSURE},
         {0, 0, 0, 0}};
     cli c;
     memset(&c, 0, sizeof c);
@@ -138,6 +144,15 @@ static rad_status parse_args(int argc, char **argv, cli *out)
                 c.options.no_shape = strcmp(value, "off") == 0;
             } else {
                 rad_error("--shape: '%s' is not on or off", value);
+                status = RAD_ERR_USAGE;
+            }
+            break;
+        case O_CLOSURE:
+            if (strcmp(value, "auto") == 0) c.options.closure = SOLVE_CLOSURE_AUTO;
+            else if (strcmp(value, "on") == 0) c.options.closure = SOLVE_CLOSURE_ON;
+            else if (strcmp(value, "off") == 0) c.options.closure = SOLVE_CLOSURE_OFF;
+            else {
+                rad_error("--closure: '%s' is not auto, on or off", value);
                 status = RAD_ERR_USAGE;
             }
             break;

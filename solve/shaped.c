@@ -197,12 +197,109 @@ static void progress(uint32_t it, double worst, double tolerance, double start, 
     *last = now;
 }
 
+/* ---- closure (rad_closure.h) ---- */
+
+/* What K x needs: the CPU's sweep on v, or a device backend's. */
+typedef struct shaped_apply_ctx {
+    const shaped_plan *p;
+    shaped_vectors *v;              /* the CPU sweeps v (its B, Q, H, S, next) */
+    const solve_shaped_jacobi *b;   /* a device backend, or NULL: the CPU */
+    void *state;
+    shaped_vectors scratch;         /* a device's B, Q, H on the host */
+    rad_status status;
+} shaped_apply_ctx;
+
+/* v->Q = x in every channel (leaf-list order), v->B its leaves' and the
+ * nodes' and clusters' means. */
+static void set_leaves(const shaped_plan *p, shaped_vectors *v, const double *x)
+{
+    const uint32_t leaf_count = p->L->leaf_count, roots = p->L->root_count;
+    for (uint32_t q = 0; q < leaf_count; q++)
+        for (int c = 0; c < 3; c++) v->Q[3 * (size_t)q + c] = x[3 * (size_t)q + c];
+#pragma omp parallel for schedule(dynamic, 64) num_threads(p->threads) if (leaf_count >= SHAPED_PARALLEL_MIN_LEAVES)
+    for (uint32_t t = 0; t < roots; t++) pull_tree(p, v, t);
+    shaped_plan_pull_clusters(p, v->B);
+}
+
+/* y = K x (leaf-list order): x in every channel, one Jacobi sweep; K x is
+ * the leaves' H, whatever rho and E are. */
+static void shaped_apply(void *ctx, const double *x, double *y)
+{
+    shaped_apply_ctx *a = ctx;
+    const shaped_plan *p = a->p;
+    const uint32_t leaf_count = p->L->leaf_count;
+    double *x3 = a->v->next; /* leaf_count * 3, free between sweeps */
+    for (uint32_t q = 0; q < leaf_count; q++) x3[3 * (size_t)q] = x3[3 * (size_t)q + 1] = x3[3 * (size_t)q + 2] = x[q];
+    const double *H;
+    double r[3];
+    if (!a->b) {
+        set_leaves(p, a->v, x3);
+        sweep(p, a->v, r);
+        H = a->v->H;
+    } else {
+        set_leaves(p, &a->scratch, x3);
+        rad_status s = a->b->load(a->state, a->scratch.B, a->scratch.Q);
+        if (s == RAD_OK) s = a->b->sweep(a->state, r);
+        if (s == RAD_OK) s = a->b->store(a->state, a->scratch.B, a->scratch.H);
+        if (s != RAD_OK) {
+            a->status = s;
+            for (uint32_t q = 0; q < leaf_count; q++) y[q] = NAN;
+            return;
+        }
+        H = a->scratch.H;
+    }
+    for (uint32_t q = 0; q < leaf_count; q++) y[q] = H[3 * (size_t)p->leaf_nodes[q]];
+}
+
+/* The closure's scales s of the shaped operator (device backend b, or the
+ * CPU where NULL), then the leaves' rho s^2 and E s in the plan (and on
+ * the device), and the start C = s B_flat in v->B and v->Q. */
+static rad_status shaped_closure(shaped_plan *p, shaped_vectors *v, const solve_shaped_jacobi *b, void *state,
+                                 const double *B_flat, solve_shaped_result *res)
+{
+    const rad_links *L = p->L;
+    const uint32_t m = L->leaf_count, n = L->node_count;
+    const size_t ids = rad_links_id_count(L);
+    shaped_apply_ctx a = {.p = p, .v = v, .b = b, .state = state, .status = RAD_OK};
+    double *s = malloc((m ? m : 1) * sizeof *s), *row = malloc((m ? m : 1) * sizeof *row);
+    double *scratch = b ? malloc((6 * ids + 3 * (size_t)m) * sizeof *scratch) : NULL;
+    p->scale = malloc((size_t)n * sizeof *p->scale);
+    p->closed_row = malloc((size_t)n * sizeof *p->closed_row);
+    if (!s || !row || (b && !scratch) || !p->scale || !p->closed_row) {
+        free(s), free(row), free(scratch);
+        rad_error("links: out of memory for the closure's scales of %u leaves", m);
+        return RAD_ERR_NOMEM;
+    }
+    if (b) a.scratch.B = scratch, a.scratch.H = scratch + 3 * ids, a.scratch.Q = scratch + 6 * ids;
+    rad_status status = rad_closure_scales(m, shaped_apply, &a, 0, 0, s, row, &res->closure);
+    if (a.status != RAD_OK) status = a.status;
+    if (status == RAD_OK) {
+        for (uint32_t i = 0; i < n; i++) p->scale[i] = 1, p->closed_row[i] = 0;
+        for (uint32_t q = 0; q < m; q++) {
+            const uint32_t i = p->leaf_nodes[q];
+            p->scale[i] = s[q], p->closed_row[i] = row[q];
+            for (int c = 0; c < 3; c++) {
+                p->rho[3 * (size_t)i + c] *= s[q] * s[q];
+                p->E[3 * (size_t)i + c] *= s[q];
+            }
+        }
+        double *x3 = v->next;
+        for (uint32_t q = 0; q < m; q++)
+            for (int c = 0; c < 3; c++)
+                x3[3 * (size_t)q + c] = s[q] * B_flat[3 * (size_t)L->nodes[p->leaf_nodes[q]].leaf + c];
+        set_leaves(p, v, x3);
+        if (b) status = b->materials(state, p->rho, p->E);
+    }
+    free(s), free(row), free(scratch);
+    return status;
+}
+
 /* The CPU: the point factors and the lists on the host, then Gauss-Seidel
  * sweeps until their change meets the tolerance, then a Jacobi sweep
  * measures the residual of the iterate to return (as the flat solve
  * returns a measured iterate); short of it, on. */
 static rad_status solve_on_cpu(shaped_plan *p, shaped_vectors *v, const solve_shaped_options *o,
-                               const double e_norm[3], double start, solve_shaped_result *res)
+                               const double e_norm[3], const double *B_flat, double start, solve_shaped_result *res)
 {
     const double t0 = rad_clock_seconds();
     rad_status status = shaped_plan_factors(p);
@@ -222,6 +319,10 @@ static rad_status solve_on_cpu(shaped_plan *p, shaped_vectors *v, const solve_sh
     }
     const double t1 = rad_clock_seconds();
     res->factor_seconds = t1 - t0;
+    if (o->closure && (status = shaped_closure(p, v, NULL, NULL, B_flat, res)) != RAD_OK) {
+        groups_free(&groups);
+        return status;
+    }
     double last_progress = start;
     for (uint32_t it = 0;; it++) {
         double r[3];
@@ -259,8 +360,8 @@ static rad_status solve_on_cpu(shaped_plan *p, shaped_vectors *v, const solve_sh
  * change, the residual of the iterate swept from, meets the tolerance;
  * that iterate is returned with the H its last sweep gathered. */
 static rad_status solve_on_device(shaped_plan *p, shaped_vectors *v, const solve_shaped_jacobi *b,
-                                  const solve_shaped_options *o, const double e_norm[3], double start,
-                                  solve_shaped_result *res)
+                                  const solve_shaped_options *o, const double e_norm[3], const double *B_flat,
+                                  double start, solve_shaped_result *res)
 {
     const double t0 = rad_clock_seconds();
     const rad_links *L = p->L;
@@ -295,6 +396,7 @@ static rad_status solve_on_device(shaped_plan *p, shaped_vectors *v, const solve
         for (uint32_t q = 0; q < L->leaf_count; q++) p->row_sum[p->leaf_nodes[q]] = row_q[q];
     const double t1 = rad_clock_seconds();
     res->factor_seconds = t1 - t0;
+    if (status == RAD_OK && o->closure) status = shaped_closure(p, v, b, state, B_flat, res);
     if (status == RAD_OK) status = b->load(state, v->B, v->Q);
     double last_progress = start;
     for (uint32_t it = 0; status == RAD_OK; it++) {
@@ -353,15 +455,18 @@ static void balance(const shaped_plan *p, const shaped_vectors *v, const solve_s
     for (uint32_t i = 0; i < links->node_count; i++) {
         const rad_link_node *e = &links->nodes[i];
         if (e->first_child != RAD_NO_ELEMENT) continue;
+        /* closure: the solve ran on C = S B with rho s^2 and E s; back to B, H = s K C, rho, E */
+        const double s = p->scale ? p->scale[i] : 1, row = p->scale ? p->closed_row[i] : p->row_sum[i];
         for (int c = 0; c < 3; c++) {
             const size_t at = 3 * (size_t)i + c;
+            v->B[at] /= s;
             const double b = v->B[at], before = B[3 * (size_t)e->leaf + c];
             most = fmax(most, fabs(before));
             moved = fmax(moved, fabs(b - before));
             if (o->channels == 1 && c > 0) continue;
-            sums[0] += e->area * p->E[at];
-            sums[1] += e->area * (1 - p->rho[at]) * v->H[at];
-            sums[2] += e->area * b * (1 - p->row_sum[i]);
+            sums[0] += e->area * p->E[at] / s;
+            sums[1] += e->area * (1 - p->rho[at] / (s * s)) * s * v->H[at];
+            sums[2] += e->area * b * (1 - row);
         }
     }
     for (uint32_t i = 0; i < links->node_count; i++)
@@ -415,10 +520,10 @@ rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const so
     if (backend == SOLVE_SHAPED_CUDA || backend == SOLVE_SHAPED_HOST) {
         const solve_shaped_jacobi *b =
             backend == SOLVE_SHAPED_CUDA ? &solve_shaped_jacobi_cuda : &solve_shaped_jacobi_host;
-        status = solve_on_device(&p, &v, b, options, e_norm, start, &res);
+        status = solve_on_device(&p, &v, b, options, e_norm, B, start, &res);
         res.backend = backend;
     } else {
-        status = solve_on_cpu(&p, &v, options, e_norm, start, &res);
+        status = solve_on_cpu(&p, &v, options, e_norm, B, start, &res);
     }
     res.shaped_ends = p.shaped_count;
     if (status == RAD_OK) {

@@ -81,6 +81,7 @@
 
 #include <stdint.h>
 
+#include "rad_closure.h"
 #include "rad_links.h"
 #include "rad_mesh.h"
 #include "rad_status.h"
@@ -129,6 +130,8 @@ typedef struct solve_shaped_options {
     int channels;            /* 1: a grey scene (the balance is channel 0's, as rad_lsolve's); else 3 */
     uint64_t group_work;     /* cpu: Gauss-Seidel's groups close at this much work; 0 = SOLVE_SHAPED_GROUP_WORK,
                                 1 = tree by tree (tests) */
+    int closure;             /* 1: the scene is closed; every leaf's row of the shaped operator balanced to 1
+                                first (rad_closure.h) */
 } solve_shaped_options;
 
 typedef struct solve_shaped_result {
@@ -144,6 +147,7 @@ typedef struct solve_shaped_result {
     double sweep_seconds;   /* of those: the sweeps (cuda: with the start's and the result's copies) */
     solve_shaped_backend backend; /* the one that ran: cpu, cuda or host (never auto) */
     char device[128];       /* where: "cpu", "host" or the GPU's name */
+    rad_closure_result closure; /* with options.closure: the scales (their sweeps inside sweep_seconds) */
 } solve_shaped_result;
 
 /* B: 3 values per leaf patch (RGB): the flat solution on entry, the

@@ -378,6 +378,17 @@ done:
     return status;
 }
 
+static rad_status cuda_materials(void *state, const double *rho, const double *E)
+{
+    cuda_state *s = (cuda_state *)state;
+    rad_status status = RAD_OK;
+    const shaped_view *v = &s->plan.view;
+    RAD_CUDA_TRY(cudaMemcpy((double *)v->rho, rho, 3 * (size_t)v->node_count * sizeof(double), cudaMemcpyHostToDevice));
+    RAD_CUDA_TRY(cudaMemcpy((double *)v->E, E, 3 * (size_t)v->node_count * sizeof(double), cudaMemcpyHostToDevice));
+done:
+    return status;
+}
+
 static rad_status cuda_load(void *state, const double *B, const double *Q)
 {
     cuda_state *s = (cuda_state *)state;
@@ -458,5 +469,5 @@ done:
 static const char *cuda_device_name(void *state) { return ((cuda_state *)state)->name; }
 
 extern "C" const solve_shaped_jacobi solve_shaped_jacobi_cuda = {
-    "cuda", cuda_create, cuda_factors, cuda_lists, cuda_load, cuda_sweep, cuda_accept, cuda_store, cuda_device_name,
+    "cuda", cuda_create, cuda_factors, cuda_lists, cuda_materials, cuda_load, cuda_sweep, cuda_accept, cuda_store, cuda_device_name,
     cuda_destroy};

@@ -78,6 +78,9 @@ typedef struct solve_shaped_jacobi {
     /* The ends left and the shaped lists (once); row_sum (host,
      * leaf_count): every leaf's row sum with the shape, leaf-list order. */
     rad_status (*lists)(void *state, const solve_shaped_lists *lists, double *row_sum);
+    /* The nodes' rho and E again (host, node_count * 3 each), changed since
+     * create: closure's scaled leaves (rad_closure.h). */
+    rad_status (*materials)(void *state, const double *rho, const double *E);
     /* The iterate to start from: B (id_count * 3), Q (leaf_count * 3, leaf-list order). */
     rad_status (*load)(void *state, const double *B, const double *Q);
     /* One sweep from the current iterate; change[c]: the largest

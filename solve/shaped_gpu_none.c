@@ -23,6 +23,11 @@ static rad_status none_lists(void *state, const solve_shaped_lists *lists, doubl
     return (void)state, (void)lists, (void)row_sum, RAD_ERR_UNSUPPORTED;
 }
 
+static rad_status none_materials(void *state, const double *rho, const double *E)
+{
+    return (void)state, (void)rho, (void)E, RAD_ERR_UNSUPPORTED;
+}
+
 static rad_status none_load(void *state, const double *B, const double *Q)
 {
     return (void)state, (void)B, (void)Q, RAD_ERR_UNSUPPORTED;
@@ -40,5 +45,5 @@ static const char *none_device_name(void *state) { return (void)state, "none"; }
 static void none_destroy(void *state) { (void)state; }
 
 const solve_shaped_jacobi solve_shaped_jacobi_cuda = {"cuda",     none_create, none_factors,     none_lists,
-                                                      none_load,  none_sweep,  none_accept,      none_store,
+                                                      none_materials, none_load,  none_sweep,  none_accept,      none_store,
                                                       none_device_name, none_destroy};

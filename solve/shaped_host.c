@@ -106,6 +106,14 @@ static rad_status host_lists(void *state, const solve_shaped_lists *lists, doubl
     return RAD_OK;
 }
 
+static rad_status host_materials(void *state, const double *rho, const double *E)
+{
+    host_state *h = state; /* read in place, as create's plan */
+    h->plan.view.rho = rho;
+    h->plan.view.E = E;
+    return RAD_OK;
+}
+
 static rad_status host_load(void *state, const double *B, const double *Q)
 {
     host_state *h = state;
@@ -181,5 +189,5 @@ static const char *host_device_name(void *state)
 }
 
 const solve_shaped_jacobi solve_shaped_jacobi_host = {"host",     host_create, host_factors,     host_lists,
-                                                      host_load,  host_sweep,  host_accept,      host_store,
+                                                      host_materials, host_load,  host_sweep,  host_accept,      host_store,
                                                       host_device_name, host_destroy};

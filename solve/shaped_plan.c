@@ -33,6 +33,8 @@ void shaped_plan_free(shaped_plan *p)
     free(p->row_sum);
     free(p->rho);
     free(p->E);
+    free(p->scale);
+    free(p->closed_row);
     free(p->area_q);
     free(p->leaf_centroid);
     free(p->leaf_normal);

@@ -45,7 +45,10 @@ typedef struct shaped_plan {
     uint32_t *shaped_receiver; /* per shaped link: its receiver (the device backends') */
     uint64_t shaped_count;
     double *row_sum;         /* node_count (leaves): the leaf's row sum with the shape */
-    double *rho, *E;         /* node_count * 3: the node's material (its root's) */
+    double *rho, *E;         /* node_count * 3: the node's material (its root's); with closure a leaf's
+                                rho s^2 and E s (rad_closure.h) */
+    double *scale, *closed_row; /* closure: node_count, a leaf's s and row of S K S (1, 0 at split nodes);
+                                   NULL without */
     double *area_q;          /* leaf_count: leaf areas in leaf-list order (the sweeps stream them) */
     rad_vec3 *leaf_centroid, *leaf_normal; /* leaf_count: in leaf-list order (the point factors') */
     uint32_t *up;            /* ids: shaped_view's */

@@ -79,7 +79,13 @@ typedef struct solve_options {
      * spread over its elements' leaves (shaped.h). 0 = on (the default),
      * 1 = off (--shape off: the flat solution). */
     int no_shape;
+    /* Links only: balance every leaf's row to 1 first (rad_closure.h).
+     * SOLVE_CLOSURE_AUTO (0, the default): where the file says the scene
+     * is closed (RAD_FF_FLAG_CLOSED). */
+    int closure;
 } solve_options;
+
+enum { SOLVE_CLOSURE_AUTO = 0, SOLVE_CLOSURE_ON = 1, SOLVE_CLOSURE_OFF = 2 };
 
 /* A row split (ranks + 1 entries, row_split[ranks] = n) moved to the
  * chunks the GPU backend's reductions add (solve_gpu_row_quantum), so that

@@ -85,6 +85,22 @@ static void put_links(rad_json_writer *w, const solve_stats_links *l)
     put_number(w, "error_bound", l->error_bound);
     rad_json_key(w, "balance");
     put_balance(w, &l->balance);
+    rad_json_key(w, "closure");
+    const rad_closure_result *k = l->closure;
+    if (k) {
+        rad_json_begin_object(w, RAD_JSON_INLINE);
+        put_count(w, "sweeps", k->iterations);
+        put_number(w, "row_min", k->row_before[0]);
+        put_number(w, "row_max", k->row_before[1]);
+        put_number(w, "deviation", k->deviation);
+        put_number(w, "scale_min", k->scale[0]);
+        put_number(w, "scale_max", k->scale[1]);
+        put_count(w, "leaves_without_links", k->empty);
+        put_number(w, "seconds", k->seconds);
+        rad_json_end_object(w);
+    } else {
+        rad_json_null(w);
+    }
     rad_json_key(w, "shaped");
     const solve_shaped_result *r = l->shaped;
     if (!r) {

@@ -19,6 +19,7 @@ typedef struct solve_stats_links {
     solve_balance balance;    /* over the leaves, summed over the channels solved (rad_lsolve_result),
                                  of the shaped solve where it ran, else of the flat one */
     const solve_shaped_result *shaped; /* the shaped solve's (shaped.h); NULL where it did not run */
+    const rad_closure_result *closure; /* the rows balanced to 1 (rad_closure.h); NULL: closure off */
 } solve_stats_links;
 
 typedef struct solve_stats {

@@ -75,7 +75,7 @@ static int fixture_load(const char *path, fixture *x)
  * on `threads` (0: OpenMP's default) with Gauss-Seidel's groups closing at
  * `group_work` (0: the default). */
 static rad_status run_with(const fixture *x, solve_shaped_backend backend, int threads, uint64_t group_work,
-                           double **out_B, solve_shaped_result *out)
+                           int closure, double **out_B, solve_shaped_result *out)
 {
     const size_t n = 3 * x->leaves->patch_count;
     double *B = malloc(n * sizeof *B);
@@ -87,7 +87,8 @@ static rad_status run_with(const fixture *x, solve_shaped_backend backend, int t
                                     .max_iterations = 10000,
                                     .channels = x->channels,
                                     .threads = threads,
-                                    .group_work = group_work};
+                                    .group_work = group_work,
+                                    .closure = closure};
     memset(out, 0, sizeof *out);
     rad_status status = solve_shaped(&x->links, x->leaves, &o, B, out);
     *out_B = B;
@@ -96,7 +97,7 @@ static rad_status run_with(const fixture *x, solve_shaped_backend backend, int t
 
 static rad_status run(const fixture *x, solve_shaped_backend backend, double **out_B, solve_shaped_result *out)
 {
-    return run_with(x, backend, 0, 0, out_B, out);
+    return run_with(x, backend, 0, 0, 0, out_B, out);
 }
 
 /* max |a - b| over max |b|. */
@@ -170,8 +171,8 @@ static void check_groups(const fixture *x)
     for (size_t w = 0; w < sizeof works / sizeof works[0]; w++) {
         double *one = NULL, *three = NULL;
         solve_shaped_result r1, r3;
-        RAD_CHECK(run_with(x, SOLVE_SHAPED_CPU, 1, works[w], &one, &r1) == RAD_OK);
-        RAD_CHECK(run_with(x, SOLVE_SHAPED_CPU, 3, works[w], &three, &r3) == RAD_OK);
+        RAD_CHECK(run_with(x, SOLVE_SHAPED_CPU, 1, works[w], 0, &one, &r1) == RAD_OK);
+        RAD_CHECK(run_with(x, SOLVE_SHAPED_CPU, 3, works[w], 0, &three, &r3) == RAD_OK);
         RAD_CHECK(r1.converged && r3.converged);
         RAD_CHECK(memcmp(one, three, n * sizeof *one) == 0);
         RAD_CHECK(r1.iterations == r3.iterations);
@@ -186,6 +187,34 @@ static void check_groups(const fixture *x)
         free(three);
     }
     free(first);
+}
+
+/* Closure (rad_closure.h) through `a` and `b` (the CPU and the host twin,
+ * or cuda and the host twin): the rows balanced to 1 within 1e-9 by each,
+ * the same scales' range, the two solutions within 1e-9 of max B, and the
+ * energy balanced as without closure (the links are reciprocal whether or
+ * not the scene is closed: on an open one, forcing its rows to 1 is wrong
+ * light but still a reciprocal operator). */
+static void check_closure(const fixture *x, solve_shaped_backend a, solve_shaped_backend b)
+{
+    const size_t n = 3 * x->leaves->patch_count;
+    double *Ba = NULL, *Bb = NULL;
+    solve_shaped_result ra, rb;
+    RAD_CHECK(run_with(x, a, 0, 0, 1, &Ba, &ra) == RAD_OK);
+    RAD_CHECK(run_with(x, b, 0, 0, 1, &Bb, &rb) == RAD_OK);
+    RAD_CHECK(ra.converged && rb.converged);
+    RAD_CHECK(ra.closure.deviation <= 1e-9 && rb.closure.deviation <= 1e-9);
+    RAD_CHECK_NEAR(ra.closure.scale[0], rb.closure.scale[0], 1e-9);
+    RAD_CHECK_NEAR(ra.closure.scale[1], rb.closure.scale[1], 1e-9);
+    const double d = worst_relative(Bb, Ba, n);
+    printf("  closure (%s, %s): rows %.4f .. %.4f to 1 in %u sweeps, scales %.4f .. %.4f; max |dB| %.3g of max B; "
+           "imbalance %.3g\n",
+           solve_shaped_backend_name(a), solve_shaped_backend_name(b), ra.closure.row_before[0],
+           ra.closure.row_before[1], ra.closure.iterations, ra.closure.scale[0], ra.closure.scale[1], d, ra.imbalance);
+    RAD_CHECK(d <= 1e-9);
+    RAD_CHECK(fabs(ra.imbalance) <= 1e-6 && fabs(rb.imbalance) <= 1e-6);
+    free(Ba);
+    free(Bb);
 }
 
 /* 2: cuda where it cannot run fails and leaves B alone. */
@@ -250,9 +279,11 @@ int main(int argc, char **argv)
         }
         if (cuda) {
             check_cuda(&x);
+            check_closure(&x, SOLVE_SHAPED_CUDA, SOLVE_SHAPED_HOST);
         } else {
             check_host(&x);
             check_groups(&x);
+            check_closure(&x, SOLVE_SHAPED_CPU, SOLVE_SHAPED_HOST);
             if (solve_gpu_device_count() == 0) check_cuda_refused(&x);
         }
         fixture_free(&x);
