@@ -120,10 +120,10 @@ typedef struct rad_ff_info {
  * clear: E is Ke. solve carries it into the radiosity file
  * (RAD_RF_FLAG_KE_RADIANCE), render into the image's metadata. */
 #define RAD_FF_FLAG_KE_RADIANCE 8u
-/* The links layout: formfactor found the scene closed (every face's
- * hemisphere meets other faces' fronts only: a convex enclosure seen
- * from inside, or --closure on), so every leaf's row sums to 1 and
- * solve balances the links' rows to 1 (rad_closure.h; solve --closure). */
+/* The links layout: formfactor --closure on found the scene closed
+ * (every face's hemisphere meets other faces' fronts only), so every
+ * leaf's row sums to 1 and solve balances the links' rows to 1
+ * (rad_closure.h; solve --closure). */
 #define RAD_FF_FLAG_CLOSED 16u
 
 /* Byte offsets of each section, derived from N, V, G and the element type

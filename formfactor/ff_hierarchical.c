@@ -120,29 +120,30 @@ static rad_status export_and_solve(hier_run *h, double tol, int last)
     return st == RAD_OK ? solve_flat(h, tol, warm) : st;
 }
 
-/* --closure: on marks the file closed, auto where the scene is (a convex
- * enclosure seen from inside is without a ray; else ff_scene_is_closed). */
+/* --closure on marks the file closed where the scene is (a convex
+ * enclosure seen from inside is without a ray; else ff_scene_is_closed);
+ * an open scene's is left unmarked, with a warning. */
 static rad_status decide_closure(hier_run *h, const ff_setup *su, const double centre[3])
 {
-    const int asked = h->opt->closure;
-    if (asked == 0) return RAD_OK;
-    if (asked > 0 || su->scene_convex) {
+    if (h->opt->closure <= 0) return RAD_OK;
+    if (su->scene_convex) {
         h->closed.closed = 1;
         h->closed.open_patch = -1;
-        rad_info("--closure %s: the scene is closed%s: the solve balances every leaf's row to 1", asked > 0 ? "on" : "auto",
-                 asked > 0 ? " (as asked)" : " (a convex enclosure seen from inside)");
+        rad_info("--closure on: the scene is closed (a convex enclosure seen from inside): the solve balances every "
+                 "leaf's row to 1");
         return RAD_OK;
     }
     const double t0 = rad_clock_seconds();
     rad_status st = ff_scene_is_closed(&h->base, centre, h->triangles, h->triangle_face, h->triangle_count, &h->closed);
     if (st != RAD_OK) return st;
     if (h->closed.closed) {
-        rad_info("--closure auto: the scene is closed (%llu rays from its %zu faces all met fronts, %.2f s): the solve "
+        rad_info("--closure on: the scene is closed (%llu rays from its %zu faces all met fronts, %.2f s): the solve "
                  "balances every leaf's row to 1",
                  (unsigned long long)h->closed.rays, h->base.patch_count, rad_clock_seconds() - t0);
     } else {
         const rad_patch *p = &h->base.patches[h->closed.open_patch];
-        rad_info("--closure auto: off - the scene is open: a ray from the face of line %u %s (%.2f s)",
+        rad_warn("--closure on: the scene is open, so its rows are not all 1 and the links are left as they are: a ray "
+                 "from the face of line %u %s (%.2f s)",
                  h->scene.faces[p->source_face].line, h->closed.escaped ? "leaves the scene" : "meets a face's back",
                  rad_clock_seconds() - t0);
     }

@@ -64,11 +64,12 @@ const char ff_options_help[] =
     "                           (one irradiance for faces facing apart moves light from\n"
     "                           walls to objects); such clusters split by orientation\n"
     "                           (default: 70; 180: any cluster links)\n"
-    "      --closure C          auto | on | off (default: auto = on where the scene is\n"
-    "                           closed: 16 rays from every face all meet fronts):\n"
-    "                           hierarchical: mark the links so that the solve scales\n"
-    "                           every leaf's row to 1, as a closed scene's are, keeping\n"
-    "                           reciprocity (docs/hierarchy.md, \"Closure\")\n"
+    "      --closure on|off     hierarchical: where the scene is closed (a convex\n"
+    "                           enclosure, or 16 rays from every face all meeting\n"
+    "                           fronts), mark the links so that the solve scales every\n"
+    "                           leaf's row to 1, keeping reciprocity: exact totals (the\n"
+    "                           furnace, net exchange), but a lit room's light is less\n"
+    "                           accurate (docs/hierarchy.md, \"Closure\"; default off)\n"
     "      --uniform-leaves     hierarchical: split every face to --subdiv first, so that\n"
     "                           the leaves are the full matrix's at --subdiv whatever\n"
     "                           --link-tol (to compare the two: tools/hier_study.py)\n"
@@ -379,7 +380,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_UNIFORM_LEAVES: o->uniform_leaves = 1; break;
         case O_SIZED_LEAVES: o->sized_leaves = 1; break;
         case O_CLUSTERS: st = parse_name("--clusters", optarg, switch_names, FF_NAMES_COUNT(switch_names), &o->clusters); break;
-        case O_CLOSURE: st = parse_name("--closure", optarg, switch_names, FF_NAMES_COUNT(switch_names), &o->closure); break;
+        case O_CLOSURE: st = parse_name("--closure", optarg, switch_names + 1, FF_NAMES_COUNT(switch_names) - 1, &o->closure); break;
         case O_PASSES: st = rad_parse_uint("--passes", optarg, 1, 100, &v); o->passes = (uint32_t)v; break;
         case O_CLUSTER_CONE: st = rad_parse_real("--cluster-cone", optarg, 0, 0, 180, 1, &o->cluster_cone); break;
         case O_PRESET: st = parse_name("--preset", optarg, preset_names, FF_NAMES_COUNT(preset_names), &o->preset); break;
@@ -569,7 +570,7 @@ rad_status ff_options_parse(int argc, char **argv, ff_options *out)
 {
     /* Zero is the default for the enums (auto, all, auto, sparse). */
     *out = (ff_options){.output = "formfactors", .samples = 512, .shadow_rays = 32, .seed = 1,
-                        .oracle = FF_ORACLE_AUTO, .clusters = -1, .closure = -1, .cluster_cone = FF_CLUSTER_CONE_DEG, .link_tol = FF_HIER_LINK_TOL, .min_area = FF_HIER_MIN_AREA, .passes = FF_HIER_PASSES,
+                        .oracle = FF_ORACLE_AUTO, .clusters = -1, .closure = 0, .cluster_cone = FF_CLUSTER_CONE_DEG, .link_tol = FF_HIER_LINK_TOL, .min_area = FF_HIER_MIN_AREA, .passes = FF_HIER_PASSES,
                         .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE,
                         .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL};
     out->refine = rad_refine_defaults();

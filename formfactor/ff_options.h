@@ -109,8 +109,8 @@ typedef struct ff_options {
     int sized_leaves;        /* --sized-leaves: every face split first to the largest face's leaf area */
     int clusters;            /* --clusters: 1 on, 0 off, -1 auto (on from FF_CLUSTERS_AUTO_ROOTS faces) */
     double cluster_cone;     /* --cluster-cone: degrees (180: any cluster may link) */
-    int closure;             /* --closure: 1 on, 0 off, -1 auto (where the scene is closed: ff_scene_is_closed);
-                                sets RAD_FF_FLAG_CLOSED, for solve (rad_closure.h) */
+    int closure;             /* --closure: 1 on (where the scene is closed, ff_scene_is_closed: sets
+                                RAD_FF_FLAG_CLOSED, for solve, rad_closure.h), 0 off (the default) */
     int preset;              /* --preset: FF_PRESET_FINAL (default) or FF_PRESET_PREVIEW */
     int ke_radiance;         /* --ke radiance: Ke is emitted radiance, E = pi Ke
                                 (rad_scene_options.ke_radiance); 0 = --ke radiosity */

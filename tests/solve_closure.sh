@@ -4,8 +4,9 @@
 # every face rho 0.9 and E 1, so B = 10 exactly) through the hierarchy at
 # coarse settings with clusters, whose rows lie between 0.88 and 1.13.
 #   solve_closure.sh FORMFACTOR SOLVE TEST_SOLVE_TRUTH FURNACE_ROOM.obj CORNELL_BOX.obj WORKDIR
-# Checks: formfactor finds the room closed (stats "closed": true) and the
-# Cornell box open; without closure the furnace is off by more than 1e-2
+# Checks: formfactor --closure on finds the room closed (stats "closed":
+# true) and the Cornell box open (a warning; not marked), --closure off
+# (the default) marks nothing; without closure the furnace is off by more than 1e-2
 # (so the check below can fail); with it (solve's default on a file marked
 # closed, shaped and flat, and formfactor --radiosity) every leaf within
 # 1e-6 of B = 10, the energy balanced within 1e-8 and the rows within
@@ -23,7 +24,7 @@ number() { grep -o "\"$1\": *[-0-9.eE+]*" "$2" | head -1 | sed 's/.*: *//'; }
 # below VALUE LIMIT: |VALUE| <= LIMIT
 below() { awk -v v="$1" -v l="$2" 'BEGIN { if (v < 0) v = -v; exit !(v != "" && v <= l) }'; }
 
-coarse="--method hierarchical --clusters on --passes 1 --subdiv 1 -q"
+coarse="--method hierarchical --clusters on --passes 1 --subdiv 1 --closure on -q"
 # shellcheck disable=SC2086 # coarse is a list of words
 "$ff" "$room" $coarse -o room.links --stats ff.json 2> ff.log || fail "formfactor: $(cat ff.log)"
 grep -q '"closed": true' ff.json || fail "the furnace room was not found closed: $(grep '"closed"' ff.json)"
@@ -48,8 +49,12 @@ done
 "$check" furnace-check mem.rad 0.9 1e-4 100000 any || fail "formfactor --radiosity: the furnace"
 
 # shellcheck disable=SC2086
-"$ff" "$box" $coarse -o box.links --stats box_ff.json 2> box.log || fail "formfactor (box)"
+"$ff" "$box" ${coarse% -q} -o box.links --stats box_ff.json 2> box.log || fail "formfactor (box)"
 grep -q '"closed": false' box_ff.json || fail "the Cornell box (open) was found closed"
+grep -q 'the scene is open' box.log || fail "formfactor --closure on did not warn of the open Cornell box: $(cat box.log)"
+# shellcheck disable=SC2086
+"$ff" "$room" $coarse --closure off -o plain.links --stats plain_ff.json 2> plain.log || fail "formfactor --closure off"
+grep -q '"closed": false' plain_ff.json || fail "formfactor --closure off marked the links closed"
 "$solve" box.links -q -o box.rad --stats box.json 2> box_solve.log || fail "solve (box): $(cat box_solve.log)"
 grep -q '"closure": null' box.json || fail "solve applied closure to an open scene"
 
