@@ -402,6 +402,24 @@ static rad_status write_stats(const hier_run *h)
     return st != RAD_OK ? st : written;
 }
 
+/* The refinement's storage - the link pairs, the elements, the clusters:
+ * a third of the peak at 10^6 faces - once the last pass has exported its
+ * links: the write (or --radiosity's solve) reads only the export. The
+ * counters and the settings stay, for the stats. */
+static void release_refinement(hier_run *h)
+{
+    const ff_links kept = h->links;
+    ff_links_free(&h->links); /* zeroes it */
+    h->links.config = kept.config;
+    h->links.candidates = kept.candidates;
+    h->links.refined_pairs = kept.refined_pairs;
+    h->links.rounds = kept.rounds;
+    h->links.passes = kept.passes;
+    h->links.cluster_pairs = kept.cluster_pairs;
+    h->links.cluster_rays = kept.cluster_rays;
+    h->links.cluster_seconds = kept.cluster_seconds;
+}
+
 /* The backends' states (and a GPU's buffers); the links stay. */
 static void release_backends(hier_run *h)
 {
@@ -436,6 +454,7 @@ rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
         h.seconds_load = rad_clock_seconds() - t0;
         if (st == RAD_OK) st = build_links(&h);
         release_backends(&h); /* the GPU's memory, before --radiosity's solve needs it */
+        release_refinement(&h);
         if (st == RAD_OK) st = write_links(&h);
         h.seconds_total = rad_clock_seconds() - t0;
         if (st == RAD_OK && !opt->radiosity_path) rad_info("wrote %s", opt->output);
