@@ -22,7 +22,11 @@ rad_status rad_closure_scales(size_t leaf_count, rad_closure_apply apply, void *
     for (size_t i = 0; i < leaf_count; i++) s[i] = 1;
     rad_status status = RAD_OK;
     for (;;) {
-        apply(ctx, s, Ks);
+        const rad_status applied = apply(ctx, s, Ks);
+        if (applied != RAD_OK) {
+            free(Ks);
+            return applied;
+        }
         r.iterations++;
         double most = 0, lo = INFINITY, hi = 0;
         size_t empty = 0;
@@ -52,8 +56,8 @@ rad_status rad_closure_scales(size_t leaf_count, rad_closure_apply apply, void *
             if (row)
                 for (size_t i = 0; i < leaf_count; i++) row[i] = s[i] * Ks[i];
             if (most > tolerance) {
-                rad_error("closure: rows within %.3g of 1 after %u sweeps (target %.3g)", most, r.iterations,
-                          tolerance);
+                rad_warn("closure: rows within %.3g of 1 after %u sweeps (target %.3g): solved with those scales",
+                         most, r.iterations, tolerance);
                 status = RAD_ERR_NOT_CONVERGED;
             }
             break;

@@ -40,8 +40,10 @@
 
 #include "rad_status.h"
 
-/* y = K x over the leaves (by leaf patch), x > 0. */
-typedef void (*rad_closure_apply)(void *ctx, const double *x, double *y);
+/* y = K x over the leaves (by leaf patch), x > 0. A status other than
+ * RAD_OK (a device that failed: logged by the callback) stops the
+ * iteration, which returns it. */
+typedef rad_status (*rad_closure_apply)(void *ctx, const double *x, double *y);
 
 #define RAD_CLOSURE_TOLERANCE 1e-10      /* max |s_i (K s)_i - 1| to reach */
 #define RAD_CLOSURE_MAX_ITERATIONS 2000u
@@ -60,8 +62,9 @@ typedef struct rad_closure_result {
  * leaves K s's rows s_i (K s)_i in row[] (NULL: not wanted). A leaf whose
  * row of K is 0 (no links reach it) keeps s = 1 and row 0, with a
  * warning; a row that is negative or not finite gives RAD_ERR_INVALID;
- * RAD_ERR_NOT_CONVERGED where the tolerance was not met (s and *out then
- * the last iterate's); RAD_ERR_NOMEM. Logged. */
+ * RAD_ERR_NOT_CONVERGED where the tolerance was not met (s, row and *out
+ * then the last iterate's, with a warning: the solves go on with them);
+ * RAD_ERR_NOMEM; the callback's own failure. Logged. */
 rad_status rad_closure_scales(size_t leaf_count, rad_closure_apply apply, void *ctx, double tolerance,
                               uint32_t max_iterations, double *s, double *row, rad_closure_result *out);
 

@@ -448,7 +448,8 @@ static double tree_update(const lsolve_plan *p, const lsolve_vectors *v, double 
         if (nodes[i].first_child != RAD_NO_ELEMENT) continue;
         const double gain = p->scale ? p->scale[i] * p->scale[i] : 1; /* closure: C = S E + rho S^2 K C */
         v->B[i] = v->E[i] + gain * v->G[i];
-        const double r = fabs(v->E[i] + gain * G_old[i] - v->old[i]);
+        /* closure: C's residual over s is B's */
+        const double r = fabs(v->E[i] + gain * G_old[i] - v->old[i]) / (p->scale ? p->scale[i] : 1);
         if (r > rmax) rmax = r;
         not_a_number |= isnan(r);
     }
@@ -545,8 +546,8 @@ static void channel_start(const lsolve_plan *p, const rad_mesh *leaves, int c, i
         v->rho[i] = patch->rho[c];
         v->E[i] = patch->emission[c];
         if (L->nodes[i].first_child != RAD_NO_ELEMENT) continue;
-        if (p->scale) v->E[i] *= p->scale[i]; /* closure: the solve runs on C = S B */
         if (v->E[i] > v->e_norm) v->e_norm = v->E[i];
+        if (p->scale) v->E[i] *= p->scale[i]; /* closure: the solve runs on C = S B */
         v->B[i] = warm_start ? B_in[3 * (size_t)L->nodes[i].leaf + c] * (p->scale ? p->scale[i] : 1) : v->E[i];
     }
     if (v->e_norm == 0) /* nothing emits: B = 0 */
@@ -684,7 +685,7 @@ typedef struct lsolve_apply_ctx {
 } lsolve_apply_ctx;
 
 /* y = K x by leaf patch: x at the leaves, pulled up; one Jacobi sweep. */
-static void lsolve_apply(void *ctx, const double *x, double *y)
+static rad_status lsolve_apply(void *ctx, const double *x, double *y)
 {
     lsolve_apply_ctx *a = ctx;
     const lsolve_plan *p = a->p;
@@ -695,6 +696,7 @@ static void lsolve_apply(void *ctx, const double *x, double *y)
     pull_clusters(p, a->v.B);
     jacobi_sweep(p, &a->v);
     for (uint32_t l = 0; l < L->leaf_count; l++) y[l] = a->v.B[a->node_of[l]];
+    return RAD_OK;
 }
 
 /* The plan's scale and closed_row, from the scales s of K with `block`
@@ -721,6 +723,7 @@ static rad_status plan_closure(lsolve_plan *p, double *block, rad_closure_result
     double *keep = p->scale; /* the sweeps below run without closure */
     p->scale = NULL;
     rad_status status = rad_closure_scales(m, lsolve_apply, &a, 0, 0, s, row, out);
+    if (status == RAD_ERR_NOT_CONVERGED) status = RAD_OK; /* the last scales, said so */
     p->scale = keep;
     if (status == RAD_OK) {
         for (uint32_t i = 0; i < L->node_count; i++) p->scale[i] = 1, p->closed_row[i] = 0;

@@ -143,9 +143,10 @@ rad_status ff_scene_is_closed(const rad_mesh *base, const double centre[3], cons
     const double length = 2 * rad_box_diagonal(&box) + 1e-300, delta = ff_ray_delta(base);
     const rad_vec3 shift = rad_v3(centre[0], centre[1], centre[2]);
     const int64_t patches = (int64_t)base->patch_count;
-    uint64_t failed = 0, cast = 0, escaped = 0;
+    uint64_t failed = 0, cast = 0;
     int64_t first = -1;
-#pragma omp parallel for schedule(dynamic, 256) reduction(+ : failed, cast, escaped)
+    int first_escaped = 0; /* how first's ray failed */
+#pragma omp parallel for schedule(dynamic, 256) reduction(+ : failed, cast)
     for (int64_t p = 0; p < patches; p++) {
         int64_t seen;
 #pragma omp atomic read
@@ -167,9 +168,17 @@ rad_status ff_scene_is_closed(const rad_mesh *base, const double centre[3], cons
             }
             if (open) {
                 failed++;
-                escaped += !t;
 #pragma omp critical(ff_closed_first)
-                if (first < 0 || p < first) first = p;
+                {
+                    int64_t now;
+#pragma omp atomic read
+                    now = first;
+                    if (now < 0 || p < now) {
+                        first_escaped = !t;
+#pragma omp atomic write
+                        first = p;
+                    }
+                }
                 break;
             }
         }
@@ -178,7 +187,7 @@ rad_status ff_scene_is_closed(const rad_mesh *base, const double centre[3], cons
     r.closed = failed == 0 && patches > 0;
     r.rays = cast;
     r.open_patch = first;
-    r.escaped = escaped;
+    r.escaped = first_escaped;
     *out = r;
     return RAD_OK;
 }

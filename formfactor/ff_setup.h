@@ -54,7 +54,7 @@ typedef struct ff_closed_result {
     int closed;
     uint64_t rays;      /* cast (every patch's when closed) */
     int64_t open_patch; /* -1 when closed */
-    uint64_t escaped;   /* of the failing rays found, those that met nothing */
+    int escaped;        /* open_patch's failing ray met nothing (else a back) */
 } ff_closed_result;
 rad_status ff_scene_is_closed(const rad_mesh *base, const double centre[3], const double *triangles,
                               const uint32_t *triangle_face, uint32_t triangle_count, ff_closed_result *out);

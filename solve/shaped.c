@@ -206,7 +206,6 @@ typedef struct shaped_apply_ctx {
     const solve_shaped_jacobi *b;   /* a device backend, or NULL: the CPU */
     void *state;
     shaped_vectors scratch;         /* a device's B, Q, H on the host */
-    rad_status status;
 } shaped_apply_ctx;
 
 /* v->Q = x in every channel (leaf-list order), v->B its leaves' and the
@@ -223,7 +222,7 @@ static void set_leaves(const shaped_plan *p, shaped_vectors *v, const double *x)
 
 /* y = K x (leaf-list order): x in every channel, one Jacobi sweep; K x is
  * the leaves' H, whatever rho and E are. */
-static void shaped_apply(void *ctx, const double *x, double *y)
+static rad_status shaped_apply(void *ctx, const double *x, double *y)
 {
     shaped_apply_ctx *a = ctx;
     const shaped_plan *p = a->p;
@@ -241,14 +240,11 @@ static void shaped_apply(void *ctx, const double *x, double *y)
         rad_status s = a->b->load(a->state, a->scratch.B, a->scratch.Q);
         if (s == RAD_OK) s = a->b->sweep(a->state, r);
         if (s == RAD_OK) s = a->b->store(a->state, a->scratch.B, a->scratch.H);
-        if (s != RAD_OK) {
-            a->status = s;
-            for (uint32_t q = 0; q < leaf_count; q++) y[q] = NAN;
-            return;
-        }
+        if (s != RAD_OK) return s; /* logged by the backend */
         H = a->scratch.H;
     }
     for (uint32_t q = 0; q < leaf_count; q++) y[q] = H[3 * (size_t)p->leaf_nodes[q]];
+    return RAD_OK;
 }
 
 /* The closure's scales s of the shaped operator (device backend b, or the
@@ -260,7 +256,7 @@ static rad_status shaped_closure(shaped_plan *p, shaped_vectors *v, const solve_
     const rad_links *L = p->L;
     const uint32_t m = L->leaf_count, n = L->node_count;
     const size_t ids = rad_links_id_count(L);
-    shaped_apply_ctx a = {.p = p, .v = v, .b = b, .state = state, .status = RAD_OK};
+    shaped_apply_ctx a = {.p = p, .v = v, .b = b, .state = state};
     double *s = malloc((m ? m : 1) * sizeof *s), *row = malloc((m ? m : 1) * sizeof *row);
     double *scratch = b ? malloc((6 * ids + 3 * (size_t)m) * sizeof *scratch) : NULL;
     p->scale = malloc((size_t)n * sizeof *p->scale);
@@ -272,7 +268,7 @@ static rad_status shaped_closure(shaped_plan *p, shaped_vectors *v, const solve_
     }
     if (b) a.scratch.B = scratch, a.scratch.H = scratch + 3 * ids, a.scratch.Q = scratch + 6 * ids;
     rad_status status = rad_closure_scales(m, shaped_apply, &a, 0, 0, s, row, &res->closure);
-    if (a.status != RAD_OK) status = a.status;
+    if (status == RAD_ERR_NOT_CONVERGED) status = RAD_OK; /* the last scales, said so */
     if (status == RAD_OK) {
         for (uint32_t i = 0; i < n; i++) p->scale[i] = 1, p->closed_row[i] = 0;
         for (uint32_t q = 0; q < m; q++) {

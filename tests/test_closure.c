@@ -15,7 +15,7 @@
 static double K[N][N];
 static const double area[N] = {1.0, 0.5, 2.0, 0.25, 1.5, 1.0};
 
-static void apply(void *ctx, const double *x, double *y)
+static rad_status apply(void *ctx, const double *x, double *y)
 {
     int *calls = ctx;
     (*calls)++;
@@ -23,6 +23,7 @@ static void apply(void *ctx, const double *x, double *y)
         y[i] = 0;
         for (int j = 0; j < N; j++) y[i] += K[i][j] * x[j];
     }
+    return RAD_OK;
 }
 
 /* K_ij = c_ij A_j with a symmetric c (reciprocal); leaf 5 linked to nothing. */
