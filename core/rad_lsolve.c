@@ -449,7 +449,8 @@ static double tree_update(const lsolve_plan *p, const lsolve_vectors *v, double 
         const double gain = p->scale ? p->scale[i] * p->scale[i] : 1; /* closure: C = S E + rho S^2 K C */
         v->B[i] = v->E[i] + gain * v->G[i];
         /* closure: C's residual over s is B's */
-        const double r = fabs(v->E[i] + gain * G_old[i] - v->old[i]) / (p->scale ? p->scale[i] : 1);
+        double r = fabs(v->E[i] + gain * G_old[i] - v->old[i]);
+        if (p->scale) r /= p->scale[i];
         if (r > rmax) rmax = r;
         not_a_number |= isnan(r);
     }
@@ -707,30 +708,31 @@ static rad_status plan_closure(lsolve_plan *p, double *block, rad_closure_result
     const size_t n = rad_links_id_count(L), m = L->leaf_count;
     uint32_t *node_of = malloc((m ? m : 1) * sizeof *node_of);
     double *s = malloc((m ? m : 1) * sizeof *s), *row = malloc((m ? m : 1) * sizeof *row);
-    p->scale = malloc((size_t)L->node_count * sizeof *p->scale);
-    p->closed_row = malloc((size_t)L->node_count * sizeof *p->closed_row);
-    if (!node_of || !s || !row || !p->scale || !p->closed_row) {
+    if (!node_of || !s || !row) {
         free(node_of), free(s), free(row);
         rad_error("links: out of memory for the closure's scales of %zu leaves", m);
         return RAD_ERR_NOMEM;
     }
+    /* the sweeps run without closure: p->scale is set only once s is found */
     lsolve_apply_ctx a = {.p = p, .node_of = node_of,
                           .v = {.rho = block, .E = block + n, .B = block + 2 * n, .old = block + 3 * n,
                                 .G = block + 4 * n, .G_old = block + 4 * n}};
     for (size_t i = 0; i < n; i++) a.v.rho[i] = 1, a.v.E[i] = 0;
     for (uint32_t i = 0; i < L->node_count; i++)
         if (L->nodes[i].first_child == RAD_NO_ELEMENT) node_of[L->nodes[i].leaf] = i;
-    double *keep = p->scale; /* the sweeps below run without closure */
-    p->scale = NULL;
     rad_status status = rad_closure_scales(m, lsolve_apply, &a, 0, 0, s, row, out);
     if (status == RAD_ERR_NOT_CONVERGED) status = RAD_OK; /* the last scales, said so */
-    p->scale = keep;
+    if (status == RAD_OK) {
+        p->scale = malloc((size_t)L->node_count * sizeof *p->scale);
+        p->closed_row = malloc((size_t)L->node_count * sizeof *p->closed_row);
+        if (!p->scale || !p->closed_row) { /* plan_free frees either */
+            rad_error("links: out of memory for the closure's scales of %u nodes", L->node_count);
+            status = RAD_ERR_NOMEM;
+        }
+    }
     if (status == RAD_OK) {
         for (uint32_t i = 0; i < L->node_count; i++) p->scale[i] = 1, p->closed_row[i] = 0;
         for (size_t l = 0; l < m; l++) p->scale[node_of[l]] = s[l], p->closed_row[node_of[l]] = row[l];
-    } else {
-        free(p->scale), free(p->closed_row);
-        p->scale = p->closed_row = NULL;
     }
     free(node_of), free(s), free(row);
     return status;

@@ -121,34 +121,41 @@ static inline RAD_HD ff_segment ff_segment_make(rad_vec3 x, rad_vec3 nx, uint32_
     return s;
 }
 
-/* Does the segment hit the triangle (see ff_segment)? Moller-Trumbore in
- * double. */
-static inline RAD_HD int ff_bvh_hit_tri(const ff_bvh_tri *t, const ff_segment *s)
+/* Where the segment's line meets the triangle: its t, or -1 where it
+ * misses (or runs parallel). Moller-Trumbore in double; no plane tests. */
+static inline RAD_HD double ff_bvh_tri_t(const ff_bvh_tri *t, const ff_segment *s)
 {
     const double *d = s->d;
     double px = d[1] * t->e2[2] - d[2] * t->e2[1];
     double py = d[2] * t->e2[0] - d[0] * t->e2[2];
     double pz = d[0] * t->e2[1] - d[1] * t->e2[0];
     double det = t->e1[0] * px + t->e1[1] * py + t->e1[2] * pz;
-    if (det == 0.0) return 0; /* segment parallel to the triangle's plane */
+    if (det == 0.0) return -1.0; /* segment parallel to the triangle's plane */
     double inv = 1.0 / det;
     double sx = s->o[0] - t->v0[0], sy = s->o[1] - t->v0[1], sz = s->o[2] - t->v0[2];
     double u = (sx * px + sy * py + sz * pz) * inv;
-    if (u < 0.0 || u > 1.0) return 0;
+    if (u < 0.0 || u > 1.0) return -1.0;
     double qx = sy * t->e1[2] - sz * t->e1[1];
     double qy = sz * t->e1[0] - sx * t->e1[2];
     double qz = sx * t->e1[1] - sy * t->e1[0];
     double v = (d[0] * qx + d[1] * qy + d[2] * qz) * inv;
-    if (v < 0.0 || u + v > 1.0) return 0;
-    double tt = (t->e2[0] * qx + t->e2[1] * qy + t->e2[2] * qz) * inv;
+    if (v < 0.0 || u + v > 1.0) return -1.0;
+    return (t->e2[0] * qx + t->e2[1] * qy + t->e2[2] * qz) * inv;
+}
+
+/* Does the segment hit the triangle (see ff_segment)? */
+static inline RAD_HD int ff_bvh_hit_tri(const ff_bvh_tri *t, const ff_segment *s)
+{
+    const double tt = ff_bvh_tri_t(t, s);
     /* Inside the segment, and in front of both end planes by more than delta. */
     return tt > 0.0 && tt < 1.0 && tt * s->rise_a > s->delta && (1.0 - tt) * s->rise_b > s->delta;
 }
 
-/* Does the float segment meet a box (t within [0, 1] and a slack)? */
-static inline RAD_HD int ff_bvh_hit_box(const float lo[3], const float hi[3], const float o[3], const float inv_d[3])
+/* Does the float segment meet a box before t_max (t within [0, t_max] and a slack)? */
+static inline RAD_HD int ff_bvh_hit_box_before(const float lo[3], const float hi[3], const float o[3],
+                                               const float inv_d[3], float t_max)
 {
-    float tmin = -FF_BVH_T_SLACK, tmax = 1.0f + FF_BVH_T_SLACK;
+    float tmin = -FF_BVH_T_SLACK, tmax = t_max + FF_BVH_T_SLACK;
     for (int a = 0; a < 3; a++) {
         float t0 = (lo[a] - o[a]) * inv_d[a], t1 = (hi[a] - o[a]) * inv_d[a];
         float near_t = t0 < t1 ? t0 : t1, far_t = t0 < t1 ? t1 : t0;
@@ -157,6 +164,12 @@ static inline RAD_HD int ff_bvh_hit_box(const float lo[3], const float hi[3], co
         tmax = far_t < tmax ? far_t : tmax;
     }
     return tmin <= tmax;
+}
+
+/* Does the float segment meet a box (t within [0, 1] and a slack)? */
+static inline RAD_HD int ff_bvh_hit_box(const float lo[3], const float hi[3], const float o[3], const float inv_d[3])
+{
+    return ff_bvh_hit_box_before(lo, hi, o, inv_d, 1.0f);
 }
 
 static inline RAD_HD int ff_bvh_leaf_hit(const ff_bvh_tri *tris, int32_t ref, uint32_t count, const ff_segment *s)

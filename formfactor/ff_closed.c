@@ -9,8 +9,9 @@
  * closure's rows of 1 are off by about that fraction of a face's view.
  *
  * The first hit walks the BVH's boxes against the segment cut at the
- * nearest hit so far; a triangle counts as ff_segment's hits do (more than
- * delta in front of the origin's plane, the origin's face skipped), and
+ * nearest hit so far (ff_bvh_hit_box_before); a triangle counts where
+ * ff_bvh_tri_t meets it more than delta in front of the origin's plane
+ * (the origin's face skipped), and
  * its front is the side its corners turn counter-clockwise to, the
  * face's own normal (ff_occluders_build keeps each face's winding). */
 #include <math.h>
@@ -25,49 +26,14 @@
 
 #define FF_CLOSED_KEY 0x636c6f73u /* "clos": the rays' Philox key */
 
-/* The segment's t at triangle t, or INFINITY where it misses (ff_bvh_hit_tri's test, without the end plane). */
-static double tri_t(const ff_bvh_tri *t, const ff_segment *s)
-{
-    const double *d = s->d;
-    double px = d[1] * t->e2[2] - d[2] * t->e2[1];
-    double py = d[2] * t->e2[0] - d[0] * t->e2[2];
-    double pz = d[0] * t->e2[1] - d[1] * t->e2[0];
-    double det = t->e1[0] * px + t->e1[1] * py + t->e1[2] * pz;
-    if (det == 0.0) return INFINITY;
-    double inv = 1.0 / det;
-    double sx = s->o[0] - t->v0[0], sy = s->o[1] - t->v0[1], sz = s->o[2] - t->v0[2];
-    double u = (sx * px + sy * py + sz * pz) * inv;
-    if (u < 0.0 || u > 1.0) return INFINITY;
-    double qx = sy * t->e1[2] - sz * t->e1[1];
-    double qy = sz * t->e1[0] - sx * t->e1[2];
-    double qz = sx * t->e1[1] - sy * t->e1[0];
-    double v = (d[0] * qx + d[1] * qy + d[2] * qz) * inv;
-    if (v < 0.0 || u + v > 1.0) return INFINITY;
-    double tt = (t->e2[0] * qx + t->e2[1] * qy + t->e2[2] * qz) * inv;
-    return tt > 0.0 && tt <= 1.0 && tt * s->rise_a > s->delta ? tt : INFINITY;
-}
-
-/* Does the float segment meet the box before t_max? */
-static int box_before(const float lo[3], const float hi[3], const ff_segment *s, float t_max)
-{
-    float tmin = -FF_BVH_T_SLACK, tmax = t_max + FF_BVH_T_SLACK;
-    for (int a = 0; a < 3; a++) {
-        float t0 = (lo[a] - s->fo[a]) * s->inv_fd[a], t1 = (hi[a] - s->fo[a]) * s->inv_fd[a];
-        float near_t = t0 < t1 ? t0 : t1, far_t = t0 < t1 ? t1 : t0;
-        tmin = near_t > tmin ? near_t : tmin;
-        tmax = far_t < tmax ? far_t : tmax;
-    }
-    return tmin <= tmax;
-}
-
 static void leaf_first(const ff_bvh *b, int32_t ref, uint32_t count, const ff_segment *s, double *best,
                        const ff_bvh_tri **hit)
 {
     for (uint32_t k = 0; k < count; k++) {
         const ff_bvh_tri *t = &b->tris[~ref + (int32_t)k];
         if (t->face == s->skip_a) continue;
-        const double tt = tri_t(t, s);
-        if (tt < *best) *best = tt, *hit = t;
+        const double tt = ff_bvh_tri_t(t, s); /* in front of the origin's plane by more than delta */
+        if (tt > 0.0 && tt <= 1.0 && tt * s->rise_a > s->delta && tt < *best) *best = tt, *hit = t;
     }
 }
 
@@ -86,11 +52,11 @@ static const ff_bvh_tri *first_hit(const ff_bvh *b, const ff_segment *s)
     while (top > 0) {
         const ff_bvh_node *n = &b->nodes[stack[--top]];
         const float t_max = best < 1 ? (float)best : 1.0f;
-        if (box_before(n->lo0, n->hi0, s, t_max)) {
+        if (ff_bvh_hit_box_before(n->lo0, n->hi0, s->fo, s->inv_fd, t_max)) {
             if (n->child0 < 0) leaf_first(b, n->child0, n->count0, s, &best, &hit);
             else if (top < FF_BVH_STACK) stack[top++] = n->child0;
         }
-        if (box_before(n->lo1, n->hi1, s, t_max)) {
+        if (ff_bvh_hit_box_before(n->lo1, n->hi1, s->fo, s->inv_fd, t_max)) {
             if (n->child1 < 0) leaf_first(b, n->child1, n->count1, s, &best, &hit);
             else if (top < FF_BVH_STACK) stack[top++] = n->child1;
         }
