@@ -5,6 +5,7 @@
 #include <stdint.h>
 #if defined(__unix__)
 #include <sys/mman.h>
+#include <sys/resource.h>
 #endif
 
 void rad_mem_advise_huge(void *p, size_t bytes)
@@ -41,5 +42,20 @@ void rad_mem_release(void *p, size_t bytes)
 #else
     (void)p;
     (void)bytes;
+#endif
+}
+
+double rad_mem_peak_bytes(void)
+{
+#if defined(__unix__)
+    struct rusage u;
+    if (getrusage(RUSAGE_SELF, &u) != 0) return 0;
+#if defined(__APPLE__)
+    return (double)u.ru_maxrss; /* bytes there */
+#else
+    return 1024.0 * (double)u.ru_maxrss; /* kilobytes on Linux and the BSDs */
+#endif
+#else
+    return 0;
 #endif
 }

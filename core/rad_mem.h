@@ -33,4 +33,9 @@ void rad_mem_advise_huge(void *p, size_t bytes);
 void *rad_mem_reserve(size_t bytes);
 void rad_mem_release(void *p, size_t bytes); /* NULL is fine */
 
+/* The process's resident high-water mark so far, in bytes (getrusage's
+ * ru_maxrss); 0 where the system does not say. Taken after each phase,
+ * it shows which phase set the peak (--stats' "peak_bytes"). */
+double rad_mem_peak_bytes(void);
+
 #endif

@@ -26,6 +26,7 @@
 #include "rad_fs.h"
 #include "rad_json.h"
 #include "rad_log.h"
+#include "rad_mem.h"
 #include "rad_lsolve.h"
 
 typedef struct hier_run {
@@ -51,6 +52,7 @@ typedef struct hier_run {
     double most_leaves; /* faces x 4^level: what it decides by */
     double seconds_load, seconds_setup, seconds_links, seconds_export, seconds_bound, seconds_solve, seconds_write,
         seconds_total; /* seconds_bound: the error bound's share of seconds_export */
+    double peak_load, peak_refine, peak_export, peak_total; /* the resident peak after each (rad_mem_peak_bytes) */
     uint64_t refined[64];
 } hier_run;
 
@@ -118,6 +120,22 @@ static rad_status export_and_solve(hier_run *h, double tol, int last)
     rad_mesh_free(&old_leaves);
     free(old_B);
     return st == RAD_OK ? solve_flat(h, tol, warm) : st;
+}
+
+/* The last pass's links exported again (a pass that refined nothing: the
+ * same links, the same leaves, whose solution h->B stands). */
+static rad_status export_again(hier_run *h)
+{
+    const double t0 = rad_clock_seconds();
+    rad_mesh leaves = {0};
+    rad_status st = ff_links_export(&h->links, &h->exported, &leaves);
+    if (st == RAD_OK && !same_leaves(&leaves, &h->leaves)) {
+        rad_error("internal: the links exported again have other leaves");
+        st = RAD_ERR_INVALID;
+    }
+    rad_mesh_free(&leaves);
+    h->seconds_export += rad_clock_seconds() - t0;
+    return st;
 }
 
 /* --closure on marks the file closed where the scene is (a convex
@@ -210,13 +228,18 @@ static rad_status build_links(hier_run *h)
         return st;
     h->seconds_setup = rad_clock_seconds() - t_setup;
     for (uint32_t pass = 0; pass < opt->passes && st == RAD_OK; pass++) {
+        /* the last export is not needed while the links refine (h->B and
+         * h->leaves are): freed, it is not beside the refinement's pairs */
+        rad_links_free(&h->exported);
         double t0 = rad_clock_seconds();
         uint64_t refined = 0;
         st = ff_links_refine(&h->links, pass ? h->B : NULL, &h->counters, &refined);
         h->seconds_links += rad_clock_seconds() - t0;
+        h->peak_refine = rad_mem_peak_bytes();
         if (pass < 64) h->refined[pass] = refined;
         if (st == RAD_OK && pass > 0 && refined == 0) {
             rad_info("pass %u: nothing refined; the links and their solution stand", pass + 1);
+            st = export_again(h);
             break;
         }
         const int last = pass + 1 == opt->passes;
@@ -239,6 +262,7 @@ static rad_status build_links(hier_run *h)
         h->seconds_bound = rad_clock_seconds() - t0;
         h->seconds_export += h->seconds_bound;
     }
+    h->peak_export = rad_mem_peak_bytes();
     return st;
 }
 
@@ -396,6 +420,18 @@ static rad_status write_stats(const hier_run *h)
     rad_json_key(&w, "total");
     rad_json_number(&w, h->seconds_total);
     rad_json_end_object(&w);
+    /* the resident peak after each phase: the phase where it rises set it */
+    rad_json_key(&w, "peak_bytes");
+    rad_json_begin_object(&w, RAD_JSON_INLINE);
+    rad_json_key(&w, "load");
+    rad_json_number(&w, h->peak_load);
+    rad_json_key(&w, "refine"); /* the last pass's refinement (earlier passes' exports and solves before it) */
+    rad_json_number(&w, h->peak_refine);
+    rad_json_key(&w, "export"); /* the last export, its flat solve and the error bound */
+    rad_json_number(&w, h->peak_export);
+    rad_json_key(&w, opt->radiosity_path ? "radiosity" : "io");
+    rad_json_number(&w, h->peak_total);
+    rad_json_end_object(&w);
     rad_json_end_object(&w);
     rad_status written = rad_json_finish(&w);
     st = rad_fs_close_commit(f, temp, opt->stats_path);
@@ -452,11 +488,13 @@ rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
             st = RAD_ERR_INVALID;
         }
         h.seconds_load = rad_clock_seconds() - t0;
+        h.peak_load = rad_mem_peak_bytes();
         if (st == RAD_OK) st = build_links(&h);
         release_backends(&h); /* the GPU's memory, before --radiosity's solve needs it */
         release_refinement(&h);
         if (st == RAD_OK) st = write_links(&h);
         h.seconds_total = rad_clock_seconds() - t0;
+        h.peak_total = rad_mem_peak_bytes();
         if (st == RAD_OK && !opt->radiosity_path) rad_info("wrote %s", opt->output);
         if (st == RAD_OK) st = write_stats(&h);
     }

@@ -290,7 +290,7 @@ static rad_status shaped_closure(shaped_plan *p, shaped_vectors *v, const solve_
     return status;
 }
 
-/* The CPU: the point factors and the lists on the host, then Gauss-Seidel
+/* The CPU: the point factors and the trees' work on the host, then Gauss-Seidel
  * sweeps until their change meets the tolerance, then a Jacobi sweep
  * measures the residual of the iterate to return (as the flat solve
  * returns a measured iterate); short of it, on. */
@@ -299,17 +299,17 @@ static rad_status solve_on_cpu(shaped_plan *p, shaped_vectors *v, const solve_sh
 {
     const double t0 = rad_clock_seconds();
     rad_status status = shaped_plan_factors(p);
-    if (status == RAD_OK) status = shaped_plan_lists(p);
     if (status != RAD_OK) return status;
+    shaped_plan_work(p);
     shaped_plan_row_sums(p);
     shaped_groups groups;
     if ((status = groups_make(p, o->group_work ? o->group_work : SOLVE_SHAPED_GROUP_WORK, &groups)) != RAD_OK) {
         groups_free(&groups);
         return status;
     }
-    v->S = malloc(3 * (p->shaped_count ? p->shaped_count : 1) * sizeof *v->S);
+    v->S = calloc(3 * (p->end_count ? p->end_count : 1), sizeof *v->S);
     if (!v->S) {
-        rad_error("links: out of memory for the shaped solve's %llu shaped links", (unsigned long long)p->shaped_count);
+        rad_error("links: out of memory for the shaped solve's %llu shaped ends", (unsigned long long)p->end_count);
         groups_free(&groups);
         return RAD_ERR_NOMEM;
     }
@@ -352,7 +352,7 @@ static rad_status solve_on_cpu(shaped_plan *p, shaped_vectors *v, const solve_sh
 /* ---- the device backends' driver (shaped_gpu.h) ---- */
 
 /* A device backend (shaped_gpu.h): the point factors there, the ends that
- * sum to 0 dropped and the lists made here, then Jacobi sweeps until the
+ * sum to 0 dropped (listed here), then Jacobi sweeps until the
  * change, the residual of the iterate swept from, meets the tolerance;
  * that iterate is returned with the H its last sweep gathered. */
 static rad_status solve_on_device(shaped_plan *p, shaped_vectors *v, const solve_shaped_jacobi *b,
@@ -365,28 +365,25 @@ static rad_status solve_on_device(shaped_plan *p, shaped_vectors *v, const solve
     solve_shaped_device_plan plan;
     void *state = NULL;
     double *row_q = NULL;
+    uint64_t *dropped = NULL;
     rad_status status = shaped_plan_device(p, &arrays, &plan);
     if (status == RAD_OK) status = b->create(&plan, o->device, &state);
     if (status == RAD_OK) status = b->factors(state, p->inv_mean);
     if (status == RAD_OK) {
-        for (uint64_t e = 0; e < plan.end_count; e++)
-            if (p->inv_mean[arrays.ends[e]] == 0) p->at[arrays.ends[e]] = SHAPED_NO_WEIGHTS;
-        status = shaped_plan_lists(p);
-    }
-    if (status == RAD_OK) {
+        p->dropped = 0;
+        for (uint64_t e = 0; e < p->end_count; e++) p->dropped += p->inv_mean[e] == 0;
         row_q = malloc((L->leaf_count ? L->leaf_count : 1) * sizeof *row_q);
-        if (!row_q) {
+        dropped = malloc((p->dropped ? p->dropped : 1) * sizeof *dropped);
+        if (!row_q || !dropped) {
             rad_error("links: out of memory for %u row sums", L->leaf_count);
             status = RAD_ERR_NOMEM;
         }
     }
     if (status == RAD_OK) {
-        const solve_shaped_lists lists = {.at = p->at,
-                                          .shaped_first = p->shaped_first,
-                                          .shaped = p->shaped,
-                                          .shaped_receiver = p->shaped_receiver,
-                                          .shaped_count = p->shaped_count};
-        status = b->lists(state, &lists, row_q);
+        uint64_t d = 0;
+        for (uint64_t e = 0; e < p->end_count; e++)
+            if (p->inv_mean[e] == 0) dropped[d++] = e;
+        status = b->drop(state, dropped, d, row_q);
     }
     if (status == RAD_OK)
         for (uint32_t q = 0; q < L->leaf_count; q++) p->row_sum[p->leaf_nodes[q]] = row_q[q];
@@ -419,6 +416,7 @@ static rad_status solve_on_device(shaped_plan *p, shaped_vectors *v, const solve
     res->sweep_seconds = rad_clock_seconds() - t1;
     b->destroy(state);
     free(row_q);
+    free(dropped);
     shaped_device_arrays_free(&arrays);
     return status;
 }
@@ -521,7 +519,7 @@ rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const so
     } else {
         status = solve_on_cpu(&p, &v, options, e_norm, B, start, &res);
     }
-    res.shaped_ends = p.shaped_count;
+    res.shaped_ends = p.end_count - p.dropped;
     if (status == RAD_OK) {
         balance(&p, &v, options, B, &res);
         res.seconds = rad_clock_seconds() - start;

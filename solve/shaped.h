@@ -66,7 +66,7 @@
  * on one). The cuda backend
  * (shaped_gpu.h) computes them on the GPU and sweeps Jacobi there, every
  * tree at once, copying back three maxima a sweep; the plan (which ends,
- * the ranges, the lists) stays the host's. Its Jacobi stops where its
+ * the ranges, the pairs) stays the host's. Its Jacobi stops where its
  * change, which is the residual of the iterate it swept from, meets the
  * tolerance, and returns that iterate, as the CPU returns the iterate its
  * last sweep measured. The host backend runs the cuda backend's steps on
@@ -143,7 +143,7 @@ typedef struct solve_shaped_result {
     double change;          /* max |B - B_flat| / max |B_flat| over leaves and channels */
     double emitted, absorbed, escaped, imbalance; /* as rad_lsolve_result's, for the shaped operator */
     double seconds;
-    double factor_seconds;  /* of those: the point factors and the lists (cuda: with the copies to the GPU) */
+    double factor_seconds;  /* of those: the point factors and the dropped ends (cuda: with the copies to the GPU) */
     double sweep_seconds;   /* of those: the sweeps (cuda: with the start's and the result's copies) */
     solve_shaped_backend backend; /* the one that ran: cpu, cuda or host (never auto) */
     char device[128];       /* where: "cpu", "host" or the GPU's name */

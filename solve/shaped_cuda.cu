@@ -38,30 +38,26 @@ extern "C" {
 #define SHAPED_FACTOR_BLOCK 128
 /* Blocks of the point factors' kernel at most; more ends are strided. */
 #define SHAPED_FACTOR_GRID (1u << 20)
-/* Device arrays one solve allocates (create and lists). */
+/* Device arrays one solve allocates (create). */
 #define SHAPED_MAX_ARRAYS 48
 
 struct cuda_state {
-    solve_shaped_device_plan plan; /* plan.view, ends, end_receiver, depth_order: device pointers */
+    solve_shaped_device_plan plan; /* plan.view, depth_order: device pointers */
     uint32_t *depth_first;         /* host (plan.depth_first): plan.depth_count + 1, the launches' ranges */
     int device;
     char name[256];
     void *owned[SHAPED_MAX_ARRAYS]; /* every device array, freed by destroy */
     int owned_count;
-    uint64_t *at;                  /* link_count: the plan's, then the ends left (lists) */
+    uint32_t *end, *pair_end;      /* link_count (writable: drop) */
     float *f;                      /* weight_count */
-    double *inv_mean;              /* link_count */
-    uint64_t *shaped_first;        /* id_count + 1 */
-    uint64_t *shaped;              /* shaped_count (lists) */
-    uint32_t *shaped_receiver;     /* shaped_count (lists) */
-    uint64_t shaped_count;
+    double *inv_mean;              /* end_count */
     double *B, *H;                 /* id_count * 3 */
     double *Q, *next;              /* leaf_count * 3 */
-    double *T;                     /* link_count * 3 */
-    double *S;                     /* shaped_count * 3 (lists) */
+    double *T, *S;                 /* end_count * 3 */
     double *row_sum;               /* leaf_count */
     double *partial;               /* leaf blocks * 3: each block's maxima */
     double *change;                /* 3 */
+    int dropped;                   /* drop ran */
 };
 
 /* Blocks of `per` threads for `items` items. */
@@ -71,27 +67,30 @@ static unsigned blocks_for(uint64_t items, unsigned per) { return (unsigned)((it
 
 /* The point factors of every end: a block per end, its threads over the
  * receiver's leaves. */
-__global__ void __launch_bounds__(SHAPED_FACTOR_BLOCK)
-    shaped_factors_kernel(shaped_view v, const uint64_t *ends, const uint32_t *end_receiver, uint64_t end_count,
-                          float *f)
+__global__ void __launch_bounds__(SHAPED_FACTOR_BLOCK) shaped_factors_kernel(shaped_view v, float *f)
 {
-    for (uint64_t e = blockIdx.x; e < end_count; e += gridDim.x) {
-        const uint64_t k = ends[e];
-        const uint32_t r = end_receiver[e];
+    for (uint64_t e = blockIdx.x; e < v.end_count; e += gridDim.x) {
+        const uint32_t r = v.end_receiver[e];
         rad_ff_patch P;
-        shaped_node_polygon(&v, v.links[k].source, &P);
+        shaped_node_polygon(&v, v.links[v.end_link[e]].source, &P);
         for (uint32_t q = threadIdx.x; q < v.count[r]; q += blockDim.x)
-            f[v.at[k] + q] = shaped_point_factor(&v, v.first[r] + q, &P);
+            f[v.end_at[e] + q] = shaped_point_factor(&v, v.first[r] + q, &P);
     }
 }
 
 /* 1 / the mean of every end's factors: a thread per end. */
-__global__ void __launch_bounds__(SHAPED_BLOCK)
-    shaped_inv_mean_kernel(shaped_view v, const uint64_t *ends, const uint32_t *end_receiver, uint64_t end_count,
-                           double *inv_mean)
+__global__ void __launch_bounds__(SHAPED_BLOCK) shaped_inv_mean_kernel(shaped_view v, double *inv_mean)
 {
     const uint64_t e = blockIdx.x * (uint64_t)blockDim.x + threadIdx.x;
-    if (e < end_count) inv_mean[ends[e]] = shaped_end_inv_mean(&v, ends[e], end_receiver[e]);
+    if (e < v.end_count) inv_mean[e] = shaped_end_inv_mean(&v, e, v.end_receiver[e]);
+}
+
+/* The ends whose factors sum to 0 dropped: a thread per dropped end. */
+__global__ void __launch_bounds__(SHAPED_BLOCK)
+    shaped_drop_kernel(shaped_view v, const uint64_t *dropped, uint64_t count, uint32_t *end, uint32_t *pair_end)
+{
+    const uint64_t d = blockIdx.x * (uint64_t)blockDim.x + threadIdx.x;
+    if (d < count) shaped_drop_end(&v, dropped[d], end, pair_end);
 }
 
 /* Every leaf's row sum, leaf-list order: a thread per leaf. */
@@ -101,13 +100,11 @@ __global__ void __launch_bounds__(SHAPED_BLOCK) shaped_row_sum_kernel(shaped_vie
     if (q < v.leaf_count) row_sum[q] = shaped_leaf_row_sum(&v, v.leaf_nodes[q]);
 }
 
-/* (a) T of every shaped link: a thread per link. */
-__global__ void __launch_bounds__(SHAPED_BLOCK)
-    shaped_end_sum_kernel(shaped_view v, const uint64_t *shaped, const uint32_t *receiver, uint64_t count,
-                          const double *Q, double *T)
+/* (a) T of every end: a thread per end. */
+__global__ void __launch_bounds__(SHAPED_BLOCK) shaped_end_sum_kernel(shaped_view v, const double *Q, double *T)
 {
-    const uint64_t j = blockIdx.x * (uint64_t)blockDim.x + threadIdx.x;
-    if (j < count) shaped_end_sum(&v, shaped[j], receiver[j], Q, &T[3 * shaped[j]]);
+    const uint64_t e = blockIdx.x * (uint64_t)blockDim.x + threadIdx.x;
+    if (e < v.end_count) shaped_end_sum(&v, e, v.end_receiver[e], Q, &T[3 * e]);
 }
 
 /* (b) every receiver id's gather: a thread per id. */
@@ -239,6 +236,7 @@ static rad_status upload_plan(cuda_state *s, const solve_shaped_device_plan *pla
     const shaped_view *h = &plan->view;
     shaped_view *v = &s->plan.view;
     const uint64_t n = h->node_count, leaves = h->leaf_count, ids = h->id_count, links = h->link_count;
+    const uint64_t ends = h->end_count;
     const uint64_t children = h->pull_first[ids];
 #define SHAPED_TRY(call)                         \
     do {                                         \
@@ -261,30 +259,31 @@ static rad_status upload_plan(cuda_state *s, const solve_shaped_device_plan *pla
     SHAPED_TRY(device_copy(s, &v->pull_first, h->pull_first, ids + 1));
     SHAPED_TRY(device_copy(s, &v->pull_child, h->pull_child, children));
     SHAPED_TRY(device_copy(s, &v->id_area, h->id_area, ids));
-    SHAPED_TRY(device_copy(s, &v->reverse, h->reverse, links));
-    SHAPED_TRY(device_array(s, &s->at, h->at, links));
-    SHAPED_TRY(device_copy(s, &s->plan.ends, plan->ends, plan->end_count));
-    SHAPED_TRY(device_copy(s, &s->plan.end_receiver, plan->end_receiver, plan->end_count));
+    SHAPED_TRY(device_array(s, &s->end, h->end, links));
+    SHAPED_TRY(device_array(s, &s->pair_end, h->pair_end, links));
+    SHAPED_TRY(device_copy(s, &v->end_link, h->end_link, ends));
+    SHAPED_TRY(device_copy(s, &v->end_receiver, h->end_receiver, ends));
+    SHAPED_TRY(device_copy(s, &v->end_at, h->end_at, ends));
+    SHAPED_TRY(device_copy(s, &v->shaped_first, h->shaped_first, ids + 1));
     SHAPED_TRY(device_copy(s, &s->plan.depth_order, plan->depth_order, ids));
     SHAPED_TRY(device_array(s, &s->f, (const float *)NULL, plan->weight_count));
-    SHAPED_TRY(device_array(s, &s->inv_mean, (const double *)NULL, links));
-    SHAPED_TRY(device_array(s, &s->shaped_first, (const uint64_t *)NULL, ids + 1));
+    SHAPED_TRY(device_array(s, &s->inv_mean, (const double *)NULL, ends));
     SHAPED_TRY(device_array(s, &s->B, (const double *)NULL, 3 * ids));
     SHAPED_TRY(device_array(s, &s->H, (const double *)NULL, 3 * ids));
     SHAPED_TRY(device_array(s, &s->Q, (const double *)NULL, 3 * leaves));
     SHAPED_TRY(device_array(s, &s->next, (const double *)NULL, 3 * leaves));
-    SHAPED_TRY(device_array(s, &s->T, (const double *)NULL, 3 * links));
+    SHAPED_TRY(device_array(s, &s->T, (const double *)NULL, 3 * ends));
+    SHAPED_TRY(device_array(s, &s->S, (const double *)NULL, 3 * ends));
     SHAPED_TRY(device_array(s, &s->row_sum, (const double *)NULL, leaves));
     SHAPED_TRY(device_array(s, &s->partial, (const double *)NULL, 3 * (uint64_t)blocks_for(leaves, SHAPED_BLOCK)));
     SHAPED_TRY(device_array(s, &s->change, (const double *)NULL, 3));
 #undef SHAPED_TRY
-    /* not yet made: no shaped link anywhere until lists; no f read before factors */
-    status = RAD_CUDA_CHECK(cudaMemset(s->inv_mean, 0, links * sizeof(double)));
-    v->at = s->at;
+    /* a dropped end's S is never gathered: zero, as the host's */
+    status = RAD_CUDA_CHECK(cudaMemset(s->S, 0, 3 * ends * sizeof(double)));
+    v->end = s->end;
+    v->pair_end = s->pair_end;
     v->f = s->f;
     v->inv_mean = s->inv_mean;
-    v->shaped_first = s->shaped_first;
-    v->shaped = NULL;
     return status;
 }
 
@@ -320,8 +319,9 @@ static rad_status cuda_create(const solve_shaped_device_plan *plan, int device, 
     if ((status = upload_plan(s, plan)) != RAD_OK) {
         if (status == RAD_ERR_NOMEM)
             rad_error("--backend cuda: %s has too little free memory for the shaped solve (%llu point factors, "
-                      "%llu links)",
-                      s->name, (unsigned long long)plan->weight_count, (unsigned long long)plan->view.link_count);
+                      "%llu links, %llu ends)",
+                      s->name, (unsigned long long)plan->weight_count, (unsigned long long)plan->view.link_count,
+                      (unsigned long long)plan->view.end_count);
         goto done;
     }
     *out_state = s;
@@ -335,46 +335,46 @@ static rad_status cuda_factors(void *state, double *inv_mean)
 {
     cuda_state *s = (cuda_state *)state;
     rad_status status = RAD_OK;
-    const solve_shaped_device_plan *p = &s->plan;
-    const uint64_t ends = p->end_count;
+    const shaped_view *v = &s->plan.view;
+    const uint64_t ends = v->end_count;
     if (ends > 0) {
         const unsigned grid = ends < SHAPED_FACTOR_GRID ? (unsigned)ends : SHAPED_FACTOR_GRID;
-        shaped_factors_kernel<<<grid, SHAPED_FACTOR_BLOCK>>>(p->view, p->ends, p->end_receiver, ends, s->f);
+        shaped_factors_kernel<<<grid, SHAPED_FACTOR_BLOCK>>>(*v, s->f);
         RAD_CUDA_TRY(cudaGetLastError());
-        shaped_inv_mean_kernel<<<blocks_for(ends, SHAPED_BLOCK), SHAPED_BLOCK>>>(p->view, p->ends, p->end_receiver,
-                                                                                 ends, s->inv_mean);
+        shaped_inv_mean_kernel<<<blocks_for(ends, SHAPED_BLOCK), SHAPED_BLOCK>>>(*v, s->inv_mean);
         RAD_CUDA_TRY(cudaGetLastError());
     }
     /* waits for the kernels; a fault in one of them is reported here */
-    RAD_CUDA_TRY(cudaMemcpy(inv_mean, s->inv_mean, p->view.link_count * sizeof(double), cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY(cudaMemcpy(inv_mean, s->inv_mean, ends * sizeof(double), cudaMemcpyDeviceToHost));
 done:
     return status;
 }
 
-static rad_status cuda_lists(void *state, const solve_shaped_lists *lists, double *row_sum)
+static rad_status cuda_drop(void *state, const uint64_t *dropped, uint64_t count, double *row_sum)
 {
     cuda_state *s = (cuda_state *)state;
     rad_status status = RAD_OK;
-    shaped_view *v = &s->plan.view;
-    const uint64_t m = lists->shaped_count;
-    if (s->shaped) {
-        rad_error("internal: the shaped solve's lists go to the GPU once");
+    const shaped_view *v = &s->plan.view;
+    uint64_t *d_dropped = NULL;
+    if (s->dropped) {
+        rad_error("internal: the shaped solve's ends are dropped once");
         return RAD_ERR_INVALID;
     }
-    if ((status = device_array(s, &s->shaped, lists->shaped, m)) != RAD_OK) return status;
-    if ((status = device_array(s, &s->shaped_receiver, lists->shaped_receiver, m)) != RAD_OK) return status;
-    if ((status = device_array(s, &s->S, (const double *)NULL, 3 * m)) != RAD_OK) return status;
-    s->shaped_count = m;
-    RAD_CUDA_TRY(cudaMemcpy(s->at, lists->at, v->link_count * sizeof(uint64_t), cudaMemcpyHostToDevice));
-    RAD_CUDA_TRY(cudaMemcpy(s->shaped_first, lists->shaped_first, (v->id_count + 1) * sizeof(uint64_t),
-                            cudaMemcpyHostToDevice));
-    v->shaped = s->shaped;
+    s->dropped = 1;
+    if (count > 0) {
+        RAD_CUDA_TRY(cudaMalloc(&d_dropped, count * sizeof(uint64_t)));
+        RAD_CUDA_TRY(cudaMemcpy(d_dropped, dropped, count * sizeof(uint64_t), cudaMemcpyHostToDevice));
+        shaped_drop_kernel<<<blocks_for(count, SHAPED_BLOCK), SHAPED_BLOCK>>>(*v, d_dropped, count, s->end,
+                                                                              s->pair_end);
+        RAD_CUDA_TRY(cudaGetLastError());
+    }
     if (v->leaf_count > 0) {
         shaped_row_sum_kernel<<<blocks_for(v->leaf_count, SHAPED_BLOCK), SHAPED_BLOCK>>>(*v, s->row_sum);
         RAD_CUDA_TRY(cudaGetLastError());
     }
     RAD_CUDA_TRY(cudaMemcpy(row_sum, s->row_sum, v->leaf_count * sizeof(double), cudaMemcpyDeviceToHost));
 done:
+    if (d_dropped) cudaFree(d_dropped);
     return status;
 }
 
@@ -407,9 +407,8 @@ static rad_status cuda_sweep(void *state, double change[3])
     const solve_shaped_device_plan *p = &s->plan;
     const shaped_view *v = &p->view;
     const unsigned leaf_blocks = blocks_for(v->leaf_count, SHAPED_BLOCK);
-    if (s->shaped_count > 0) {
-        shaped_end_sum_kernel<<<blocks_for(s->shaped_count, SHAPED_BLOCK), SHAPED_BLOCK>>>(
-            *v, s->shaped, s->shaped_receiver, s->shaped_count, s->Q, s->T);
+    if (v->end_count > 0) {
+        shaped_end_sum_kernel<<<blocks_for(v->end_count, SHAPED_BLOCK), SHAPED_BLOCK>>>(*v, s->Q, s->T);
         RAD_CUDA_TRY(cudaGetLastError());
     }
     shaped_gather_kernel<<<blocks_for(v->id_count, SHAPED_BLOCK), SHAPED_BLOCK>>>(*v, s->B, s->Q, s->T, s->H, s->S);
@@ -469,5 +468,5 @@ done:
 static const char *cuda_device_name(void *state) { return ((cuda_state *)state)->name; }
 
 extern "C" const solve_shaped_jacobi solve_shaped_jacobi_cuda = {
-    "cuda", cuda_create, cuda_factors, cuda_lists, cuda_materials, cuda_load, cuda_sweep, cuda_accept, cuda_store, cuda_device_name,
+    "cuda", cuda_create, cuda_factors, cuda_drop, cuda_materials, cuda_load, cuda_sweep, cuda_accept, cuda_store, cuda_device_name,
     cuda_destroy};

@@ -7,27 +7,27 @@
  * (shaped_math.h) in the same order, which is how tests check the GPU's
  * algorithm on machines without a GPU. No CUDA types here.
  *
- * The plan (shaped.c) stays the host's: which ends are shaped, the leaf
- * ranges, the pairs, the lists. A step takes host arrays and returns what
- * the host needs next; shaped.c drives them:
+ * The plan (shaped_plan.c) stays the host's: which ends are shaped, the
+ * leaf ranges, the pairs. A step takes host arrays and returns what the
+ * host needs next; shaped.c drives them:
  *
  *     const solve_shaped_jacobi *b = &solve_shaped_jacobi_cuda;
  *     void *state;
  *     b->create(&plan, device, &state);     // copies the plan's arrays
  *     b->factors(state, inv_mean);          // the ends' f; 1 / their mean back
- *     ... the host drops the ends whose factors sum to 0, lists the rest ...
- *     b->lists(state, &plan, row_sum);      // the lists in; the leaves' row sums back
+ *     ... the host lists the ends whose factors sum to 0 ...
+ *     b->drop(state, dropped, count, row_sum); // those dropped; the leaves' row sums back
  *     b->load(state, B, Q);                 // the flat solution
  *     for (;;) { b->sweep(state, change); ... stop? ...; b->accept(state); }
  *     b->store(state, B, H);
  *     b->destroy(state);
  *
  * A sweep, every channel at once, from the iterate B (its leaves' Q):
- * (a) T of every shaped link: what its receiver end sends along the pair
- * (shaped_end_sum), one item per link; (b) per receiver id, the unshaped
- * links gathered into H and the shaped ones' S kept (shaped_gather, from
- * T); (c) H pushed down, id by id in order of depth (shaped_push); (d) per
- * leaf, the shaped links of it and its ancestors added, next = E + rho H,
+ * (a) T of every end: what it sends along the pair (shaped_end_sum), one
+ * item per end; (b) per receiver id, the unshaped links gathered into H
+ * and the shaped ones' S kept (shaped_gather, from T); (c) H pushed
+ * down, id by id in order of depth (shaped_push); (d) per leaf, the
+ * shaped links of it and its ancestors added, next = E + rho H,
  * and the largest |next - Q| per channel (shaped_update_leaf): the change,
  * which is the residual of B. accept: Q = next, the leaves' B, and B
  * pulled up in reverse order of depth (shaped_pull). Every sum is made by
@@ -43,25 +43,13 @@
 /* What the device backends need beyond shaped_view's plan, made by
  * shaped.c once it has chosen one. */
 typedef struct solve_shaped_device_plan {
-    shaped_view view;              /* host pointers; f, inv_mean, shaped_first and shaped not made yet */
+    shaped_view view;              /* host pointers; f and inv_mean not made yet */
     size_t vertex_count;           /* of view.positions */
     uint64_t weight_count;         /* point factors: the f array */
-    uint64_t end_count;            /* shaped ends before the factors */
-    const uint64_t *ends;          /* end_count: their links, ascending */
-    const uint32_t *end_receiver;  /* end_count: each one's receiver node */
     uint32_t depth_count;          /* depths of the ids: cluster 0 (or the roots) at 0 */
     const uint32_t *depth_order;   /* id_count: the ids by depth, each depth's ascending */
     const uint32_t *depth_first;   /* depth_count + 1: depth d's are depth_order[depth_first[d] .. [d + 1]) */
 } solve_shaped_device_plan;
-
-/* The shaped lists once the ends are known (lists). */
-typedef struct solve_shaped_lists {
-    const uint64_t *at;              /* link_count: the ends left shaped (plan.view.at's, some dropped) */
-    const uint64_t *shaped_first;    /* id_count + 1 */
-    const uint64_t *shaped;          /* shaped_count */
-    const uint32_t *shaped_receiver; /* shaped_count: each one's receiver */
-    uint64_t shaped_count;
-} solve_shaped_lists;
 
 typedef struct solve_shaped_jacobi {
     const char *name; /* "cuda", "host" */
@@ -71,13 +59,14 @@ typedef struct solve_shaped_jacobi {
      * Errors (no device, not enough memory, a failed CUDA call) are
      * logged; *out_state is set only on success. */
     rad_status (*create)(const solve_shaped_device_plan *plan, int device, void **out_state);
-    /* The ends' point factors, then inv_mean (host, link_count): 1 / the
+    /* The ends' point factors, then inv_mean (host, end_count): 1 / the
      * mean of each end's factors (shaped_end_inv_mean), 0 where they sum
-     * to 0 and for the links that are not ends. */
+     * to 0. */
     rad_status (*factors)(void *state, double *inv_mean);
-    /* The ends left and the shaped lists (once); row_sum (host,
+    /* The ends `dropped` (host, count of them, ascending: those whose
+     * inv_mean is 0) dropped (shaped_drop_end), once; row_sum (host,
      * leaf_count): every leaf's row sum with the shape, leaf-list order. */
-    rad_status (*lists)(void *state, const solve_shaped_lists *lists, double *row_sum);
+    rad_status (*drop)(void *state, const uint64_t *dropped, uint64_t count, double *row_sum);
     /* The nodes' rho and E again (host, node_count * 3 each), changed since
      * create: closure's scaled leaves (rad_closure.h). */
     rad_status (*materials)(void *state, const double *rho, const double *E);

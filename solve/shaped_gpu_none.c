@@ -18,9 +18,9 @@ static rad_status none_factors(void *state, double *inv_mean)
     return (void)state, (void)inv_mean, RAD_ERR_UNSUPPORTED;
 }
 
-static rad_status none_lists(void *state, const solve_shaped_lists *lists, double *row_sum)
+static rad_status none_drop(void *state, const uint64_t *dropped, uint64_t count, double *row_sum)
 {
-    return (void)state, (void)lists, (void)row_sum, RAD_ERR_UNSUPPORTED;
+    return (void)state, (void)dropped, (void)count, (void)row_sum, RAD_ERR_UNSUPPORTED;
 }
 
 static rad_status none_materials(void *state, const double *rho, const double *E)
@@ -44,6 +44,6 @@ static rad_status none_store(void *state, double *B, double *H)
 static const char *none_device_name(void *state) { return (void)state, "none"; }
 static void none_destroy(void *state) { (void)state; }
 
-const solve_shaped_jacobi solve_shaped_jacobi_cuda = {"cuda",     none_create, none_factors,     none_lists,
+const solve_shaped_jacobi solve_shaped_jacobi_cuda = {"cuda",     none_create, none_factors,     none_drop,
                                                       none_materials, none_load,  none_sweep,  none_accept,      none_store,
                                                       none_device_name, none_destroy};

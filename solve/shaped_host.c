@@ -6,7 +6,9 @@
  * beforehand, the push and pull by depth, the row sums per leaf). The
  * items of a loop are independent, so they run on OpenMP threads; the
  * bytes do not depend on the thread count. It reads the plan's arrays in
- * place: the plan outlives the state.
+ * place: the plan outlives the state, and drop changes its end and
+ * pair_end (the plan's own, which the host lends it writable) as the
+ * GPU's copy is changed.
  */
 #include <math.h>
 #include <stdlib.h>
@@ -16,8 +18,7 @@
 #include "shaped_gpu.h"
 
 typedef struct host_state {
-    solve_shaped_device_plan plan; /* its view: the plan's arrays, then f, inv_mean and the lists */
-    solve_shaped_lists lists;      /* the shaped links and their receivers (the T loop's items) */
+    solve_shaped_device_plan plan; /* its view: the plan's arrays, then f and inv_mean */
     float *f;
     double *inv_mean;
     double *B, *Q, *next, *H, *S, *T;
@@ -46,14 +47,15 @@ static rad_status host_create(const solve_shaped_device_plan *plan, int device, 
     if (h) {
         h->plan = *plan;
         h->f = malloc((plan->weight_count ? plan->weight_count : 1) * sizeof *h->f);
-        h->inv_mean = calloc(v->link_count ? v->link_count : 1, sizeof *h->inv_mean);
+        h->inv_mean = calloc(v->end_count ? v->end_count : 1, sizeof *h->inv_mean);
         h->B = malloc(3 * v->id_count * sizeof *h->B);
         h->H = malloc(3 * v->id_count * sizeof *h->H);
         h->Q = malloc(3 * (v->leaf_count ? v->leaf_count : 1) * sizeof *h->Q);
         h->next = malloc(3 * (v->leaf_count ? v->leaf_count : 1) * sizeof *h->next);
-        h->T = malloc(3 * (v->link_count ? v->link_count : 1) * sizeof *h->T);
+        h->T = malloc(3 * (v->end_count ? v->end_count : 1) * sizeof *h->T);
+        h->S = calloc(3 * (v->end_count ? v->end_count : 1), sizeof *h->S);
     }
-    if (!h || !h->f || !h->inv_mean || !h->B || !h->H || !h->Q || !h->next || !h->T) {
+    if (!h || !h->f || !h->inv_mean || !h->B || !h->H || !h->Q || !h->next || !h->T || !h->S) {
         rad_error("links: out of memory for the shaped solve's host sweeps");
         host_destroy(h);
         return RAD_ERR_NOMEM;
@@ -68,38 +70,28 @@ static rad_status host_create(const solve_shaped_device_plan *plan, int device, 
 static rad_status host_factors(void *state, double *inv_mean)
 {
     host_state *h = state;
-    const solve_shaped_device_plan *p = &h->plan;
-    const shaped_view *v = &p->view;
-    const int64_t ends = (int64_t)p->end_count;
+    const shaped_view *v = &h->plan.view;
+    const int64_t ends = (int64_t)v->end_count;
 #pragma omp parallel for schedule(dynamic, 16)
     for (int64_t e = 0; e < ends; e++) {
-        const uint64_t k = p->ends[e];
-        const uint32_t r = p->end_receiver[e];
+        const uint32_t r = v->end_receiver[e];
         rad_ff_patch P;
-        shaped_node_polygon(v, v->links[k].source, &P);
-        for (uint32_t q = 0; q < v->count[r]; q++) h->f[v->at[k] + q] = shaped_point_factor(v, v->first[r] + q, &P);
+        shaped_node_polygon(v, v->links[v->end_link[e]].source, &P);
+        for (uint32_t q = 0; q < v->count[r]; q++) h->f[v->end_at[e] + q] = shaped_point_factor(v, v->first[r] + q, &P);
     }
 #pragma omp parallel for schedule(dynamic, 256)
-    for (int64_t e = 0; e < ends; e++) h->inv_mean[p->ends[e]] = shaped_end_inv_mean(v, p->ends[e], p->end_receiver[e]);
-    memcpy(inv_mean, h->inv_mean, v->link_count * sizeof *inv_mean);
+    for (int64_t e = 0; e < ends; e++) h->inv_mean[e] = shaped_end_inv_mean(v, (uint64_t)e, v->end_receiver[e]);
+    memcpy(inv_mean, h->inv_mean, (size_t)ends * sizeof *inv_mean);
     return RAD_OK;
 }
 
-static rad_status host_lists(void *state, const solve_shaped_lists *lists, double *row_sum)
+static rad_status host_drop(void *state, const uint64_t *dropped, uint64_t count, double *row_sum)
 {
     host_state *h = state;
-    shaped_view *v = &h->plan.view;
-    h->lists = *lists;
-    v->at = lists->at;
-    v->shaped_first = lists->shaped_first;
-    v->shaped = lists->shaped;
-    free(h->S);
-    h->S = malloc(3 * (lists->shaped_count ? lists->shaped_count : 1) * sizeof *h->S);
-    if (!h->S) {
-        rad_error("links: out of memory for the shaped solve's %llu shaped links",
-                  (unsigned long long)lists->shaped_count);
-        return RAD_ERR_NOMEM;
-    }
+    const shaped_view *v = &h->plan.view;
+    const int64_t n = (int64_t)count;
+#pragma omp parallel for schedule(static)
+    for (int64_t d = 0; d < n; d++) shaped_drop_end(v, dropped[d], (uint32_t *)v->end, (uint32_t *)v->pair_end);
     const int64_t leaves = v->leaf_count;
 #pragma omp parallel for schedule(dynamic, 256)
     for (int64_t q = 0; q < leaves; q++) row_sum[q] = shaped_leaf_row_sum(v, v->leaf_nodes[q]);
@@ -129,11 +121,9 @@ static rad_status host_sweep(void *state, double change[3])
     host_state *h = state;
     const solve_shaped_device_plan *p = &h->plan;
     const shaped_view *v = &p->view;
-    const solve_shaped_lists *l = &h->lists;
-    const int64_t shaped = (int64_t)l->shaped_count, ids = (int64_t)v->id_count, leaves = v->leaf_count;
+    const int64_t ends = (int64_t)v->end_count, ids = (int64_t)v->id_count, leaves = v->leaf_count;
 #pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t j = 0; j < shaped; j++)
-        shaped_end_sum(v, l->shaped[j], l->shaped_receiver[j], h->Q, &h->T[3 * l->shaped[j]]);
+    for (int64_t e = 0; e < ends; e++) shaped_end_sum(v, (uint64_t)e, v->end_receiver[e], h->Q, &h->T[3 * e]);
 #pragma omp parallel for schedule(dynamic, 64)
     for (int64_t i = 0; i < ids; i++) shaped_gather(v, (uint32_t)i, h->B, h->Q, h->T, h->H, h->S);
     for (uint32_t d = 1; d < p->depth_count; d++) { /* depth 0 has nothing above it */
@@ -188,6 +178,6 @@ static const char *host_device_name(void *state)
     return "host";
 }
 
-const solve_shaped_jacobi solve_shaped_jacobi_host = {"host",     host_create, host_factors,     host_lists,
+const solve_shaped_jacobi solve_shaped_jacobi_host = {"host",     host_create, host_factors,     host_drop,
                                                       host_materials, host_load,  host_sweep,  host_accept,      host_store,
                                                       host_device_name, host_destroy};

@@ -10,8 +10,17 @@
  * device pointers alike, no pointer graphs. Ids are rad_links': the nodes,
  * then the clusters. Leaf-list order: every node's leaves are consecutive,
  * node i's are leaf_nodes[first[i] .. first[i] + count[i]) (shaped.c).
- * B, H: 3 values per id; Q: 3 per leaf, leaf-list order; S: 3 per shaped
- * link (the shaped list's order); T: 3 per link (only shaped links' used).
+ * B, H: 3 values per id; Q: 3 per leaf, leaf-list order; S and T: 3 per
+ * end.
+ *
+ * Ends: a link whose receiver end is shaped has an end, numbered in link
+ * order (so receiver i's ends are one range, shaped_first[i] ..
+ * shaped_first[i + 1]); what an end needs (its link, receiver, point
+ * factors' offset, mean) is stored per end, and per link only its end and
+ * the pair's other link's end (4 bytes each): a link of 16 bytes costs
+ * 24 in the solve, not 64 (docs/solve.md, "Memory and progress"). An end
+ * whose factors sum to 0 is dropped: its link and the pair's other link
+ * no longer name it, and its inv_mean is 0.
  */
 #ifndef SOLVE_SHAPED_MATH_H
 #define SOLVE_SHAPED_MATH_H
@@ -23,8 +32,10 @@
 #include "rad_links.h"
 #include "rad_math.h"
 
-/* A link whose receiver end is not shaped (at[k]). */
-#define SHAPED_NO_WEIGHTS UINT64_MAX
+/* A link whose receiver end is not shaped (end[k], pair_end[k]). */
+#define SHAPED_NO_END UINT32_MAX
+/* Ends at most: their numbers are 32 bits. */
+#define SHAPED_MAX_ENDS ((uint64_t)UINT32_MAX)
 /* No id above (up[i]). */
 #define SHAPED_NONE UINT32_MAX
 
@@ -50,13 +61,15 @@ typedef struct shaped_view {
     const uint32_t *pull_child;     /*   pull_child[pull_first[i] .. [i + 1]) (none at a leaf) */
     const double *id_area;          /* id_count: node and cluster areas */
     /* the ends */
-    const uint64_t *reverse;        /* link_count: the pair's other link */
-    const uint64_t *at;             /* link_count: the receiver end's point factors f[at .. at + count[r]), or
-                                       SHAPED_NO_WEIGHTS */
+    uint64_t end_count;
+    const uint32_t *end;            /* link_count: the link's end, or SHAPED_NO_END */
+    const uint32_t *pair_end;       /* link_count: the end of the pair's other link, or SHAPED_NO_END */
+    const uint64_t *end_link;       /* end_count: its link (ascending) */
+    const uint32_t *end_receiver;   /* end_count: its link's receiver */
+    const uint64_t *end_at;         /* end_count: its point factors f[end_at .. end_at + count[receiver]) */
+    const uint64_t *shaped_first;   /* id_count + 1: receiver i's ends are shaped_first[i] .. [i + 1] */
     const float *f;                 /* the point factors */
-    const double *inv_mean;         /* link_count: 1 / their area-weighted mean (shaped links) */
-    const uint64_t *shaped_first;   /* id_count + 1: receiver i's shaped links are shaped[shaped_first[i] .. [i + 1]) */
-    const uint64_t *shaped;         /* the shaped links, by receiver */
+    const double *inv_mean;         /* end_count: 1 / their area-weighted mean; 0: dropped */
 } shaped_view;
 
 /* Node i's polygon as the point factor takes it: corners from the leaves
@@ -81,23 +94,23 @@ static inline RAD_HD float shaped_point_factor(const shaped_view *v, uint32_t q,
     return (float)rad_ff_point_polygon(v->leaf_centroid[q], v->leaf_normal[q], P);
 }
 
-/* 1 / the area-weighted mean of end k's point factors over its receiver
+/* 1 / the area-weighted mean of end e's point factors over its receiver
  * r's leaves (summed in leaf order); 0 where they sum to 0 (the end is
- * then left flat). */
-static inline RAD_HD double shaped_end_inv_mean(const shaped_view *v, uint64_t k, uint32_t r)
+ * then dropped). */
+static inline RAD_HD double shaped_end_inv_mean(const shaped_view *v, uint64_t e, uint32_t r)
 {
-    const float *f = &v->f[v->at[k]];
+    const float *f = &v->f[v->end_at[e]];
     const double *area = &v->area_q[v->first[r]];
     double sum = 0;
     for (uint32_t q = 0; q < v->count[r]; q++) sum += area[q] * (double)f[q];
     return sum > 0 ? v->leaf_area[r] / sum : 0;
 }
 
-/* What shaped end k (receiver r) sends along its pair, from the leaves'
- * Q: sum over r's leaves of A_q u_q Q_q / A_r. */
-static inline RAD_HD void shaped_end_sum(const shaped_view *v, uint64_t k, uint32_t r, const double *Q, double out[3])
+/* What end e (receiver r) sends along its pair, from the leaves' Q: sum
+ * over r's leaves of A_q u_q Q_q / A_r. */
+static inline RAD_HD void shaped_end_sum(const shaped_view *v, uint64_t e, uint32_t r, const double *Q, double out[3])
 {
-    const float *f = &v->f[v->at[k]];
+    const float *f = &v->f[v->end_at[e]];
     const double *area = &v->area_q[v->first[r]], *b = &Q[3 * (size_t)v->first[r]];
     double s0 = 0, s1 = 0, s2 = 0;
     for (uint32_t q = 0; q < v->count[r]; q++) {
@@ -106,42 +119,65 @@ static inline RAD_HD void shaped_end_sum(const shaped_view *v, uint64_t k, uint3
         s1 += w * b[3 * q + 1];
         s2 += w * b[3 * q + 2];
     }
-    const double scale = v->inv_mean[k] / v->leaf_area[r];
+    const double scale = v->inv_mean[e] / v->leaf_area[r];
     out[0] = s0 * scale;
     out[1] = s1 * scale;
     out[2] = s2 * scale;
 }
 
-/* What link k's source sends: its B where the pair's other link does not
- * shape it; else T of that link where the sums were made beforehand (T not
+/* What link k's source sends: its B where the pair's other link has no
+ * end; else that end's T where the sums were made beforehand (T not
  * NULL), or the sum made here. */
 static inline RAD_HD void shaped_source_value(const shaped_view *v, uint64_t k, const double *B, const double *Q,
                                               const double *T, double out[3])
 {
     const uint32_t s = v->links[k].source;
-    const uint64_t back = v->reverse[k];
-    if (v->at[back] == SHAPED_NO_WEIGHTS) {
+    const uint32_t back = v->pair_end[k];
+    if (back == SHAPED_NO_END) {
         for (int c = 0; c < 3; c++) out[c] = B[3 * (size_t)s + c];
     } else if (T) {
-        for (int c = 0; c < 3; c++) out[c] = T[3 * back + c];
+        for (int c = 0; c < 3; c++) out[c] = T[3 * (size_t)back + c];
     } else {
         shaped_end_sum(v, back, s, Q, out);
     }
 }
 
+/* The pair of link k (receiver r): the link at k's source back to r
+ * (sources ascend per receiver), or UINT64_MAX where there is none. */
+static inline RAD_HD uint64_t shaped_pair_link(const shaped_view *v, uint64_t k, uint32_t r)
+{
+    const uint32_t s = v->links[k].source;
+    uint64_t lo = v->first_link[s], hi = v->first_link[s + 1];
+    while (lo < hi) {
+        const uint64_t mid = lo + (hi - lo) / 2;
+        if (v->links[mid].source < r) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo < v->first_link[s + 1] && v->links[lo].source == r ? lo : UINT64_MAX;
+}
+
+/* End e dropped (its factors sum to 0): its link and the pair's other
+ * link no longer name it (end and pair_end: the view's arrays, writable
+ * where the caller holds them). */
+static inline RAD_HD void shaped_drop_end(const shaped_view *v, uint64_t e, uint32_t *end, uint32_t *pair_end)
+{
+    const uint64_t k = v->end_link[e], back = shaped_pair_link(v, k, v->end_receiver[e]);
+    end[k] = SHAPED_NO_END;
+    if (back != UINT64_MAX) pair_end[back] = SHAPED_NO_END;
+}
+
 /* Receiver i's links (a node's or a cluster's): the unshaped ones gathered
- * into H[i], the shaped ones' source values kept in S, in link order. */
+ * into H[i], the shaped ones' source values kept in S (by end). */
 static inline RAD_HD void shaped_gather(const shaped_view *v, uint32_t i, const double *B, const double *Q,
                                         const double *T, double *H, double *S)
 {
     double h[3] = {0, 0, 0};
-    uint64_t j = v->shaped_first[i];
     for (uint64_t k = v->first_link[i]; k < v->first_link[i + 1]; k++) {
         double s[3];
         shaped_source_value(v, k, B, Q, T, s);
-        if (v->at[k] != SHAPED_NO_WEIGHTS) {
-            for (int c = 0; c < 3; c++) S[3 * j + c] = s[c];
-            j++;
+        const uint32_t e = v->end[k];
+        if (e != SHAPED_NO_END) {
+            for (int c = 0; c < 3; c++) S[3 * (size_t)e + c] = s[c];
             continue;
         }
         for (int c = 0; c < 3; c++) h[c] += v->links[k].factor * s[c];
@@ -168,8 +204,9 @@ static inline RAD_HD void shaped_update_leaf(const shaped_view *v, uint32_t q, d
     double h[3] = {H[3 * (size_t)x], H[3 * (size_t)x + 1], H[3 * (size_t)x + 2]};
     for (uint32_t a = x; a < v->node_count; a = v->up[a]) /* the nodes up to the root; not the clusters */
         for (uint64_t j = v->shaped_first[a]; j < v->shaped_first[a + 1]; j++) {
-            const uint64_t k = v->shaped[j];
-            const double w = v->links[k].factor * v->inv_mean[k] * (double)v->f[v->at[k] + q - v->first[a]];
+            if (v->inv_mean[j] == 0) continue; /* dropped: its link gathered flat */
+            const double w =
+                v->links[v->end_link[j]].factor * v->inv_mean[j] * (double)v->f[v->end_at[j] + q - v->first[a]];
             for (int c = 0; c < 3; c++) h[c] += w * S[3 * j + c];
         }
     for (int c = 0; c < 3; c++) {
@@ -205,9 +242,11 @@ static inline RAD_HD double shaped_leaf_row_sum(const shaped_view *v, uint32_t x
 {
     double s = 0;
     for (uint32_t a = x; a != SHAPED_NONE; a = v->up[a])
-        for (uint64_t k = v->first_link[a]; k < v->first_link[a + 1]; k++)
+        for (uint64_t k = v->first_link[a]; k < v->first_link[a + 1]; k++) {
+            const uint32_t e = v->end[k];
             s += v->links[k].factor *
-                 (v->at[k] == SHAPED_NO_WEIGHTS ? 1.0 : v->inv_mean[k] * v->f[v->at[k] + v->first[x] - v->first[a]]);
+                 (e == SHAPED_NO_END ? 1.0 : v->inv_mean[e] * v->f[v->end_at[e] + v->first[x] - v->first[a]]);
+        }
     return s;
 }
 

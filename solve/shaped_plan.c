@@ -13,8 +13,6 @@
 
 #include "rad_log.h"
 
-#define NO_WEIGHTS SHAPED_NO_WEIGHTS
-
 static inline double max3(const double *v) { return fmax(v[0], fmax(v[1], v[2])); }
 
 void shaped_plan_free(shaped_plan *p)
@@ -23,13 +21,14 @@ void shaped_plan_free(shaped_plan *p)
     free(p->first);
     free(p->count);
     free(p->leaf_area);
-    free(p->reverse);
-    free(p->at);
+    free(p->end);
+    free(p->pair_end);
+    free(p->end_link);
+    free(p->end_receiver);
+    free(p->end_at);
     free(p->inv_mean);
     free(p->f);
     free(p->shaped_first);
-    free(p->shaped);
-    free(p->shaped_receiver);
     free(p->row_sum);
     free(p->rho);
     free(p->E);
@@ -77,8 +76,12 @@ static void plan_view(shaped_plan *p)
     v->pull_first = p->pull_first;
     v->pull_child = p->pull_child;
     v->id_area = p->id_area;
-    v->reverse = p->reverse;
-    v->at = p->at;
+    v->end_count = p->end_count;
+    v->end = p->end;
+    v->pair_end = p->pair_end;
+    v->end_link = p->end_link;
+    v->end_receiver = p->end_receiver;
+    v->end_at = p->end_at;
     v->inv_mean = p->inv_mean;
     v->shaped_first = p->shaped_first;
 }
@@ -212,11 +215,10 @@ static void plan_tree_lists(shaped_plan *p)
     p->tree_first[0] = 0;
 }
 
-/* The pair of every link: the link at its source back to its receiver
- * (sources ascend per receiver; receivers and sources are ids), found by
- * a binary search in the source's links, receivers on the threads.
+/* The pair of every link (reverse, link_count): the link at its source
+ * back to its receiver (shaped_pair_link), receivers on the threads.
  * RAD_ERR_INVALID for one without (the first such link named). */
-static rad_status plan_pairs(shaped_plan *p)
+static rad_status plan_pairs(const shaped_plan *p, uint64_t *reverse)
 {
     const rad_links *L = p->L;
     const uint32_t ids = (uint32_t)rad_links_id_count(L);
@@ -224,18 +226,11 @@ static rad_status plan_pairs(shaped_plan *p)
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads) reduction(min : bad)
     for (uint32_t r = 0; r < ids; r++)
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
-            const uint32_t s = L->links[k].source;
-            uint64_t lo = L->first_link[s], hi = L->first_link[s + 1];
-            while (lo < hi) {
-                const uint64_t mid = lo + (hi - lo) / 2;
-                if (L->links[mid].source < r) lo = mid + 1;
-                else hi = mid;
-            }
-            if (lo == L->first_link[s + 1] || L->links[lo].source != r) {
+            reverse[k] = shaped_pair_link(&p->view, k, r);
+            if (reverse[k] == UINT64_MAX) {
                 bad = k < bad ? k : bad;
                 break;
             }
-            p->reverse[k] = lo;
         }
     if (bad != UINT64_MAX) {
         uint32_t r = 0;
@@ -247,49 +242,88 @@ static rad_status plan_pairs(shaped_plan *p)
     return RAD_OK;
 }
 
-/* Which receiver ends to shape (shaped.h, "Which ends"), their offsets:
- * the ends decided on the threads, receiver by receiver (`weights`, ids
- * + 1 of scratch: each receiver's point factors, then where they start),
- * then placed in link order as one pass would place them. A link at or
- * from a cluster stays flat (so does its pair). */
-static void plan_ends(shaped_plan *p, const double *node_B, const double *spread, double floor, uint64_t *weights)
+/* Which receiver ends to shape (shaped.h, "Which ends"), decided on the
+ * threads receiver by receiver (a link at or from a cluster stays flat,
+ * so does its pair); then the ends numbered in link order with their
+ * point factors' offsets (prefix sums over the receivers, so the numbers
+ * are one pass's), and every link's pair_end. RAD_ERR_NOMEM, or
+ * RAD_ERR_INVALID for more ends than 32 bits number (logged). */
+static rad_status plan_ends(shaped_plan *p, const double *node_B, const double *spread, double floor,
+                            const uint64_t *reverse)
 {
     const rad_links *L = p->L;
     const uint64_t ids = rad_links_id_count(L);
+    /* per receiver: its point factors, then where they start */
+    uint64_t *weights = malloc((ids + 1) * sizeof *weights);
+    if (!weights) {
+        rad_error("links: out of memory for the shaped solve's ends over %llu ids", (unsigned long long)ids);
+        return RAD_ERR_NOMEM;
+    }
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
     for (uint64_t r = 0; r < ids; r++) {
         uint64_t shaped = 0;
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
-            const rad_link *l = &L->links[k], *back = &L->links[p->reverse[k]];
+            const rad_link *l = &L->links[k], *back = &L->links[reverse[k]];
             if (r >= L->node_count || l->source >= L->node_count) {
-                p->at[k] = NO_WEIGHTS;
+                p->end[k] = SHAPED_NO_END;
                 continue;
             }
             const double rho_r = max3(&p->rho[3 * r]), rho_s = max3(&p->rho[3 * (size_t)l->source]);
             const int shape = !shaped_plan_is_leaf(p, (uint32_t)r) &&
                               (rho_r * l->error * max3(&node_B[3 * (size_t)l->source]) >= floor ||
                                rho_s * back->factor * spread[r] >= floor);
-            p->at[k] = shape ? 0 : NO_WEIGHTS;
+            p->end[k] = shape ? 0 : SHAPED_NO_END;
             shaped += shape;
         }
+        p->shaped_first[r + 1] = shaped;
         weights[r] = r < L->node_count ? shaped * p->count[r] : 0;
     }
-    uint64_t total = 0;
+    uint64_t total = 0, ends = 0;
+    p->shaped_first[0] = 0;
     for (uint64_t r = 0; r < ids; r++) {
         const uint64_t w = weights[r];
         weights[r] = total;
         total += w;
+        ends += p->shaped_first[r + 1];
+        p->shaped_first[r + 1] = ends;
     }
     p->weight_count = total;
+    p->end_count = ends;
+    if (ends > SHAPED_MAX_ENDS) {
+        free(weights);
+        rad_error("links: %llu shaped ends, more than the shaped solve numbers (%llu)", (unsigned long long)ends,
+                  (unsigned long long)SHAPED_MAX_ENDS);
+        return RAD_ERR_INVALID;
+    }
+    const size_t n_ends = ends ? ends : 1;
+    p->end_link = malloc(n_ends * sizeof *p->end_link);
+    p->end_receiver = malloc(n_ends * sizeof *p->end_receiver);
+    p->end_at = malloc(n_ends * sizeof *p->end_at);
+    p->inv_mean = calloc(n_ends, sizeof *p->inv_mean);
+    if (!p->end_link || !p->end_receiver || !p->end_at || !p->inv_mean) {
+        free(weights);
+        rad_error("links: out of memory for the shaped solve's %llu ends", (unsigned long long)ends);
+        return RAD_ERR_NOMEM;
+    }
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
     for (uint64_t r = 0; r < L->node_count; r++) {
-        uint64_t at = weights[r];
+        uint64_t at = weights[r], e = p->shaped_first[r];
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
-            if (p->at[k] != NO_WEIGHTS) {
-                p->at[k] = at;
+            if (p->end[k] != SHAPED_NO_END) {
+                p->end[k] = (uint32_t)e;
+                p->end_link[e] = k;
+                p->end_receiver[e] = (uint32_t)r;
+                p->end_at[e] = at;
                 at += p->count[r];
+                e++;
             }
     }
+    free(weights);
+    const uint64_t links = L->link_count;
+#pragma omp parallel for schedule(static) num_threads(p->threads)
+    for (uint64_t k = 0; k < links; k++) p->pair_end[k] = p->end[reverse[k]];
+    plan_view(p);
+    return RAD_OK;
 }
 
 /* The shaped ends' point factors on the host (in parallel over the
@@ -313,94 +347,52 @@ rad_status shaped_plan_factors(shaped_plan *p)
         return RAD_ERR_NOMEM;
     }
     for (uint32_t r = 0; r < n; r++)
-        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
-            if (p->at[k] != NO_WEIGHTS) {
-                receivers[count++] = r;
-                break;
-            }
+        if (p->shaped_first[r + 1] > p->shaped_first[r]) receivers[count++] = r;
 #pragma omp parallel for schedule(dynamic, 1) num_threads(p->threads)
     for (uint32_t i = 0; i < count; i++) {
         const uint32_t r = receivers[i];
-        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
-            if (p->at[k] == NO_WEIGHTS) continue;
+        for (uint64_t e = p->shaped_first[r]; e < p->shaped_first[r + 1]; e++) {
             rad_ff_patch P;
-            shaped_node_polygon(v, L->links[k].source, &P);
-            float *f = &p->f[p->at[k]];
+            shaped_node_polygon(v, L->links[p->end_link[e]].source, &P);
+            float *f = &p->f[p->end_at[e]];
             for (uint32_t q = 0; q < p->count[r]; q++) f[q] = shaped_point_factor(v, p->first[r] + q, &P);
-            p->inv_mean[k] = shaped_end_inv_mean(v, k, r);
-            if (p->inv_mean[k] == 0) p->at[k] = NO_WEIGHTS;
+            p->inv_mean[e] = shaped_end_inv_mean(v, e, r);
         }
     }
     free(receivers);
+    shaped_plan_drop(p);
     return RAD_OK;
 }
 
-/* The links whose receiver end has point factors (at set), receiver by
- * receiver in link order, counted and placed on the threads: receiver r's
- * are (*out_links)[first[r] .. first[r + 1]) (first: ids + 1), each with
- * its receiver; *out_count of them. RAD_ERR_NOMEM (logged). */
-static rad_status list_ends(const shaped_plan *p, uint64_t *first, uint64_t **out_links, uint32_t **out_receivers,
-                            uint64_t *out_count)
+void shaped_plan_drop(shaped_plan *p)
 {
-    const rad_links *L = p->L;
-    const uint64_t ids = rad_links_id_count(L);
-#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
-    for (uint64_t r = 0; r < ids; r++) {
-        uint64_t m = 0;
-        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) m += p->at[k] != NO_WEIGHTS;
-        first[r + 1] = m;
-    }
-    first[0] = 0;
-    for (uint64_t r = 0; r < ids; r++) first[r + 1] += first[r];
-    const uint64_t m = first[ids];
-    uint64_t *links = malloc((m ? m : 1) * sizeof *links);
-    uint32_t *receivers = malloc((m ? m : 1) * sizeof *receivers);
-    if (!links || !receivers) {
-        free(links);
-        free(receivers);
-        rad_error("links: out of memory for the shaped solve's %llu shaped links", (unsigned long long)m);
-        return RAD_ERR_NOMEM;
-    }
-#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
-    for (uint64_t r = 0; r < ids; r++) {
-        uint64_t at = first[r];
-        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
-            if (p->at[k] != NO_WEIGHTS) {
-                receivers[at] = (uint32_t)r;
-                links[at++] = k;
-            }
-    }
-    *out_links = links;
-    *out_receivers = receivers;
-    *out_count = m;
-    return RAD_OK;
+    p->dropped = 0;
+    for (uint64_t e = 0; e < p->end_count; e++)
+        if (p->inv_mean[e] == 0) {
+            shaped_drop_end(&p->view, e, p->end, p->pair_end);
+            p->dropped++;
+        }
 }
 
-/* Every receiver's shaped links listed, with each one's receiver, and
- * the trees' work they add. */
-rad_status shaped_plan_lists(shaped_plan *p)
+/* A sweep reads, for a link k at receiver r < s in r's tree: r's point
+ * factors where k's end is shaped (the update of r's leaves), s's where
+ * the pair's other end is (S, what s sends, summed over s's leaves). */
+void shaped_plan_work(shaped_plan *p)
 {
     const rad_links *L = p->L;
-    rad_status status = list_ends(p, p->shaped_first, &p->shaped, &p->shaped_receiver, &p->shaped_count);
-    if (status != RAD_OK) return status;
-    p->view.shaped = p->shaped;
-    /* a sweep reads, for a link k at receiver r < s in r's tree: r's point
-     * factors where k's end is shaped (the update of r's leaves), s's where
-     * the pair's other end is (S, what s sends, summed over s's leaves) */
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
     for (uint32_t r = 0; r < L->node_count; r++) {
         uint64_t work = 0;
         for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
             const uint32_t s = L->links[k].source;
-            if (p->at[k] != NO_WEIGHTS) work += p->count[r];
-            if (s < L->node_count && p->at[p->reverse[k]] != NO_WEIGHTS) work += p->count[s];
+            if (p->end[k] != SHAPED_NO_END) work += p->count[r];
+            if (s < L->node_count && p->pair_end[k] != SHAPED_NO_END) work += p->count[s];
         }
         if (work) {
 #pragma omp atomic
             p->tree_work[L->nodes[r].root] += work;
         }
     }
-    return RAD_OK;
 }
 
 /* Every leaf's row sum with the shape, from the point factors on the host. */
@@ -428,9 +420,9 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
     p->first = malloc((size_t)n * sizeof *p->first);
     p->count = malloc((size_t)n * sizeof *p->count);
     p->leaf_area = malloc((size_t)n * sizeof *p->leaf_area);
-    p->reverse = malloc(links * sizeof *p->reverse);
-    p->at = malloc(links * sizeof *p->at);
-    p->inv_mean = calloc(links, sizeof *p->inv_mean);
+    p->end = malloc(links * sizeof *p->end);
+    p->pair_end = malloc(links * sizeof *p->pair_end);
+    uint64_t *reverse = malloc(links * sizeof *reverse); /* until the ends are numbered */
     p->shaped_first = malloc((ids + 1) * sizeof *p->shaped_first);
     if (L->cluster_count) p->root_cluster = malloc((size_t)L->root_count * sizeof *p->root_cluster);
     p->row_sum = malloc((size_t)n * sizeof *p->row_sum);
@@ -448,7 +440,7 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
     p->tree_work = calloc(L->root_count ? L->root_count : 1, sizeof *p->tree_work);
     double *spread = malloc((size_t)n * sizeof *spread), *lo = malloc(6 * (size_t)n * sizeof *lo);
     rad_status status = RAD_OK;
-    if (!p->leaf_nodes || !p->first || !p->count || !p->leaf_area || !p->reverse || !p->at || !p->inv_mean ||
+    if (!p->leaf_nodes || !p->first || !p->count || !p->leaf_area || !p->end || !p->pair_end || !reverse ||
         !p->shaped_first || !p->row_sum || !p->rho || !p->E || !p->area_q || !p->leaf_centroid ||
         !p->leaf_normal || !p->up || !p->pull_first || !p->pull_child || !p->id_area || !p->tree_first ||
         !p->tree_nodes || !p->tree_work || !spread || !lo || (L->cluster_count && !p->root_cluster)) {
@@ -460,7 +452,7 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
         plan_ids(p);
         plan_trees(p, B, node_B, spread, lo);
         plan_tree_lists(p);
-        status = plan_pairs(p);
+        status = plan_pairs(p, reverse);
     }
     if (status == RAD_OK) {
         double reflected = 0, area = 0, all = 0, all_area = 0;
@@ -474,15 +466,9 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
             area += L->nodes[i].area;
         }
         const double mean = area > 0 ? reflected / area : all_area > 0 ? all / all_area : 0;
-        uint64_t *weights = malloc((ids + 1) * sizeof *weights);
-        if (weights) {
-            plan_ends(p, node_B, spread, gate * mean, weights);
-            free(weights);
-        } else {
-            rad_error("links: out of memory for the shaped solve's ends over %llu ids", (unsigned long long)ids);
-            status = RAD_ERR_NOMEM;
-        }
+        status = plan_ends(p, node_B, spread, gate * mean, reverse);
     }
+    free(reverse);
     free(spread);
     free(lo);
     if (status != RAD_OK) shaped_plan_free(p);
@@ -491,32 +477,23 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
 
 void shaped_device_arrays_free(shaped_device_arrays *a)
 {
-    free(a->ends);
-    free(a->end_receiver);
     free(a->depth);
     free(a->depth_order);
     free(a->depth_first);
 }
 
-/* The device plan: the ends (links with at set, ascending) and the ids
- * by depth (an id's up is one shallower: clusters come after their parent,
- * nodes after theirs, and a root's leaf cluster is a cluster). */
+/* The device plan: the ids by depth (an id's up is one shallower:
+ * clusters come after their parent, nodes after theirs, and a root's leaf
+ * cluster is a cluster). */
 rad_status shaped_plan_device(const shaped_plan *p, shaped_device_arrays *a, solve_shaped_device_plan *out)
 {
     const rad_links *L = p->L;
     const uint32_t n = L->node_count, ids = (uint32_t)rad_links_id_count(L);
     memset(a, 0, sizeof *a);
-    /* the ends in link order (at nodes only: a link at a cluster is never shaped) */
-    uint64_t *first_end = malloc(((size_t)ids + 1) * sizeof *first_end), ends = 0;
-    if (first_end) {
-        rad_status status = list_ends(p, first_end, &a->ends, &a->end_receiver, &ends);
-        free(first_end);
-        if (status != RAD_OK) return status;
-        a->depth = malloc((size_t)ids * sizeof *a->depth);
-        a->depth_order = malloc((size_t)ids * sizeof *a->depth_order);
-        a->depth_first = calloc((size_t)ids + 2, sizeof *a->depth_first);
-    }
-    if (!first_end || !a->depth || !a->depth_order || !a->depth_first) {
+    a->depth = malloc((size_t)ids * sizeof *a->depth);
+    a->depth_order = malloc((size_t)ids * sizeof *a->depth_order);
+    a->depth_first = calloc((size_t)ids + 2, sizeof *a->depth_first);
+    if (!a->depth || !a->depth_order || !a->depth_first) {
         rad_error("links: out of memory for the shaped solve's device plan over %u ids", ids);
         return RAD_ERR_NOMEM;
     }
@@ -535,9 +512,6 @@ rad_status shaped_plan_device(const shaped_plan *p, shaped_device_arrays *a, sol
     out->view = p->view;
     out->vertex_count = p->leaves->vertex_count;
     out->weight_count = p->weight_count;
-    out->end_count = ends;
-    out->ends = a->ends;
-    out->end_receiver = a->end_receiver;
     out->depth_count = depths;
     out->depth_order = a->depth_order;
     out->depth_first = a->depth_first;

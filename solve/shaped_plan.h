@@ -5,13 +5,13 @@
  * Every node's leaves are one range of a depth-first leaf list (children
  * come after their parent, so one forward pass over the nodes places
  * them); each link's pair is the link stored at its source; a receiver
- * end is shaped or not (shaped.h, "Which ends"), its point factors stored
- * from `at`; per receiver, the list of its shaped links.
+ * end is shaped or not (shaped.h, "Which ends"): the ends are numbered in
+ * link order, each with its point factors' offset (shaped_math.h, "Ends").
  *
  *     shaped_plan p;
  *     shaped_plan_make(links, leaves, B, gate, threads, &p, node_B);  // up to the ends
  *     shaped_plan_factors(&p);     // the CPU: the point factors on the host, ends that sum to 0 dropped
- *     shaped_plan_lists(&p);       // the shaped lists (a device backend: once it dropped those ends)
+ *     shaped_plan_work(&p);        // the CPU: the trees' work (Gauss-Seidel's groups)
  *     shaped_plan_row_sums(&p);    // the CPU: the leaves' row sums (a device backend returns them)
  *     ...
  *     shaped_plan_free(&p);
@@ -33,17 +33,17 @@ typedef struct shaped_plan {
     uint32_t *leaf_nodes;    /* leaf_count: the leaf nodes, each node's leaves consecutive */
     uint32_t *first, *count; /* node_count: node i's leaves are leaf_nodes[first[i] .. first[i] + count[i]) */
     double *leaf_area;       /* node_count: its leaves' areas summed */
-    uint64_t *reverse;       /* link_count: the pair's other link */
-    uint64_t *at;            /* link_count: the receiver end's point factors f[at .. at + count[r]), or
-                                SHAPED_NO_WEIGHTS */
-    double *inv_mean;        /* link_count: 1 / the area-weighted mean of those (shaped links; else 0) */
+    uint32_t *end;           /* link_count: the link's end, or SHAPED_NO_END (shaped_math.h, "Ends") */
+    uint32_t *pair_end;      /* link_count: the pair's other link's end, or SHAPED_NO_END */
+    uint64_t end_count;      /* ends numbered in link order; dropped ones keep their number */
+    uint64_t *end_link;      /* end_count: its link */
+    uint32_t *end_receiver;  /* end_count: its receiver */
+    uint64_t *end_at;        /* end_count: its point factors f[end_at .. end_at + count[receiver]) */
+    double *inv_mean;        /* end_count: 1 / the area-weighted mean of those (0: dropped) */
+    uint64_t dropped;        /* ends whose factors sum to 0 */
     float *f;                /* the point factors, where the host computes them (NULL where a device does) */
     uint64_t weight_count;
-    uint64_t *shaped_first;  /* ids + 1: receiver r's shaped links are shaped[shaped_first[r] .. [r + 1]); none
-                                at clusters */
-    uint64_t *shaped;
-    uint32_t *shaped_receiver; /* per shaped link: its receiver (the device backends') */
-    uint64_t shaped_count;
+    uint64_t *shaped_first;  /* ids + 1: receiver r's ends are shaped_first[r] .. [r + 1]; none at clusters */
     double *row_sum;         /* node_count (leaves): the leaf's row sum with the shape */
     double *rho, *E;         /* node_count * 3: the node's material (its root's); with closure a leaf's
                                 rho s^2 and E s (rad_closure.h) */
@@ -81,27 +81,29 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
 void shaped_plan_free(shaped_plan *p); /* zeroes it */
 
 /* The point factors on the host threads and each end's inv_mean; an end
- * whose factors sum to 0 is left flat. RAD_ERR_NOMEM (logged). */
+ * whose factors sum to 0 is dropped (shaped_plan_drop). RAD_ERR_NOMEM
+ * (logged). */
 rad_status shaped_plan_factors(shaped_plan *p);
-/* Every receiver's shaped links listed (at as it stands), with each one's
- * receiver. RAD_ERR_NOMEM (logged). */
-rad_status shaped_plan_lists(shaped_plan *p);
+/* The ends whose inv_mean is 0 dropped from the plan's end and pair_end
+ * (shaped_drop_end), counted in p->dropped. */
+void shaped_plan_drop(shaped_plan *p);
+/* The trees' work that the shaped ends add (tree_work), for Gauss-Seidel's
+ * groups. */
+void shaped_plan_work(shaped_plan *p);
 /* Every leaf's row sum with the shape, from the host's point factors. */
 void shaped_plan_row_sums(shaped_plan *p);
 /* Every cluster's B (3 per id), children before parents. */
 void shaped_plan_pull_clusters(const shaped_plan *p, double *B);
 
-/* What the device backends take beyond the plan (shaped_gpu.h): the ends
- * before the factors, the ids by depth. */
+/* What the device backends take beyond the plan (shaped_gpu.h): the ids
+ * by depth. */
 typedef struct shaped_device_arrays {
-    uint64_t *ends;
-    uint32_t *end_receiver;
     uint32_t *depth, *depth_order, *depth_first;
 } shaped_device_arrays;
 
-/* The device plan of `p` (its ends as they stand, before the factors):
- * `out` points into `p` and `a`. RAD_ERR_NOMEM (logged). Free `a` with
- * shaped_device_arrays_free, also on failure. */
+/* The device plan of `p` (before the factors): `out` points into `p` and
+ * `a`. RAD_ERR_NOMEM (logged). Free `a` with shaped_device_arrays_free,
+ * also on failure. */
 rad_status shaped_plan_device(const shaped_plan *p, shaped_device_arrays *a, solve_shaped_device_plan *out);
 void shaped_device_arrays_free(shaped_device_arrays *a);
 
