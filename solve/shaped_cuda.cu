@@ -107,12 +107,20 @@ __global__ void __launch_bounds__(SHAPED_BLOCK) shaped_end_sum_kernel(shaped_vie
     if (e < v.end_count) shaped_end_sum(&v, e, v.end_receiver[e], Q, &T[3 * e]);
 }
 
-/* (b) every receiver id's gather: a thread per id. */
+/* (b) every receiver id's gather: a warp per id (shaped_gather_lane per
+ * lane, then the shuffles' tree that shaped_gather_lanes follows). */
 __global__ void __launch_bounds__(SHAPED_BLOCK)
     shaped_gather_kernel(shaped_view v, const double *B, const double *Q, const double *T, double *H, double *S)
 {
-    const uint64_t i = blockIdx.x * (uint64_t)blockDim.x + threadIdx.x;
-    if (i < v.id_count) shaped_gather(&v, (uint32_t)i, B, Q, T, H, S);
+    const uint64_t i = (blockIdx.x * (uint64_t)blockDim.x + threadIdx.x) / SHAPED_GATHER_LANES;
+    const uint32_t lane = threadIdx.x % SHAPED_GATHER_LANES;
+    if (i >= v.id_count) return; /* the whole warp: i is the warp's */
+    double h[3];
+    shaped_gather_lane(&v, (uint32_t)i, lane, B, Q, T, S, h);
+    for (unsigned w = SHAPED_GATHER_LANES / 2; w > 0; w >>= 1)
+        for (int c = 0; c < 3; c++) h[c] = h[c] + __shfl_down_sync(0xffffffffu, h[c], w);
+    if (lane == 0)
+        for (int c = 0; c < 3; c++) H[3 * i + c] = h[c];
 }
 
 /* (c) H pushed into the ids of one depth: a thread per id. */
@@ -411,7 +419,8 @@ static rad_status cuda_sweep(void *state, double change[3])
         shaped_end_sum_kernel<<<blocks_for(v->end_count, SHAPED_BLOCK), SHAPED_BLOCK>>>(*v, s->Q, s->T);
         RAD_CUDA_TRY(cudaGetLastError());
     }
-    shaped_gather_kernel<<<blocks_for(v->id_count, SHAPED_BLOCK), SHAPED_BLOCK>>>(*v, s->B, s->Q, s->T, s->H, s->S);
+    shaped_gather_kernel<<<blocks_for(v->id_count * SHAPED_GATHER_LANES, SHAPED_BLOCK), SHAPED_BLOCK>>>(
+        *v, s->B, s->Q, s->T, s->H, s->S);
     RAD_CUDA_TRY(cudaGetLastError());
     for (uint32_t d = 1; d < p->depth_count; d++) { /* depth 0 has nothing above it */
         const uint32_t first = s->depth_first[d], count = s->depth_first[d + 1] - first;

@@ -3,9 +3,9 @@
  * kernels as a loop over its items, calling the same shaped_math.h
  * function on the same arrays in the same order, so that a test without
  * a GPU runs the GPU's algorithm (the ends' factors per leaf, the sums T
- * beforehand, the push and pull by depth, the row sums per leaf). The
- * items of a loop are independent, so they run on OpenMP threads; the
- * bytes do not depend on the thread count. It reads the plan's arrays in
+ * beforehand, the gather in a warp's order, the push and pull by depth,
+ * the row sums per leaf). The items of a loop are independent, so they
+ * run on OpenMP threads; the bytes do not depend on the thread count. It reads the plan's arrays in
  * place: the plan outlives the state, and drop changes its end and
  * pair_end (the plan's own, which the host lends it writable) as the
  * GPU's copy is changed.
@@ -125,7 +125,7 @@ static rad_status host_sweep(void *state, double change[3])
 #pragma omp parallel for schedule(dynamic, 64)
     for (int64_t e = 0; e < ends; e++) shaped_end_sum(v, (uint64_t)e, v->end_receiver[e], h->Q, &h->T[3 * e]);
 #pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t i = 0; i < ids; i++) shaped_gather(v, (uint32_t)i, h->B, h->Q, h->T, h->H, h->S);
+    for (int64_t i = 0; i < ids; i++) shaped_gather_lanes(v, (uint32_t)i, h->B, h->Q, h->T, h->H, h->S);
     for (uint32_t d = 1; d < p->depth_count; d++) { /* depth 0 has nothing above it */
         const int64_t begin = p->depth_first[d], end = p->depth_first[d + 1];
 #pragma omp parallel for schedule(static)

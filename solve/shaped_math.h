@@ -185,6 +185,45 @@ static inline RAD_HD void shaped_gather(const shaped_view *v, uint32_t i, const 
     for (int c = 0; c < 3; c++) H[3 * (size_t)i + c] = h[c];
 }
 
+/* The GPU gathers a receiver with a warp: lane l takes links first + l,
+ * first + l + 32, ... in order, and the lanes' sums are added as the
+ * warp's shuffles add them, h[l] += h[l + w] for w = 16, 8, 4, 2, 1
+ * (shaped_gather_lanes, the host twin's; the CPU's sweeps use
+ * shaped_gather, one sum in link order). */
+#define SHAPED_GATHER_LANES 32
+
+/* Lane `lane`'s part of receiver i's gather: its unshaped links summed
+ * into h, its shaped links' source values kept in S. */
+static inline RAD_HD void shaped_gather_lane(const shaped_view *v, uint32_t i, uint32_t lane, const double *B,
+                                             const double *Q, const double *T, double *S, double h[3])
+{
+    h[0] = h[1] = h[2] = 0;
+    for (uint64_t k = v->first_link[i] + lane; k < v->first_link[i + 1]; k += SHAPED_GATHER_LANES) {
+        double s[3];
+        shaped_source_value(v, k, B, Q, T, s);
+        const uint32_t e = v->end[k];
+        if (e != SHAPED_NO_END) {
+            for (int c = 0; c < 3; c++) S[3 * (size_t)e + c] = s[c];
+            continue;
+        }
+        const double f = v->links[k].factor;
+        for (int c = 0; c < 3; c++) h[c] += f * s[c];
+    }
+}
+
+/* Receiver i's gather as a warp makes it (shaped_gather_lane per lane,
+ * then the shuffles' tree), on one thread: H[i], and S. */
+static inline void shaped_gather_lanes(const shaped_view *v, uint32_t i, const double *B, const double *Q,
+                                       const double *T, double *H, double *S)
+{
+    double h[SHAPED_GATHER_LANES][3];
+    for (uint32_t l = 0; l < SHAPED_GATHER_LANES; l++) shaped_gather_lane(v, i, l, B, Q, T, S, h[l]);
+    for (uint32_t w = SHAPED_GATHER_LANES / 2; w > 0; w >>= 1)
+        for (uint32_t l = 0; l < w; l++)
+            for (int c = 0; c < 3; c++) h[l][c] = h[l][c] + h[l + w][c];
+    for (int c = 0; c < 3; c++) H[3 * (size_t)i + c] = h[0][c];
+}
+
 /* Id i's H plus the H of the id above it (already pushed): down the
  * cluster tree, into the roots, down the trees. */
 static inline RAD_HD void shaped_push(const shaped_view *v, uint32_t i, double *H)
