@@ -177,6 +177,10 @@ typedef struct ff_backend {
      * compute_pairs call from another thread. NULL: not offered. */
     rad_status (*cluster_draws)(void *state, const ff_cluster_view *v, const ff_pair_job *jobs, size_t count,
                                 ff_cluster_drawn *out);
+    /* The buffers a round grew (jobs, outcomes, rays), freed between
+     * passes for what else needs the device (the hierarchy's flat solves
+     * on the GPU); the next round grows them again. NULL: nothing to free. */
+    void (*trim)(void *state);
 } ff_backend;
 
 extern const ff_backend ff_backend_cpu;

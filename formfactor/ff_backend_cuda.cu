@@ -526,6 +526,25 @@ static void cuda_destroy(void *state)
     delete s;
 }
 
+/* Every buffer a round grows, freed (ff_backend.trim); each is grown
+ * again where its capacity falls short. The scene's BVH, patches and the
+ * uploaded elements stay. */
+static void cuda_trim(void *state)
+{
+    cuda_state *s = (cuda_state *)state;
+    if (!s) return;
+    cudaFree(s->d_out), cudaFree(s->d_pairs), cudaFree(s->d_verdict);
+    s->d_out = NULL, s->d_pairs = NULL, s->d_verdict = NULL, s->out_capacity = 0;
+    cudaFree(s->d_errors);
+    s->d_errors = NULL, s->errors_capacity = 0;
+    cudaFree(s->d_ray_pairs);
+    s->d_ray_pairs = NULL, s->ray_capacity = 0;
+    cudaFree(s->d_jobs), cudaFree(s->d_outcomes), cudaFree(s->d_job_list);
+    s->d_jobs = NULL, s->d_outcomes = NULL, s->d_job_list = NULL, s->job_capacity = 0;
+    cudaFree(s->d_cluster_jobs), cudaFree(s->d_drawn);
+    s->d_cluster_jobs = NULL, s->d_drawn = NULL, s->cluster_job_capacity = 0;
+}
+
 static rad_status cuda_create(const ff_setup *setup, void **out_state)
 {
     rad_status status = RAD_OK;
@@ -1050,4 +1069,4 @@ static void cuda_free_rows(void *state, double *rows)
 
 extern "C" const ff_backend ff_backend_cuda = {"cuda",          cuda_create,    cuda_compute_rows, cuda_destroy,
                                                cuda_alloc_rows, cuda_free_rows, cuda_compute_records, cuda_compute_pairs,
-                                               cuda_cluster_draws};
+                                               cuda_cluster_draws, cuda_trim};

@@ -27,6 +27,7 @@
 #include "rad_json.h"
 #include "rad_log.h"
 #include "rad_mem.h"
+#include "shaped.h"
 #include "rad_lsolve.h"
 
 typedef struct hier_run {
@@ -53,6 +54,8 @@ typedef struct hier_run {
     double seconds_load, seconds_setup, seconds_links, seconds_export, seconds_bound, seconds_solve, seconds_write,
         seconds_total; /* seconds_bound: the error bound's share of seconds_export */
     double peak_load, peak_refine, peak_export, peak_total; /* the resident peak after each (rad_mem_peak_bytes) */
+    uint32_t gpu_solves; /* the passes' flat solves the GPU made (solve_flat_gpu) */
+    int last_solve_gpu;  /* the last of them was one */
     uint64_t refined[64];
 } hier_run;
 
@@ -76,9 +79,54 @@ static int same_leaves(const rad_mesh *a, const rad_mesh *b)
 #define HIER_ORACLE_TOL 1e-4
 #define HIER_FINAL_TOL 1e-6
 
+/* The oracle's solves (a pass that another follows) run on the GPU where
+ * the pairs are computed there and there are this many links: the flat
+ * operator's Jacobi sweeps (solve_shaped_options.flat, solve/shaped.h),
+ * 16 bytes a link on the GPU and none more on the host. The last pass's
+ * solve stays rad_lsolve's, which solve runs on the file, so that
+ * --radiosity stays the same bytes as the two stages. */
+#define HIER_GPU_SOLVE_MIN_LINKS ((uint64_t)4 << 20)
+
+/* The flat solve of h->exported on the GPU to o's tolerance, from h->B
+ * where o->warm_start, else from E, into h->B and h->solution. A GPU that
+ * fails (memory, a CUDA error) is a warning: RAD_ERR_BACKEND, h->B as it
+ * was, and the caller solves on the CPU. */
+static rad_status solve_flat_gpu(hier_run *h, const rad_lsolve_options *o)
+{
+    const size_t m = h->leaves.patch_count;
+    double *B = malloc(3 * (m ? m : 1) * sizeof *B);
+    if (!B) return RAD_ERR_NOMEM;
+    for (size_t k = 0; k < m; k++)
+        for (int c = 0; c < 3; c++) B[3 * k + c] = o->warm_start ? h->B[3 * k + c] : h->leaves.patches[k].emission[c];
+    const solve_shaped_options so = {.threads = h->threads,
+                                     .backend = SOLVE_SHAPED_CUDA,
+                                     .device = 0,
+                                     .tolerance = o->tolerance,
+                                     .max_iterations = o->max_iterations,
+                                     .channels = o->channels,
+                                     .flat = 1};
+    solve_shaped_result r;
+    rad_status st = solve_shaped(&h->exported, &h->leaves, &so, B, &r);
+    if (st == RAD_OK || st == RAD_ERR_NOT_CONVERGED) {
+        memcpy(h->B, B, 3 * m * sizeof *B);
+        memset(&h->solution, 0, sizeof h->solution);
+        for (int c = 0; c < 3; c++) h->solution.iterations[c] = r.iterations, h->solution.residual[c] = r.residual;
+        h->solution.converged = r.converged;
+        h->solution.emitted = r.emitted, h->solution.absorbed = r.absorbed, h->solution.escaped = r.escaped;
+        h->solution.imbalance = r.imbalance;
+        h->solution.seconds = r.seconds;
+    } else {
+        rad_warn("the pass's flat solve could not run on the GPU (above): it runs on the CPU");
+        st = RAD_ERR_BACKEND;
+    }
+    free(B);
+    return st;
+}
+
 /* The flat solve of the exported links to `tol`, from h->B where `warm`;
  * a grey scene once (solve's options, so that ff_solve_links may take a
- * cold one as its own). */
+ * cold one as its own). An oracle's solve of many links on the GPU
+ * (solve_flat_gpu), where the pairs are computed there. */
 static rad_status solve_flat(hier_run *h, double tol, int warm)
 {
     rad_lsolve_options o = rad_lsolve_defaults();
@@ -87,7 +135,15 @@ static rad_status solve_flat(hier_run *h, double tol, int warm)
     o.warm_start = warm;
     o.channels = ff_solve_channels(&h->leaves);
     const double t0 = rad_clock_seconds();
-    rad_status st = rad_lsolve(&h->exported, &h->leaves, &o, h->B, &h->solution);
+    rad_status st = RAD_ERR_BACKEND;
+    const uint64_t gpu_from = h->opt->gpu_solve_links ? h->opt->gpu_solve_links : HIER_GPU_SOLVE_MIN_LINKS;
+    h->last_solve_gpu = 0;
+    if (tol > HIER_FINAL_TOL && h->backend == &ff_backend_cuda && h->exported.link_count >= gpu_from) {
+        if (h->backend->trim) h->backend->trim(h->backend_state); /* the rounds' buffers, beside the links */
+        st = solve_flat_gpu(h, &o);
+        if (st == RAD_OK || st == RAD_ERR_NOT_CONVERGED) h->gpu_solves++, h->last_solve_gpu = 1;
+    }
+    if (st == RAD_ERR_BACKEND) st = rad_lsolve(&h->exported, &h->leaves, &o, h->B, &h->solution);
     h->seconds_solve += rad_clock_seconds() - t0;
     h->solved_with = o;
     return st;
@@ -246,12 +302,12 @@ static rad_status build_links(hier_run *h)
         if (st == RAD_OK) st = export_and_solve(h, last ? HIER_FINAL_TOL : HIER_ORACLE_TOL, last);
         if (st == RAD_OK)
             rad_info("pass %u: %llu pairs refined; %u elements, %u leaves, %llu links (%.1f per leaf); %llu candidate "
-                     "pairs, %llu shadow rays so far; links %.2f s, solved in %u sweeps",
+                     "pairs, %llu shadow rays so far; links %.2f s, solved in %u sweeps%s",
                      pass + 1, (unsigned long long)refined, h->exported.node_count, h->exported.leaf_count,
                      (unsigned long long)h->exported.link_count,
                      (double)h->exported.link_count / (h->exported.leaf_count ? h->exported.leaf_count : 1),
                      (unsigned long long)h->links.candidates, (unsigned long long)h->counters.rays,
-                     h->seconds_links, h->solution.iterations[0]);
+                     h->seconds_links, h->solution.iterations[0], h->last_solve_gpu ? " (Jacobi on the GPU)" : "");
     }
     /* a pass that refined nothing left the last solution at the oracle's tolerance */
     if (st == RAD_OK && h->solved_with.tolerance > HIER_FINAL_TOL) st = solve_flat(h, HIER_FINAL_TOL, 1);
@@ -389,6 +445,8 @@ static rad_status write_stats(const hier_run *h)
     json_counters(&w, &h->counters);
     rad_json_key(&w, "error_bound");
     rad_json_number(&w, h->error_bound);
+    rad_json_key(&w, "gpu_solves"); /* the passes' flat solves made on the GPU (solve_flat_gpu) */
+    rad_json_uint(&w, h->gpu_solves);
     rad_json_key(&w, "solve_sweeps");
     rad_json_uint(&w, h->solution.iterations[0]);
     rad_json_key(&w, "imbalance");

@@ -460,6 +460,8 @@ static void read_environment(ff_options *o)
     if (every && atof(every) > 0) o->progress_seconds = atof(every);
     const char *finish = getenv("RAD_FF_FINISH");
     o->finish_on_host = finish && strcmp(finish, "host") == 0;
+    const char *gpu_solve = getenv("RAD_FF_GPU_SOLVE_LINKS"); /* tests: the passes' GPU solves from this many links */
+    o->gpu_solve_links = gpu_solve && atoll(gpu_solve) > 0 ? (uint64_t)atoll(gpu_solve) : 0;
     const char *write = getenv("RAD_FF_WRITE");
     o->write_method = write && strcmp(write, "pwrite") == 0 ? FF_WRITE_PWRITE : FF_WRITE_AUTO;
 }

@@ -127,6 +127,8 @@ typedef struct ff_options {
     /* From the environment, for tests and benchmarks (read once, by ff_options_parse): */
     double progress_seconds; /* RAD_PROGRESS_SECONDS: progress lines every so many seconds; 0 = by the estimate */
     int finish_on_host;      /* RAD_FF_FINISH=host: the CPU finishes rows a GPU would encode (the same bytes) */
+    uint64_t gpu_solve_links; /* RAD_FF_GPU_SOLVE_LINKS: hierarchical passes' flat solves go to the GPU from this
+                                 many links (tests, >= 1); 0: the default (ff_hierarchical.c) */
     ff_write_method write_method; /* RAD_FF_WRITE=pwrite: no mapped writes (ff_writer.h; the same bytes) */
 } ff_options;
 

@@ -500,7 +500,7 @@ rad_status solve_shaped(const rad_links *links, const rad_mesh *leaves, const so
     }
     v.B = block, v.H = block + 3 * ids, v.Q = block + 6 * ids, v.next = v.Q + 3 * m;
     shaped_plan p;
-    rad_status status = shaped_plan_make(links, leaves, B, options->gate, threads, &p, v.B);
+    rad_status status = shaped_plan_make(links, leaves, B, options->gate, options->flat, threads, &p, v.B);
     if (status != RAD_OK) {
         free(block);
         return status;

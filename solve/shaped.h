@@ -132,6 +132,9 @@ typedef struct solve_shaped_options {
                                 1 = tree by tree (tests) */
     int closure;             /* 1: the scene is closed; every leaf's row of the shaped operator balanced to 1
                                 first (rad_closure.h) */
+    int flat;                /* 1: no end shaped - the links' flat operator, swept by the backend (on cuda,
+                                formfactor's passes' solves: a flat Jacobi on the GPU); neither the pairs are
+                                looked for nor a per-link array kept */
 } solve_shaped_options;
 
 typedef struct solve_shaped_result {

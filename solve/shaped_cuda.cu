@@ -48,7 +48,7 @@ struct cuda_state {
     char name[256];
     void *owned[SHAPED_MAX_ARRAYS]; /* every device array, freed by destroy */
     int owned_count;
-    uint32_t *end, *pair_end;      /* link_count (writable: drop) */
+    uint32_t *end, *pair_end;      /* link_count (writable: drop); NULL in a flat solve */
     float *f;                      /* weight_count */
     double *inv_mean;              /* end_count */
     double *B, *H;                 /* id_count * 3 */
@@ -267,8 +267,10 @@ static rad_status upload_plan(cuda_state *s, const solve_shaped_device_plan *pla
     SHAPED_TRY(device_copy(s, &v->pull_first, h->pull_first, ids + 1));
     SHAPED_TRY(device_copy(s, &v->pull_child, h->pull_child, children));
     SHAPED_TRY(device_copy(s, &v->id_area, h->id_area, ids));
-    SHAPED_TRY(device_array(s, &s->end, h->end, links));
-    SHAPED_TRY(device_array(s, &s->pair_end, h->pair_end, links));
+    if (h->end) { /* flat: neither (shaped_link_end) */
+        SHAPED_TRY(device_array(s, &s->end, h->end, links));
+        SHAPED_TRY(device_array(s, &s->pair_end, h->pair_end, links));
+    }
     SHAPED_TRY(device_copy(s, &v->end_link, h->end_link, ends));
     SHAPED_TRY(device_copy(s, &v->end_receiver, h->end_receiver, ends));
     SHAPED_TRY(device_copy(s, &v->end_at, h->end_at, ends));

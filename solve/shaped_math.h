@@ -62,8 +62,8 @@ typedef struct shaped_view {
     const double *id_area;          /* id_count: node and cluster areas */
     /* the ends */
     uint64_t end_count;
-    const uint32_t *end;            /* link_count: the link's end, or SHAPED_NO_END */
-    const uint32_t *pair_end;       /* link_count: the end of the pair's other link, or SHAPED_NO_END */
+    const uint32_t *end;            /* link_count: the link's end, or SHAPED_NO_END; NULL: no ends (flat) */
+    const uint32_t *pair_end;       /* link_count: the end of the pair's other link, or SHAPED_NO_END; NULL: flat */
     const uint64_t *end_link;       /* end_count: its link (ascending) */
     const uint32_t *end_receiver;   /* end_count: its link's receiver */
     const uint64_t *end_at;         /* end_count: its point factors f[end_at .. end_at + count[receiver]) */
@@ -92,6 +92,17 @@ static inline RAD_HD void shaped_node_polygon(const shaped_view *v, uint32_t i, 
 static inline RAD_HD float shaped_point_factor(const shaped_view *v, uint32_t q, const rad_ff_patch *P)
 {
     return (float)rad_ff_point_polygon(v->leaf_centroid[q], v->leaf_normal[q], P);
+}
+
+/* Link k's end, and the pair's other link's (SHAPED_NO_END where none, or
+ * in a flat solve, which stores neither array). */
+static inline RAD_HD uint32_t shaped_link_end(const shaped_view *v, uint64_t k)
+{
+    return v->end ? v->end[k] : SHAPED_NO_END;
+}
+static inline RAD_HD uint32_t shaped_link_pair_end(const shaped_view *v, uint64_t k)
+{
+    return v->pair_end ? v->pair_end[k] : SHAPED_NO_END;
 }
 
 /* 1 / the area-weighted mean of end e's point factors over its receiver
@@ -132,7 +143,7 @@ static inline RAD_HD void shaped_source_value(const shaped_view *v, uint64_t k, 
                                               const double *T, double out[3])
 {
     const uint32_t s = v->links[k].source;
-    const uint32_t back = v->pair_end[k];
+    const uint32_t back = shaped_link_pair_end(v, k);
     if (back == SHAPED_NO_END) {
         for (int c = 0; c < 3; c++) out[c] = B[3 * (size_t)s + c];
     } else if (T) {
@@ -175,7 +186,7 @@ static inline RAD_HD void shaped_gather(const shaped_view *v, uint32_t i, const 
     for (uint64_t k = v->first_link[i]; k < v->first_link[i + 1]; k++) {
         double s[3];
         shaped_source_value(v, k, B, Q, T, s);
-        const uint32_t e = v->end[k];
+        const uint32_t e = shaped_link_end(v, k);
         if (e != SHAPED_NO_END) {
             for (int c = 0; c < 3; c++) S[3 * (size_t)e + c] = s[c];
             continue;
@@ -201,7 +212,7 @@ static inline RAD_HD void shaped_gather_lane(const shaped_view *v, uint32_t i, u
     for (uint64_t k = v->first_link[i] + lane; k < v->first_link[i + 1]; k += SHAPED_GATHER_LANES) {
         double s[3];
         shaped_source_value(v, k, B, Q, T, s);
-        const uint32_t e = v->end[k];
+        const uint32_t e = shaped_link_end(v, k);
         if (e != SHAPED_NO_END) {
             for (int c = 0; c < 3; c++) S[3 * (size_t)e + c] = s[c];
             continue;
@@ -282,7 +293,7 @@ static inline RAD_HD double shaped_leaf_row_sum(const shaped_view *v, uint32_t x
     double s = 0;
     for (uint32_t a = x; a != SHAPED_NONE; a = v->up[a])
         for (uint64_t k = v->first_link[a]; k < v->first_link[a + 1]; k++) {
-            const uint32_t e = v->end[k];
+            const uint32_t e = shaped_link_end(v, k);
             s += v->links[k].factor *
                  (e == SHAPED_NO_END ? 1.0 : v->inv_mean[e] * v->f[v->end_at[e] + v->first[x] - v->first[a]]);
         }

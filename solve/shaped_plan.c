@@ -380,6 +380,7 @@ void shaped_plan_drop(shaped_plan *p)
 void shaped_plan_work(shaped_plan *p)
 {
     const rad_links *L = p->L;
+    if (!p->end) return; /* flat: the links alone, counted already */
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
     for (uint32_t r = 0; r < L->node_count; r++) {
         uint64_t work = 0;
@@ -407,8 +408,8 @@ void shaped_plan_row_sums(shaped_plan *p)
 /* The plan up to the choice of ends (the point factors and the lists are
  * made by the backend that runs: plan_factors, or a device's). node_B: 3
  * values per id, the flat solution pulled up. */
-rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const double *B, double gate, int threads,
-                            shaped_plan *p, double *node_B)
+rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const double *B, double gate, int flat,
+                            int threads, shaped_plan *p, double *node_B)
 {
     const uint32_t n = L->node_count, leaf_count = L->leaf_count ? L->leaf_count : 1;
     const uint64_t links = L->link_count ? L->link_count : 1, ids = rad_links_id_count(L);
@@ -420,10 +421,18 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
     p->first = malloc((size_t)n * sizeof *p->first);
     p->count = malloc((size_t)n * sizeof *p->count);
     p->leaf_area = malloc((size_t)n * sizeof *p->leaf_area);
-    p->end = malloc(links * sizeof *p->end);
-    p->pair_end = malloc(links * sizeof *p->pair_end);
-    uint64_t *reverse = malloc(links * sizeof *reverse); /* until the ends are numbered */
-    p->shaped_first = malloc((ids + 1) * sizeof *p->shaped_first);
+    uint64_t *reverse = NULL; /* until the ends are numbered */
+    if (!flat) {
+        p->end = malloc(links * sizeof *p->end);
+        p->pair_end = malloc(links * sizeof *p->pair_end);
+        reverse = malloc(links * sizeof *reverse);
+    } else { /* no ends: no per-link arrays at all (shaped_link_end) */
+        p->end_link = malloc(sizeof *p->end_link);
+        p->end_receiver = malloc(sizeof *p->end_receiver);
+        p->end_at = malloc(sizeof *p->end_at);
+        p->inv_mean = calloc(1, sizeof *p->inv_mean);
+    }
+    p->shaped_first = calloc(ids + 1, sizeof *p->shaped_first);
     if (L->cluster_count) p->root_cluster = malloc((size_t)L->root_count * sizeof *p->root_cluster);
     p->row_sum = malloc((size_t)n * sizeof *p->row_sum);
     p->rho = malloc(3 * (size_t)n * sizeof *p->rho);
@@ -440,7 +449,9 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
     p->tree_work = calloc(L->root_count ? L->root_count : 1, sizeof *p->tree_work);
     double *spread = malloc((size_t)n * sizeof *spread), *lo = malloc(6 * (size_t)n * sizeof *lo);
     rad_status status = RAD_OK;
-    if (!p->leaf_nodes || !p->first || !p->count || !p->leaf_area || !p->end || !p->pair_end || !reverse ||
+    if (!p->leaf_nodes || !p->first || !p->count || !p->leaf_area ||
+        (!flat && (!p->end || !p->pair_end || !reverse)) ||
+        (flat && (!p->end_link || !p->end_receiver || !p->end_at || !p->inv_mean)) ||
         !p->shaped_first || !p->row_sum || !p->rho || !p->E || !p->area_q || !p->leaf_centroid ||
         !p->leaf_normal || !p->up || !p->pull_first || !p->pull_child || !p->id_area || !p->tree_first ||
         !p->tree_nodes || !p->tree_work || !spread || !lo || (L->cluster_count && !p->root_cluster)) {
@@ -452,9 +463,11 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
         plan_ids(p);
         plan_trees(p, B, node_B, spread, lo);
         plan_tree_lists(p);
-        status = plan_pairs(p, reverse);
+        if (!flat) status = plan_pairs(p, reverse);
     }
-    if (status == RAD_OK) {
+    if (status == RAD_OK && flat) {
+        plan_view(p);
+    } else if (status == RAD_OK) {
         double reflected = 0, area = 0, all = 0, all_area = 0;
         for (uint32_t i = 0; i < n; i++) {
             if (!shaped_plan_is_leaf(p, i)) continue;

@@ -33,8 +33,8 @@ typedef struct shaped_plan {
     uint32_t *leaf_nodes;    /* leaf_count: the leaf nodes, each node's leaves consecutive */
     uint32_t *first, *count; /* node_count: node i's leaves are leaf_nodes[first[i] .. first[i] + count[i]) */
     double *leaf_area;       /* node_count: its leaves' areas summed */
-    uint32_t *end;           /* link_count: the link's end, or SHAPED_NO_END (shaped_math.h, "Ends") */
-    uint32_t *pair_end;      /* link_count: the pair's other link's end, or SHAPED_NO_END */
+    uint32_t *end;           /* link_count: the link's end, or SHAPED_NO_END (shaped_math.h, "Ends"); NULL: flat */
+    uint32_t *pair_end;      /* link_count: the pair's other link's end, or SHAPED_NO_END; NULL: flat */
     uint64_t end_count;      /* ends numbered in link order; dropped ones keep their number */
     uint64_t *end_link;      /* end_count: its link */
     uint32_t *end_receiver;  /* end_count: its receiver */
@@ -72,12 +72,13 @@ static inline int shaped_plan_is_leaf(const shaped_plan *p, uint32_t i)
 }
 
 /* The plan up to the choice of ends: ranges, materials, pairs, the ids'
- * up and pull lists, which ends to shape (gate: shaped.h's). node_B: 3
- * values per id, the flat solution B (3 per leaf patch) pulled up the
- * trees and the clusters. RAD_ERR_NOMEM, RAD_ERR_INVALID (a link without
- * its pair), logged; *p is freed on failure. */
-rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const double *B, double gate, int threads,
-                            shaped_plan *p, double *node_B);
+ * up and pull lists, which ends to shape (gate: shaped.h's; `flat`: none,
+ * and neither the pairs nor a per-link array: solve_shaped_options.flat).
+ * node_B: 3 values per id, the flat solution B (3 per leaf patch) pulled
+ * up the trees and the clusters. RAD_ERR_NOMEM, RAD_ERR_INVALID (a link
+ * without its pair), logged; *p is freed on failure. */
+rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const double *B, double gate, int flat,
+                            int threads, shaped_plan *p, double *node_B);
 void shaped_plan_free(shaped_plan *p); /* zeroes it */
 
 /* The point factors on the host threads and each end's inv_mean; an end

@@ -10,7 +10,8 @@
 #             within 1 %, solutions within 1e-3 of max B;
 #   clusters: --clusters on, the cluster links traced on the CPU beside
 #             the GPU's pairs: the same bars.
-# The stats must say "backend": "cuda". And --backend auto: the CPU where
+# The stats must say "backend": "cuda". The passes' flat solves on the
+# GPU (below). And --backend auto: the CPU where
 # the leaves may reach fewer than 4096 a thread (--subdiv 2 on 2 threads:
 # 46 faces x 16), the GPU from there (--subdiv 6: 46 x 4096), as its log
 # and stats say. Skipped (77) without a GPU.
@@ -46,5 +47,13 @@ grep -q '"backend": "cpu"' auto_small.json && grep -q -- '--backend auto: the CP
 "$ff" "$scene" --method hierarchical --subdiv 6 --threads 2 --link-tol 0.1 --passes 1 -q -o auto_large.ff \
   --stats auto_large.json || { echo "FAIL: auto, large"; fail=1; }
 grep -q '"backend": "cuda"' auto_large.json || { echo "FAIL: auto did not take the GPU above its bound"; fail=1; }
+# The passes' flat solves on the GPU (solve_flat_gpu: the flat operator's
+# Jacobi there, from 4 M links by default; RAD_FF_GPU_SOLVE_LINKS=1 here):
+# the stats count them, and the links and solution agree with the CPU's.
+export RAD_FF_GPU_SOLVE_LINKS=1
+check gpu_solves 1e-3 --subdiv 3 --uniform-leaves --link-tol 1e-2 --passes 3
+unset RAD_FF_GPU_SOLVE_LINKS
+grep -Eq '"gpu_solves": [1-9]' gpu_solves.cuda.json || { echo "FAIL: no oracle solve was on the GPU"; fail=1; }
+grep -q '"gpu_solves": 0' gpu_solves.cpu.json || { echo "FAIL: the CPU backend's solves went to the GPU"; fail=1; }
 [ "$fail" -eq 0 ] && echo "hierarchical links: the CUDA backend agrees with the CPU's; auto takes each where it should"
 exit "$fail"

@@ -23,6 +23,10 @@
  *     ~1e-8 of B), so held to 1e-9 of max B and iterations within 1, with
  *     the bits' identity printed; the same bits when run again.
  *
+ * 4. The flat operator (options.flat) from B = E: the CPU and the host
+ *    twin within 1e-9 of max B of rad_lsolve's flat solution; with --cuda
+ *    the GPU the same bits as its twin.
+ *
  * The hierarchical files drop ends (point factors that sum to 0: 14 and
  * 31 of them on the sphere's files), so the drops are checked too: on the
  * host's plan (CPU), by the twin, and by the GPU's kernel.
@@ -221,6 +225,52 @@ static void check_closure(const fixture *x, solve_shaped_backend a, solve_shaped
     free(Bb);
 }
 
+/* The flat operator (solve_shaped_options.flat: no end shaped, no pairs
+ * looked for) swept by `backend` from B = E to the tolerance: no ends, no
+ * point factors, within 1e-9 of max B of rad_lsolve's flat solution, the
+ * energy balanced; in *out_B (malloc'd) for the caller's comparison. */
+static void check_flat(const fixture *x, solve_shaped_backend backend, double **out_B, solve_shaped_result *r)
+{
+    const size_t m = x->leaves->patch_count;
+    double *B = malloc(3 * m * sizeof *B);
+    RAD_CHECK(B != NULL);
+    if (!B) return;
+    for (size_t k = 0; k < m; k++)
+        for (int c = 0; c < 3; c++) B[3 * k + c] = x->leaves->patches[k].emission[c];
+    const solve_shaped_options o = {.backend = backend,
+                                    .gate = 0.1 * x->links.link_tol,
+                                    .tolerance = TEST_TOL,
+                                    .max_iterations = 100000,
+                                    .channels = x->channels,
+                                    .flat = 1};
+    memset(r, 0, sizeof *r);
+    RAD_CHECK(solve_shaped(&x->links, x->leaves, &o, B, r) == RAD_OK);
+    RAD_CHECK(r->converged && r->residual <= TEST_TOL);
+    RAD_CHECK(r->shaped_ends == 0 && r->weights == 0);
+    const double d = worst_relative(B, x->flat, 3 * m);
+    printf("  flat (%s): %u iterations from E, max |dB| %.3g of max B against rad_lsolve, imbalance %.3g\n",
+           solve_shaped_backend_name(backend), r->iterations, d, r->imbalance);
+    RAD_CHECK(d <= 1e-9);
+    RAD_CHECK(fabs(r->imbalance) <= 1e-6);
+    *out_B = B;
+}
+
+/* check_flat by `a` and `b`: b (the host twin) the same bits as a (cuda),
+ * where same_bits. */
+static void check_flat_pair(const fixture *x, solve_shaped_backend a, solve_shaped_backend b, int same_bits)
+{
+    double *Ba = NULL, *Bb = NULL;
+    solve_shaped_result ra, rb;
+    check_flat(x, a, &Ba, &ra);
+    check_flat(x, b, &Bb, &rb);
+    if (same_bits && Ba && Bb) {
+        RAD_CHECK(memcmp(Ba, Bb, 3 * x->leaves->patch_count * sizeof *Ba) == 0);
+        RAD_CHECK(ra.iterations == rb.iterations);
+    }
+    free(Ba);
+    free(Bb);
+}
+
 /* 2: cuda where it cannot run fails and leaves B alone. */
 static void check_cuda_refused(const fixture *x)
 {
@@ -284,10 +334,12 @@ int main(int argc, char **argv)
         if (cuda) {
             check_cuda(&x);
             check_closure(&x, SOLVE_SHAPED_CUDA, SOLVE_SHAPED_HOST);
+            check_flat_pair(&x, SOLVE_SHAPED_CUDA, SOLVE_SHAPED_HOST, 1);
         } else {
             check_host(&x);
             check_groups(&x);
             check_closure(&x, SOLVE_SHAPED_CPU, SOLVE_SHAPED_HOST);
+            check_flat_pair(&x, SOLVE_SHAPED_CPU, SOLVE_SHAPED_HOST, 0);
             if (solve_gpu_device_count() == 0) check_cuda_refused(&x);
         }
         fixture_free(&x);
