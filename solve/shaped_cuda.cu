@@ -107,7 +107,7 @@ __global__ void __launch_bounds__(SHAPED_BLOCK) shaped_end_sum_kernel(shaped_vie
     if (e < v.end_count) shaped_end_sum(&v, e, v.end_receiver[e], Q, &T[3 * e]);
 }
 
-/* (b) every receiver id's gather: a warp per id (shaped_gather_lane per
+/* (b) every receiver id's gather: a warp per id (shaped_gather_part per
  * lane, then the shuffles' tree that shaped_gather_lanes follows). */
 __global__ void __launch_bounds__(SHAPED_BLOCK)
     shaped_gather_kernel(shaped_view v, const double *B, const double *Q, const double *T, double *H, double *S)
@@ -116,7 +116,7 @@ __global__ void __launch_bounds__(SHAPED_BLOCK)
     const uint32_t lane = threadIdx.x % SHAPED_GATHER_LANES;
     if (i >= v.id_count) return; /* the whole warp: i is the warp's */
     double h[3];
-    shaped_gather_lane(&v, (uint32_t)i, lane, B, Q, T, S, h);
+    shaped_gather_part(&v, (uint32_t)i, lane, SHAPED_GATHER_LANES, B, Q, T, S, h);
     for (unsigned w = SHAPED_GATHER_LANES / 2; w > 0; w >>= 1)
         for (int c = 0; c < 3; c++) h[c] = h[c] + __shfl_down_sync(0xffffffffu, h[c], w);
     if (lane == 0)

@@ -26,7 +26,7 @@
  * (a) T of every end: what it sends along the pair (shaped_end_sum), one
  * item per end; (b) per receiver id, the unshaped links gathered into H
  * and the shaped ones' S kept (from T; a warp per id, its lanes' sums
- * added in the shuffles' order: shaped_gather_lane, shaped_gather_lanes
+ * added in the shuffles' order: shaped_gather_part, shaped_gather_lanes
  * on the host); (c) H pushed
  * down, id by id in order of depth (shaped_push); (d) per leaf, the
  * shaped links of it and its ancestors added, next = E + rho H,

@@ -177,39 +177,15 @@ static inline RAD_HD void shaped_drop_end(const shaped_view *v, uint64_t e, uint
     if (back != UINT64_MAX) pair_end[back] = SHAPED_NO_END;
 }
 
-/* Receiver i's links (a node's or a cluster's): the unshaped ones gathered
- * into H[i], the shaped ones' source values kept in S (by end). */
-static inline RAD_HD void shaped_gather(const shaped_view *v, uint32_t i, const double *B, const double *Q,
-                                        const double *T, double *H, double *S)
-{
-    double h[3] = {0, 0, 0};
-    for (uint64_t k = v->first_link[i]; k < v->first_link[i + 1]; k++) {
-        double s[3];
-        shaped_source_value(v, k, B, Q, T, s);
-        const uint32_t e = shaped_link_end(v, k);
-        if (e != SHAPED_NO_END) {
-            for (int c = 0; c < 3; c++) S[3 * (size_t)e + c] = s[c];
-            continue;
-        }
-        for (int c = 0; c < 3; c++) h[c] += v->links[k].factor * s[c];
-    }
-    for (int c = 0; c < 3; c++) H[3 * (size_t)i + c] = h[c];
-}
-
-/* The GPU gathers a receiver with a warp: lane l takes links first + l,
- * first + l + 32, ... in order, and the lanes' sums are added as the
- * warp's shuffles add them, h[l] += h[l + w] for w = 16, 8, 4, 2, 1
- * (shaped_gather_lanes, the host twin's; the CPU's sweeps use
- * shaped_gather, one sum in link order). */
-#define SHAPED_GATHER_LANES 32
-
-/* Lane `lane`'s part of receiver i's gather: its unshaped links summed
- * into h, its shaped links' source values kept in S. */
-static inline RAD_HD void shaped_gather_lane(const shaped_view *v, uint32_t i, uint32_t lane, const double *B,
-                                             const double *Q, const double *T, double *S, double h[3])
+/* Receiver i's links from its `lane`-th on, every `stride`-th (a node's
+ * or a cluster's): the unshaped ones summed into h, the shaped ones'
+ * source values kept in S (by end). */
+static inline RAD_HD void shaped_gather_part(const shaped_view *v, uint32_t i, uint32_t lane, uint32_t stride,
+                                             const double *B, const double *Q, const double *T, double *S,
+                                             double h[3])
 {
     h[0] = h[1] = h[2] = 0;
-    for (uint64_t k = v->first_link[i] + lane; k < v->first_link[i + 1]; k += SHAPED_GATHER_LANES) {
+    for (uint64_t k = v->first_link[i] + lane; k < v->first_link[i + 1]; k += stride) {
         double s[3];
         shaped_source_value(v, k, B, Q, T, s);
         const uint32_t e = shaped_link_end(v, k);
@@ -222,13 +198,29 @@ static inline RAD_HD void shaped_gather_lane(const shaped_view *v, uint32_t i, u
     }
 }
 
-/* Receiver i's gather as a warp makes it (shaped_gather_lane per lane,
+/* Receiver i's gather in link order (the CPU's sweeps): H[i], and S. */
+static inline RAD_HD void shaped_gather(const shaped_view *v, uint32_t i, const double *B, const double *Q,
+                                        const double *T, double *H, double *S)
+{
+    double h[3];
+    shaped_gather_part(v, i, 0, 1, B, Q, T, S, h);
+    for (int c = 0; c < 3; c++) H[3 * (size_t)i + c] = h[c];
+}
+
+/* The GPU gathers a receiver with a warp: lane l takes links first + l,
+ * first + l + 32, ... in order (shaped_gather_part), and the lanes' sums
+ * are added as the warp's shuffles add them, h[l] += h[l + w] for w = 16,
+ * 8, 4, 2, 1 (shaped_gather_lanes, the host twin's). */
+#define SHAPED_GATHER_LANES 32
+
+/* Receiver i's gather as a warp makes it (shaped_gather_part per lane,
  * then the shuffles' tree), on one thread: H[i], and S. */
 static inline void shaped_gather_lanes(const shaped_view *v, uint32_t i, const double *B, const double *Q,
                                        const double *T, double *H, double *S)
 {
     double h[SHAPED_GATHER_LANES][3];
-    for (uint32_t l = 0; l < SHAPED_GATHER_LANES; l++) shaped_gather_lane(v, i, l, B, Q, T, S, h[l]);
+    for (uint32_t l = 0; l < SHAPED_GATHER_LANES; l++)
+        shaped_gather_part(v, i, l, SHAPED_GATHER_LANES, B, Q, T, S, h[l]);
     for (uint32_t w = SHAPED_GATHER_LANES / 2; w > 0; w >>= 1)
         for (uint32_t l = 0; l < w; l++)
             for (int c = 0; c < 3; c++) h[l][c] = h[l][c] + h[l + w][c];
