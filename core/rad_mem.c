@@ -5,6 +5,8 @@
 #include <stdint.h>
 #if defined(__unix__)
 #include <sys/mman.h>
+#endif
+#if defined(__unix__) || defined(__APPLE__)
 #include <sys/resource.h>
 #endif
 
@@ -47,7 +49,7 @@ void rad_mem_release(void *p, size_t bytes)
 
 double rad_mem_peak_bytes(void)
 {
-#if defined(__unix__)
+#if defined(__unix__) || defined(__APPLE__) /* macOS defines only the second */
     struct rusage u;
     if (getrusage(RUSAGE_SELF, &u) != 0) return 0;
 #if defined(__APPLE__)

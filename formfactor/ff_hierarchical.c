@@ -89,15 +89,14 @@ static int same_leaves(const rad_mesh *a, const rad_mesh *b)
 
 /* The flat solve of h->exported on the GPU to o's tolerance, from h->B
  * where o->warm_start, else from E, into h->B and h->solution. A GPU that
- * fails (memory, a CUDA error) is a warning: RAD_ERR_BACKEND, h->B as it
- * was, and the caller solves on the CPU. */
+ * fails (memory, a CUDA error) is a warning: RAD_ERR_BACKEND, h->B left
+ * as solve_shaped leaves it on failure (untouched: the start), and the
+ * caller solves on the CPU. */
 static rad_status solve_flat_gpu(hier_run *h, const rad_lsolve_options *o)
 {
     const size_t m = h->leaves.patch_count;
-    double *B = malloc(3 * (m ? m : 1) * sizeof *B);
-    if (!B) return RAD_ERR_NOMEM;
-    for (size_t k = 0; k < m; k++)
-        for (int c = 0; c < 3; c++) B[3 * k + c] = o->warm_start ? h->B[3 * k + c] : h->leaves.patches[k].emission[c];
+    if (!o->warm_start)
+        for (size_t k = 0; k < m; k++) memcpy(&h->B[3 * k], h->leaves.patches[k].emission, 3 * sizeof *h->B);
     const solve_shaped_options so = {.threads = h->threads,
                                      .backend = SOLVE_SHAPED_CUDA,
                                      .device = 0,
@@ -106,20 +105,17 @@ static rad_status solve_flat_gpu(hier_run *h, const rad_lsolve_options *o)
                                      .channels = o->channels,
                                      .flat = 1};
     solve_shaped_result r;
-    rad_status st = solve_shaped(&h->exported, &h->leaves, &so, B, &r);
-    if (st == RAD_OK || st == RAD_ERR_NOT_CONVERGED) {
-        memcpy(h->B, B, 3 * m * sizeof *B);
-        memset(&h->solution, 0, sizeof h->solution);
-        for (int c = 0; c < 3; c++) h->solution.iterations[c] = r.iterations, h->solution.residual[c] = r.residual;
-        h->solution.converged = r.converged;
-        h->solution.emitted = r.emitted, h->solution.absorbed = r.absorbed, h->solution.escaped = r.escaped;
-        h->solution.imbalance = r.imbalance;
-        h->solution.seconds = r.seconds;
-    } else {
+    const rad_status st = solve_shaped(&h->exported, &h->leaves, &so, h->B, &r);
+    if (st != RAD_OK && st != RAD_ERR_NOT_CONVERGED) {
         rad_warn("the pass's flat solve could not run on the GPU (above): it runs on the CPU");
-        st = RAD_ERR_BACKEND;
+        return RAD_ERR_BACKEND;
     }
-    free(B);
+    memset(&h->solution, 0, sizeof h->solution);
+    for (int c = 0; c < 3; c++) h->solution.iterations[c] = r.iterations, h->solution.residual[c] = r.residual;
+    h->solution.converged = r.converged;
+    h->solution.emitted = r.emitted, h->solution.absorbed = r.absorbed, h->solution.escaped = r.escaped;
+    h->solution.imbalance = r.imbalance;
+    h->solution.seconds = r.seconds;
     return st;
 }
 

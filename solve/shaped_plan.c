@@ -242,6 +242,21 @@ static rad_status plan_pairs(const shaped_plan *p, uint64_t *reverse)
     return RAD_OK;
 }
 
+/* The per-end arrays for `ends` ends (at least one of each, so that a
+ * plan without ends copies and frees them like any other). RAD_ERR_NOMEM
+ * (logged). */
+static rad_status alloc_ends(shaped_plan *p, uint64_t ends)
+{
+    const size_t n = ends ? ends : 1;
+    p->end_link = malloc(n * sizeof *p->end_link);
+    p->end_receiver = malloc(n * sizeof *p->end_receiver);
+    p->end_at = malloc(n * sizeof *p->end_at);
+    p->inv_mean = calloc(n, sizeof *p->inv_mean);
+    if (p->end_link && p->end_receiver && p->end_at && p->inv_mean) return RAD_OK;
+    rad_error("links: out of memory for the shaped solve's %llu ends", (unsigned long long)ends);
+    return RAD_ERR_NOMEM;
+}
+
 /* Which receiver ends to shape (shaped.h, "Which ends"), decided on the
  * threads receiver by receiver (a link at or from a cluster stays flat,
  * so does its pair); then the ends numbered in link order with their
@@ -295,14 +310,8 @@ static rad_status plan_ends(shaped_plan *p, const double *node_B, const double *
                   (unsigned long long)SHAPED_MAX_ENDS);
         return RAD_ERR_INVALID;
     }
-    const size_t n_ends = ends ? ends : 1;
-    p->end_link = malloc(n_ends * sizeof *p->end_link);
-    p->end_receiver = malloc(n_ends * sizeof *p->end_receiver);
-    p->end_at = malloc(n_ends * sizeof *p->end_at);
-    p->inv_mean = calloc(n_ends, sizeof *p->inv_mean);
-    if (!p->end_link || !p->end_receiver || !p->end_at || !p->inv_mean) {
+    if (alloc_ends(p, ends) != RAD_OK) {
         free(weights);
-        rad_error("links: out of memory for the shaped solve's %llu ends", (unsigned long long)ends);
         return RAD_ERR_NOMEM;
     }
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads)
@@ -422,15 +431,10 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
     p->count = malloc((size_t)n * sizeof *p->count);
     p->leaf_area = malloc((size_t)n * sizeof *p->leaf_area);
     uint64_t *reverse = NULL; /* until the ends are numbered */
-    if (!flat) {
+    if (!flat) { /* flat: no ends, no per-link array at all (shaped_link_end) */
         p->end = malloc(links * sizeof *p->end);
         p->pair_end = malloc(links * sizeof *p->pair_end);
         reverse = malloc(links * sizeof *reverse);
-    } else { /* no ends: no per-link arrays at all (shaped_link_end) */
-        p->end_link = malloc(sizeof *p->end_link);
-        p->end_receiver = malloc(sizeof *p->end_receiver);
-        p->end_at = malloc(sizeof *p->end_at);
-        p->inv_mean = calloc(1, sizeof *p->inv_mean);
     }
     p->shaped_first = calloc(ids + 1, sizeof *p->shaped_first);
     if (L->cluster_count) p->root_cluster = malloc((size_t)L->root_count * sizeof *p->root_cluster);
@@ -451,7 +455,6 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
     rad_status status = RAD_OK;
     if (!p->leaf_nodes || !p->first || !p->count || !p->leaf_area ||
         (!flat && (!p->end || !p->pair_end || !reverse)) ||
-        (flat && (!p->end_link || !p->end_receiver || !p->end_at || !p->inv_mean)) ||
         !p->shaped_first || !p->row_sum || !p->rho || !p->E || !p->area_q || !p->leaf_centroid ||
         !p->leaf_normal || !p->up || !p->pull_first || !p->pull_child || !p->id_area || !p->tree_first ||
         !p->tree_nodes || !p->tree_work || !spread || !lo || (L->cluster_count && !p->root_cluster)) {
@@ -466,7 +469,7 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
         if (!flat) status = plan_pairs(p, reverse);
     }
     if (status == RAD_OK && flat) {
-        plan_view(p);
+        if ((status = alloc_ends(p, 0)) == RAD_OK) plan_view(p);
     } else if (status == RAD_OK) {
         double reflected = 0, area = 0, all = 0, all_area = 0;
         for (uint32_t i = 0; i < n; i++) {
