@@ -54,8 +54,9 @@ typedef struct hier_run {
     double seconds_load, seconds_setup, seconds_links, seconds_export, seconds_bound, seconds_solve, seconds_write,
         seconds_total; /* seconds_bound: the error bound's share of seconds_export */
     double peak_load, peak_refine, peak_export, peak_total; /* the resident peak after each (rad_mem_peak_bytes) */
-    uint32_t gpu_solves; /* the passes' flat solves the GPU made (solve_flat_gpu) */
+    uint32_t gpu_solves; /* the passes' flat solves the GPU made (solve_links_flat_gpu) */
     int last_solve_gpu;  /* the last of them was one */
+    char solved_on[128]; /* its GPU's name */
     uint64_t refined[64];
 } hier_run;
 
@@ -81,48 +82,16 @@ static int same_leaves(const rad_mesh *a, const rad_mesh *b)
 
 /* The oracle's solves (a pass that another follows) run on the GPU where
  * the pairs are computed there and there are this many links: the flat
- * operator's Jacobi sweeps (solve_shaped_options.flat, solve/shaped.h),
- * 16 bytes a link on the GPU and none more on the host. The last pass's
- * solve stays rad_lsolve's, which solve runs on the file, so that
- * --radiosity stays the same bytes as the two stages. */
+ * operator's Jacobi sweeps (solve_links_flat_gpu), 16 bytes a link on the
+ * GPU and none more on the host. The last pass's solve runs where solve
+ * would run it on the file (ff_solve_flat_on_gpu), so that --radiosity
+ * stays the same bytes as the two stages. */
 #define HIER_GPU_SOLVE_MIN_LINKS ((uint64_t)4 << 20)
-
-/* The flat solve of h->exported on the GPU to o's tolerance, from h->B
- * where o->warm_start, else from E, into h->B and h->solution. A GPU that
- * fails (memory, a CUDA error) is a warning: RAD_ERR_BACKEND, h->B left
- * as solve_shaped leaves it on failure (untouched: the start), and the
- * caller solves on the CPU. */
-static rad_status solve_flat_gpu(hier_run *h, const rad_lsolve_options *o)
-{
-    const size_t m = h->leaves.patch_count;
-    if (!o->warm_start)
-        for (size_t k = 0; k < m; k++) memcpy(&h->B[3 * k], h->leaves.patches[k].emission, 3 * sizeof *h->B);
-    const solve_shaped_options so = {.threads = h->threads,
-                                     .backend = SOLVE_SHAPED_CUDA,
-                                     .device = 0,
-                                     .tolerance = o->tolerance,
-                                     .max_iterations = o->max_iterations,
-                                     .channels = o->channels,
-                                     .flat = 1};
-    solve_shaped_result r;
-    const rad_status st = solve_shaped(&h->exported, &h->leaves, &so, h->B, &r);
-    if (st != RAD_OK && st != RAD_ERR_NOT_CONVERGED) {
-        rad_warn("the pass's flat solve could not run on the GPU (above): it runs on the CPU");
-        return RAD_ERR_BACKEND;
-    }
-    memset(&h->solution, 0, sizeof h->solution);
-    for (int c = 0; c < 3; c++) h->solution.iterations[c] = r.iterations, h->solution.residual[c] = r.residual;
-    h->solution.converged = r.converged;
-    h->solution.emitted = r.emitted, h->solution.absorbed = r.absorbed, h->solution.escaped = r.escaped;
-    h->solution.imbalance = r.imbalance;
-    h->solution.seconds = r.seconds;
-    return st;
-}
 
 /* The flat solve of the exported links to `tol`, from h->B where `warm`;
  * a grey scene once (solve's options, so that ff_solve_links may take a
- * cold one as its own). An oracle's solve of many links on the GPU
- * (solve_flat_gpu), where the pairs are computed there. */
+ * cold one as its own). On the GPU where above; one that fails there
+ * (memory, a CUDA error: a warning) is solved on the CPU. */
 static rad_status solve_flat(hier_run *h, double tol, int warm)
 {
     rad_lsolve_options o = rad_lsolve_defaults();
@@ -133,10 +102,13 @@ static rad_status solve_flat(hier_run *h, double tol, int warm)
     const double t0 = rad_clock_seconds();
     rad_status st = RAD_ERR_BACKEND;
     const uint64_t gpu_from = h->opt->gpu_solve_links ? h->opt->gpu_solve_links : HIER_GPU_SOLVE_MIN_LINKS;
+    const uint64_t links = h->exported.link_count;
+    const int gpu = tol <= HIER_FINAL_TOL ? ff_solve_flat_on_gpu(h->opt, links)
+                                          : h->backend == &ff_backend_cuda && links >= gpu_from;
     h->last_solve_gpu = 0;
-    if (tol > HIER_FINAL_TOL && h->backend == &ff_backend_cuda && h->exported.link_count >= gpu_from) {
+    if (gpu) {
         if (h->backend->trim) h->backend->trim(h->backend_state); /* the rounds' buffers, beside the links */
-        st = solve_flat_gpu(h, &o);
+        st = solve_links_flat_gpu(&h->exported, &h->leaves, &o, 0, h->B, &h->solution, h->solved_on);
         if (st == RAD_OK || st == RAD_ERR_NOT_CONVERGED) h->gpu_solves++, h->last_solve_gpu = 1;
     }
     if (st == RAD_ERR_BACKEND) st = rad_lsolve(&h->exported, &h->leaves, &o, h->B, &h->solution);
@@ -302,7 +274,7 @@ static rad_status build_links(hier_run *h)
                      pass + 1, (unsigned long long)refined, h->exported.node_count, h->exported.leaf_count,
                      (unsigned long long)h->exported.link_count,
                      (double)h->exported.link_count / (h->exported.leaf_count ? h->exported.leaf_count : 1),
-                     (unsigned long long)h->links.candidates, (unsigned long long)h->counters.rays,
+                     (unsigned long long)h->links.tally.candidates, (unsigned long long)h->counters.rays,
                      h->seconds_links, h->solution.iterations[0], h->last_solve_gpu ? " (Jacobi on the GPU)" : "");
     }
     /* a pass that refined nothing left the last solution at the oracle's tolerance */
@@ -341,8 +313,13 @@ static rad_status write_links(hier_run *h)
     const rad_ff_info info = links_info(h);
     double t0 = rad_clock_seconds();
     const rad_lsolve_options *o = &h->solved_with;
-    const solve_links_flat flat = {
-        .B = h->B, .result = h->solution, .tolerance = o->tolerance, .method = o->method, .channels = o->channels};
+    const solve_links_flat flat = {.B = h->B,
+                                   .result = h->solution,
+                                   .tolerance = o->tolerance,
+                                   .method = o->method,
+                                   .channels = o->channels,
+                                   .gpu = h->last_solve_gpu,
+                                   .device = h->solved_on};
     rad_status st = opt->radiosity_path ? ff_solve_links(&info, &h->leaves, &h->exported, o->warm_start ? NULL : &flat,
                                                          opt, h->threads)
                                         : rad_ff_write_links(opt->output, &info, &h->leaves, &h->exported);
@@ -377,7 +354,7 @@ static rad_status write_stats(const hier_run *h)
              "%s %.2f s",
              x->root_count, levels, x->node_count, x->leaf_count, (unsigned long long)x->link_count,
              (double)x->link_count / x->leaf_count, (double)x->link_count / x->node_count,
-             (unsigned long long)h->links.candidates, (unsigned long long)h->links.rounds,
+             (unsigned long long)h->links.tally.candidates, (unsigned long long)h->links.tally.rounds,
              (unsigned long long)h->counters.rays, h->error_bound, h->seconds_links, h->seconds_solve,
              opt->radiosity_path ? "solved and written (--radiosity)" : "write", h->seconds_write);
     if (!opt->stats_path) return RAD_OK;
@@ -429,19 +406,19 @@ static rad_status write_stats(const hier_run *h)
     rad_json_key(&w, "closure_rays");
     rad_json_uint(&w, h->closed.rays);
     rad_json_key(&w, "cluster_pairs");
-    rad_json_uint(&w, h->links.cluster_pairs);
+    rad_json_uint(&w, h->links.tally.cluster_pairs);
     rad_json_key(&w, "cluster_rays");
-    rad_json_uint(&w, h->links.cluster_rays);
+    rad_json_uint(&w, h->links.tally.cluster_rays);
     rad_json_key(&w, "cluster_seconds"); /* their wall */
-    rad_json_number_fixed(&w, h->links.cluster_seconds, 3);
+    rad_json_number_fixed(&w, h->links.tally.cluster_seconds, 3);
     rad_json_key(&w, "candidate_pairs");
-    rad_json_uint(&w, h->links.candidates);
+    rad_json_uint(&w, h->links.tally.candidates);
     rad_json_key(&w, "rounds");
-    rad_json_uint(&w, h->links.rounds);
+    rad_json_uint(&w, h->links.tally.rounds);
     json_counters(&w, &h->counters);
     rad_json_key(&w, "error_bound");
     rad_json_number(&w, h->error_bound);
-    rad_json_key(&w, "gpu_solves"); /* the passes' flat solves made on the GPU (solve_flat_gpu) */
+    rad_json_key(&w, "gpu_solves"); /* the passes' flat solves made on the GPU (solve_links_flat_gpu) */
     rad_json_uint(&w, h->gpu_solves);
     rad_json_key(&w, "solve_sweeps");
     rad_json_uint(&w, h->solution.iterations[0]);
@@ -459,6 +436,19 @@ static rad_status write_stats(const hier_run *h)
     rad_json_number(&w, h->seconds_setup);
     rad_json_key(&w, "links");
     rad_json_number(&w, h->seconds_links);
+    rad_json_key(&w, "rounds"); /* of the links: the rounds' parts (ff_links.h) */
+    rad_json_begin_object(&w, RAD_JSON_INLINE);
+    rad_json_key(&w, "sort");
+    rad_json_number(&w, h->links.tally.seconds_sort);
+    rad_json_key(&w, "backend");
+    rad_json_number(&w, h->links.tally.seconds_backend);
+    rad_json_key(&w, "decide");
+    rad_json_number(&w, h->links.tally.seconds_decide);
+    rad_json_key(&w, "reweigh");
+    rad_json_number(&w, h->links.tally.seconds_reweigh);
+    rad_json_key(&w, "elements"); /* of decide and reweigh */
+    rad_json_number(&w, h->links.tally.seconds_elements);
+    rad_json_end_object(&w);
     rad_json_key(&w, "export"); /* the links handed to the solves, and the error bound */
     rad_json_number(&w, h->seconds_export);
     rad_json_key(&w, "error_bound"); /* of which the error bound */
@@ -501,13 +491,8 @@ static void release_refinement(hier_run *h)
     const ff_links kept = h->links;
     ff_links_free(&h->links); /* zeroes it */
     h->links.config = kept.config;
-    h->links.candidates = kept.candidates;
-    h->links.refined_pairs = kept.refined_pairs;
-    h->links.rounds = kept.rounds;
+    h->links.tally = kept.tally;
     h->links.passes = kept.passes;
-    h->links.cluster_pairs = kept.cluster_pairs;
-    h->links.cluster_rays = kept.cluster_rays;
-    h->links.cluster_seconds = kept.cluster_seconds;
 }
 
 /* The backends' states (and a GPU's buffers); the links stay. */

@@ -2,6 +2,7 @@
 #include "ff_links.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
@@ -52,7 +53,11 @@ static rad_status elements_added(ff_links *L, size_t from)
         }
         L->patch_cap = cap;
     }
-    for (size_t e = from; e < h->element_count; e++) {
+    /* the patches on the threads; the keys and values in order (a parent
+     * may come before its children in the same call) */
+    const ptrdiff_t first = (ptrdiff_t)from, end = (ptrdiff_t)h->element_count;
+#pragma omp parallel for schedule(static) if (end - first > 4096)
+    for (ptrdiff_t e = first; e < end; e++) {
         const rad_element *el = &h->elements[e];
         const rad_patch *root = &h->base->patches[el->root];
         rad_patch p;
@@ -64,6 +69,10 @@ static rad_status elements_added(ff_links *L, size_t from)
         p.normal = el->normal;
         p.centroid = el->centroid;
         ff_patch_make(L->scene, h->positions, &p, L->centre, &L->patches[e]);
+    }
+    for (size_t e = from; e < h->element_count; e++) {
+        const rad_element *el = &h->elements[e];
+        const rad_patch *root = &h->base->patches[el->root];
         if (el->parent == RAD_NO_ELEMENT) {
             L->keys[e] = L->exact_keys ? L->root_key[el->root] : (uint32_t)e;
             memcpy(&L->radiosity[3 * e], root->emission, 3 * sizeof(double));
@@ -410,22 +419,6 @@ static rad_status job_push(job_list *l, uint32_t a, uint32_t b)
     return RAD_OK;
 }
 
-static rad_status link_push(ff_links *L, const ff_link_pair *p)
-{
-    if (L->link_count == L->link_cap) {
-        size_t cap = L->link_cap ? 2 * L->link_cap : 1024;
-        ff_link_pair *q = realloc(L->links, cap * sizeof *q);
-        if (!q) {
-            rad_error("hierarchy: out of memory for %zu links", cap);
-            return RAD_ERR_NOMEM;
-        }
-        L->links = q;
-        L->link_cap = cap;
-    }
-    L->links[L->link_count++] = *p;
-    return RAD_OK;
-}
-
 /* A cluster whose faces face apart (normals beyond config.cluster_cone of
  * their mean): one irradiance for all of them would give faces turned away
  * from a source its light and the faces facing it too little (a table's
@@ -437,7 +430,13 @@ static int mixed_end(const ff_links *L, uint32_t id)
     return ff_is_cluster(id) && L->clusters.clusters[ff_cluster_of(id)].bound.cone_angle > L->config.cluster_cone;
 }
 
-/* A pair with a cluster at an end: a cluster's self-link becomes the
+/* A pair is split into its children's pairs (split_elements makes the
+ * elements that needs, split_jobs lists the pairs).
+ *
+ * Two elements: the larger element split, both where their areas are
+ * within 2x (and both can be).
+ *
+ * A pair with a cluster at an end: a cluster's self-link becomes the
  * pairs of its children (each with itself too) or of its roots (a flat
  * face does not see itself); another pair the pairs of its cluster's parts
  * (the wider cluster's, by bounding sphere, where both ends are clusters)
@@ -448,69 +447,124 @@ static int mixed_end(const ff_links *L, uint32_t id)
  * object in front of it (measured: 15x the elements of the interior at
  * 5 000 faces) resolves nothing; face pairs are computed exactly, and
  * their own estimates split elements where the light varies. */
-static rad_status split_cluster_pair(ff_links *L, uint32_t a, uint32_t b, job_list *next)
+static void element_sides(const ff_links *L, uint32_t a, uint32_t b, int *out_sa, int *out_sb)
 {
-    rad_status st = RAD_OK;
-    if (a == b) {
-        const rad_link_cluster *c = &L->clusters.clusters[ff_cluster_of(a)].link;
-        if (c->child_count) {
-            for (uint32_t i = 0; i < c->child_count && st == RAD_OK; i++)
-                for (uint32_t j = i; j < c->child_count && st == RAD_OK; j++)
-                    st = job_push(next, FF_CLUSTER_ID(c->first_child + i), FF_CLUSTER_ID(c->first_child + j));
-        } else {
-            for (uint32_t i = c->root_begin; i < c->root_end && st == RAD_OK; i++)
-                for (uint32_t j = i + 1; j < c->root_end && st == RAD_OK; j++)
-                    st = job_push(next, L->clusters.roots[i], L->clusters.roots[j]);
-        }
-        return st;
+    double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
+    int sa = splittable(L, a), sb = splittable(L, b);
+    int both = sa && sb && Aa <= 2 * Ab && Ab <= 2 * Aa;
+    if (!both && sa && sb) {
+        sa = Aa >= Ab;
+        sb = !sa;
     }
+    *out_sa = sa, *out_sb = sb;
+}
+
+/* The end split of a pair (a != b) with a cluster at an end. */
+static uint32_t cluster_side(const ff_links *L, uint32_t a, uint32_t b)
+{
     ff_cluster_bound ba = node_bound(L, a), bb = node_bound(L, b);
     int sa = splittable(L, a), sb = splittable(L, b);
     if (ff_is_cluster(a) != ff_is_cluster(b)) sa = ff_is_cluster(a), sb = !sa;
     const int ma = mixed_end(L, a), mb = mixed_end(L, b);
     if (ma != mb) sa = ma, sb = mb;
-    uint32_t side = sa && (!sb || ba.radius >= bb.radius) ? a : b, other = side == a ? b : a;
-    if (ff_is_cluster(side)) {
-        const rad_link_cluster *c = &L->clusters.clusters[ff_cluster_of(side)].link;
-        if (c->child_count)
-            for (uint32_t i = 0; i < c->child_count && st == RAD_OK; i++)
-                st = job_push(next, FF_CLUSTER_ID(c->first_child + i), other);
-        else
-            for (uint32_t i = c->root_begin; i < c->root_end && st == RAD_OK; i++)
-                st = job_push(next, L->clusters.roots[i], other);
-        return st;
-    }
-    size_t before = L->tree.element_count;
+    return sa && (!sb || ba.radius >= bb.radius) ? a : b;
+}
+
+/* Makes the elements the split of (a, b) needs (rad_hierarchy_split: none
+ * where they exist); their patches, keys and values are left to
+ * elements_added. */
+static rad_status split_elements(ff_links *L, uint32_t a, uint32_t b)
+{
     uint32_t first;
-    st = rad_hierarchy_split(&L->tree, side, &first);
-    if (st == RAD_OK && L->tree.element_count > before) st = elements_added(L, before);
-    for (uint32_t i = 0; i < 4 && st == RAD_OK; i++) st = job_push(next, first + i, other);
+    if (ff_is_cluster(a) || ff_is_cluster(b)) {
+        if (a == b) return RAD_OK;
+        const uint32_t side = cluster_side(L, a, b);
+        return ff_is_cluster(side) ? RAD_OK : rad_hierarchy_split(&L->tree, side, &first);
+    }
+    int sa, sb;
+    element_sides(L, a, b, &sa, &sb);
+    rad_status st = sa ? rad_hierarchy_split(&L->tree, a, &first) : RAD_OK;
+    if (st == RAD_OK && sb) st = rad_hierarchy_split(&L->tree, b, &first);
     return st;
 }
 
-/* Replaces pair (a, b) by its children's pairs in `next`: the larger
- * element split, both where their areas are within 2x (and both can be). */
-static rad_status split_pair(ff_links *L, uint32_t a, uint32_t b, job_list *next)
+/* Whether the split of (a, b) makes elements (an end to split that has
+ * no children yet): only those splits need the one thread, in order. */
+static int split_makes_elements(const ff_links *L, uint32_t a, uint32_t b)
 {
-    if (ff_is_cluster(a) || ff_is_cluster(b)) return split_cluster_pair(L, a, b, next);
-    double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
-    int sa = splittable(L, a), sb = splittable(L, b);
-    int both = sa && sb && Aa <= 2 * Ab && Ab <= 2 * Aa;
-    if (!both) {
-        if (sa && sb) {
-            sa = Aa >= Ab;
-            sb = !sa;
-        }
+    if (ff_is_cluster(a) || ff_is_cluster(b)) {
+        if (a == b) return 0;
+        const uint32_t side = cluster_side(L, a, b);
+        return !ff_is_cluster(side) && L->tree.elements[side].first_child == RAD_NO_ELEMENT;
     }
-    size_t before = L->tree.element_count;
-    uint32_t ca = a, cb = b;
-    rad_status st = RAD_OK;
-    if (sa) st = rad_hierarchy_split(&L->tree, a, &ca);
-    if (st == RAD_OK && sb) st = rad_hierarchy_split(&L->tree, b, &cb);
-    if (st == RAD_OK && L->tree.element_count > before) st = elements_added(L, before);
-    for (uint32_t i = 0; st == RAD_OK && i < (sa ? 4u : 1u); i++)
-        for (uint32_t j = 0; st == RAD_OK && j < (sb ? 4u : 1u); j++) st = job_push(next, ca + i, cb + j);
-    return st;
+    int sa, sb;
+    element_sides(L, a, b, &sa, &sb);
+    return (sa && L->tree.elements[a].first_child == RAD_NO_ELEMENT) ||
+           (sb && L->tree.elements[b].first_child == RAD_NO_ELEMENT);
+}
+
+static void put_job(ff_pair_job *out, size_t *n, uint32_t a, uint32_t b)
+{
+    if (out) out[*n] = (ff_pair_job){a < b ? a : b, a < b ? b : a, 1};
+    (*n)++;
+}
+
+/* The children's pairs that replace (a, b), in order, into out (NULL:
+ * only counted); the count. Once split_elements has run, where out is
+ * given. */
+static size_t split_jobs(const ff_links *L, uint32_t a, uint32_t b, ff_pair_job *out)
+{
+    size_t n = 0;
+    if (ff_is_cluster(a) || ff_is_cluster(b)) {
+        if (a == b) {
+            const rad_link_cluster *c = &L->clusters.clusters[ff_cluster_of(a)].link;
+            if (c->child_count) {
+                for (uint32_t i = 0; i < c->child_count; i++)
+                    for (uint32_t j = i; j < c->child_count; j++)
+                        put_job(out, &n, FF_CLUSTER_ID(c->first_child + i), FF_CLUSTER_ID(c->first_child + j));
+            } else {
+                for (uint32_t i = c->root_begin; i < c->root_end; i++)
+                    for (uint32_t j = i + 1; j < c->root_end; j++)
+                        put_job(out, &n, L->clusters.roots[i], L->clusters.roots[j]);
+            }
+            return n;
+        }
+        const uint32_t side = cluster_side(L, a, b), other = side == a ? b : a;
+        if (ff_is_cluster(side)) {
+            const rad_link_cluster *c = &L->clusters.clusters[ff_cluster_of(side)].link;
+            if (c->child_count)
+                for (uint32_t i = 0; i < c->child_count; i++) put_job(out, &n, FF_CLUSTER_ID(c->first_child + i), other);
+            else
+                for (uint32_t i = c->root_begin; i < c->root_end; i++) put_job(out, &n, L->clusters.roots[i], other);
+            return n;
+        }
+        const uint32_t first = out ? L->tree.elements[side].first_child : 0;
+        for (uint32_t i = 0; i < 4; i++) put_job(out, &n, first + i, other);
+        return n;
+    }
+    int sa, sb;
+    element_sides(L, a, b, &sa, &sb);
+    const uint32_t ca = sa && out ? L->tree.elements[a].first_child : a;
+    const uint32_t cb = sb && out ? L->tree.elements[b].first_child : b;
+    for (uint32_t i = 0; i < (sa ? 4u : 1u); i++)
+        for (uint32_t j = 0; j < (sb ? 4u : 1u); j++) put_job(out, &n, ca + i, cb + j);
+    return n;
+}
+
+/* Room in `l` for `more` pairs past its count. */
+static rad_status job_reserve(job_list *l, size_t more)
+{
+    if (l->count + more <= l->cap) return RAD_OK;
+    size_t cap = l->cap ? l->cap : 1024;
+    while (cap < l->count + more) cap *= 2;
+    ff_pair_job *j = realloc(l->jobs, cap * sizeof *j);
+    if (!j) {
+        rad_error("hierarchy: out of memory for %zu candidate pairs", cap);
+        return RAD_ERR_NOMEM;
+    }
+    l->jobs = j;
+    l->cap = cap;
+    return RAD_OK;
 }
 
 /* ---- pairs with a cluster at an end ---- */
@@ -550,39 +604,263 @@ static void *element_pairs_thread(void *arg)
     return NULL;
 }
 
-/* Candidates through the backend, then decided in order. */
+/* ---- a round on the threads ----
+ *
+ * A round's candidates are sorted into element and cluster pairs, and
+ * decided, in chunks on the threads, with the serial order's result for
+ * any thread count: (1) each candidate's verdict (no link, a link, or
+ * split) and what it adds (links, the next round's pairs), counted by
+ * chunk; (2) in list order, one thread, the elements the splits need
+ * (their numbering is the order in which they are first needed); (3) each
+ * chunk's links and next pairs written at its chunk's offsets, in list
+ * order. At 10^6 triangles the rounds decide about 10^9 candidates. */
+#define ROUND_CHUNK 16384
+
+static size_t chunk_begin(size_t c, size_t n) { return c * ROUND_CHUNK < n ? c * ROUND_CHUNK : n; }
+
+/* A candidate's verdict: no link (not facing), a link, a split, or a
+ * split that makes elements (split_makes_elements). */
+enum { VERDICT_NONE = 0, VERDICT_LINK = 1, VERDICT_SPLIT = 2, VERDICT_SPLIT_NEW = 3 };
+
+typedef struct round_chunk {
+    size_t elements, clusters;  /* its element pairs, its cluster pairs; (1): the index of its first of each */
+    size_t links, jobs;          /* what it adds; (3): where its first goes */
+    size_t splits, makers, near, element_splits, cluster_links; /* makers: its VERDICT_SPLIT_NEW */
+} round_chunk;
+
+/* (2): the elements that the splits of chunks [0, chunk_count) of pairs
+ * (stride bytes apart, each beginning with its uint32_t ends a, b) need,
+ * made in order; their patches, keys and values after. */
+static rad_status make_elements(ff_links *L, const uint8_t *verdict, const void *pairs, size_t stride, size_t n,
+                                const round_chunk *chunks, size_t chunk_count)
+{
+    const double t0 = rad_clock_seconds();
+    const size_t before = L->tree.element_count;
+    rad_status st = RAD_OK;
+    for (size_t c = 0; c < chunk_count && st == RAD_OK; c++) {
+        if (!chunks[c].makers) continue;
+        for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n) && st == RAD_OK; k++) {
+            if (verdict[k] != VERDICT_SPLIT_NEW) continue;
+            const uint32_t *ab = (const uint32_t *)((const char *)pairs + k * stride);
+            st = split_elements(L, ab[0], ab[1]);
+        }
+    }
+    if (st == RAD_OK && L->tree.element_count > before) st = elements_added(L, before);
+    L->tally.seconds_elements += rad_clock_seconds() - t0;
+    return st;
+}
+
+typedef struct round_state {
+    const job_list *list;            /* the candidates, in list order */
+    const ff_pair_job *pairs;        /* its element pairs, in list order (their spread flags) */
+    const ff_pair_outcome *out;      /* per element pair */
+    const ff_cluster_drawn *cout;    /* per cluster pair */
+    uint8_t *verdict;                /* per candidate */
+    round_chunk *chunks;
+    size_t chunk_count;
+} round_state;
+
+/* Candidate k's verdict, and its link in *p where it has one (or is split:
+ * the estimate split on). ke, kc: its index among the element pairs, the
+ * cluster pairs. */
+static int candidate_verdict(const ff_links *L, const round_state *r, size_t k, size_t ke, size_t kc, ff_link_pair *p)
+{
+    const uint32_t a = r->list->jobs[k].a, b = r->list->jobs[k].b;
+    *p = (ff_link_pair){.a = a, .b = b};
+    if (ff_is_cluster(a) || ff_is_cluster(b)) {
+        const ff_cluster_drawn *c = &r->cout[kc];
+        if (!c->facing) return VERDICT_NONE;
+        if (c->must_split) return VERDICT_SPLIT;
+        p->coupling = c->coupling;
+        p->error_ab = p->left_ab = (float)c->error_ab;
+        p->error_ba = p->left_ba = (float)c->error_ba;
+    } else {
+        const ff_pair_outcome *o = &r->out[ke];
+        const int weighed = r->pairs[ke].spread;
+        if (o->verdict == FF_PAIR_NOT_FACING) return VERDICT_NONE;
+        double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
+        const rad_ff_spread ab = weighed ? o->spread_ab : leaf_pair_geometry(o, Ab);
+        const rad_ff_spread ba = weighed ? o->spread_ba : leaf_pair_geometry(o, Aa);
+        p->coupling = o->coupling;
+        p->error_ab = (float)factor_error(o, ab.spread, ab.mean, Ab);
+        p->error_ba = (float)factor_error(o, ba.spread, ba.mean, Aa);
+        p->left_ab = (float)gather_error(o, ab.spread, ab.curvature, ab.mean, Ab, leaf_depth(L, a));
+        p->left_ba = (float)gather_error(o, ba.spread, ba.curvature, ba.mean, Aa, leaf_depth(L, b));
+    }
+    return (splittable(L, a) || splittable(L, b)) && over_tolerance(L, p) ? VERDICT_SPLIT : VERDICT_LINK;
+}
+
+/* The candidates sorted into element pairs and cluster pairs, each in
+ * list order; the chunks' first index of each. */
+static rad_status sort_round(const ff_links *L, round_state *r, job_list *pairs, job_list *cpairs)
+{
+    const size_t n = r->list->count;
+    const ff_pair_job *jobs = r->list->jobs;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (size_t c = 0; c < r->chunk_count; c++) {
+        size_t clustered = 0;
+        for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n); k++)
+            clustered += ff_is_cluster(jobs[k].a) || ff_is_cluster(jobs[k].b);
+        r->chunks[c] = (round_chunk){.elements = chunk_begin(c + 1, n) - chunk_begin(c, n) - clustered,
+                                     .clusters = clustered};
+    }
+    size_t e = 0, q = 0;
+    for (size_t c = 0; c < r->chunk_count; c++) {
+        const size_t ce = r->chunks[c].elements, cc = r->chunks[c].clusters;
+        r->chunks[c].elements = e, r->chunks[c].clusters = q;
+        e += ce, q += cc;
+    }
+    pairs->count = cpairs->count = 0;
+    rad_status st = job_reserve(pairs, e);
+    if (st == RAD_OK) st = job_reserve(cpairs, q);
+    if (st != RAD_OK) return st;
+    pairs->count = e, cpairs->count = q;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (size_t c = 0; c < r->chunk_count; c++) {
+        size_t ke = r->chunks[c].elements, kc = r->chunks[c].clusters;
+        for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n); k++) {
+            const ff_pair_job *j = &jobs[k];
+            if (ff_is_cluster(j->a) || ff_is_cluster(j->b)) {
+                cpairs->jobs[kc++] = *j;
+            } else {
+                /* two leaves no pass can split need no oracle: their link is the leaves' entry */
+                pairs->jobs[ke++] = (ff_pair_job){j->a, j->b, !final_leaf(L, j->a) || !final_leaf(L, j->b)};
+            }
+        }
+    }
+    return RAD_OK;
+}
+
+/* (1): the verdicts, and by chunk what they add. */
+static void decide_round(const ff_links *L, round_state *r)
+{
+    const size_t n = r->list->count;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (size_t c = 0; c < r->chunk_count; c++) {
+        round_chunk *ch = &r->chunks[c];
+        size_t ke = ch->elements, kc = ch->clusters;
+        for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n); k++) {
+            const uint32_t a = r->list->jobs[k].a, b = r->list->jobs[k].b;
+            const int clustered = ff_is_cluster(a) || ff_is_cluster(b);
+            ff_link_pair p;
+            const int v = candidate_verdict(L, r, k, ke, kc, &p);
+            r->verdict[k] = (uint8_t)v;
+            if (v == VERDICT_LINK) {
+                ch->links++;
+                ch->cluster_links += clustered;
+            } else if (v == VERDICT_SPLIT) {
+                ch->splits++;
+                ch->near += clustered && r->cout[kc].must_split;
+                ch->element_splits += !clustered;
+                ch->jobs += split_jobs(L, a, b, NULL);
+                if (split_makes_elements(L, a, b)) r->verdict[k] = VERDICT_SPLIT_NEW, ch->makers++;
+            }
+            clustered ? kc++ : ke++;
+        }
+    }
+}
+
+/* (3): the links and the next round's pairs, at their chunks' offsets. */
+static void write_round(ff_links *L, const round_state *r, job_list *next)
+{
+    const size_t n = r->list->count;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (size_t c = 0; c < r->chunk_count; c++) {
+        const round_chunk *ch = &r->chunks[c];
+        size_t ke = ch->elements, kc = ch->clusters, link = ch->links, job = ch->jobs;
+        for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n); k++) {
+            const uint32_t a = r->list->jobs[k].a, b = r->list->jobs[k].b;
+            const int clustered = ff_is_cluster(a) || ff_is_cluster(b);
+            if (r->verdict[k] == VERDICT_LINK) {
+                candidate_verdict(L, r, k, ke, kc, &L->links[link++]);
+            } else if (r->verdict[k] >= VERDICT_SPLIT) {
+                job += split_jobs(L, a, b, next->jobs + job);
+            }
+            clustered ? kc++ : ke++;
+        }
+    }
+}
+
+/* Room for `more` links past link_count. */
+static rad_status link_reserve(ff_links *L, size_t more)
+{
+    if (L->link_count + more <= L->link_cap) return RAD_OK;
+    size_t cap = L->link_cap ? L->link_cap : 1024;
+    while (cap < L->link_count + more) cap *= 2;
+    ff_link_pair *q = realloc(L->links, cap * sizeof *q);
+    if (!q) {
+        rad_error("hierarchy: out of memory for %zu links", cap);
+        return RAD_ERR_NOMEM;
+    }
+    L->links = q;
+    L->link_cap = cap;
+    return RAD_OK;
+}
+
+/* A round's verdicts into links, new elements and the next round's pairs
+ * (next: emptied first). */
+static rad_status apply_round(ff_links *L, round_state *r, job_list *next, round_chunk *total)
+{
+    *total = (round_chunk){0};
+    for (size_t c = 0; c < r->chunk_count; c++) {
+        round_chunk *ch = &r->chunks[c];
+        const size_t links = ch->links, jobs = ch->jobs;
+        ch->links = L->link_count + total->links, ch->jobs = total->jobs;
+        total->links += links, total->jobs += jobs;
+        total->splits += ch->splits, total->near += ch->near;
+        total->element_splits += ch->element_splits, total->cluster_links += ch->cluster_links;
+    }
+    rad_status st = make_elements(L, r->verdict, r->list->jobs, sizeof *r->list->jobs, r->list->count, r->chunks,
+                                  r->chunk_count);
+    next->count = 0;
+    if (st == RAD_OK) st = link_reserve(L, total->links);
+    if (st == RAD_OK) st = job_reserve(next, total->jobs);
+    if (st != RAD_OK) return st;
+    write_round(L, r, next);
+    L->link_count += total->links;
+    next->count = total->jobs;
+    return RAD_OK;
+}
+
+/* Candidates through the backend, then decided (above). */
 static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters, uint64_t *refined)
 {
     rad_status st = RAD_OK;
-    ff_pair_outcome *out = NULL;  /* per element pair, in list order */
-    ff_cluster_drawn *cout = NULL; /* per pair with a cluster at an end, in list order */
-    size_t out_cap = 0;
+    round_state r = {.list = list};
+    size_t cap = 0, chunk_cap = 0;
     job_list next = {0}, pairs = {0}, cpairs = {0};
     while (st == RAD_OK && list->count > 0) {
-        size_t n = list->count;
-        if (n > out_cap) {
+        const size_t n = list->count;
+        r.chunk_count = (n + ROUND_CHUNK - 1) / ROUND_CHUNK;
+        if (n > cap) {
+            free(r.verdict);
+            r.verdict = malloc(n);
+            cap = r.verdict ? n : 0;
+        }
+        if (r.chunk_count > chunk_cap) {
+            free(r.chunks);
+            r.chunks = malloc(r.chunk_count * sizeof *r.chunks);
+            chunk_cap = r.chunks ? r.chunk_count : 0;
+        }
+        if (!r.verdict || !r.chunks) {
+            rad_error("hierarchy: out of memory for %zu candidate pairs", n);
+            st = RAD_ERR_NOMEM;
+            break;
+        }
+        const double t_sort = rad_clock_seconds();
+        if ((st = sort_round(L, &r, &pairs, &cpairs)) != RAD_OK) break;
+        const size_t clustered = cpairs.count;
+        ff_pair_outcome *out = pairs.count ? malloc(pairs.count * sizeof *out) : NULL;
+        ff_cluster_drawn *cout = clustered ? malloc(clustered * sizeof *cout) : NULL;
+        if ((pairs.count && !out) || (clustered && !cout)) {
             free(out);
             free(cout);
-            out = malloc(n * sizeof *out);
-            cout = malloc(n * sizeof *cout);
-            out_cap = n;
-            if (!out || !cout) {
-                rad_error("hierarchy: out of memory for %zu candidate pairs", n);
-                st = RAD_ERR_NOMEM;
-                break;
-            }
+            rad_error("hierarchy: out of memory for %zu candidate pairs", n);
+            st = RAD_ERR_NOMEM;
+            break;
         }
-        /* this round's element pairs (the backend's) and cluster pairs, each in list order */
-        pairs.count = cpairs.count = 0;
-        for (size_t k = 0; k < n && st == RAD_OK; k++) {
-            const ff_pair_job *j = &list->jobs[k];
-            const int clustered_job = ff_is_cluster(j->a) || ff_is_cluster(j->b);
-            st = job_push(clustered_job ? &cpairs : &pairs, j->a, j->b);
-            /* two leaves no pass can split need no oracle: their link is the leaves' entry */
-            if (st == RAD_OK && !clustered_job) pairs.jobs[pairs.count - 1].spread = !final_leaf(L, j->a) || !final_leaf(L, j->b);
-        }
-        if (st != RAD_OK) break;
-        const size_t clustered = cpairs.count;
+        const double t_backend = rad_clock_seconds();
+        L->tally.seconds_sort += t_backend - t_sort;
         /* The element pairs and the cluster pairs, both on the backend:
          * the element pairs' call on a thread of its own where the backend
          * is a GPU (the two calls' kernels then queue on the device one
@@ -595,73 +873,42 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         if (pairs.count && !overlap) element_pairs_thread(&call);
         rad_status cst = RAD_OK;
         if (clustered) {
-            const size_t m = clustered;
             long long t0 = rad_clock_ns();
-            cst = cluster_pairs(L, cpairs.jobs, m, cout);
+            cst = cluster_pairs(L, cpairs.jobs, clustered, cout);
             const double seconds = 1e-9 * (double)(rad_clock_ns() - t0);
             counters->visibility_seconds += seconds;
-            L->cluster_seconds += seconds;
-            L->cluster_pairs += m;
-            for (size_t i = 0; i < m; i++) L->cluster_rays += cout[i].rays;
+            L->tally.cluster_seconds += seconds;
+            L->tally.cluster_pairs += clustered;
+            for (size_t i = 0; i < clustered; i++) L->tally.cluster_rays += cout[i].rays;
         }
         if (overlap) pthread_join(gpu_thread, NULL);
+        const double t_decide = rad_clock_seconds();
+        L->tally.seconds_backend += t_decide - t_backend;
         ff_counters_add(counters, &call.counters);
-        if ((st = call.status) != RAD_OK || (st = cst) != RAD_OK) break;
-        L->candidates += n;
-        L->rounds++;
-        const size_t links_before = L->link_count;
-        size_t near = 0, cluster_links = 0, element_splits = 0;
-        next.count = 0;
-        size_t ke = 0, kc = 0;
-        for (size_t k = 0; k < n && st == RAD_OK; k++) {
-            uint32_t a = list->jobs[k].a, b = list->jobs[k].b;
-            ff_link_pair p = {.a = a, .b = b};
-            if (ff_is_cluster(a) || ff_is_cluster(b)) {
-                const ff_cluster_drawn *c = &cout[kc++];
-                if (!c->facing) continue;
-                if (c->must_split) {
-                    near++;
-                    st = split_cluster_pair(L, a, b, &next);
-                    (*refined)++;
-                    continue;
-                }
-                p.coupling = c->coupling;
-                p.error_ab = p.left_ab = (float)c->error_ab;
-                p.error_ba = p.left_ba = (float)c->error_ba;
-            } else {
-                const ff_pair_outcome *o = &out[ke];
-                const int weighed = pairs.jobs[ke++].spread;
-                if (o->verdict == FF_PAIR_NOT_FACING) continue;
-                double Aa = L->tree.elements[a].area, Ab = L->tree.elements[b].area;
-                const rad_ff_spread sab = weighed ? o->spread_ab : leaf_pair_geometry(o, Ab);
-                const rad_ff_spread sba = weighed ? o->spread_ba : leaf_pair_geometry(o, Aa);
-                const rad_ff_spread *ab = &sab, *ba = &sba;
-                p.coupling = o->coupling;
-                p.error_ab = (float)factor_error(o, ab->spread, ab->mean, Ab);
-                p.error_ba = (float)factor_error(o, ba->spread, ba->mean, Aa);
-                p.left_ab = (float)gather_error(o, ab->spread, ab->curvature, ab->mean, Ab, leaf_depth(L, a));
-                p.left_ba = (float)gather_error(o, ba->spread, ba->curvature, ba->mean, Aa, leaf_depth(L, b));
-            }
-            if ((splittable(L, a) || splittable(L, b)) && over_tolerance(L, &p)) {
-                element_splits += !ff_is_cluster(a) && !ff_is_cluster(b);
-                st = split_pair(L, a, b, &next);
-                (*refined)++;
-            } else {
-                cluster_links += ff_is_cluster(a) || ff_is_cluster(b);
-                st = link_push(L, &p);
-            }
+        round_chunk total = {0};
+        if ((st = call.status) == RAD_OK && (st = cst) == RAD_OK) {
+            L->tally.candidates += n;
+            L->tally.rounds++;
+            r.pairs = pairs.jobs, r.out = out, r.cout = cout;
+            decide_round(L, &r);
+            st = apply_round(L, &r, &next, &total);
         }
+        free(out);
+        free(cout);
+        if (st != RAD_OK) break;
+        *refined += total.splits;
         if (clustered && n >= 100000) /* progress, where rounds take seconds */
             rad_info("round %llu: %zu candidates: %zu element pairs (%zu refined), %zu with a cluster (%zu too near, "
                      "%zu linked); %zu links, %zu elements",
-                     (unsigned long long)L->rounds, n, n - clustered, element_splits, clustered, near, cluster_links,
-                     L->link_count - links_before, L->tree.element_count);
+                     (unsigned long long)L->tally.rounds, n, n - clustered, total.element_splits, clustered, total.near,
+                     total.cluster_links, total.links, L->tree.element_count);
+        L->tally.seconds_decide += rad_clock_seconds() - t_decide;
         job_list t = *list;
         *list = next;
         next = t;
     }
-    free(out);
-    free(cout);
+    free(r.verdict);
+    free(r.chunks);
     free(next.jobs);
     free(pairs.jobs);
     free(cpairs.jobs);
@@ -757,6 +1004,101 @@ int ff_links_leaf_radiosity(const ff_links *L, double *B)
     return 1;
 }
 
+/* The links not split (verdict below VERDICT_SPLIT), kept in order, on
+ * the threads: window by window of chunks, each gathered into a buffer
+ * and then copied down to its place, which lies below every link not yet
+ * read. chunks[c].links: the links chunk c keeps. */
+#define KEEP_WINDOW 64 /* chunks: a 32 MiB buffer */
+static void keep_links(ff_links *L, const uint8_t *verdict, round_chunk *chunks, size_t chunk_count)
+{
+    const size_t n = L->link_count;
+    ff_link_pair *buffer = malloc((size_t)KEEP_WINDOW * ROUND_CHUNK * sizeof *buffer);
+    size_t kept = 0;
+    if (!buffer) { /* one thread, in place */
+        for (size_t k = 0; k < n; k++)
+            if (verdict[k] < VERDICT_SPLIT) L->links[kept++] = L->links[k];
+        L->link_count = kept;
+        return;
+    }
+    for (size_t w = 0; w < chunk_count; w += KEEP_WINDOW) {
+        const size_t end = w + KEEP_WINDOW < chunk_count ? w + KEEP_WINDOW : chunk_count;
+        size_t m = 0;
+        for (size_t c = w; c < end; c++) {
+            const size_t keeps = chunks[c].links;
+            chunks[c].links = m;
+            m += keeps;
+        }
+#pragma omp parallel for schedule(dynamic, 1)
+        for (size_t c = w; c < end; c++) {
+            size_t j = chunks[c].links;
+            for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n); k++)
+                if (verdict[k] < VERDICT_SPLIT) buffer[j++] = L->links[k];
+        }
+#pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < m; i++) L->links[kept + i] = buffer[i];
+        kept += m;
+    }
+    free(buffer);
+    L->link_count = kept;
+}
+
+/* Links now over the tolerance make way for their children's pairs (at
+ * the end of `list`), on the threads as a round's candidates are: the
+ * verdicts, the elements the splits need in link order, the pairs at
+ * their chunks' offsets; then the links kept, in order. */
+static rad_status reweigh_links(ff_links *L, job_list *list, uint64_t *refined)
+{
+    const size_t n = L->link_count, chunks = (n + ROUND_CHUNK - 1) / ROUND_CHUNK;
+    uint8_t *verdict = malloc(n ? n : 1);
+    round_chunk *chunk = malloc((chunks ? chunks : 1) * sizeof *chunk);
+    if (!verdict || !chunk) {
+        free(verdict);
+        free(chunk);
+        rad_error("hierarchy: out of memory for %zu links", n);
+        return RAD_ERR_NOMEM;
+    }
+#pragma omp parallel for schedule(dynamic, 1)
+    for (size_t c = 0; c < chunks; c++) {
+        round_chunk *ch = &chunk[c];
+        *ch = (round_chunk){0};
+        for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n); k++) {
+            const ff_link_pair *p = &L->links[k];
+            verdict[k] = VERDICT_LINK;
+            if ((splittable(L, p->a) || splittable(L, p->b)) && over_tolerance(L, p)) {
+                verdict[k] = split_makes_elements(L, p->a, p->b) ? VERDICT_SPLIT_NEW : VERDICT_SPLIT;
+                ch->makers += verdict[k] == VERDICT_SPLIT_NEW;
+                ch->splits++;
+                ch->jobs += split_jobs(L, p->a, p->b, NULL);
+            } else {
+                ch->links++;
+            }
+        }
+    }
+    size_t total = 0, splits = 0;
+    for (size_t c = 0; c < chunks; c++) {
+        const size_t m = chunk[c].jobs;
+        chunk[c].jobs = list->count + total;
+        total += m;
+        splits += chunk[c].splits;
+    }
+    rad_status st = make_elements(L, verdict, L->links, sizeof *L->links, n, chunk, chunks);
+    if (st == RAD_OK) st = job_reserve(list, total);
+    if (st == RAD_OK) {
+#pragma omp parallel for schedule(dynamic, 1)
+        for (size_t c = 0; c < chunks; c++) {
+            size_t j = chunk[c].jobs;
+            for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n); k++)
+                if (verdict[k] >= VERDICT_SPLIT) j += split_jobs(L, L->links[k].a, L->links[k].b, list->jobs + j);
+        }
+        list->count += total;
+        keep_links(L, verdict, chunk, chunks);
+        *refined += splits;
+    }
+    free(verdict);
+    free(chunk);
+    return st;
+}
+
 rad_status ff_links_refine(ff_links *L, const double *leaf_radiosity, ff_counters *counters, uint64_t *out_refined)
 {
     job_list list = {0};
@@ -769,23 +1111,14 @@ rad_status ff_links_refine(ff_links *L, const double *leaf_radiosity, ff_counter
         for (uint32_t a = 0; a < roots && st == RAD_OK; a++)
             for (uint32_t b = a + 1; b < roots && st == RAD_OK; b++) st = job_push(&list, a, b);
     } else {
+        const double t0 = rad_clock_seconds();
         if (leaf_radiosity) set_radiosity(L, leaf_radiosity);
-        /* Links now over the tolerance make way for their children's pairs. */
-        size_t kept = 0;
-        for (size_t k = 0; k < L->link_count && st == RAD_OK; k++) {
-            ff_link_pair p = L->links[k];
-            if ((splittable(L, p.a) || splittable(L, p.b)) && over_tolerance(L, &p)) {
-                st = split_pair(L, p.a, p.b, &list);
-                refined++;
-            } else {
-                L->links[kept++] = p;
-            }
-        }
-        L->link_count = kept;
+        st = reweigh_links(L, &list, &refined);
+        L->tally.seconds_reweigh += rad_clock_seconds() - t0;
     }
     if (st == RAD_OK) st = run_rounds(L, &list, counters, &refined);
     free(list.jobs);
-    L->refined_pairs += refined;
+    L->tally.refined_pairs += refined;
     L->passes++;
     if (out_refined) *out_refined = refined;
     return st;

@@ -110,6 +110,19 @@ typedef struct ff_link_pair {
     float left_ab, left_ba;   /* g: what solve's shaped solve leaves of them (ff_oracle gather) */
 } ff_link_pair;
 
+/* What refinement did, all passes (the stats'). */
+typedef struct ff_links_tally {
+    uint64_t candidates, refined_pairs, rounds;
+    uint64_t cluster_pairs, cluster_rays; /* candidates with a cluster at an end, their segments */
+    double cluster_seconds;               /* their wall (the backend's cluster_draws) */
+    /* the rounds' wall by part: the candidates sorted into element and
+     * cluster pairs, the backend's calls (both kinds, beside each other),
+     * the decisions (links kept, pairs split, new elements), and a later
+     * pass's links re-weighed; of the last two, the new elements made
+     * (one thread, in order) */
+    double seconds_sort, seconds_backend, seconds_decide, seconds_reweigh, seconds_elements;
+} ff_links_tally;
+
 typedef struct ff_links {
     const rad_scene *scene;
     double centre[3];
@@ -137,10 +150,7 @@ typedef struct ff_links {
     double *cluster_spread;    /* per cluster: largest - smallest B of its roots' leaves (gather oracle) */
     ff_link_pair *links;
     size_t link_count, link_cap;
-    uint64_t cluster_pairs, cluster_rays; /* candidates with a cluster at an end, their segments */
-    double cluster_seconds;               /* their wall (the backend's cluster_draws) */
-    /* what refinement did, all passes */
-    uint64_t candidates, refined_pairs, rounds;
+    ff_links_tally tally;
     uint32_t passes;
 } ff_links;
 

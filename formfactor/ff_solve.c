@@ -104,6 +104,11 @@ void ff_solve_free(ff_solve *s)
 
 int ff_solve_channels(const rad_mesh *leaves) { return solve_mesh_is_grey(leaves) ? 1 : 3; }
 
+int ff_solve_flat_on_gpu(const ff_options *options, uint64_t link_count)
+{
+    return solve_links_flat_on_gpu(solve_backend_of(options->backend), 1, link_count);
+}
+
 rad_status ff_solve_links(const rad_ff_info *info, const rad_mesh *leaves, const rad_links *links,
                           const solve_links_flat *flat, const ff_options *options, int threads)
 {

@@ -55,6 +55,12 @@ void ff_solve_free(ff_solve *solve); /* NULL is fine */
 /* The channels solve solves the leaves in: 1 for a grey scene, else 3. */
 int ff_solve_channels(const rad_mesh *leaves);
 
+/* Whether solve would run the flat solve of `link_count` links on the GPU
+ * (solve_links_flat_on_gpu: --backend as solve's, one process): the last
+ * pass of formfactor --method hierarchical asks, so that --radiosity can
+ * take that solve as solve's own. */
+int ff_solve_flat_on_gpu(const ff_options *options, uint64_t link_count);
+
 /* formfactor --method hierarchical --radiosity: the links and their
  * leaves, as they would be written with `info` as the header, solved in
  * memory by solve's stage for links (solve/links.h) exactly as `solve`

@@ -1,12 +1,15 @@
 /* links.c - solve on a file of links (links.h; docs/solve.md, "On links"):
  * the options checked, the leaves' row sums judged as a matrix's rows are
  * (matrix.h: the row-sum note or warning, the refusal of rho * row sum
- * >= 1), rad_lsolve, the shaped solve (on the CPU, or the GPU: --backend),
+ * >= 1), the flat solve (rad_lsolve on the CPU, or Jacobi sweeps on the
+ * GPU: solve_links_flat_on_gpu), the shaped solve (on the CPU, or the GPU:
+ * --backend),
  * then the radiosity file of the leaves mesh and the stats, as stage.c
  * writes them for a matrix. */
 #include "links.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -56,7 +59,7 @@ static rad_status check_options(const solve_options *options, const char *input,
     }
     if (options->backend == SOLVE_BACKEND_CUDA && options->no_shape) {
         rad_info("%s: holds links, whose flat sweeps run on the CPU (--backend cuda runs the shaped solve, which "
-                 "--shape off leaves out)",
+                 "--shape off leaves out, and the flat sweeps that start it)",
                  input);
     } else if (options->backend == SOLVE_BACKEND_CUDA && !solve_gpu_built()) {
         rad_error("--backend cuda: this build of solve has no CUDA (nvcc was not found when it was configured, or "
@@ -145,6 +148,8 @@ typedef struct links_state {
     rad_lsolve_options solve;
     rad_lsolve_result result;
     rad_status solved; /* RAD_OK or RAD_ERR_NOT_CONVERGED */
+    int flat_gpu;      /* the flat solve ran on the GPU (solve_links_flat_gpu) */
+    char flat_device[128];
     int shaped;        /* the shaped solve ran (shaped.h) */
     int closure;       /* the rows balanced to 1 (rad_closure.h) */
     solve_shaped_result shape;
@@ -176,8 +181,15 @@ static rad_status judge_rows(links_state *s)
     return RAD_OK;
 }
 
-/* Where the shaped solve ran, if not on the CPU (the flat sweeps always do). */
+/* Where the shaped solve ran, if not on the CPU. */
 static int shaped_on_gpu(const links_state *s) { return s->shaped && s->shape.backend == SOLVE_SHAPED_CUDA; }
+
+/* Where the flat and the shaped solve ran, in words. */
+static const char *backend_words(const links_state *s)
+{
+    if (s->flat_gpu) return !s->shaped || shaped_on_gpu(s) ? "cuda" : "cuda, the shaped solve cpu";
+    return shaped_on_gpu(s) ? "cpu, the shaped solve cuda" : "cpu";
+}
 
 /* The channels' reports, as stage.c logs and stats.c writes them. */
 static void fill_reports(links_state *s)
@@ -188,7 +200,7 @@ static void fill_reports(links_state *s)
     for (int c = 0; c < channels; c++) {
         solve_report *rep = &s->reports[c];
         memset(rep, 0, sizeof *rep);
-        rep->method_used = s->solve.method == RAD_LSOLVE_JACOBI ? SOLVE_JACOBI : SOLVE_GAUSS_SEIDEL;
+        rep->method_used = s->solve.method == RAD_LSOLVE_JACOBI || s->flat_gpu ? SOLVE_JACOBI : SOLVE_GAUSS_SEIDEL;
         rep->iterations = r->iterations[c];
         rep->residual = r->residual[c];
         rep->converged = r->residual[c] <= s->solve.tolerance;
@@ -200,7 +212,7 @@ static void fill_reports(links_state *s)
         rep->balance = (solve_balance){NAN, NAN, NAN, NAN};
         rad_info("%s: %s: %s on links, %u iterations, residual %.3g, %.3f s, backend %s", s->input,
                  s->grey ? "grey" : rgb_names[c], solve_method_name(rep->method_used), rep->iterations,
-                 rep->residual, rep->seconds, shaped_on_gpu(s) ? "cpu, the shaped solve cuda" : "cpu");
+                 rep->residual, rep->seconds, backend_words(s));
     }
     rad_info("%s: energy%s: emitted %.9g, absorbed %.9g, escaped %.9g (imbalance %.2g)", s->input,
              s->grey ? "" : " (the channels summed)", r->emitted, r->absorbed, r->escaped, r->imbalance);
@@ -312,8 +324,8 @@ static rad_status write_outputs(const links_state *s)
         .tolerance = s->solve.tolerance,
         .max_iterations = s->solve.max_iterations,
         .load_seconds = in->load_seconds,
-        .backend = shaped_on_gpu(s) ? "cuda" : "cpu",
-        .device = shaped_on_gpu(s) ? s->shape.device : NULL,
+        .backend = shaped_on_gpu(s) || s->flat_gpu ? "cuda" : "cpu",
+        .device = shaped_on_gpu(s) ? s->shape.device : s->flat_gpu ? s->flat_device : NULL,
         .device_exact = -1,
         .total_seconds = in->load_seconds + rad_clock_seconds() - s->start,
         .converged = s->solved == RAD_OK,
@@ -329,12 +341,50 @@ static rad_status write_outputs(const links_state *s)
     return solve_comm_agree(s->options->comm, status);
 }
 
-/* Whether the flat solve handed in is the one `o` would run (from B = E,
- * converged within o's iteration limit: the same sweeps). */
-static int flat_taken(const solve_links_flat *given, const rad_lsolve_options *o)
+int solve_links_flat_on_gpu(solve_backend backend, int ranks, uint64_t link_count)
+{
+    if (backend == SOLVE_BACKEND_CUDA) return 1;
+    return backend == SOLVE_BACKEND_AUTO && ranks == 1 && link_count >= SOLVE_LINKS_FLAT_GPU_MIN_LINKS &&
+           solve_gpu_built() && solve_gpu_device_count() > 0;
+}
+
+rad_status solve_links_flat_gpu(const rad_links *links, const rad_mesh *leaves, const rad_lsolve_options *o,
+                                int device, double *B, rad_lsolve_result *out, char *device_name)
+{
+    const rad_lsolve_options defaults = rad_lsolve_defaults();
+    if (!o->warm_start)
+        for (size_t k = 0; k < leaves->patch_count; k++)
+            memcpy(&B[3 * k], leaves->patches[k].emission, 3 * sizeof *B);
+    const solve_shaped_options so = {.threads = o->threads,
+                                     .backend = SOLVE_SHAPED_CUDA,
+                                     .device = device,
+                                     .tolerance = o->tolerance > 0 ? o->tolerance : defaults.tolerance,
+                                     .max_iterations = o->max_iterations ? o->max_iterations : defaults.max_iterations,
+                                     .channels = o->channels == 1 ? 1 : 3,
+                                     .flat = 1};
+    solve_shaped_result r;
+    const rad_status st = solve_shaped(links, leaves, &so, B, &r);
+    if (st != RAD_OK && st != RAD_ERR_NOT_CONVERGED) {
+        rad_warn("the flat solve could not run on the GPU (above): it runs on the CPU");
+        return RAD_ERR_BACKEND;
+    }
+    memset(out, 0, sizeof *out);
+    for (int c = 0; c < 3; c++) out->iterations[c] = r.iterations, out->residual[c] = r.residual;
+    out->converged = r.converged;
+    out->emitted = r.emitted, out->absorbed = r.absorbed, out->escaped = r.escaped;
+    out->imbalance = r.imbalance;
+    out->seconds = r.seconds;
+    if (device_name) snprintf(device_name, 128, "%s", r.device);
+    return st;
+}
+
+/* Whether the flat solve handed in is the one `o` would run, on the GPU
+ * where `gpu` (from B = E, converged within o's iteration limit: the same
+ * sweeps). */
+static int flat_taken(const solve_links_flat *given, const rad_lsolve_options *o, int gpu)
 {
     if (!given || o->warm_start || o->closure || !given->result.converged || given->tolerance != o->tolerance ||
-        given->method != o->method || given->channels != o->channels)
+        given->method != o->method || given->channels != o->channels || !given->gpu != !gpu)
         return 0;
     for (int c = 0; c < given->channels; c++)
         if (given->result.iterations[c] > o->max_iterations) return 0;
@@ -397,13 +447,22 @@ rad_status solve_links_solve(const solve_options *options, const solve_links_inp
             rad_info("%s: closure: the scene is closed%s; every leaf's row balanced to 1 (reciprocity kept)", s.input,
                      options->closure == SOLVE_CLOSURE_ON ? " (--closure on)" : " (formfactor found it so)");
         flat.closure = s.closure && options->no_shape; /* the shaped solve balances its own operator */
-        if (flat_taken(in->flat, &flat)) {
+        const int flat_gpu = !options->no_shape && solve_links_flat_on_gpu(options->backend,
+                                                                            solve_comm_size(options->comm),
+                                                                            links->link_count);
+        if (flat_taken(in->flat, &flat, flat_gpu)) {
             memcpy(s.radiosity, in->flat->B, 3 * leaves->patch_count * sizeof *s.radiosity);
             s.result = in->flat->result;
-            rad_info("%s: flat: the last pass's solve taken as it is (to %.3g, %u sweeps)", s.input, flat.tolerance,
-                     s.result.iterations[0]);
+            s.flat_gpu = in->flat->gpu;
+            snprintf(s.flat_device, sizeof s.flat_device, "%s", in->flat->device ? in->flat->device : "");
+            rad_info("%s: flat: the last pass's solve taken as it is (to %.3g, %u sweeps%s)", s.input, flat.tolerance,
+                     s.result.iterations[0], s.flat_gpu ? ", Jacobi on the GPU" : "");
         } else {
-            status = rad_lsolve(links, leaves, &flat, s.radiosity, &s.result);
+            status = flat_gpu ? solve_links_flat_gpu(links, leaves, &flat, solve_comm_rank(options->comm),
+                                                     s.radiosity, &s.result, s.flat_device)
+                              : RAD_ERR_BACKEND;
+            s.flat_gpu = status == RAD_OK || status == RAD_ERR_NOT_CONVERGED;
+            if (status == RAD_ERR_BACKEND) status = rad_lsolve(links, leaves, &flat, s.radiosity, &s.result);
         }
         if (status == RAD_OK) status = shape(&s);
     }

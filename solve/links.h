@@ -10,8 +10,9 @@
  * the residual being max |E + rho sum F B - B| over the leaves, over
  * ||E||_inf; --backend: where the shaped solve runs (cuda: the GPU,
  * refused without one; auto: the GPU for one process from
- * SOLVE_SHAPED_GPU_MIN_WEIGHTS point factors, shaped.h), the flat sweeps
- * being the CPU's; threads: OpenMP's default (OMP_NUM_THREADS). --errors
+ * SOLVE_SHAPED_GPU_MIN_WEIGHTS point factors, shaped.h), and with it the
+ * flat sweeps that start it (solve_links_flat_on_gpu; --shape off keeps
+ * them on the CPU); threads: OpenMP's default (OMP_NUM_THREADS). --errors
  * does not apply (each link carries its own error bound) and --by-group
  * is not available yet: both are refused before anything is solved.
  *
@@ -32,17 +33,39 @@
  * solve_links_solve. The file stays open (the caller closes it). */
 rad_status solve_links_run(const solve_options *options, rad_ff_file *file);
 
-/* A flat solve already run on the links from B = E (rad_lsolve, the
- * channels as solve_mesh_is_grey says), which solve_links_solve takes as
- * its own where it converged to the tolerance and by the method the solve
- * would use: the same sweeps, so the same bytes, run once (formfactor
- * --radiosity's last pass). */
+/* The flat solve that starts the shaped one runs on the GPU where
+ * --backend cuda asks for it, or under auto for one process from this many
+ * links up where a GPU is visible: the flat operator's Jacobi sweeps,
+ * 16 bytes a link on the GPU (solve_links_flat_gpu), against Gauss-Seidel on
+ * the CPU's threads (the 10^6-triangle interior's 410 M links: docs/
+ * performance.md). formfactor's last pass asks the same question, so that
+ * --radiosity's flat solve is the one solve would run on the file. */
+#define SOLVE_LINKS_FLAT_GPU_MIN_LINKS ((uint64_t)4 << 20)
+int solve_links_flat_on_gpu(solve_backend backend, int ranks, uint64_t link_count);
+
+/* rad_lsolve's problem (o: tolerance, iterations, channels, threads,
+ * warm_start; not closure) solved by Jacobi sweeps on GPU `device` (mod the
+ * devices) into B and *out; device_name (128 bytes, may be NULL) gets the
+ * GPU's name. RAD_ERR_NOT_CONVERGED as rad_lsolve; RAD_ERR_BACKEND (a
+ * warning logged) where the GPU cannot run it, B then untouched (the caller
+ * solves on the CPU). */
+rad_status solve_links_flat_gpu(const rad_links *links, const rad_mesh *leaves, const rad_lsolve_options *o,
+                                int device, double *B, rad_lsolve_result *out, char *device_name);
+
+/* A flat solve already run on the links from B = E (rad_lsolve, or
+ * solve_links_flat_gpu where `gpu`; the channels as solve_mesh_is_grey
+ * says), which solve_links_solve takes as its own where it converged to
+ * the tolerance, by the method and on the device the solve would use: the
+ * same sweeps, so the same bytes, run once (formfactor --radiosity's last
+ * pass). */
 typedef struct solve_links_flat {
     const double *B; /* 3 per leaf */
     rad_lsolve_result result;
     double tolerance;
     rad_lsolve_method method;
     int channels; /* 1 or 3 */
+    int gpu;      /* solved by solve_links_flat_gpu */
+    const char *device; /* there: the GPU's name */
 } solve_links_flat;
 
 /* The links, as read, and where they came from. */

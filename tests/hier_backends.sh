@@ -11,7 +11,7 @@
 #   clusters: --clusters on, the cluster links traced on the CPU beside
 #             the GPU's pairs: the same bars.
 # The stats must say "backend": "cuda". The passes' flat solves on the
-# GPU (below). And --backend auto: the CPU where
+# GPU (below), the last one's too. And --backend auto: the CPU where
 # the leaves may reach fewer than 4096 a thread (--subdiv 2 on 2 threads:
 # 46 faces x 16), the GPU from there (--subdiv 6: 46 x 4096), as its log
 # and stats say. Skipped (77) without a GPU.
@@ -47,7 +47,7 @@ grep -q '"backend": "cpu"' auto_small.json && grep -q -- '--backend auto: the CP
 "$ff" "$scene" --method hierarchical --subdiv 6 --threads 2 --link-tol 0.1 --passes 1 -q -o auto_large.ff \
   --stats auto_large.json || { echo "FAIL: auto, large"; fail=1; }
 grep -q '"backend": "cuda"' auto_large.json || { echo "FAIL: auto did not take the GPU above its bound"; fail=1; }
-# The passes' flat solves on the GPU (solve_flat_gpu: the flat operator's
+# The passes' flat solves on the GPU (solve_links_flat_gpu: the flat operator's
 # Jacobi there, from 4 M links by default; RAD_FF_GPU_SOLVE_LINKS=1 here):
 # the stats count them, and the links and solution agree with the CPU's.
 export RAD_FF_GPU_SOLVE_LINKS=1
@@ -55,5 +55,20 @@ check gpu_solves 1e-3 --subdiv 3 --uniform-leaves --link-tol 1e-2 --passes 3
 unset RAD_FF_GPU_SOLVE_LINKS
 grep -Eq '"gpu_solves": [1-9]' gpu_solves.cuda.json || { echo "FAIL: no oracle solve was on the GPU"; fail=1; }
 grep -q '"gpu_solves": 0' gpu_solves.cpu.json || { echo "FAIL: the CPU backend's solves went to the GPU"; fail=1; }
+# The last pass's flat solve where solve runs it on the file (--backend
+# cuda: Jacobi on the GPU in both), so that --radiosity is still the bytes
+# of formfactor, then solve, and says it took the GPU's solve (--passes 2:
+# the last pass's leaves are new, so it solves from B = E; a warm solve is
+# not handed over).
+"$ff" "$scene" --method hierarchical --backend cuda --subdiv 3 --link-tol 1e-2 --passes 2 -q -o last.ff ||
+  { echo "FAIL: last pass: formfactor"; fail=1; }
+"$solve" last.ff --backend cuda -o last.file.rad 2> last.solve.log || { echo "FAIL: last pass: solve"; fail=1; }
+"$ff" "$scene" --method hierarchical --backend cuda --subdiv 3 --link-tol 1e-2 --passes 2 --radiosity last.mem.rad \
+  2> last.mem.log || { echo "FAIL: last pass: --radiosity"; fail=1; }
+cmp last.file.rad last.mem.rad || { echo "FAIL: --radiosity differs from the two stages on the GPU"; fail=1; }
+grep -q 'taken as it is (.*Jacobi on the GPU)' last.mem.log ||
+  { echo "FAIL: --radiosity did not take the last pass's GPU solve"; cat last.mem.log; fail=1; }
+grep -q 'on links, .*backend cuda$' last.solve.log ||
+  { echo "FAIL: solve's flat sweeps did not run on the GPU"; cat last.solve.log; fail=1; }
 [ "$fail" -eq 0 ] && echo "hierarchical links: the CUDA backend agrees with the CPU's; auto takes each where it should"
 exit "$fail"
