@@ -92,17 +92,21 @@ static double *leaf_row_sums(const rad_links *L)
         free(root_cluster);
         return NULL;
     }
+    /* each id's own links, summed in order on the threads; then down the trees */
+#pragma omp parallel for schedule(dynamic, 1024)
+    for (uint64_t i = 0; i < ids; i++) {
+        double s = 0;
+        for (uint64_t k = L->first_link[i]; k < L->first_link[i + 1]; k++) s += L->links[k].factor;
+        id[i] = s;
+    }
     for (uint32_t c = 0; c < L->cluster_count; c++) { /* down the cluster tree */
         const rad_link_cluster *k = &L->clusters[c];
-        double s = 0;
-        for (uint64_t j = L->first_link[n + c]; j < L->first_link[n + c + 1]; j++) s += L->links[j].factor;
-        id[n + c] = s + (k->parent != RAD_NO_ELEMENT ? id[n + k->parent] : 0);
+        id[n + c] += k->parent != RAD_NO_ELEMENT ? id[n + k->parent] : 0;
         if (k->child_count == 0)
             for (uint32_t q = k->root_begin; q < k->root_end; q++) root_cluster[L->cluster_roots[q]] = c;
     }
     for (uint32_t i = 0; i < n; i++) {
-        double s = 0;
-        for (uint64_t k = L->first_link[i]; k < L->first_link[i + 1]; k++) s += L->links[k].factor;
+        const double s = id[i];
         uint32_t up = L->nodes[i].parent;
         if (up == RAD_NO_ELEMENT && root_cluster) up = n + root_cluster[i];
         id[i] = s + (up != RAD_NO_ELEMENT ? id[up] : 0);
@@ -118,6 +122,7 @@ static uint64_t cluster_link_count(const rad_links *L)
 {
     const uint32_t n = L->node_count;
     uint64_t count = L->first_link[rad_links_id_count(L)] - L->first_link[n];
+#pragma omp parallel for schedule(static) reduction(+ : count)
     for (uint64_t k = 0; k < L->first_link[n]; k++) count += L->links[k].source >= n;
     return count;
 }
