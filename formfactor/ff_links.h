@@ -13,12 +13,14 @@
  *
  * Refinement goes in rounds, breadth first (Meyer et al. 2009): a round's
  * candidate pairs are computed together by the backend (compute_pairs,
- * any thread count), then decided one after another in list order: a
- * pair whose estimate meets the tolerance becomes a link, any other is
- * replaced by its children's pairs in the next round (the larger element
- * split, both where their areas are within 2x). Deciding in order makes
- * the elements, their numbering and the links the same for any number of
- * threads, ranks or backends. A candidate's estimate is its coupling c
+ * any thread count), then decided: a pair whose estimate meets the
+ * tolerance becomes a link, any other is replaced by its children's pairs
+ * in the next round (the larger element split, both where their areas are
+ * within 2x). The decisions run on the threads by chunks with the result
+ * of deciding in list order (the elements a split makes, one thread in
+ * that order; the links and pairs at the chunks' offsets), so the elements,
+ * their numbering and the links are the same for any number of threads,
+ * ranks or backends. A candidate's estimate is its coupling c
  * and, per direction, the error e of F (the spread of the point-to-element
  * factor over the receiver's corners and centre, the partial-visibility
  * term and the quadrature's error); the oracle weighs it (ff_oracle).
