@@ -403,22 +403,6 @@ typedef struct job_list {
     size_t count, cap;
 } job_list;
 
-static rad_status job_push(job_list *l, uint32_t a, uint32_t b)
-{
-    if (l->count == l->cap) {
-        size_t cap = l->cap ? 2 * l->cap : 1024;
-        ff_pair_job *j = realloc(l->jobs, cap * sizeof *j);
-        if (!j) {
-            rad_error("hierarchy: out of memory for %zu candidate pairs", cap);
-            return RAD_ERR_NOMEM;
-        }
-        l->jobs = j;
-        l->cap = cap;
-    }
-    l->jobs[l->count++] = (ff_pair_job){a < b ? a : b, a < b ? b : a, 1};
-    return RAD_OK;
-}
-
 /* A cluster whose faces face apart (normals beyond config.cluster_cone of
  * their mean): one irradiance for all of them would give faces turned away
  * from a source its light and the faces facing it too little (a table's
@@ -551,20 +535,39 @@ static size_t split_jobs(const ff_links *L, uint32_t a, uint32_t b, ff_pair_job 
     return n;
 }
 
+/* Room for `need` items of `size` bytes in `array` (capacity *cap,
+ * doubled from 1024 until it holds them): *out is the array, moved where
+ * it grew (logged and untouched for lack of memory). */
+static rad_status grow(void *array, size_t *cap, size_t need, size_t size, const char *what, void **out)
+{
+    *out = array;
+    if (need <= *cap) return RAD_OK;
+    size_t c = *cap ? *cap : 1024;
+    while (c < need) c *= 2;
+    void *q = realloc(array, c * size);
+    if (!q) {
+        rad_error("hierarchy: out of memory for %zu %s", c, what);
+        return RAD_ERR_NOMEM;
+    }
+    *out = q;
+    *cap = c;
+    return RAD_OK;
+}
+
 /* Room in `l` for `more` pairs past its count. */
 static rad_status job_reserve(job_list *l, size_t more)
 {
-    if (l->count + more <= l->cap) return RAD_OK;
-    size_t cap = l->cap ? l->cap : 1024;
-    while (cap < l->count + more) cap *= 2;
-    ff_pair_job *j = realloc(l->jobs, cap * sizeof *j);
-    if (!j) {
-        rad_error("hierarchy: out of memory for %zu candidate pairs", cap);
-        return RAD_ERR_NOMEM;
-    }
-    l->jobs = j;
-    l->cap = cap;
-    return RAD_OK;
+    void *jobs;
+    const rad_status st = grow(l->jobs, &l->cap, l->count + more, sizeof *l->jobs, "candidate pairs", &jobs);
+    l->jobs = jobs;
+    return st;
+}
+
+static rad_status job_push(job_list *l, uint32_t a, uint32_t b)
+{
+    const rad_status st = job_reserve(l, 1);
+    if (st == RAD_OK) put_job(l->jobs, &l->count, a, b);
+    return st;
 }
 
 /* ---- pairs with a cluster at an end ---- */
@@ -784,17 +787,10 @@ static void write_round(ff_links *L, const round_state *r, job_list *next)
 /* Room for `more` links past link_count. */
 static rad_status link_reserve(ff_links *L, size_t more)
 {
-    if (L->link_count + more <= L->link_cap) return RAD_OK;
-    size_t cap = L->link_cap ? L->link_cap : 1024;
-    while (cap < L->link_count + more) cap *= 2;
-    ff_link_pair *q = realloc(L->links, cap * sizeof *q);
-    if (!q) {
-        rad_error("hierarchy: out of memory for %zu links", cap);
-        return RAD_ERR_NOMEM;
-    }
-    L->links = q;
-    L->link_cap = cap;
-    return RAD_OK;
+    void *links;
+    const rad_status st = grow(L->links, &L->link_cap, L->link_count + more, sizeof *L->links, "links", &links);
+    L->links = links;
+    return st;
 }
 
 /* A round's verdicts into links, new elements and the next round's pairs
