@@ -219,17 +219,14 @@ done:
 /* The clusters (after the nodes): the tree, then each cluster's links. */
 static rad_status check_clusters(const rad_links *links, const char *what)
 {
-    rad_status status = rad_links_check_cluster_tree(links, what);
-    const uint64_t n = links->node_count, bad = status == RAD_OK ? first_links_fault(links, n, n + links->cluster_count)
-                                                                  : n + links->cluster_count;
-    if (bad < n + links->cluster_count) {
-        uint64_t bad_link;
-        const char *why = links_fault(links, (uint32_t)bad, &bad_link);
-        rad_error("%s: cluster %llu: link %llu: %s", what, (unsigned long long)(bad - n), (unsigned long long)bad_link,
-                  why);
-        status = RAD_ERR_FORMAT;
-    }
-    return status;
+    const rad_status status = rad_links_check_cluster_tree(links, what);
+    if (status != RAD_OK) return status;
+    const uint64_t n = links->node_count, end = n + links->cluster_count, bad = first_links_fault(links, n, end);
+    if (bad == end) return RAD_OK;
+    uint64_t bad_link;
+    const char *why = links_fault(links, (uint32_t)bad, &bad_link);
+    rad_error("%s: cluster %llu: link %llu: %s", what, (unsigned long long)(bad - n), (unsigned long long)bad_link, why);
+    return RAD_ERR_FORMAT;
 }
 
 rad_status rad_links_check(const rad_links *links, size_t vertex_count, const char *what)

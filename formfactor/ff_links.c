@@ -472,21 +472,6 @@ static rad_status split_elements(ff_links *L, uint32_t a, uint32_t b)
     return st;
 }
 
-/* Whether the split of (a, b) makes elements (an end to split that has
- * no children yet): only those splits need the one thread, in order. */
-static int split_makes_elements(const ff_links *L, uint32_t a, uint32_t b)
-{
-    if (ff_is_cluster(a) || ff_is_cluster(b)) {
-        if (a == b) return 0;
-        const uint32_t side = cluster_side(L, a, b);
-        return !ff_is_cluster(side) && L->tree.elements[side].first_child == RAD_NO_ELEMENT;
-    }
-    int sa, sb;
-    element_sides(L, a, b, &sa, &sb);
-    return (sa && L->tree.elements[a].first_child == RAD_NO_ELEMENT) ||
-           (sb && L->tree.elements[b].first_child == RAD_NO_ELEMENT);
-}
-
 static void put_job(ff_pair_job *out, size_t *n, uint32_t a, uint32_t b)
 {
     if (out) out[*n] = (ff_pair_job){a < b ? a : b, a < b ? b : a, 1};
@@ -495,10 +480,12 @@ static void put_job(ff_pair_job *out, size_t *n, uint32_t a, uint32_t b)
 
 /* The children's pairs that replace (a, b), in order, into out (NULL:
  * only counted); the count. Once split_elements has run, where out is
- * given. */
-static size_t split_jobs(const ff_links *L, uint32_t a, uint32_t b, ff_pair_job *out)
+ * given. *makes (may be NULL): whether the split makes elements (an end to
+ * split without children yet), which only the one thread may do. */
+static size_t split_jobs(const ff_links *L, uint32_t a, uint32_t b, ff_pair_job *out, int *makes)
 {
     size_t n = 0;
+    if (makes) *makes = 0;
     if (ff_is_cluster(a) || ff_is_cluster(b)) {
         if (a == b) {
             const rad_link_cluster *c = &L->clusters.clusters[ff_cluster_of(a)].link;
@@ -522,14 +509,18 @@ static size_t split_jobs(const ff_links *L, uint32_t a, uint32_t b, ff_pair_job 
                 for (uint32_t i = c->root_begin; i < c->root_end; i++) put_job(out, &n, L->clusters.roots[i], other);
             return n;
         }
-        const uint32_t first = out ? L->tree.elements[side].first_child : 0;
+        const uint32_t first = L->tree.elements[side].first_child;
+        if (makes) *makes = first == RAD_NO_ELEMENT;
         for (uint32_t i = 0; i < 4; i++) put_job(out, &n, first + i, other);
         return n;
     }
     int sa, sb;
     element_sides(L, a, b, &sa, &sb);
-    const uint32_t ca = sa && out ? L->tree.elements[a].first_child : a;
-    const uint32_t cb = sb && out ? L->tree.elements[b].first_child : b;
+    if (makes)
+        *makes = (sa && L->tree.elements[a].first_child == RAD_NO_ELEMENT) ||
+                 (sb && L->tree.elements[b].first_child == RAD_NO_ELEMENT);
+    const uint32_t ca = sa ? L->tree.elements[a].first_child : a;
+    const uint32_t cb = sb ? L->tree.elements[b].first_child : b;
     for (uint32_t i = 0; i < (sa ? 4u : 1u); i++)
         for (uint32_t j = 0; j < (sb ? 4u : 1u); j++) put_job(out, &n, ca + i, cb + j);
     return n;
@@ -622,7 +613,7 @@ static void *element_pairs_thread(void *arg)
 static size_t chunk_begin(size_t c, size_t n) { return c * ROUND_CHUNK < n ? c * ROUND_CHUNK : n; }
 
 /* A candidate's verdict: no link (not facing), a link, a split, or a
- * split that makes elements (split_makes_elements). */
+ * split that makes elements (split_jobs' makes). */
 enum { VERDICT_NONE = 0, VERDICT_LINK = 1, VERDICT_SPLIT = 2, VERDICT_SPLIT_NEW = 3 };
 
 typedef struct round_chunk {
@@ -631,22 +622,30 @@ typedef struct round_chunk {
     size_t splits, makers, near, element_splits, cluster_links; /* makers: its VERDICT_SPLIT_NEW */
 } round_chunk;
 
-/* (2): the elements that the splits of chunks [0, chunk_count) of pairs
- * (stride bytes apart, each beginning with its uint32_t ends a, b) need,
- * made in order; their patches, keys and values after. */
-static rad_status make_elements(ff_links *L, const uint8_t *verdict, const void *pairs, size_t stride, size_t n,
-                                const round_chunk *chunks, size_t chunk_count)
+/* (1) of a split (a, b): counted into its chunk, its verdict returned. */
+static uint8_t split_verdict(const ff_links *L, uint32_t a, uint32_t b, round_chunk *ch)
+{
+    int makes;
+    ch->splits++;
+    ch->jobs += split_jobs(L, a, b, NULL, &makes);
+    ch->makers += makes;
+    return makes ? VERDICT_SPLIT_NEW : VERDICT_SPLIT;
+}
+
+/* (2): the elements that the splits of chunks [0, chunk_count) need, made
+ * in order; their patches, keys and values after. The pairs: a round's
+ * candidates (jobs) or a pass's links (links), the other NULL. */
+static rad_status make_elements(ff_links *L, const uint8_t *verdict, const ff_pair_job *jobs,
+                                const ff_link_pair *links, size_t n, const round_chunk *chunks, size_t chunk_count)
 {
     const double t0 = rad_clock_seconds();
     const size_t before = L->tree.element_count;
     rad_status st = RAD_OK;
     for (size_t c = 0; c < chunk_count && st == RAD_OK; c++) {
         if (!chunks[c].makers) continue;
-        for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n) && st == RAD_OK; k++) {
-            if (verdict[k] != VERDICT_SPLIT_NEW) continue;
-            const uint32_t *ab = (const uint32_t *)((const char *)pairs + k * stride);
-            st = split_elements(L, ab[0], ab[1]);
-        }
+        for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n) && st == RAD_OK; k++)
+            if (verdict[k] == VERDICT_SPLIT_NEW)
+                st = jobs ? split_elements(L, jobs[k].a, jobs[k].b) : split_elements(L, links[k].a, links[k].b);
     }
     if (st == RAD_OK && L->tree.element_count > before) st = elements_added(L, before);
     L->tally.seconds_elements += rad_clock_seconds() - t0;
@@ -752,18 +751,18 @@ static void decide_round(const ff_links *L, round_state *r)
                 ch->links++;
                 ch->cluster_links += clustered;
             } else if (v == VERDICT_SPLIT) {
-                ch->splits++;
                 ch->near += clustered && r->cout[kc].must_split;
                 ch->element_splits += !clustered;
-                ch->jobs += split_jobs(L, a, b, NULL);
-                if (split_makes_elements(L, a, b)) r->verdict[k] = VERDICT_SPLIT_NEW, ch->makers++;
+                r->verdict[k] = split_verdict(L, a, b, ch);
             }
             clustered ? kc++ : ke++;
         }
     }
 }
 
-/* (3): the links and the next round's pairs, at their chunks' offsets. */
+/* (3): the links and the next round's pairs, at their chunks' offsets. A
+ * link's estimate is worked out again from its outcome rather than kept
+ * from (1): keeping it would cost 32 bytes a candidate beside the links. */
 static void write_round(ff_links *L, const round_state *r, job_list *next)
 {
     const size_t n = r->list->count;
@@ -777,7 +776,7 @@ static void write_round(ff_links *L, const round_state *r, job_list *next)
             if (r->verdict[k] == VERDICT_LINK) {
                 candidate_verdict(L, r, k, ke, kc, &L->links[link++]);
             } else if (r->verdict[k] >= VERDICT_SPLIT) {
-                job += split_jobs(L, a, b, next->jobs + job);
+                job += split_jobs(L, a, b, next->jobs + job, NULL);
             }
             clustered ? kc++ : ke++;
         }
@@ -806,8 +805,7 @@ static rad_status apply_round(ff_links *L, round_state *r, job_list *next, round
         total->splits += ch->splits, total->near += ch->near;
         total->element_splits += ch->element_splits, total->cluster_links += ch->cluster_links;
     }
-    rad_status st = make_elements(L, r->verdict, r->list->jobs, sizeof *r->list->jobs, r->list->count, r->chunks,
-                                  r->chunk_count);
+    rad_status st = make_elements(L, r->verdict, r->list->jobs, NULL, r->list->count, r->chunks, r->chunk_count);
     next->count = 0;
     if (st == RAD_OK) st = link_reserve(L, total->links);
     if (st == RAD_OK) st = job_reserve(next, total->jobs);
@@ -823,15 +821,15 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
 {
     rad_status st = RAD_OK;
     round_state r = {.list = list};
-    size_t cap = 0, chunk_cap = 0;
+    size_t verdict_cap = 0, chunk_cap = 0;
     job_list next = {0}, pairs = {0}, cpairs = {0};
     while (st == RAD_OK && list->count > 0) {
         const size_t n = list->count;
         r.chunk_count = (n + ROUND_CHUNK - 1) / ROUND_CHUNK;
-        if (n > cap) {
+        if (n > verdict_cap) {
             free(r.verdict);
             r.verdict = malloc(n);
-            cap = r.verdict ? n : 0;
+            verdict_cap = r.verdict ? n : 0;
         }
         if (r.chunk_count > chunk_cap) {
             free(r.chunks);
@@ -1005,16 +1003,14 @@ int ff_links_leaf_radiosity(const ff_links *L, double *B)
  * and then copied down to its place, which lies below every link not yet
  * read. chunks[c].links: the links chunk c keeps. */
 #define KEEP_WINDOW 64 /* chunks: a 32 MiB buffer */
-static void keep_links(ff_links *L, const uint8_t *verdict, round_chunk *chunks, size_t chunk_count)
+static rad_status keep_links(ff_links *L, const uint8_t *verdict, round_chunk *chunks, size_t chunk_count)
 {
     const size_t n = L->link_count;
     ff_link_pair *buffer = malloc((size_t)KEEP_WINDOW * ROUND_CHUNK * sizeof *buffer);
     size_t kept = 0;
-    if (!buffer) { /* one thread, in place */
-        for (size_t k = 0; k < n; k++)
-            if (verdict[k] < VERDICT_SPLIT) L->links[kept++] = L->links[k];
-        L->link_count = kept;
-        return;
+    if (!buffer) {
+        rad_error("hierarchy: out of memory for the links kept");
+        return RAD_ERR_NOMEM;
     }
     for (size_t w = 0; w < chunk_count; w += KEEP_WINDOW) {
         const size_t end = w + KEEP_WINDOW < chunk_count ? w + KEEP_WINDOW : chunk_count;
@@ -1036,6 +1032,7 @@ static void keep_links(ff_links *L, const uint8_t *verdict, round_chunk *chunks,
     }
     free(buffer);
     L->link_count = kept;
+    return RAD_OK;
 }
 
 /* Links now over the tolerance make way for their children's pairs (at
@@ -1059,15 +1056,9 @@ static rad_status reweigh_links(ff_links *L, job_list *list, uint64_t *refined)
         *ch = (round_chunk){0};
         for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n); k++) {
             const ff_link_pair *p = &L->links[k];
-            verdict[k] = VERDICT_LINK;
-            if ((splittable(L, p->a) || splittable(L, p->b)) && over_tolerance(L, p)) {
-                verdict[k] = split_makes_elements(L, p->a, p->b) ? VERDICT_SPLIT_NEW : VERDICT_SPLIT;
-                ch->makers += verdict[k] == VERDICT_SPLIT_NEW;
-                ch->splits++;
-                ch->jobs += split_jobs(L, p->a, p->b, NULL);
-            } else {
-                ch->links++;
-            }
+            const int split = (splittable(L, p->a) || splittable(L, p->b)) && over_tolerance(L, p);
+            verdict[k] = split ? split_verdict(L, p->a, p->b, ch) : VERDICT_LINK;
+            ch->links += !split;
         }
     }
     size_t total = 0, splits = 0;
@@ -1077,17 +1068,17 @@ static rad_status reweigh_links(ff_links *L, job_list *list, uint64_t *refined)
         total += m;
         splits += chunk[c].splits;
     }
-    rad_status st = make_elements(L, verdict, L->links, sizeof *L->links, n, chunk, chunks);
+    rad_status st = make_elements(L, verdict, NULL, L->links, n, chunk, chunks);
     if (st == RAD_OK) st = job_reserve(list, total);
     if (st == RAD_OK) {
 #pragma omp parallel for schedule(dynamic, 1)
         for (size_t c = 0; c < chunks; c++) {
             size_t j = chunk[c].jobs;
             for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n); k++)
-                if (verdict[k] >= VERDICT_SPLIT) j += split_jobs(L, L->links[k].a, L->links[k].b, list->jobs + j);
+                if (verdict[k] >= VERDICT_SPLIT) j += split_jobs(L, L->links[k].a, L->links[k].b, list->jobs + j, NULL);
         }
         list->count += total;
-        keep_links(L, verdict, chunk, chunks);
+        st = keep_links(L, verdict, chunk, chunks);
         *refined += splits;
     }
     free(verdict);
