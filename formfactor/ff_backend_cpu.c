@@ -25,10 +25,12 @@
 #include "rad_clock.h"
 #include "rad_log.h"
 
-/* The tracer the shared per-pair procedure (rad_ff_pair.h) calls. */
+/* The tracer the shared per-pair procedure (rad_ff_pair.h) calls: one per
+ * thread, for its occluder cache (last: ff_bvh_occluded_cached). */
 typedef struct cpu_tracer {
     const ff_bvh *bvh;
     double delta;
+    uint32_t *last;
 } cpu_tracer;
 
 /* One shadow segment x -> y: 1 if something other than faces a and b is
@@ -37,7 +39,7 @@ static int cpu_occluded(const cpu_tracer *t, rad_vec3 x, rad_vec3 nx, uint32_t a
                         uint32_t b)
 {
     ff_segment seg = ff_segment_make(x, nx, a, y, ny, b, t->delta);
-    return ff_bvh_occluded(t->bvh->nodes, t->bvh->tris, t->bvh->root, t->bvh->root_count, &seg);
+    return ff_bvh_occluded_cached(t->bvh->nodes, t->bvh->tris, t->bvh->root, t->bvh->root_count, &seg, t->last);
 }
 
 #define RAD_FF_TRACER cpu_tracer
@@ -94,7 +96,8 @@ static void compute_row(const cpu_state *s, uint32_t i, double *row, double *err
     const ff_setup *su = &s->setup;
     const rad_ff_patch *pi = &su->patches[i];
     rad_ff_pair_params pp = ff_pair_params(su);
-    cpu_tracer tracer = {&s->bvh, su->ray_delta};
+    uint32_t last = FF_BVH_NO_HIT;
+    cpu_tracer tracer = {&s->bvh, su->ray_delta, &last};
     long long t0 = rad_clock_ns(), ray_ticks = 0;
     for (uint32_t j = 0; j < su->patch_count; j++) {
         row[j] = 0;
@@ -183,9 +186,10 @@ static rad_status cpu_compute_pairs(void *state, const rad_ff_patch *patches, co
     rules.pairs_once = 0;
     rules.reuse_old = NULL;
     rad_ff_pair_params pp = ff_pair_params(su);
-    cpu_tracer tracer = {&s->bvh, su->ray_delta};
 #pragma omp parallel num_threads(su->threads)
     {
+        uint32_t last = FF_BVH_NO_HIT;
+        cpu_tracer tracer = {&s->bvh, su->ray_delta, &last};
         ff_counters c = {0};
         long long t0 = rad_clock_ns(), ray_ticks = 0;
 #pragma omp for schedule(dynamic, 16)

@@ -35,20 +35,31 @@ extern "C" {
 #include "ff_cuda_records.h"
 #include "rad_cuda_check.h"
 
-/* The tracer the shared per-pair procedure calls: the flat BVH. */
+/* The tracer the shared per-pair procedure calls: the flat BVH, and the
+ * calling thread's occluder cache (last: ff_bvh_occluded_cached; set by
+ * cuda_thread_tracer). */
 struct cuda_tracer {
     const ff_bvh_node *nodes;
     const ff_bvh_tri *tris;
     int32_t root;
     uint32_t root_count;
     double delta; /* ff_segment */
+    uint32_t *last;
 };
 
 static inline RAD_HD int cuda_occluded(const cuda_tracer *t, rad_vec3 x, rad_vec3 nx, uint32_t a, rad_vec3 y,
                                        rad_vec3 ny, uint32_t b)
 {
     ff_segment seg = ff_segment_make(x, nx, a, y, ny, b, t->delta);
-    return ff_bvh_occluded(t->nodes, t->tris, t->root, t->root_count, &seg);
+    return ff_bvh_occluded_cached(t->nodes, t->tris, t->root, t->root_count, &seg, t->last);
+}
+
+/* The kernel's tracer with this thread's cache *last. */
+static inline RAD_HD cuda_tracer cuda_thread_tracer(cuda_tracer t, uint32_t *last)
+{
+    *last = FF_BVH_NO_HIT;
+    t.last = last;
+    return t;
 }
 
 static inline RAD_HD long long cuda_ticks(void)
@@ -339,7 +350,9 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_p
         uint32_t t = cuda_listed_pair(p, g.group, &i, &j, &v);
         rad_ff_pair_params pp = cuda_lane_params(p.pair, g.lane, p.lanes);
         rad_ff_pair_result r;
-        rad_ff_pair_compute(&pp, &p.patches[i], &p.patches[j], i, j, v == FF_PAIR_TRACED ? &p.tracer : NULL, &r);
+        uint32_t last;
+        const cuda_tracer tracer = cuda_thread_tracer(p.tracer, &last);
+        rad_ff_pair_compute(&pp, &p.patches[i], &p.patches[j], i, j, v == FF_PAIR_TRACED ? &tracer : NULL, &r);
         if (g.lane == 0) {
             p.out[t] = r.coupling;
             if (p.errors) p.errors[t] = r.error;
@@ -409,7 +422,9 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_RAY_MIN_BLOCKS) 
         rad_ff_quad_result g0;
         g0.g = rp.g, g0.error = rp.error, g0.points = 0, g0.cells = 0, g0.capped = (int)rp.capped;
         rad_ff_pair_result r = {0};
-        rad_ff_pair_quad_finish(&pp, &p.patches[i], &p.patches[j], i, j, &g0, &p.tracer, &r);
+        uint32_t last;
+        const cuda_tracer tracer = cuda_thread_tracer(p.tracer, &last);
+        rad_ff_pair_quad_finish(&pp, &p.patches[i], &p.patches[j], i, j, &g0, &tracer, &r);
         if (g.lane == 0) {
             p.out[rp.t] = r.coupling;
             if (p.errors) p.errors[rp.t] = r.error;
@@ -474,8 +489,10 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_l
         const ff_pair_verdict v = (ff_pair_verdict)p.out[k].verdict;
         rad_ff_pair_params pp = cuda_lane_params(p.pair, g.lane, p.lanes);
         rad_ff_pair_result r;
+        uint32_t last;
+        const cuda_tracer tracer = cuda_thread_tracer(p.tracer, &last);
         rad_ff_pair_compute(&pp, &p.patches[job.a], &p.patches[job.b], p.keys[job.a], p.keys[job.b],
-                            v == FF_PAIR_TRACED ? &p.tracer : NULL, &r);
+                            v == FF_PAIR_TRACED ? &tracer : NULL, &r);
         if (g.lane == 0) {
             ff_pair_outcome *o = &p.out[k];
             o->coupling = r.coupling;
@@ -695,6 +712,7 @@ static rad_status run_kernels(cuda_state *s, uint32_t row_begin, uint32_t row_co
     p.tracer.root = s->root;
     p.tracer.root_count = s->root_count;
     p.tracer.delta = su->ray_delta;
+    p.tracer.last = NULL; /* each thread's own: cuda_thread_tracer */
     p.pair = ff_pair_params(su);
     p.rules = ff_pair_rules_make(su, s->d_patches, s->d_nodes, s->d_tris, s->root, s->root_count);
     p.rules.reuse_old = NULL; /* this backend computes every pair (ff_setup.reuse_old) */
@@ -941,6 +959,7 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
     p.tracer.root = s->root;
     p.tracer.root_count = s->root_count;
     p.tracer.delta = su->ray_delta;
+    p.tracer.last = NULL; /* each thread's own: cuda_thread_tracer */
     p.pair = ff_pair_params(su);
     p.rules = ff_pair_rules_make(su, s->elements.patches, s->d_nodes, s->d_tris, s->root, s->root_count);
     p.rules.pairs_once = 0;
@@ -1041,6 +1060,7 @@ static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, cons
     t.root = s->root;
     t.root_count = s->root_count;
     t.delta = s->setup.ray_delta;
+    t.last = NULL; /* ff_cluster_pair keeps its own */
     ff_cluster_draws_kernel<<<(unsigned)((count + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK>>>(
         dv, t, s->d_cluster_jobs, (uint32_t)count, s->d_drawn);
     RAD_CUDA_TRY(cudaGetLastError());

@@ -172,20 +172,27 @@ static inline RAD_HD int ff_bvh_hit_box(const float lo[3], const float hi[3], co
     return ff_bvh_hit_box_before(lo, hi, o, inv_d, 1.0f);
 }
 
-static inline RAD_HD int ff_bvh_leaf_hit(const ff_bvh_tri *tris, int32_t ref, uint32_t count, const ff_segment *s)
+#define FF_BVH_NO_HIT UINT32_MAX
+
+/* The index in tris of a triangle of the leaf that the segment hits, or
+ * FF_BVH_NO_HIT. */
+static inline RAD_HD uint32_t ff_bvh_leaf_hit(const ff_bvh_tri *tris, int32_t ref, uint32_t count,
+                                              const ff_segment *s)
 {
     for (uint32_t k = 0; k < count; k++) {
-        const ff_bvh_tri *t = &tris[~ref + (int32_t)k];
-        if (t->face != s->skip_a && t->face != s->skip_b && ff_bvh_hit_tri(t, s)) return 1;
+        const uint32_t at = (uint32_t)(~ref) + k;
+        const ff_bvh_tri *t = &tris[at];
+        if (t->face != s->skip_a && t->face != s->skip_b && ff_bvh_hit_tri(t, s)) return at;
     }
-    return 0;
+    return FF_BVH_NO_HIT;
 }
 
-/* Any-hit query for a segment (first hit returns). */
-static inline RAD_HD int ff_bvh_occluded(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
-                                         uint32_t root_count, const ff_segment *s)
+/* Any-hit query for a segment: the index of the first triangle found that
+ * it hits, or FF_BVH_NO_HIT. */
+static inline RAD_HD uint32_t ff_bvh_any_hit(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
+                                             uint32_t root_count, const ff_segment *s)
 {
-    if (root < 0) return root_count ? ff_bvh_leaf_hit(tris, root, root_count, s) : 0;
+    if (root < 0) return root_count ? ff_bvh_leaf_hit(tris, root, root_count, s) : FF_BVH_NO_HIT;
     int32_t stack[FF_BVH_STACK];
     int top = 0;
     stack[top++] = root;
@@ -193,20 +200,49 @@ static inline RAD_HD int ff_bvh_occluded(const ff_bvh_node *nodes, const ff_bvh_
         const ff_bvh_node *n = &nodes[stack[--top]];
         if (ff_bvh_hit_box(n->lo0, n->hi0, s->fo, s->inv_fd)) {
             if (n->child0 < 0) {
-                if (ff_bvh_leaf_hit(tris, n->child0, n->count0, s)) return 1;
+                const uint32_t hit = ff_bvh_leaf_hit(tris, n->child0, n->count0, s);
+                if (hit != FF_BVH_NO_HIT) return hit;
             } else if (top < FF_BVH_STACK) {
                 stack[top++] = n->child0;
             }
         }
         if (ff_bvh_hit_box(n->lo1, n->hi1, s->fo, s->inv_fd)) {
             if (n->child1 < 0) {
-                if (ff_bvh_leaf_hit(tris, n->child1, n->count1, s)) return 1;
+                const uint32_t hit = ff_bvh_leaf_hit(tris, n->child1, n->count1, s);
+                if (hit != FF_BVH_NO_HIT) return hit;
             } else if (top < FF_BVH_STACK) {
                 stack[top++] = n->child1;
             }
         }
     }
-    return 0;
+    return FF_BVH_NO_HIT;
+}
+
+/* Does the segment hit anything (first hit returns)? */
+static inline RAD_HD int ff_bvh_occluded(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
+                                         uint32_t root_count, const ff_segment *s)
+{
+    return ff_bvh_any_hit(nodes, tris, root, root_count, s) != FF_BVH_NO_HIT;
+}
+
+/* The same answer, asking first the triangle that blocked the caller's
+ * last blocked segment (*last; FF_BVH_NO_HIT before any), which becomes
+ * the one this segment hits. A pair's shadow segments, and the next
+ * pair's of the same element, mostly end on the same occluder, so a
+ * blocked segment is then one triangle test instead of a walk; a hit is a
+ * hit whichever triangle shows it, so the answer is the walk's. */
+static inline RAD_HD int ff_bvh_occluded_cached(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
+                                                uint32_t root_count, const ff_segment *s, uint32_t *last)
+{
+    const uint32_t l = *last;
+    if (l != FF_BVH_NO_HIT) {
+        const ff_bvh_tri *t = &tris[l];
+        if (t->face != s->skip_a && t->face != s->skip_b && ff_bvh_hit_tri(t, s)) return 1;
+    }
+    const uint32_t hit = ff_bvh_any_hit(nodes, tris, root, root_count, s);
+    if (hit == FF_BVH_NO_HIT) return 0;
+    *last = hit;
+    return 1;
 }
 
 #endif

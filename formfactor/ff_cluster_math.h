@@ -8,7 +8,7 @@
  *     ff_cluster_view v = {clusters, roots, area_before, patches, counts, cone, delta};
  *     ff_cluster_drawn o;
  *     ff_cluster_pair(&v, bvh nodes, tris, root, root_count, a, b, &o);
- *     // = ff_cluster_draw (o.rays segments), ff_bvh_occluded on each
+ *     // = ff_cluster_draw (o.rays segments), ff_bvh_occluded_cached on each
  *     //   (o.blocked), ff_cluster_couple (o.coupling, o.error_ab, o.error_ba)
  */
 #ifndef FF_CLUSTER_MATH_H
@@ -402,8 +402,9 @@ static inline RAD_HD void ff_cluster_pair(const ff_cluster_view *v, const ff_bvh
 {
     ff_segment segs[FF_CLUSTER_RAYS];
     ff_cluster_draw(v, a, b, o, segs);
-    uint32_t blocked = 0;
-    for (uint32_t r = 0; r < o->rays; r++) blocked += (uint32_t)ff_bvh_occluded(nodes, tris, root, root_count, &segs[r]);
+    uint32_t blocked = 0, last = FF_BVH_NO_HIT;
+    for (uint32_t r = 0; r < o->rays; r++)
+        blocked += (uint32_t)ff_bvh_occluded_cached(nodes, tris, root, root_count, &segs[r], &last);
     o->blocked = blocked;
     ff_cluster_couple(v, a, b, o);
 }

@@ -87,6 +87,8 @@ static void check_scene(const char *path, int subdiv)
 
     enum { SEGMENTS = 200000 };
     int traced = 0, blocked = 0, differ = 0, culled = 0, culled_blocked = 0, culled_any = 0, culled_any_blocked = 0;
+    int cached_differ = 0, cached_blocked = 0, same_occluder = 0;
+    uint32_t last = FF_BVH_NO_HIT;
     double eps = ff_plane_eps(&mesh), delta = ff_ray_delta(&mesh);
     float margin = ff_cull_margin(&mesh, centre, eps);
     uint32_t n = (uint32_t)mesh.patch_count;
@@ -105,6 +107,20 @@ static void check_scene(const char *path, int subdiv)
         traced++;
         blocked += scan;
         differ += ours != scan;
+        /* The occluder cache: a pair's segments in a row through one cache
+         * that runs on from pair to pair (stale for other faces), the
+         * scan's answer every time. */
+        for (uint32_t k = 0; s < SEGMENTS / 10 && k < 4; k++) {
+            rad_vec3 xk, yk;
+            rad_ff_sample_pair(&patches[i], &patches[j], i, j, SEGMENTS + 4 * s + k, 11, &xk, &yk);
+            ff_segment sk = ff_segment_make(xk, patches[i].normal, patches[i].face, yk, patches[j].normal,
+                                            patches[j].face, delta);
+            const uint32_t before = last;
+            const int c = ff_bvh_occluded_cached(bvh.nodes, bvh.tris, bvh.root, bvh.root_count, &sk, &last);
+            cached_differ += c != scan_occluded(&bvh, &sk);
+            cached_blocked += c;
+            same_occluder += c && last == before;
+        }
         /* The shaft test is conservative: a pair it culls has no blocked segment. */
         if (!ff_pair_may_be_occluded(bvh.nodes, bvh.tris, bvh.root, bvh.root_count, &patches[i], &patches[j], margin,
                                      delta, 1, 1)) {
@@ -122,7 +138,11 @@ static void check_scene(const char *path, int subdiv)
             "%d between pairs the shaft test culls (%d blocked); %d, %d blocked (every segment counts)\n",
             path, subdiv, tri_count, bvh.node_count, blocked, traced, differ, culled, culled_blocked, culled_any,
             culled_any_blocked);
+    fprintf(stderr, "  occluder cache: %d segments blocked, %d by the last one's occluder, %d differ from the scan\n",
+            cached_blocked, same_occluder, cached_differ);
     RAD_CHECK(differ == 0);
+    RAD_CHECK(cached_differ == 0);
+    RAD_CHECK(cached_blocked > 0 && same_occluder > 0 && same_occluder <= cached_blocked);
     RAD_CHECK(culled > 0 && culled_blocked == 0);
     RAD_CHECK(culled_any > 0 && culled_any_blocked == 0 && culled_any <= culled);
     RAD_CHECK(blocked > traced / 100); /* the scenes do occlude */

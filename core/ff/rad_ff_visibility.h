@@ -96,13 +96,21 @@ static inline RAD_HD uint32_t rad_owen_scramble(uint32_t x, uint32_t seed)
     return rad_reverse_bits(x);
 }
 
+#if defined(__CUDA_ARCH__)
+#define RAD_SOBOL_STORAGE
+#else
+#define RAD_SOBOL_STORAGE static
+#endif
+
 /* Coordinate dim (0-3) of point `index` of the 4-D Sobol' sequence (Joe
  * and Kuo's direction numbers, new-joe-kuo-6.21201: dimension 1 is the van
  * der Corput sequence). */
 static inline RAD_HD uint32_t rad_sobol4(uint32_t index, int dim)
 {
     if (dim == 0) return rad_reverse_bits(index);
-    const uint32_t directions[3][32] = {
+    /* static on the host: as an automatic array the compiler copied the
+     * 384 bytes onto the stack at every call (three a shadow ray). */
+    RAD_SOBOL_STORAGE const uint32_t directions[3][32] = {
        {0x80000000u, 0xc0000000u, 0xa0000000u, 0xf0000000u, 0x88000000u, 0xcc000000u,
         0xaa000000u, 0xff000000u, 0x80800000u, 0xc0c00000u, 0xa0a00000u, 0xf0f00000u,
         0x88880000u, 0xcccc0000u, 0xaaaa0000u, 0xffff0000u, 0x80008000u, 0xc000c000u,
