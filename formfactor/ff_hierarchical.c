@@ -222,7 +222,8 @@ static rad_status build_links(hier_run *h)
                    .cull = opt->cull == FF_CULL_ALL,
                    .scene_convex = opt->cull == FF_CULL_ALL && ff_scene_is_convex_enclosure(&h->scene, eps),
                    .cull_margin = ff_cull_margin(&h->base, centre, eps), .plane_eps = eps,
-                   .ray_delta = ff_ray_delta(&h->base), .threads = h->threads};
+                   .ray_delta = ff_ray_delta(&h->base), .oracle_estimates = opt->link_tol > 0,
+                   .threads = h->threads};
     const int gpus = will_ask ? ff_cuda_device_count() : 0; /* waits for the start */
     if (opt->backend == FF_BACKEND_CUDA && gpus == 0) {
         rad_error("--backend cuda: no CUDA device is visible to this process");

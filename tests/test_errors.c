@@ -11,6 +11,7 @@
 #include <stdlib.h>
 
 #include "ff_fixture.h"
+#include "rad_ff_quad.h"
 #include "rad_test.h"
 
 /* The parallel unit squares with a plate over half of the gap. */
@@ -109,8 +110,61 @@ static void check_cap(void)
     fixture_free(&fx);
 }
 
+/* A hierarchy's pairs (compute_pairs): as matrix entries (--link-tol 0)
+ * they are the full matrix's entries to the bit; estimated for the link
+ * oracle (ff_setup.oracle_estimates, ff_link_pair_params) with fewer
+ * quadrature points, each coupling within 1e-4 of the entry's, and within
+ * both their errors. */
+static void check_link_pairs(void)
+{
+    fixture fx;
+    RAD_CHECK(fixture_load(&fx, half_blocked_obj, "s.obj", 2));
+    const uint32_t n = (uint32_t)fx.mesh.patch_count;
+    double eps = ff_plane_eps(&fx.mesh);
+    ff_setup su = {.patches = fx.patches, .patch_count = n, .triangles = fx.triangles,
+                   .triangle_face = fx.triangle_face, .triangle_count = fx.triangle_count, .samples = 512,
+                   .shadow_rays = 32, .seed = 1, .estimator = RAD_ESTIMATOR_QUADRATURE,
+                   .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL, .plane_eps = eps, .threads = 2,
+                   .max_samples = 64 * 512, .cull = 1, .scene_convex = ff_scene_is_convex_enclosure(&fx.scene, eps),
+                   .cull_margin = ff_cull_margin(&fx.mesh, fx.centre, eps), .ray_delta = ff_ray_delta(&fx.mesh)};
+    double *rows = malloc(sizeof(double) * n * n), *errors = malloc(sizeof(double) * n * n);
+    uint32_t *keys = malloc(sizeof(uint32_t) * n);
+    ff_pair_job *jobs = malloc(sizeof(ff_pair_job) * n * n);
+    ff_pair_outcome *entry = malloc(sizeof(ff_pair_outcome) * n * n), *link = malloc(sizeof(ff_pair_outcome) * n * n);
+    void *state = NULL, *oracle_state = NULL;
+    ff_counters c = {0}, c_entry = {0}, c_link = {0};
+    RAD_CHECK(rows && errors && keys && jobs && entry && link && ff_backend_cpu.create(&su, &state) == RAD_OK);
+    su.oracle_estimates = 1;
+    RAD_CHECK(ff_backend_cpu.create(&su, &oracle_state) == RAD_OK);
+    RAD_CHECK(ff_backend_cpu.compute_rows(state, 0, n, rows, errors, &c) == RAD_OK);
+    size_t count = 0;
+    for (uint32_t i = 0; i < n; i++) keys[i] = i;
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t j = i + 1; j < n; j++) jobs[count++] = (ff_pair_job){i, j, 1};
+    RAD_CHECK(ff_backend_cpu.compute_pairs(state, fx.patches, keys, jobs, count, entry, &c_entry) == RAD_OK);
+    RAD_CHECK(ff_backend_cpu.compute_pairs(oracle_state, fx.patches, keys, jobs, count, link, &c_link) == RAD_OK);
+    ff_backend_cpu.destroy(state);
+    ff_backend_cpu.destroy(oracle_state);
+    int same = 1, close = 1, differ = 0;
+    for (size_t k = 0; k < count; k++) {
+        const uint32_t i = jobs[k].a, j = jobs[k].b;
+        const double full = rows[(size_t)i * n + j], err = errors[(size_t)i * n + j];
+        same &= entry[k].coupling == full;
+        differ += link[k].coupling != full;
+        close &= fabs(link[k].coupling - full) <= fmin(1e-4 * full, 3.0 * (err + link[k].error)) + 1e-15;
+    }
+    fprintf(stderr, "link pairs: %zu pairs, %d differ from the matrix's entries; %llu quadrature points as entries, "
+            "%llu for the oracle\n", count, differ, (unsigned long long)c_entry.samples,
+            (unsigned long long)c_link.samples);
+    RAD_CHECK(same && close);
+    RAD_CHECK(differ > 0 && c_link.samples < c_entry.samples);
+    free(rows), free(errors), free(keys), free(jobs), free(entry), free(link);
+    fixture_free(&fx);
+}
+
 int main(void)
 {
+    check_link_pairs();
     /* Plain Monte Carlo: the sample variance is the right error. */
     check_calibration("parallel (mc)", parallel_obj, RAD_ESTIMATOR_MC, 256, 0, 0.85, 1.18);
     /* A shared edge: G ~ 1/r^2 there, and the variance of plain point
