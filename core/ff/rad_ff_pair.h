@@ -201,9 +201,10 @@ static inline RAD_HD void rad_ff_pair_quad_rays(const rad_ff_pair_params *pp, co
 {
     long long t0 = RAD_FF_TICKS();
     rad_ff_ray_batch b = {0};
+    const rad_u32x4 key = rad_ff_vis_key(iq, ip, pp->seed);
     for (uint32_t r = r0 + pp->lane; r < r1; r += pp->lanes) {
         rad_vec3 y, x;
-        double w = rad_ff_vis_ray(q, p, iq, ip, r, pp->seed, near, &y, &x);
+        double w = rad_ff_vis_ray(q, p, key, r, near, &y, &x);
         if (w > 0.0) rad_ff_pair_add_ray(&b, w, rad_ff_pair_visible(tracer, y, q, x, p));
     }
     rad_ff_pair_rays_add(pp, &b, r0, r1, sums, out);

@@ -135,10 +135,10 @@ static inline RAD_HD uint32_t rad_sobol4(uint32_t index, int dim)
     return x;
 }
 
-/* Shadow ray r of the pair: segment y -> x (y on q, x on p) and its weight
- * (0: no ray needed, the sample carries no weight); a, b the pair's
- * indices. Ray r takes point r of the 4-D Sobol' sequence, Owen-scrambled
- * per pair and per coordinate: (u, v) place y on q's square, (s, t) x on p
+/* Shadow rays of a pair: ray r is the segment y -> x (y on q, x on p) with
+ * its weight (0: no ray needed, the sample carries no weight). Ray r takes
+ * point r of the 4-D Sobol' sequence, Owen-scrambled per pair (its key,
+ * from the pair's indices a, b and the seed) and per coordinate: (u, v) place y on q's square, (s, t) x on p
  * (by area or by solid angle). The first 2^m rays of a pair - its first
  * batch and each doubling - form a scrambled (t, m, 4)-net, stratified in
  * the joint 4-D space and not only in q's square, and still unbiased. A
@@ -148,15 +148,21 @@ static inline RAD_HD uint32_t rad_sobol4(uint32_t index, int dim)
  * first batch): 6.3e-4 ... 1.1e-3 with jittered cells of q and of p
  * paired by a permutation, 2.4e-4 ... 4.1e-4 with these points, which
  * reach the former's accuracy with a quarter of the refinement rays. */
-static inline RAD_HD double rad_ff_vis_ray(const rad_ff_patch *q, const rad_ff_patch *p, uint32_t a, uint32_t b,
-                                           uint32_t r, uint64_t seed, int near, rad_vec3 *y_out, rad_vec3 *x_out)
+static inline RAD_HD rad_u32x4 rad_ff_vis_key(uint32_t a, uint32_t b, uint64_t seed)
 {
     rad_u32x4 ctr;
     ctr.v[0] = a < b ? a : b;
     ctr.v[1] = a < b ? b : a;
     ctr.v[2] = 0;
     ctr.v[3] = 2; /* a stream of its own (MC samples use 0, the QMC shift 1) */
-    rad_u32x4 key = rad_philox4x32(ctr, (uint32_t)seed, (uint32_t)(seed >> 32)); /* the pair's scrambles */
+    return rad_philox4x32(ctr, (uint32_t)seed, (uint32_t)(seed >> 32));
+}
+
+/* Ray r of the pair whose scrambles are key (rad_ff_vis_key: once a pair,
+ * not once a ray). */
+static inline RAD_HD double rad_ff_vis_ray(const rad_ff_patch *q, const rad_ff_patch *p, rad_u32x4 key, uint32_t r,
+                                           int near, rad_vec3 *y_out, rad_vec3 *x_out)
+{
     double u = rad_u01(rad_owen_scramble(rad_sobol4(r, 0), key.v[0]));
     double v = rad_u01(rad_owen_scramble(rad_sobol4(r, 1), key.v[1]));
     double s2 = rad_u01(rad_owen_scramble(rad_sobol4(r, 2), key.v[2]));
