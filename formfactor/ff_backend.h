@@ -61,9 +61,6 @@ typedef struct ff_setup {
     int scene_convex;
     float cull_margin;           /* scene units: the float shaft box */
     double ray_delta;            /* scene units: what a shadow segment counts as a hit (ff_segment) */
-    /* compute_pairs estimates for the link oracle (ff_link_pair_params):
-     * hierarchical runs with a link tolerance. */
-    int oracle_estimates;
     /* Compute only the entries rad_ff_row_computes assigns to their row
      * (each unordered pair once); the others are set to 0 and filled in by
      * the driver from the other row (ff_rows.h). */
@@ -119,27 +116,6 @@ typedef struct ff_pair_job {
     uint32_t spread; /* 1: compute the oracle's geometry (spread_ab, spread_ba); 0: both are leaves
                         no pass splits, so nothing weighs it: they stay zero */
 } ff_pair_job;
-
-/* A hierarchy's pairs under a link tolerance (ff_setup.oracle_estimates)
- * take their unoccluded factor to a relative 1e-5 (or --quad-rtol where it
- * asks less), not to the full matrix's 1e-8: a link's error goes to the
- * oracle, whose tolerance is 1e-2 of the mean radiosity by default, and
- * the quadrature then stays 1000 times under anything it weighs. On the
- * 10^4 interior the quadrature's time fell 2.4x for the same image to the
- * last digit printed, and cluttered_room's error against its full matrix
- * is the same to four digits at every link-tol from 1e-1 to 1e-4
- * (docs/performance.md). The shadow rays keep the run's batches: with
- * fewer, the leaves' links kept a floor of visibility noise (that error
- * 6e-2 at every tolerance). Under --link-tol 0 the pairs keep the run's
- * settings: the links are then the full matrix of the leaves, entry for
- * entry. */
-#define FF_LINK_QUAD_RTOL 1e-5
-
-static inline RAD_HD rad_ff_pair_params ff_link_pair_params(rad_ff_pair_params pp)
-{
-    if (pp.quad_rtol < FF_LINK_QUAD_RTOL) pp.quad_rtol = FF_LINK_QUAD_RTOL; /* 0 (the default) too */
-    return pp;
-}
 
 /* What compute_pairs found for a job. */
 typedef struct ff_pair_outcome {

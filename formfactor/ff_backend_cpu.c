@@ -185,7 +185,7 @@ static rad_status cpu_compute_pairs(void *state, const rad_ff_patch *patches, co
     rules.patches = patches;
     rules.pairs_once = 0;
     rules.reuse_old = NULL;
-    const rad_ff_pair_params pp = su->oracle_estimates ? ff_link_pair_params(ff_pair_params(su)) : ff_pair_params(su);
+    const rad_ff_pair_params pp = ff_pair_params(su);
 #pragma omp parallel num_threads(su->threads)
     {
         uint32_t last = FF_BVH_NO_HIT;

@@ -960,7 +960,7 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
     p.tracer.root_count = s->root_count;
     p.tracer.delta = su->ray_delta;
     p.tracer.last = NULL; /* each thread's own: cuda_thread_tracer */
-    p.pair = su->oracle_estimates ? ff_link_pair_params(ff_pair_params(su)) : ff_pair_params(su);
+    p.pair = ff_pair_params(su);
     p.rules = ff_pair_rules_make(su, s->elements.patches, s->d_nodes, s->d_tris, s->root, s->root_count);
     p.rules.pairs_once = 0;
     p.rules.reuse_old = NULL;

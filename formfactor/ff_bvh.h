@@ -174,6 +174,12 @@ static inline RAD_HD int ff_bvh_hit_box(const float lo[3], const float hi[3], co
 
 #define FF_BVH_NO_HIT UINT32_MAX
 
+/* Does the segment hit triangle t, one of neither end's faces? */
+static inline RAD_HD int ff_bvh_blocks(const ff_bvh_tri *t, const ff_segment *s)
+{
+    return t->face != s->skip_a && t->face != s->skip_b && ff_bvh_hit_tri(t, s);
+}
+
 /* The index in tris of a triangle of the leaf that the segment hits, or
  * FF_BVH_NO_HIT. */
 static inline RAD_HD uint32_t ff_bvh_leaf_hit(const ff_bvh_tri *tris, int32_t ref, uint32_t count,
@@ -181,8 +187,7 @@ static inline RAD_HD uint32_t ff_bvh_leaf_hit(const ff_bvh_tri *tris, int32_t re
 {
     for (uint32_t k = 0; k < count; k++) {
         const uint32_t at = (uint32_t)(~ref) + k;
-        const ff_bvh_tri *t = &tris[at];
-        if (t->face != s->skip_a && t->face != s->skip_b && ff_bvh_hit_tri(t, s)) return at;
+        if (ff_bvh_blocks(&tris[at], s)) return at;
     }
     return FF_BVH_NO_HIT;
 }
@@ -234,11 +239,7 @@ static inline RAD_HD int ff_bvh_occluded(const ff_bvh_node *nodes, const ff_bvh_
 static inline RAD_HD int ff_bvh_occluded_cached(const ff_bvh_node *nodes, const ff_bvh_tri *tris, int32_t root,
                                                 uint32_t root_count, const ff_segment *s, uint32_t *last)
 {
-    const uint32_t l = *last;
-    if (l != FF_BVH_NO_HIT) {
-        const ff_bvh_tri *t = &tris[l];
-        if (t->face != s->skip_a && t->face != s->skip_b && ff_bvh_hit_tri(t, s)) return 1;
-    }
+    if (*last != FF_BVH_NO_HIT && ff_bvh_blocks(&tris[*last], s)) return 1;
     const uint32_t hit = ff_bvh_any_hit(nodes, tris, root, root_count, s);
     if (hit == FF_BVH_NO_HIT) return 0;
     *last = hit;

@@ -217,13 +217,13 @@ static rad_status build_links(hier_run *h)
     ff_setup su = {.patches = NULL, .patch_count = 0, .triangles = h->triangles,
                    .triangle_face = h->triangle_face, .triangle_count = h->triangle_count,
                    .samples = opt->samples, .shadow_rays = opt->shadow_rays, .seed = opt->seed,
-                   .estimator = opt->estimator, .quad_rtol = opt->quad_rtol, .quad_atol = opt->quad_atol,
+                   .estimator = opt->estimator, .quad_rtol = ff_links_quad_rtol(opt->link_tol, opt->quad_rtol),
+                   .quad_atol = opt->quad_atol,
                    .target_error = opt->target_error, .max_samples = opt->max_samples, .errors = 1,
                    .cull = opt->cull == FF_CULL_ALL,
                    .scene_convex = opt->cull == FF_CULL_ALL && ff_scene_is_convex_enclosure(&h->scene, eps),
                    .cull_margin = ff_cull_margin(&h->base, centre, eps), .plane_eps = eps,
-                   .ray_delta = ff_ray_delta(&h->base), .oracle_estimates = opt->link_tol > 0,
-                   .threads = h->threads};
+                   .ray_delta = ff_ray_delta(&h->base), .threads = h->threads};
     const int gpus = will_ask ? ff_cuda_device_count() : 0; /* waits for the start */
     if (opt->backend == FF_BACKEND_CUDA && gpus == 0) {
         rad_error("--backend cuda: no CUDA device is visible to this process");

@@ -11,6 +11,7 @@
 #include <stdlib.h>
 
 #include "ff_fixture.h"
+#include "ff_links.h"
 #include "rad_ff_quad.h"
 #include "rad_test.h"
 
@@ -112,7 +113,7 @@ static void check_cap(void)
 
 /* A hierarchy's pairs (compute_pairs): as matrix entries (--link-tol 0)
  * they are the full matrix's entries to the bit; estimated for the link
- * oracle (ff_setup.oracle_estimates, ff_link_pair_params) with fewer
+ * oracle (under a link tolerance: ff_links_quad_rtol) with fewer
  * quadrature points, each coupling within 1e-4 of the entry's, and within
  * both their errors. */
 static void check_link_pairs(void)
@@ -134,7 +135,7 @@ static void check_link_pairs(void)
     void *state = NULL, *oracle_state = NULL;
     ff_counters c = {0}, c_entry = {0}, c_link = {0};
     RAD_CHECK(rows && errors && keys && jobs && entry && link && ff_backend_cpu.create(&su, &state) == RAD_OK);
-    su.oracle_estimates = 1;
+    su.quad_rtol = ff_links_quad_rtol(1e-2, su.quad_rtol);
     RAD_CHECK(ff_backend_cpu.create(&su, &oracle_state) == RAD_OK);
     RAD_CHECK(ff_backend_cpu.compute_rows(state, 0, n, rows, errors, &c) == RAD_OK);
     size_t count = 0;
