@@ -95,6 +95,7 @@ static inline rad_ff_pair_params ff_pair_params(const ff_setup *su)
     pp.target_error = su->target_error;
     pp.quad_rtol = su->quad_rtol;
     pp.quad_atol = su->quad_atol;
+    pp.ray_floor = 0.0;
     pp.lane = 0;
     pp.lanes = 1;
     return pp;
@@ -115,6 +116,8 @@ typedef struct ff_pair_job {
     uint32_t a, b;
     uint32_t spread; /* 1: compute the oracle's geometry (spread_ab, spread_ba); 0: both are leaves
                         no pass splits, so nothing weighs it: they stay zero */
+    float ray_floor; /* rad_ff_pair_params.ray_floor for this pair: the coupling error below which the
+                        oracle has no use for more shadow rays (ff_links.c); 0: the run's batches */
 } ff_pair_job;
 
 /* What compute_pairs found for a job. */

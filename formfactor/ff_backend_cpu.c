@@ -204,8 +204,10 @@ static rad_status cpu_compute_pairs(void *state, const rad_ff_patch *patches, co
             } else {
                 c.pairs_open_scene += (uint64_t)(v == FF_PAIR_OPEN_SCENE);
                 c.pairs_open_box += (uint64_t)(v == FF_PAIR_OPEN_BOX);
+                rad_ff_pair_params job_pp = pp;
+                job_pp.ray_floor = jobs[k].ray_floor;
                 rad_ff_pair_result r;
-                rad_ff_pair_compute(&pp, &patches[a], &patches[b], keys[a], keys[b],
+                rad_ff_pair_compute(&job_pp, &patches[a], &patches[b], keys[a], keys[b],
                                     v == FF_PAIR_TRACED ? &tracer : NULL, &r);
                 o.coupling = r.coupling;
                 o.error = r.error;

@@ -488,6 +488,7 @@ __global__ static void __launch_bounds__(FF_CUDA_BLOCK, FF_CUDA_MIN_BLOCKS) ff_l
         const ff_pair_job job = p.jobs[k];
         const ff_pair_verdict v = (ff_pair_verdict)p.out[k].verdict;
         rad_ff_pair_params pp = cuda_lane_params(p.pair, g.lane, p.lanes);
+        pp.ray_floor = job.ray_floor;
         rad_ff_pair_result r;
         uint32_t last;
         const cuda_tracer tracer = cuda_thread_tracer(p.tracer, &last);

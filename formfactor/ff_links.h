@@ -110,10 +110,13 @@ typedef struct ff_links_config {
  * interior the quadrature's time fell 2.4x for the same image to the last
  * digit printed, and cluttered_room's error against its full matrix is
  * the same to four digits at every link-tol from 1e-1 to 1e-4
- * (docs/performance.md). The shadow rays keep the run's batches: with
- * fewer, the leaves' links kept a floor of visibility noise. Under
- * --link-tol 0 the run's tolerance stands: the links are then the full
- * matrix of the leaves, entry for entry. */
+ * (docs/performance.md). The shadow rays stop where the oracle has no use
+ * for more: each element pair's job carries a ray floor (ff_pair_job,
+ * ff_links.c's ray_floor), an eighth of the coupling error the oracle
+ * would split it for; fewer rays for every pair alike had left the
+ * leaves' links a floor of visibility noise that the tolerance no longer
+ * moved. Under --link-tol 0 the run's tolerance and batches stand: the
+ * links are then the full matrix of the leaves, entry for entry. */
 #define FF_LINK_QUAD_RTOL 1e-5
 static inline double ff_links_quad_rtol(double link_tol, double quad_rtol)
 {

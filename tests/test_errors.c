@@ -6,6 +6,7 @@
  * must bring every entry to the target (or report it capped), and the
  * result must still match the closed form within a few targets.
  */
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -111,6 +112,42 @@ static void check_cap(void)
     fixture_free(&fx);
 }
 
+/* The oracle's ray floor (ff_pair_job.ray_floor): jobs[] as `link` had
+ * them (no floor) computed again with a floor, a coupling error the rays
+ * need not go below. Without limit every traced pair keeps its first
+ * batch (R = 32 rays), partly hidden ones too; at a floor of 1e-2 of the largest
+ * coupling the rays fall between, and each coupling stays within three
+ * of both errors of the one without a floor. */
+static void check_ray_floor(void *state, const fixture *fx, const uint32_t *keys, ff_pair_job *jobs, size_t count,
+                            const ff_pair_outcome *link, const ff_counters *c_link)
+{
+    ff_pair_outcome *out = malloc(sizeof(ff_pair_outcome) * count);
+    RAD_CHECK(out != NULL);
+    ff_counters c_none = {0}, c_some = {0};
+    for (size_t k = 0; k < count; k++) jobs[k].ray_floor = FLT_MAX;
+    RAD_CHECK(ff_backend_cpu.compute_pairs(state, fx->patches, keys, jobs, count, out, &c_none) == RAD_OK);
+    int first_batch = 1, partial = 0;
+    for (size_t k = 0; k < count; k++) {
+        first_batch &= out[k].rays == 0 || out[k].rays == 32;
+        partial += out[k].rays_blocked > 0 && out[k].rays_blocked < out[k].rays;
+    }
+    double scale = 0;
+    for (size_t k = 0; k < count; k++) scale = fmax(scale, link[k].coupling);
+    for (size_t k = 0; k < count; k++) jobs[k].ray_floor = (float)(1e-2 * scale);
+    RAD_CHECK(ff_backend_cpu.compute_pairs(state, fx->patches, keys, jobs, count, out, &c_some) == RAD_OK);
+    int close = 1;
+    for (size_t k = 0; k < count; k++)
+        close &= fabs(out[k].coupling - link[k].coupling) <= 3.0 * (out[k].error + link[k].error) + 1e-15;
+    fprintf(stderr, "ray floor: %llu rays without a floor, %llu at 1e-2 of the largest coupling, %llu without "
+            "limit (%d pairs partly hidden in their first batch)\n", (unsigned long long)c_link->rays,
+            (unsigned long long)c_some.rays, (unsigned long long)c_none.rays, partial);
+    RAD_CHECK(first_batch && partial > 0);
+    RAD_CHECK(c_none.rays < c_some.rays && c_some.rays < c_link->rays);
+    RAD_CHECK(close);
+    for (size_t k = 0; k < count; k++) jobs[k].ray_floor = 0.0f;
+    free(out);
+}
+
 /* A hierarchy's pairs (compute_pairs): as matrix entries (--link-tol 0)
  * they are the full matrix's entries to the bit; estimated for the link
  * oracle (under a link tolerance: ff_links_quad_rtol) with fewer
@@ -141,9 +178,10 @@ static void check_link_pairs(void)
     size_t count = 0;
     for (uint32_t i = 0; i < n; i++) keys[i] = i;
     for (uint32_t i = 0; i < n; i++)
-        for (uint32_t j = i + 1; j < n; j++) jobs[count++] = (ff_pair_job){i, j, 1};
+        for (uint32_t j = i + 1; j < n; j++) jobs[count++] = (ff_pair_job){i, j, 1, 0.0f};
     RAD_CHECK(ff_backend_cpu.compute_pairs(state, fx.patches, keys, jobs, count, entry, &c_entry) == RAD_OK);
     RAD_CHECK(ff_backend_cpu.compute_pairs(oracle_state, fx.patches, keys, jobs, count, link, &c_link) == RAD_OK);
+    check_ray_floor(oracle_state, &fx, keys, jobs, count, link, &c_link);
     ff_backend_cpu.destroy(state);
     ff_backend_cpu.destroy(oracle_state);
     int same = 1, close = 1, differ = 0;

@@ -54,6 +54,8 @@ typedef struct rad_ff_pair_params {
     uint64_t seed;
     double target_error;  /* 0 = one batch */
     double quad_rtol, quad_atol; /* rad_ff_quad_unoccluded tolerances; 0 = RAD_FF_QUAD_RTOL, _ATOL */
+    double ray_floor;     /* a coupling error (F_ij / A_j) the pair's shadow rays need not go below, where
+                             the caller knows what it can use (hierarchical links: ff_links.c); 0 = none */
     unsigned lane, lanes; /* this thread's share of the pair (rad_ff_quad.h, "Lanes"); 0 of 1 on the CPU */
 } rad_ff_pair_params;
 

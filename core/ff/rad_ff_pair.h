@@ -322,6 +322,7 @@ static inline RAD_HD void rad_ff_pair_quad_finish(const rad_ff_pair_params *pp, 
          * only adds rays (up to its cap) where the default would stop, so
          * a loose target is never worse than none. */
         double area = pi->area > pj->area ? pi->area : pj->area;
+        const double enough = pp->ray_floor * area; /* what the caller can use, in err's units */
         for (;;) {
             uint64_t cap, least = 0;
             double target;
@@ -333,7 +334,11 @@ static inline RAD_HD void rad_ff_pair_quad_finish(const rad_ff_pair_params *pp, 
                 target = RAD_FF_CONFIRM_TARGET;
                 cap = (uint64_t)R * RAD_FF_CONFIRM_RAYS;
             }
-            if (partial) least = 2 * (uint64_t)R < cap ? 2 * (uint64_t)R : cap;
+            /* A caller's floor above the default target stands for it,
+             * and spares partly hidden pairs their doubling unless their
+             * error asks for it. */
+            if (partial && !(enough > target)) least = 2 * (uint64_t)R < cap ? 2 * (uint64_t)R : cap;
+            if (enough > target) target = enough;
             double err = (g0->error + g0->g * nu_error) * scale * area;
             int more = sums.rays < cap && (sums.rays < least || err > target);
             if (pp->target_error > 0.0) {
