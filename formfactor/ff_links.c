@@ -405,22 +405,17 @@ static int over_tolerance(const ff_links *L, const ff_link_pair *p)
 #define FF_LINK_RAY_SHARE 0.125
 
 /* How far the shadow rays of element pair (a, b) need to take its
- * coupling's error: the error oracle (and gather's first term) weighs a
- * coupling error dc as rho_r B_s A_s dc in each direction, against
- * link-tol x the mean reflected radiosity; rays that leave dc at a
- * FF_LINK_RAY_SHARE of that are all the oracle can use. 0 (the run's
- * batches) under link-tol 0 and for the oracles that weigh no error. */
+ * coupling's error: a coupling error dc is an error A_s dc of F_rs, which
+ * the error oracle (and gather's first term) weighs (`weight`) in each
+ * direction against link-tol x the mean reflected radiosity; rays that
+ * leave dc at a FF_LINK_RAY_SHARE of that are all the oracle can use. 0
+ * (the run's batches) under link-tol 0 and for the oracles that weigh no
+ * error. */
 static float ray_floor(const ff_links *L, uint32_t a, uint32_t b)
 {
     if (!(L->config.link_tol > 0) || !(L->reflected > 0)) return 0.0f;
     if (L->config.oracle != FF_ORACLE_ERROR && L->config.oracle != FF_ORACLE_GATHER) return 0.0f;
-    double w = 0;
-    for (int dir = 0; dir < 2; dir++) {
-        const uint32_t r = dir ? b : a, s = dir ? a : b;
-        const double *rho = node_rho(L, r), *B = node_radiosity(L, s);
-        const double rb = fmax(rho[0] * B[0], fmax(rho[1] * B[1], rho[2] * B[2]));
-        w = fmax(w, rb * node_area(L, s));
-    }
+    const double w = fmax(weight(L, a, b, 0.0, node_area(L, b)), weight(L, b, a, 0.0, node_area(L, a)));
     const double floor_c = FF_LINK_RAY_SHARE * L->config.link_tol * L->reflected / w; /* inf where w = 0 */
     return floor_c < FLT_MAX ? (float)floor_c : FLT_MAX;
 }

@@ -337,8 +337,10 @@ static inline RAD_HD void rad_ff_pair_quad_finish(const rad_ff_pair_params *pp, 
             /* A caller's floor above the default target stands for it,
              * and spares partly hidden pairs their doubling unless their
              * error asks for it. */
-            if (partial && !(enough > target)) least = 2 * (uint64_t)R < cap ? 2 * (uint64_t)R : cap;
-            if (enough > target) target = enough;
+            if (enough > target)
+                target = enough;
+            else if (partial)
+                least = 2 * (uint64_t)R < cap ? 2 * (uint64_t)R : cap;
             double err = (g0->error + g0->g * nu_error) * scale * area;
             int more = sums.rays < cap && (sums.rays < least || err > target);
             if (pp->target_error > 0.0) {
