@@ -31,6 +31,7 @@ typedef struct ff_cluster_bound {
     rad_vec3 axis;     /* unit; every face normal within cone_angle of it */
     double cone_angle; /* radians, in [0, pi] */
     double moment[6];  /* M = sum A n n^T: xx, yy, zz, xy, xz, yz */
+    float open_lo, open_hi; /* the least and largest openness of its faces (ff_openness.h); 1, 1 for an element */
 } ff_cluster_bound;
 
 typedef struct ff_cluster {
@@ -78,6 +79,7 @@ static inline RAD_HD ff_cluster_bound ff_element_bound(const rad_ff_patch *p)
     b.vector_area = rad_v3_scale(p->normal, p->area);
     b.axis = p->normal;
     b.cone_angle = 0;
+    b.open_lo = b.open_hi = 1.0f;
     rad_vec3 n = p->normal;
     const double A = p->area;
     b.moment[0] = A * n.x * n.x, b.moment[1] = A * n.y * n.y, b.moment[2] = A * n.z * n.z;
@@ -160,8 +162,18 @@ typedef struct ff_cluster_view {
     uint32_t cluster_count, root_count;
     size_t element_count;
     double cone;
+    double open_spread; /* --cluster-open: a cluster whose faces' openness spreads more links nothing */
     double delta;
 } ff_cluster_view;
+
+/* A cluster end that may not be linked: its faces face apart (normals
+ * beyond cone of their axis), or some are hidden at close range and
+ * others open (openness spread beyond open_spread): one irradiance for
+ * all of them would move light between them (docs/hierarchy.md). */
+static inline RAD_HD int ff_cluster_bound_mixed(const ff_cluster_bound *b, double cone, double open_spread)
+{
+    return b->cone_angle > cone || (double)(b->open_hi - b->open_lo) > open_spread;
+}
 
 /* The root of cluster c that holds the area fraction u in [0, 1) of it,
  * the roots taken in cluster order: a root drawn in proportion to its area. */
@@ -240,7 +252,8 @@ static inline RAD_HD void ff_cluster_draw(const ff_cluster_view *v, uint32_t a, 
     ff_cluster_pair_bound pb = ff_cluster_pair_estimate(&ba, &bb);
     if (!pb.facing) return;
     o->facing = 1;
-    const int mixed = (ff_is_cluster(a) && ba.cone_angle > v->cone) || (ff_is_cluster(b) && bb.cone_angle > v->cone);
+    const int mixed = (ff_is_cluster(a) && ff_cluster_bound_mixed(&ba, v->cone, v->open_spread)) ||
+                      (ff_is_cluster(b) && ff_cluster_bound_mixed(&bb, v->cone, v->open_spread));
     if (mixed || ba.radius + bb.radius >= FF_CLUSTER_ADMISSIBLE * rad_v3_length(rad_v3_sub(ba.centre, bb.centre))) {
         o->must_split = 1;
         return;

@@ -57,10 +57,18 @@ static void select_kth(split_key *keys, size_t n, size_t k)
 /* ---- bounds ---- */
 
 /* Cluster c's bound from its roots' patches. */
-static ff_cluster_bound bound_of_roots(const rad_ff_patch *patches, const uint32_t *roots, uint32_t begin,
-                                       uint32_t end)
+static ff_cluster_bound bound_of_roots(const rad_ff_patch *patches, const float *open, const uint32_t *roots,
+                                       uint32_t begin, uint32_t end)
 {
     ff_cluster_bound b;
+    b.open_lo = b.open_hi = 1.0f;
+    if (open) {
+        b.open_lo = b.open_hi = open[roots[begin]];
+        for (uint32_t k = begin + 1; k < end; k++) {
+            b.open_lo = fminf(b.open_lo, open[roots[k]]);
+            b.open_hi = fmaxf(b.open_hi, open[roots[k]]);
+        }
+    }
     rad_vec3 lo = rad_v3(INFINITY, INFINITY, INFINITY), hi = rad_v3(-INFINITY, -INFINITY, -INFINITY);
     rad_vec3 v = rad_v3(0, 0, 0);
     double area = 0, m[6] = {0, 0, 0, 0, 0, 0};
@@ -156,7 +164,8 @@ static void split_keys(const rad_ff_patch *patches, const uint32_t *roots, uint3
     }
 }
 
-rad_status ff_clusters_build(const rad_ff_patch *patches, uint32_t root_count, double max_cone, ff_cluster_tree *out)
+rad_status ff_clusters_build(const rad_ff_patch *patches, const float *open, uint32_t root_count, double max_cone,
+                             ff_cluster_tree *out)
 {
     memset(out, 0, sizeof *out);
     size_t cap = root_count > 0 ? 2 * (size_t)root_count : 1;
@@ -195,7 +204,7 @@ rad_status ff_clusters_build(const rad_ff_patch *patches, uint32_t root_count, d
 #pragma omp parallel for schedule(dynamic, 64)
     for (uint32_t c = 0; c < out->count; c++) {
         ff_cluster *cl = &out->clusters[c];
-        cl->bound = bound_of_roots(patches, out->roots, cl->link.root_begin, cl->link.root_end);
+        cl->bound = bound_of_roots(patches, open, out->roots, cl->link.root_begin, cl->link.root_end);
         /* the file's area: the roots' own areas summed in order (the sum the reader checks) */
         cl->link.area = cl->bound.area;
     }

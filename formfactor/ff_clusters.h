@@ -5,7 +5,7 @@
  * Greenberg 1994).
  *
  *     ff_cluster_tree t;
- *     ff_clusters_build(root_patches, root_count, max_cone, &t);
+ *     ff_clusters_build(root_patches, open, root_count, max_cone, &t);
  *     ... t.clusters[c].bound, t.roots[t.clusters[c].link.root_begin .. root_end) ...
  *     ff_clusters_free(&t);
  *
@@ -55,9 +55,10 @@ typedef struct ff_cluster_tree {
 
 /* The tree over roots 0 .. root_count - 1 (patches in the backend's frame):
  * a cluster whose normals spread beyond max_cone (radians; RAD_PI: never)
- * is split by orientation, any other by position (ff_clusters.c).
- * RAD_ERR_NOMEM (logged). */
-rad_status ff_clusters_build(const rad_ff_patch *root_patches, uint32_t root_count, double max_cone,
+ * is split by orientation, any other by position (ff_clusters.c). open:
+ * each root's openness (ff_openness.h) for the bounds' open_lo, open_hi,
+ * or NULL (all 1). RAD_ERR_NOMEM (logged). */
+rad_status ff_clusters_build(const rad_ff_patch *root_patches, const float *open, uint32_t root_count, double max_cone,
                              ff_cluster_tree *out);
 
 void ff_clusters_free(ff_cluster_tree *t); /* safe on zeroed */

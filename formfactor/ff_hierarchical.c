@@ -242,6 +242,8 @@ static rad_status build_links(hier_run *h)
                               .min_area = opt->min_area * total_area, .uniform_leaves = opt->uniform_leaves,
                               .sized_leaves = opt->sized_leaves,
                               .cluster_cone = opt->cluster_cone >= 180.0 ? RAD_PI : opt->cluster_cone * (RAD_PI / 180.0),
+                              .cluster_open = opt->cluster_open, .triangles = h->triangles,
+                              .triangle_face = h->triangle_face, .triangle_count = h->triangle_count,
                               .clusters = opt->clusters >= 0 ? opt->clusters
                                                              : h->base.patch_count >= FF_CLUSTERS_AUTO_ROOTS,
                               .ray_delta = su.ray_delta};
@@ -412,6 +414,8 @@ static rad_status write_stats(const hier_run *h)
     rad_json_uint(&w, h->links.tally.cluster_rays);
     rad_json_key(&w, "cluster_seconds"); /* their wall */
     rad_json_number_fixed(&w, h->links.tally.cluster_seconds, 3);
+    rad_json_key(&w, "open_seconds"); /* the faces' openness, once */
+    rad_json_number_fixed(&w, h->links.tally.open_seconds, 3);
     rad_json_key(&w, "candidate_pairs");
     rad_json_uint(&w, h->links.tally.candidates);
     rad_json_key(&w, "rounds");

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ff_openness.h"
 #include "ff_pair_class.h" /* ff_pair_verdict */
 #include "ff_setup.h"
 #include "rad_clock.h"
@@ -119,8 +120,22 @@ static rad_status clusters_init(ff_links *L)
         rad_error("clusters: %zu faces, more than a hierarchy with clusters numbers", L->tree.base->patch_count);
         return RAD_ERR_UNSUPPORTED;
     }
-    rad_status st = ff_clusters_build(L->patches, (uint32_t)L->tree.base->patch_count, L->config.cluster_cone,
-                                       &L->clusters);
+    const uint32_t roots = (uint32_t)L->tree.base->patch_count;
+    float *open = NULL;
+    rad_status st = RAD_OK;
+    if (L->config.cluster_open < 1.0) { /* openness can spread by at most 1: nothing to measure */
+        const double t0 = rad_clock_seconds();
+        open = malloc((roots ? roots : 1) * sizeof *open);
+        if (!open) {
+            rad_error("clusters: out of memory for the openness of %u faces", roots);
+            return RAD_ERR_NOMEM;
+        }
+        st = ff_openness(L->patches, roots, L->config.triangles, L->config.triangle_face, L->config.triangle_count,
+                         L->config.ray_delta, open);
+        L->tally.open_seconds = rad_clock_seconds() - t0;
+    }
+    if (st == RAD_OK) st = ff_clusters_build(L->patches, open, roots, L->config.cluster_cone, &L->clusters);
+    free(open);
     if (st != RAD_OK) return st;
     size_t n = L->clusters.count;
     L->cluster_radiosity = malloc(3 * n * sizeof *L->cluster_radiosity);
@@ -131,7 +146,13 @@ static rad_status clusters_init(ff_links *L)
         return RAD_ERR_NOMEM;
     }
     cluster_values(L, NULL, NULL);
-    rad_info("clusters: %zu over %zu faces", n, L->tree.base->patch_count);
+    size_t mixed = 0;
+    for (size_t c = 0; c < n; c++) {
+        const ff_cluster_bound *b = &L->clusters.clusters[c].bound;
+        mixed += b->open_hi - b->open_lo > L->config.cluster_open;
+    }
+    rad_info("clusters: %zu over %zu faces, %zu of them partly hidden (openness %.3f s)", n,
+             L->tree.base->patch_count, mixed, L->tally.open_seconds);
     return RAD_OK;
 }
 
@@ -189,6 +210,11 @@ rad_status ff_links_init(ff_links *L, const rad_scene *scene, const rad_mesh *ba
     memcpy(L->centre, centre, sizeof L->centre);
     L->config = *config;
     if (!(L->config.cluster_cone > 0)) L->config.cluster_cone = RAD_PI; /* 0: no cone, as pi */
+    if (!(L->config.cluster_open > 0)) L->config.cluster_open = 1.0;    /* 0: no openness rule, as 1 */
+    if (config->clusters && L->config.cluster_open < 1.0 && !config->triangles && config->triangle_count) {
+        rad_error("internal: --cluster-open without the occluders (ff_links_config.triangles)");
+        return RAD_ERR_INVALID;
+    }
     L->backend = backend;
     L->backend_state = backend_state;
     if (config->clusters && !(config->ray_delta > 0)) {
@@ -435,7 +461,8 @@ typedef struct job_list {
  * link-tol 0.1 with such links; within 1 % without (docs/hierarchy.md). */
 static int mixed_end(const ff_links *L, uint32_t id)
 {
-    return ff_is_cluster(id) && L->clusters.clusters[ff_cluster_of(id)].bound.cone_angle > L->config.cluster_cone;
+    return ff_is_cluster(id) && ff_cluster_bound_mixed(&L->clusters.clusters[ff_cluster_of(id)].bound,
+                                                       L->config.cluster_cone, L->config.cluster_open);
 }
 
 /* A pair is split into its children's pairs (split_elements makes the
@@ -599,6 +626,7 @@ static rad_status cluster_pairs(const ff_links *L, const ff_pair_job *jobs, size
                                .root_count = L->clusters.root_count,
                                .element_count = L->tree.element_count,
                                .cone = L->config.cluster_cone,
+                               .open_spread = L->config.cluster_open,
                                .delta = L->config.ray_delta};
     return L->backend->cluster_draws(L->backend_state, &v, jobs, m, out);
 }

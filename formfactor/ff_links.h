@@ -95,6 +95,11 @@ typedef struct ff_links_config {
     double cluster_cone; /* radians: a cluster whose normals spread more than this from their mean
                             links nothing and is split (by orientation in the tree); 0 or pi: none */
     double ray_delta;    /* scene units: the cluster links' shadow segments' (ff_segment) */
+    double cluster_open; /* a cluster whose faces' openness (ff_openness.h) spreads more than this
+                            links nothing and is split; 1 or more: none (nothing measured) */
+    const double *triangles;       /* the occluders (ff_occluders_build), for the openness */
+    const uint32_t *triangle_face;
+    uint32_t triangle_count;
 } ff_links_config;
 
 /* --clusters auto turns clusters on from this many roots up: below, the
@@ -138,6 +143,7 @@ typedef struct ff_links_tally {
     uint64_t candidates, refined_pairs, rounds;
     uint64_t cluster_pairs, cluster_rays; /* candidates with a cluster at an end, their segments */
     double cluster_seconds;               /* their wall (the backend's cluster_draws) */
+    double open_seconds;                  /* the faces' openness (ff_openness), before the cluster tree */
     /* the rounds' wall by part: the candidates sorted into element and
      * cluster pairs, the backend's calls (both kinds, beside each other),
      * the decisions (links kept, pairs split, new elements), and a later

@@ -64,6 +64,12 @@ const char ff_options_help[] =
     "                           (one irradiance for faces facing apart moves light from\n"
     "                           walls to objects); such clusters split by orientation\n"
     "                           (default: 70; 180: any cluster links)\n"
+    "      --cluster-open S     hierarchical with clusters: no cluster link at a cluster\n"
+    "                           whose faces' openness (the share of 32 rays from a face\n"
+    "                           that go an eighth of the scene unblocked) spreads more\n"
+    "                           than S: faces hidden at close range (above a lamp,\n"
+    "                           behind books) would take the light of open ones\n"
+    "                           (default: 0.8; 1: any cluster links, nothing traced)\n"
     "      --closure on|off     hierarchical: where the scene is closed (a convex\n"
     "                           enclosure, or 16 rays from every face all meeting\n"
     "                           fronts), mark the links so that the solve scales every\n"
@@ -303,7 +309,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
            O_VERSION, O_ESTIMATOR, O_CULL, O_RECIPROCITY, O_TARGET, O_MAX_SAMPLES, O_ERRORS, O_NO_ERRORS,
            O_QUAD_RTOL, O_QUAD_ATOL, O_FLIP_NORMALS, O_CLAMP_RHO, O_MAX_BYTES, O_REFINE, O_REFINE_TOL,
            O_REFINE_MIN_SIZE, O_REFINE_MAX_PATCHES, O_REUSE, O_CONTACTS, O_MAX_SECONDS, O_OVERCOMMIT, O_KE,
-           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES, O_SIZED_LEAVES, O_RADIOSITY, O_DRY_RUN, O_CLUSTERS, O_CLUSTER_CONE, O_CLOSURE };
+           O_FLIP_GROUP, O_KEEP_NORMALS, O_PRESET, O_METHOD, O_LINK_TOL, O_ORACLE, O_MIN_AREA, O_PASSES, O_UNIFORM_LEAVES, O_SIZED_LEAVES, O_RADIOSITY, O_DRY_RUN, O_CLUSTERS, O_CLUSTER_CONE, O_CLUSTER_OPEN, O_CLOSURE };
     static const struct option longs[] = {
         {"output", required_argument, 0, 'o'},      {"subdiv", required_argument, 0, O_SUBDIV},
         {"subdiv-only", required_argument, 0, O_ONLY}, {"samples", required_argument, 0, O_SAMPLES},
@@ -328,7 +334,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         {"preset", required_argument, 0, O_PRESET}, {"method", required_argument, 0, O_METHOD},
         {"link-tol", required_argument, 0, O_LINK_TOL}, {"oracle", required_argument, 0, O_ORACLE},
         {"min-area", required_argument, 0, O_MIN_AREA}, {"passes", required_argument, 0, O_PASSES},
-        {"uniform-leaves", no_argument, 0, O_UNIFORM_LEAVES}, {"sized-leaves", no_argument, 0, O_SIZED_LEAVES}, {"clusters", required_argument, 0, O_CLUSTERS}, {"cluster-cone", required_argument, 0, O_CLUSTER_CONE}, {"closure", required_argument, 0, O_CLOSURE}, {"radiosity", required_argument, 0, O_RADIOSITY},
+        {"uniform-leaves", no_argument, 0, O_UNIFORM_LEAVES}, {"sized-leaves", no_argument, 0, O_SIZED_LEAVES}, {"clusters", required_argument, 0, O_CLUSTERS}, {"cluster-cone", required_argument, 0, O_CLUSTER_CONE}, {"cluster-open", required_argument, 0, O_CLUSTER_OPEN}, {"closure", required_argument, 0, O_CLOSURE}, {"radiosity", required_argument, 0, O_RADIOSITY},
         {0, 0, 0, 0}};
     int rays_given = 0, rtol_given = 0;
     uint64_t v = 0;
@@ -385,6 +391,7 @@ static rad_status parse_argv(int argc, char **argv, ff_options *o)
         case O_CLOSURE: st = parse_name("--closure", optarg, switch_names + 1, FF_NAMES_COUNT(switch_names) - 1, &o->closure); break;
         case O_PASSES: st = rad_parse_uint("--passes", optarg, 1, 100, &v); o->passes = (uint32_t)v; break;
         case O_CLUSTER_CONE: st = rad_parse_real("--cluster-cone", optarg, 0, 0, 180, 1, &o->cluster_cone); break;
+        case O_CLUSTER_OPEN: st = rad_parse_real("--cluster-open", optarg, 0, 0, 1, 1, &o->cluster_open); break;
         case O_PRESET: st = parse_name("--preset", optarg, preset_names, FF_NAMES_COUNT(preset_names), &o->preset); break;
         case O_QUAD_ATOL: st = parse_tolerance("--quad-atol", optarg, &o->quad_atol); break;
         case O_FLIP_NORMALS: o->flip_normals = 1; break;
@@ -574,7 +581,7 @@ rad_status ff_options_parse(int argc, char **argv, ff_options *out)
 {
     /* Zero is the default for the enums (auto, all, auto, sparse). */
     *out = (ff_options){.output = "formfactors", .samples = 512, .shadow_rays = 32, .seed = 1,
-                        .oracle = FF_ORACLE_AUTO, .clusters = -1, .closure = 0, .cluster_cone = FF_CLUSTER_CONE_DEG, .link_tol = FF_HIER_LINK_TOL, .min_area = FF_HIER_MIN_AREA, .passes = FF_HIER_PASSES,
+                        .oracle = FF_ORACLE_AUTO, .clusters = -1, .closure = 0, .cluster_cone = FF_CLUSTER_CONE_DEG, .cluster_open = FF_CLUSTER_OPEN, .link_tol = FF_HIER_LINK_TOL, .min_area = FF_HIER_MIN_AREA, .passes = FF_HIER_PASSES,
                         .element = RAD_ELEMENT_F64, .estimator = RAD_ESTIMATOR_QUADRATURE,
                         .quad_rtol = RAD_FF_QUAD_RTOL, .quad_atol = RAD_FF_QUAD_ATOL};
     out->refine = rad_refine_defaults();

@@ -55,6 +55,8 @@ typedef enum ff_method { FF_METHOD_FULL = 0, FF_METHOD_HIERARCHICAL = 1, FF_METH
 #define FF_HIER_PASSES 3
 /* --cluster-cone's default (docs/hierarchy.md, "Clusters facing apart"). */
 #define FF_CLUSTER_CONE_DEG 70.0
+/* --cluster-open's default (docs/hierarchy.md, "Clusters partly hidden"). */
+#define FF_CLUSTER_OPEN 0.8
 
 typedef enum ff_reciprocity { FF_RECIPROCITY_AUTO, FF_RECIPROCITY_ON, FF_RECIPROCITY_OFF } ff_reciprocity;
 
@@ -109,6 +111,7 @@ typedef struct ff_options {
     int sized_leaves;        /* --sized-leaves: every face split first to the largest face's leaf area */
     int clusters;            /* --clusters: 1 on, 0 off, -1 auto (on from FF_CLUSTERS_AUTO_ROOTS faces) */
     double cluster_cone;     /* --cluster-cone: degrees (180: any cluster may link) */
+    double cluster_open;     /* --cluster-open: largest spread of openness a linked cluster may hold (1: any) */
     int closure;             /* --closure: 1 on (where the scene is closed, ff_scene_is_closed: sets
                                 RAD_FF_FLAG_CLOSED, for solve, rad_closure.h), 0 off (the default) */
     int preset;              /* --preset: FF_PRESET_FINAL (default) or FF_PRESET_PREVIEW */

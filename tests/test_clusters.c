@@ -7,12 +7,17 @@
  * [lo, hi] - for blobs of randomly oriented triangles, for flat walls of
  * many triangles and for a mix, at several distances. The estimate of a
  * flat wall's coupling must be close (it is exact up to the distance's
- * variation); the tree must keep rad_link_cluster's rules. */
+ * variation); the tree must keep rad_link_cluster's rules. A face's
+ * openness (ff_openness.h) must be 1 in the open, near 0 under a plate
+ * 1 cm above it and in between at the foot of a wall, the same for every
+ * call, and a cluster holding both must count as mixed. */
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "ff_clusters.h"
+#include "ff_openness.h"
 #include "rad_test.h"
 
 static uint64_t rng_state = 0x2545F4914F6CDD1Dull;
@@ -89,7 +94,7 @@ static double point_to_all(rad_vec3 x, rad_vec3 n, const rad_ff_patch *s, int co
 static ff_cluster_bound tree_bound(const rad_ff_patch *p, int count)
 {
     ff_cluster_tree t;
-    RAD_CHECK(ff_clusters_build(p, (uint32_t)count, RAD_PI, &t) == RAD_OK);
+    RAD_CHECK(ff_clusters_build(p, NULL, (uint32_t)count, RAD_PI, &t) == RAD_OK);
     unsigned char *seen = calloc((size_t)count, 1);
     for (uint32_t k = 0; k < t.root_count; k++) {
         RAD_CHECK(t.roots[k] < (uint32_t)count && !seen[t.roots[k]]);
@@ -159,8 +164,65 @@ static double check_bounds(const char *what, const rad_ff_patch *r, int nr, cons
     return sum / area;
 }
 
+/* A floor of 8 x 8 cells (4 x 4, facing up), a plate 1 cm above its
+ * middle (1 x 1, facing down) and a wall along its x = 2 edge (2 high,
+ * facing -x): the floor's openness under the plate, at the wall and in
+ * the open. */
+static void check_openness(void)
+{
+    enum { FLOOR = 128, COUNT = FLOOR + 2 + 8 };
+    rad_ff_patch p[COUNT];
+    int n = wall(p, 8, rad_v3(0, 0, 0), 4.0, 1);
+    rad_vec3 a = rad_v3(-0.5, -0.5, 0.01), b = rad_v3(0.5, -0.5, 0.01), c = rad_v3(0.5, 0.5, 0.01), d = rad_v3(-0.5, 0.5, 0.01);
+    p[n] = triangle(a, c, b, (uint32_t)n), n++;
+    p[n] = triangle(a, d, c, (uint32_t)n), n++;
+    for (int k = 0; k < 4; k++) { /* the wall: 4 cells along y, facing -x */
+        rad_vec3 w0 = rad_v3(2, -2 + k, 0), w1 = rad_v3(2, -1 + k, 0), w2 = rad_v3(2, -1 + k, 2), w3 = rad_v3(2, -2 + k, 2);
+        p[n] = triangle(w0, w2, w1, (uint32_t)n), n++;
+        p[n] = triangle(w0, w3, w2, (uint32_t)n), n++;
+    }
+    RAD_CHECK(n == COUNT);
+    double tri[9 * COUNT];
+    uint32_t face[COUNT];
+    for (int k = 0; k < n; k++) {
+        for (int i = 0; i < 3; i++) {
+            tri[9 * k + 3 * i] = p[k].p[i].x, tri[9 * k + 3 * i + 1] = p[k].p[i].y, tri[9 * k + 3 * i + 2] = p[k].p[i].z;
+        }
+        face[k] = p[k].face;
+    }
+    float open[COUNT], again[COUNT];
+    RAD_CHECK(ff_openness(p, COUNT, tri, face, COUNT, 1e-9, open) == RAD_OK);
+    RAD_CHECK(ff_openness(p, COUNT, tri, face, COUNT, 1e-9, again) == RAD_OK);
+    RAD_CHECK(memcmp(open, again, sizeof open) == 0);
+    int under = 0, at_wall = 0, free_cells = 0;
+    for (int k = 0; k < FLOOR; k++) {
+        rad_vec3 m = p[k].centre;
+        if (fabs(m.x) < 0.5 && fabs(m.y) < 0.5) { /* under the plate */
+            RAD_CHECK(open[k] <= 0.1f); /* 2 of 32 rays at most, from points near its edge */
+            under++;
+        } else if (m.x > 1.5) { /* the cells at the wall's foot */
+            RAD_CHECK(open[k] > 0.3f && open[k] < 0.9f);
+            at_wall++;
+        } else if (m.x < 0 && (m.x < -1.0 || fabs(m.y) > 1.0)) { /* far from the plate's and the wall's reach */
+            RAD_CHECK(open[k] == 1.0f);
+            free_cells++;
+        }
+    }
+    RAD_CHECK(under == 8 && at_wall == 16 && free_cells > 20);
+    ff_cluster_tree t;
+    RAD_CHECK(ff_clusters_build(p, open, FLOOR, RAD_PI, &t) == RAD_OK);
+    const ff_cluster_bound *root = &t.clusters[0].bound;
+    RAD_CHECK(root->open_lo <= 0.1f && root->open_hi == 1.0f);
+    RAD_CHECK(ff_cluster_bound_mixed(root, RAD_PI, 0.6) && !ff_cluster_bound_mixed(root, RAD_PI, 1.0));
+    ff_clusters_free(&t);
+    RAD_CHECK(ff_clusters_build(p, NULL, FLOOR, RAD_PI, &t) == RAD_OK); /* no openness: nothing mixed by it */
+    RAD_CHECK(t.clusters[0].bound.open_lo == 1.0f && !ff_cluster_bound_mixed(&t.clusters[0].bound, RAD_PI, 0.0));
+    ff_clusters_free(&t);
+}
+
 int main(void)
 {
+    check_openness();
     enum { N = 48 };
     rad_ff_patch r[2 * 8 * 8], s[2 * 8 * 8];
     double est, exact;

@@ -72,6 +72,22 @@ def facing_bias(h, f):
     return worst
 
 
+def dark_excess(h, f):
+    """The light a solution puts on the leaves that the full matrix of the same leaves leaves dark (the
+    brightest channel under a tenth of the mean radiosity of the leaves that do not emit): their
+    area-weighted mean B (brightest channel) minus the full matrix's, over that mean. A cluster that gives
+    faces hidden at close range (above a lamp, behind a panel) the irradiance of its open faces puts
+    light there that the open ones lack (docs/hierarchy.md, "Clusters partly hidden")."""
+    (Bh, area, emits, _), (Bf, _, _, _) = h, f
+    bh, bf = Bh.max(axis=1), Bf.max(axis=1)
+    keep = ~emits if (~emits).any() else np.ones(len(area), bool)
+    mean = float(np.sum(area[keep] * bf[keep]) / np.sum(area[keep]))
+    dark = keep & (bf < 0.1 * mean)
+    if not dark.any():
+        return 0.0
+    return float(np.sum(area[dark] * (bh[dark] - bf[dark])) / np.sum(area[dark])) / mean
+
+
 def run(cmd, env=None):
     t0 = time.perf_counter()
     r = subprocess.run(cmd, capture_output=True, text=True, env=env)
@@ -96,9 +112,16 @@ def main(argv):
     p.add_argument("--passes", type=int, default=None)
     p.add_argument("--clusters", default=None, help="formfactor --clusters (auto, on, off)")
     p.add_argument("--cluster-cone", default=None, help="formfactor --cluster-cone (degrees)")
+    p.add_argument("--cluster-open", default=None, help="formfactor --cluster-open (openness spread)")
+    p.add_argument("--max-rms", type=float, default=None,
+                   help="exit 1 if, at some tolerance, the area-weighted RMS error (relative to the mean "
+                        "radiosity, as reported) exceeds this")
     p.add_argument("--max-facing-bias", type=float, default=None,
                    help="exit 1 if, at some tolerance, the leaves facing one of the six axis directions are "
                         "brighter or darker on average than the full matrix's by more than this (relative)")
+    p.add_argument("--max-dark-excess", type=float, default=None,
+                   help="exit 1 if, at some tolerance, the leaves the full matrix leaves dark are brighter than "
+                        "its by more than this on average (relative to the mean radiosity; dark_excess)")
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--json", default=None)
     p.add_argument("--check", action="store_true")
@@ -143,6 +166,8 @@ def main(argv):
                 cmd += ["--clusters", a.clusters]
             if a.cluster_cone:
                 cmd += ["--cluster-cone", a.cluster_cone]
+            if a.cluster_open:
+                cmd += ["--cluster-open", a.cluster_open]
             t_links = run(cmd, env)
             sst = os.path.join(work, "s.json")
             # closure off: the links against the full matrix of the same leaves, which solve
@@ -159,17 +184,18 @@ def main(argv):
             h, f = read_radiosity(hr), read_radiosity(fr)
             err, rms = errors(h, f)
             bias = facing_bias(h, f)
+            dark = dark_excess(h, f)
             flat = errors(read_radiosity(hr + ".flat"), f) if a.flat else (None, None)
             rows.append({"link_tol": float(tol), "leaves": stats["leaves"], "elements": stats["elements"],
                          "links": stats["links"], "links_per_leaf": stats["links_per_leaf"],
                          "error": err, "rms": rms, "bound": stats["error_bound"], "seconds": t_links + t_solve,
                          "seconds_full": t_full, "error_flat": flat[0], "rms_flat": flat[1],
                          "imbalance": sstats["balance"]["imbalance"], "shaped": sstats["shaped"],
-                         "facing_bias": bias})
+                         "facing_bias": bias, "dark_excess": dark})
             r = rows[-1]
             print(f"link-tol {tol:>6}: {r['leaves']:7d} leaves {r['links']:9d} links ({r['links_per_leaf']:.1f}/leaf) "
                   f"error {err:.3e} (rms {rms:.2e}) bound {r['bound']:.3e} imbalance {r['imbalance']:.1e}  {r['seconds']:.2f} s "
-                  f"(full {t_full:.2f} s) facing bias {bias:.2e}"
+                  f"(full {t_full:.2f} s) facing bias {bias:.2e} dark excess {dark:.2e}"
                   + (f"  flat: error {flat[0]:.3e} (rms {flat[1]:.2e})" if a.flat else ""), flush=True)
     if a.json:
         json.dump(rows, open(a.json, "w"), indent=1)
@@ -185,6 +211,17 @@ def main(argv):
             if not (abs(r["imbalance"]) <= a.max_imbalance and ends > 0):
                 print(f"FAIL: link-tol {r['link_tol']}: imbalance {r['imbalance']:.2e} (at most {a.max_imbalance:.0e}), "
                       f"{ends} shaped link ends (want some)")
+                ok = False
+    if a.max_rms is not None:
+        for r in rows:
+            if not r["rms"] <= a.max_rms:
+                print(f"FAIL: link-tol {r['link_tol']}: rms error {r['rms']:.3e} above {a.max_rms:.1e}")
+                ok = False
+    if a.max_dark_excess is not None:
+        for r in rows:
+            if not r["dark_excess"] <= a.max_dark_excess:
+                print(f"FAIL: link-tol {r['link_tol']}: the leaves the full matrix leaves dark are brighter by "
+                      f"{r['dark_excess']:.3e} of the mean radiosity (at most {a.max_dark_excess:.1e})")
                 ok = False
     if a.max_facing_bias is not None:
         for r in rows:

@@ -23,7 +23,9 @@ scenes/cornell_sphere.obj, scenes/cluttered_room.obj) it
 2. labels every pixel with the surface region it sees (floor, back wall,
    blocks' faces, light, ...) by casting 3 x 3 rays per pixel through the
    same camera against the OBJ's faces in numpy (labels_<scene>_<W>x<H>_v2.npz
-   in the cache): a pixel whose 9 rays hit one region gets its label, one
+   in the cache; a scene of more than 5 000 faces through Mitsuba's own
+   rays against the reference's meshes, one region per OBJ group with its
+   numbers dropped, table_3 -> table: labels_<scene>_<W>x<H>_v3.npz): a pixel whose 9 rays hit one region gets its label, one
    whose rays hit several is "mixed" (edges; counted in the overall numbers,
    not in any region's), one whose rays all miss is background. Pixels
    touching the light (any of whose rays hit it, and their 8 neighbours:
@@ -148,7 +150,7 @@ CAMERAS = {
     "cluttered_room": {"eye": (5.0, 1.7, 0.3), "look_at": (5.0, 0.6, 6.0), "up": (0.0, 1.0, 0.0), "fov_y": 70.0},
 }
 DEFAULT_FOV_Y = 39.3077
-LABEL_FACES_MAX = 5000     # above: labels_by_brightness (casting per face would take hours)
+LABEL_FACES_MAX = 5000     # above: labels_by_shapes (casting per face in numpy would take hours)
 PASS_SPP = 64
 LUMA = (0.2126, 0.7152, 0.0722)
 BACKGROUND, MIXED = -1, -2
@@ -369,6 +371,46 @@ def labels_by_brightness(materials, ref):
     return np.zeros(y.shape, np.int16), ["all"], with_neighbours(hit) | (y <= 0.0)
 
 
+def labels_by_shapes(scene, width, height, cache):
+    """Per-pixel regions for scenes too large to cast per face in numpy: Mitsuba traces the 3 x 3 rays a
+    pixel of labels_by_rays against the reference's own meshes (one per OBJ group and material). A
+    region is the group's name without its trailing numbers (table_2 and table_3 are "table"), lights
+    are "light"; mixed pixels, the light's and their neighbours, and background as in labels_by_rays.
+    Returns labels, names, exclude; None where Mitsuba is missing."""
+    try:
+        mi = need("mitsuba")
+        pick_variant("auto")
+    except SystemExit:
+        return None
+    d = mitsuba_scene(scene, width, height, 1, cache)
+    keys = [k for k in d if k.startswith("shape_")]
+    region_of_key = {}
+    for i, k in enumerate(keys):
+        group = re.sub(r"^shape_\d+_", "", k)
+        region_of_key[k] = "light" if "emitter" in d[k] else (re.sub(r"(_\d+)+$", "", group) or group)
+        # A BSDF of its own per mesh: Mitsuba merges meshes whose materials are alike into one shape,
+        # which would leave one label per material.
+        d[k]["bsdf"] = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.5, 0.5, (i + 1) / (len(keys) + 1)]}}
+        d[k].pop("emitter", None)
+    sc = mi.load_dict(d)
+    names = sorted(set(region_of_key.values()))
+    cam = load_camera(scene)
+    eye, dirs = pixel_rays(cam, width, height, 3)
+    dv = dirs.reshape(-1, 3).astype(np.float32)
+    ray = mi.Ray3f(mi.Point3f(*[np.full(len(dv), e, np.float32) for e in eye]),
+                   mi.Vector3f(dv[:, 0], dv[:, 1], dv[:, 2]))
+    si = sc.ray_intersect(ray)
+    hits = np.full(len(dv), BACKGROUND, np.int32)
+    for shape in sc.shapes():
+        hits[np.array(si.shape == mi.ShapePtr(shape), dtype=bool)] = names.index(region_of_key[shape.id()])
+    hits = hits.reshape(height, width, 9)
+    first = hits[..., 0]
+    labels = np.where(np.all(hits == first[..., None], axis=-1), first, MIXED).astype(np.int16)
+    light = names.index("light") if "light" in names else -99
+    exclude = with_neighbours(np.any(hits == light, axis=-1)) | (labels == BACKGROUND)
+    return labels, names, exclude
+
+
 def labels_by_rays(faces, scene, width, height):
     """Per-pixel regions from rays cast at every face (3 x 3 a pixel): labels, names, exclude."""
     cam = load_camera(scene)
@@ -393,20 +435,32 @@ def labels_by_rays(faces, scene, width, height):
 
 def labels_for(scene, width, height, cache, ref=None):
     """Per-pixel labels (cached): dict with labels (H, W) int16, names, exclude (H, W) bool. Scenes of
-    more than LABEL_FACES_MAX faces take them from the reference ref (labels_by_brightness)."""
+    more than LABEL_FACES_MAX faces take them from Mitsuba's rays (labels_by_shapes, cached as _v3),
+    or without Mitsuba from the reference ref (labels_by_brightness, one region)."""
     path = os.path.join(cache, f"labels_{scene}_{width}x{height}_v2.npz")
-    if os.path.exists(path):
-        return load_labels(path)
+    shapes_path = os.path.join(cache, f"labels_{scene}_{width}x{height}_v3.npz")
+    if os.path.exists(shapes_path):
+        return load_labels(shapes_path)
     t0 = time.time()
     faces, materials = load_obj(os.path.join(REPO, SCENES[scene][0]))
-    if len(faces) <= LABEL_FACES_MAX:
+    small = len(faces) <= LABEL_FACES_MAX
+    if small and os.path.exists(path):
+        return load_labels(path)
+    if small:
         labels, names, exclude = labels_by_rays(faces, scene, width, height)
         how = f"{len(names)} regions"
-    elif ref is not None:
-        labels, names, exclude = labels_by_brightness(materials, ref)
-        how = f"by brightness, {int(exclude.sum())} pixels left out"
     else:
-        raise RuntimeError(f"labels for {scene} ({len(faces)} faces) come from its reference: render it first")
+        by_shapes = labels_by_shapes(scene, width, height, cache)
+        if by_shapes is not None:
+            labels, names, exclude = by_shapes
+            how, path = f"{len(names)} regions by Mitsuba's rays", shapes_path
+        elif os.path.exists(path):
+            return load_labels(path)
+        elif ref is not None:
+            labels, names, exclude = labels_by_brightness(materials, ref)
+            how = f"by brightness, {int(exclude.sum())} pixels left out"
+        else:
+            raise RuntimeError(f"labels for {scene} ({len(faces)} faces) come from its reference: render it first")
     os.makedirs(cache, exist_ok=True)
     np.savez_compressed(path, labels=labels, names=np.array(names), exclude=exclude)
     log(f"labels for {scene}: {how}, {time.time() - t0:.1f} s -> {path}")
@@ -469,9 +523,13 @@ def compare(ours, ref, labels=None):
             if m.sum() == 0:
                 continue
             r = yr[m].mean()
+            counted = m & mask   # the pixels the overall numbers count
             out["regions"][name] = {"pixels": int(m.sum()), "mean_ref": r,
                                     "error_pct": 100.0 * (yo[m].mean() / r - 1.0) if r > 0 else None,
-                                    "rel_rmse": math.sqrt(np.mean((yo[m] - yr[m]) ** 2)) / r if r > 0 else None}
+                                    "rel_rmse": math.sqrt(np.mean((yo[m] - yr[m]) ** 2)) / r if r > 0 else None,
+                                    # its share of the overall reference, and what it adds to mean_error_pct
+                                    "share_pct": 100.0 * yr[counted].sum() / yr[mask].sum(),
+                                    "contribution_pct": 100.0 * (yo[counted] - yr[counted]).sum() / yr[mask].sum()}
     return out
 
 
