@@ -260,6 +260,7 @@ void ff_links_free(ff_links *L)
     free(L->radiosity);
     free(L->spread);
     free(L->links);
+    free(L->link_left);
     ff_clusters_free(&L->clusters);
     free(L->cluster_radiosity);
     free(L->cluster_rho);
@@ -406,15 +407,16 @@ static double gather_weight(const ff_links *L, uint32_t r, uint32_t s, double F_
     return weight(L, r, s, F_rs, g_rs) + fmax(rho[0], fmax(rho[1], rho[2])) * F_rs * node_spread(L, s) * varies;
 }
 
-/* Does the pair (a, b) need finer elements? link_tol 0: always. */
-static int over_tolerance(const ff_links *L, const ff_link_pair *p)
+/* Does the pair (a, b) need finer elements? link_tol 0: always. left: its
+ * g_ab, g_ba (the gather oracle's; NULL for the others). */
+static int over_tolerance(const ff_links *L, const ff_link_pair *p, const float *left)
 {
     if (L->config.link_tol <= 0) return 1;
     double Fab = p->coupling * node_area(L, p->b), Fba = p->coupling * node_area(L, p->a);
     double w;
     if (L->config.oracle == FF_ORACLE_GATHER)
-        w = fmax(gather_weight(L, p->a, p->b, Fab, p->left_ab, Fba, p->error_ba),
-                 gather_weight(L, p->b, p->a, Fba, p->left_ba, Fab, p->error_ab));
+        w = fmax(gather_weight(L, p->a, p->b, Fab, left[0], Fba, p->error_ba),
+                 gather_weight(L, p->b, p->a, Fba, left[1], Fab, p->error_ab));
     else
         w = fmax(weight(L, p->a, p->b, Fab, p->error_ab), weight(L, p->b, p->a, Fba, p->error_ba));
     double scale = L->config.oracle == FF_ORACLE_FACTOR ? 1.0
@@ -714,10 +716,11 @@ typedef struct round_state {
     size_t chunk_count;
 } round_state;
 
-/* Candidate k's verdict, and its link in *p where it has one (or is split:
- * the estimate split on). ke, kc: its index among the element pairs, the
- * cluster pairs. */
-static int candidate_verdict(const ff_links *L, const round_state *r, size_t k, size_t ke, size_t kc, ff_link_pair *p)
+/* Candidate k's verdict, and its link in *p and its g in left[0 .. 1]
+ * where it has one (or is split: the estimate split on). ke, kc: its index
+ * among the element pairs, the cluster pairs. */
+static int candidate_verdict(const ff_links *L, const round_state *r, size_t k, size_t ke, size_t kc, ff_link_pair *p,
+                             float *left)
 {
     const uint32_t a = r->list->jobs[k].a, b = r->list->jobs[k].b;
     *p = (ff_link_pair){.a = a, .b = b};
@@ -726,8 +729,8 @@ static int candidate_verdict(const ff_links *L, const round_state *r, size_t k, 
         if (!c->facing) return VERDICT_NONE;
         if (c->must_split) return VERDICT_SPLIT;
         p->coupling = c->coupling;
-        p->error_ab = p->left_ab = (float)c->error_ab;
-        p->error_ba = p->left_ba = (float)c->error_ba;
+        p->error_ab = left[0] = (float)c->error_ab;
+        p->error_ba = left[1] = (float)c->error_ba;
     } else {
         const ff_pair_outcome *o = &r->out[ke];
         const int weighed = r->pairs[ke].spread;
@@ -738,10 +741,10 @@ static int candidate_verdict(const ff_links *L, const round_state *r, size_t k, 
         p->coupling = o->coupling;
         p->error_ab = (float)factor_error(o, ab.spread, ab.mean, Ab);
         p->error_ba = (float)factor_error(o, ba.spread, ba.mean, Aa);
-        p->left_ab = (float)gather_error(o, ab.spread, ab.curvature, ab.mean, Ab, leaf_depth(L, a));
-        p->left_ba = (float)gather_error(o, ba.spread, ba.curvature, ba.mean, Aa, leaf_depth(L, b));
+        left[0] = (float)gather_error(o, ab.spread, ab.curvature, ab.mean, Ab, leaf_depth(L, a));
+        left[1] = (float)gather_error(o, ba.spread, ba.curvature, ba.mean, Aa, leaf_depth(L, b));
     }
-    return (splittable(L, a) || splittable(L, b)) && over_tolerance(L, p) ? VERDICT_SPLIT : VERDICT_LINK;
+    return (splittable(L, a) || splittable(L, b)) && over_tolerance(L, p, left) ? VERDICT_SPLIT : VERDICT_LINK;
 }
 
 /* The candidates sorted into element pairs and cluster pairs, each in
@@ -798,7 +801,8 @@ static void decide_round(const ff_links *L, round_state *r)
             const uint32_t a = r->list->jobs[k].a, b = r->list->jobs[k].b;
             const int clustered = ff_is_cluster(a) || ff_is_cluster(b);
             ff_link_pair p;
-            const int v = candidate_verdict(L, r, k, ke, kc, &p);
+            float left[2];
+            const int v = candidate_verdict(L, r, k, ke, kc, &p, left);
             r->verdict[k] = (uint8_t)v;
             if (v == VERDICT_LINK) {
                 ch->links++;
@@ -827,7 +831,9 @@ static void write_round(ff_links *L, const round_state *r, job_list *next)
             const uint32_t a = r->list->jobs[k].a, b = r->list->jobs[k].b;
             const int clustered = ff_is_cluster(a) || ff_is_cluster(b);
             if (r->verdict[k] == VERDICT_LINK) {
-                candidate_verdict(L, r, k, ke, kc, &L->links[link++]);
+                float scratch[2];
+                candidate_verdict(L, r, k, ke, kc, &L->links[link], L->link_left ? &L->link_left[2 * link] : scratch);
+                link++;
             } else if (r->verdict[k] >= VERDICT_SPLIT) {
                 job += split_jobs(L, a, b, next->jobs + job, NULL);
             }
@@ -840,8 +846,17 @@ static void write_round(ff_links *L, const round_state *r, job_list *next)
 static rad_status link_reserve(ff_links *L, size_t more)
 {
     void *links;
-    const rad_status st = grow(L->links, &L->link_cap, L->link_count + more, sizeof *L->links, "links", &links);
+    const size_t cap = L->link_cap;
+    rad_status st = grow(L->links, &L->link_cap, L->link_count + more, sizeof *L->links, "links", &links);
     L->links = links;
+    if (st == RAD_OK && L->config.oracle == FF_ORACLE_GATHER && (!L->link_left || L->link_cap != cap)) {
+        float *left = realloc(L->link_left, 2 * L->link_cap * sizeof *left);
+        if (!left) {
+            rad_error("hierarchy: out of memory for %zu links' g", L->link_cap);
+            return RAD_ERR_NOMEM;
+        }
+        L->link_left = left;
+    }
     return st;
 }
 
@@ -1060,8 +1075,11 @@ static rad_status keep_links(ff_links *L, const uint8_t *verdict, round_chunk *c
 {
     const size_t n = L->link_count;
     ff_link_pair *buffer = malloc((size_t)KEEP_WINDOW * ROUND_CHUNK * sizeof *buffer);
+    float *left = L->link_left ? malloc((size_t)KEEP_WINDOW * ROUND_CHUNK * 2 * sizeof *left) : NULL;
     size_t kept = 0;
-    if (!buffer) {
+    if (!buffer || (L->link_left && !left)) {
+        free(buffer);
+        free(left);
         rad_error("hierarchy: out of memory for the links kept");
         return RAD_ERR_NOMEM;
     }
@@ -1077,13 +1095,20 @@ static rad_status keep_links(ff_links *L, const uint8_t *verdict, round_chunk *c
         for (size_t c = w; c < end; c++) {
             size_t j = chunks[c].links;
             for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n); k++)
-                if (verdict[k] < VERDICT_SPLIT) buffer[j++] = L->links[k];
+                if (verdict[k] < VERDICT_SPLIT) {
+                    if (left) left[2 * j] = L->link_left[2 * k], left[2 * j + 1] = L->link_left[2 * k + 1];
+                    buffer[j++] = L->links[k];
+                }
         }
 #pragma omp parallel for schedule(static)
-        for (size_t i = 0; i < m; i++) L->links[kept + i] = buffer[i];
+        for (size_t i = 0; i < m; i++) {
+            L->links[kept + i] = buffer[i];
+            if (left) L->link_left[2 * (kept + i)] = left[2 * i], L->link_left[2 * (kept + i) + 1] = left[2 * i + 1];
+        }
         kept += m;
     }
     free(buffer);
+    free(left);
     L->link_count = kept;
     return RAD_OK;
 }
@@ -1109,7 +1134,8 @@ static rad_status reweigh_links(ff_links *L, job_list *list, uint64_t *refined)
         *ch = (round_chunk){0};
         for (size_t k = chunk_begin(c, n); k < chunk_begin(c + 1, n); k++) {
             const ff_link_pair *p = &L->links[k];
-            const int split = (splittable(L, p->a) || splittable(L, p->b)) && over_tolerance(L, p);
+            const int split = (splittable(L, p->a) || splittable(L, p->b)) &&
+                              over_tolerance(L, p, L->link_left ? &L->link_left[2 * k] : NULL);
             verdict[k] = split ? split_verdict(L, p->a, p->b, ch) : VERDICT_LINK;
             ch->links += !split;
         }

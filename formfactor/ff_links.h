@@ -130,12 +130,13 @@ static inline double ff_links_quad_rtol(double link_tol, double quad_rtol)
 
 /* Pair ids and FF_CLUSTER_RAYS: ff_cluster_math.h. */
 
-/* A link as refinement holds it: both directions of one pair. */
+/* A link as refinement holds it: both directions of one pair (24 bytes;
+ * the gather oracle's g of each direction is beside it, ff_links.link_left:
+ * at 10^6 triangles the links are most of the host's memory). */
 typedef struct ff_link_pair {
     uint32_t a, b;           /* pair ids (elements or clusters), a < b */
     double coupling;         /* c_ab = F_ab / A_b = F_ba / A_a */
     float error_ab, error_ba; /* e of F_ab, of F_ba (F units) */
-    float left_ab, left_ba;   /* g: what solve's shaped solve leaves of them (ff_oracle gather) */
 } ff_link_pair;
 
 /* What refinement did, all passes (the stats'). */
@@ -178,6 +179,8 @@ typedef struct ff_links {
     double *cluster_rho;       /* per cluster, RGB: the largest rho of its roots */
     double *cluster_spread;    /* per cluster: largest - smallest B of its roots' leaves (gather oracle) */
     ff_link_pair *links;
+    float *link_left;      /* the gather oracle only (else NULL): 2 per link, g of F_ab and of F_ba, what
+                              solve's shaped solve leaves of them; link_cap pairs of room */
     size_t link_count, link_cap;
     ff_links_tally tally;
     uint32_t passes;
