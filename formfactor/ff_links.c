@@ -146,11 +146,8 @@ static rad_status clusters_init(ff_links *L)
         return RAD_ERR_NOMEM;
     }
     cluster_values(L, NULL, NULL);
-    size_t mixed = 0;
-    for (size_t c = 0; c < n; c++) {
-        const ff_cluster_bound *b = &L->clusters.clusters[c].bound;
-        mixed += b->open_hi - b->open_lo > L->config.cluster_open;
-    }
+    size_t mixed = 0; /* by openness alone: no cone is wider than pi */
+    for (size_t c = 0; c < n; c++) mixed += ff_cluster_bound_mixed(&L->clusters.clusters[c].bound, RAD_PI, L->config.cluster_open);
     rad_info("clusters: %zu over %zu faces, %zu of them partly hidden (openness %.3f s)", n,
              L->tree.base->patch_count, mixed, L->tally.open_seconds);
     return RAD_OK;

@@ -4,8 +4,8 @@
 #include <math.h>
 
 #include "ff_bvh.h"
+#include "rad_box.h"
 #include "rad_ff_visibility.h"
-#include "rad_log.h"
 #include "rad_rng.h"
 
 /* A cos-weighted direction about the unit n from two numbers in [0, 1). */
@@ -21,14 +21,11 @@ rad_status ff_openness(const rad_ff_patch *patches, uint32_t count, const double
                        const uint32_t *triangle_face, uint32_t triangle_count, double delta, float *open)
 {
     if (count == 0) return RAD_OK;
-    rad_vec3 lo = patches[0].p[0], hi = lo;
+    rad_box box = rad_box_empty();
     for (uint32_t f = 0; f < count; f++)
-        for (uint32_t k = 0; k < 4; k++) {
-            rad_vec3 p = patches[f].p[k];
-            lo = (rad_vec3){fmin(lo.x, p.x), fmin(lo.y, p.y), fmin(lo.z, p.z)};
-            hi = (rad_vec3){fmax(hi.x, p.x), fmax(hi.y, p.y), fmax(hi.z, p.z)};
-        }
-    const double reach = FF_OPEN_REACH * rad_v3_length(rad_v3_sub(hi, lo));
+        for (uint32_t k = 0; k < patches[f].vertex_count; k++)
+            rad_box_add(&box, (const double[3]){patches[f].p[k].x, patches[f].p[k].y, patches[f].p[k].z});
+    const double reach = FF_OPEN_REACH * rad_box_diagonal(&box);
     ff_bvh bvh;
     rad_status st = ff_bvh_build(triangles, triangle_face, triangle_count, &bvh);
     if (st != RAD_OK) return st;

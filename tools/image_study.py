@@ -441,12 +441,13 @@ def labels_for(scene, width, height, cache, ref=None):
     shapes_path = os.path.join(cache, f"labels_{scene}_{width}x{height}_v3.npz")
     if os.path.exists(shapes_path):
         return load_labels(shapes_path)
+    if os.path.exists(path):
+        cached = load_labels(path)
+        if cached["names"] != ["all"]:   # a small scene's regions; ["all"] is a large one's by brightness
+            return cached
     t0 = time.time()
     faces, materials = load_obj(os.path.join(REPO, SCENES[scene][0]))
-    small = len(faces) <= LABEL_FACES_MAX
-    if small and os.path.exists(path):
-        return load_labels(path)
-    if small:
+    if len(faces) <= LABEL_FACES_MAX:
         labels, names, exclude = labels_by_rays(faces, scene, width, height)
         how = f"{len(names)} regions"
     else:
@@ -455,7 +456,7 @@ def labels_for(scene, width, height, cache, ref=None):
             labels, names, exclude = by_shapes
             how, path = f"{len(names)} regions by Mitsuba's rays", shapes_path
         elif os.path.exists(path):
-            return load_labels(path)
+            return cached
         elif ref is not None:
             labels, names, exclude = labels_by_brightness(materials, ref)
             how = f"by brightness, {int(exclude.sum())} pixels left out"
