@@ -8,6 +8,7 @@
  * the whole paper-size run on a GPU, and `formfactor --version` paid it
  * too. The bytes written are the same either way (formfactor_ranks). No
  * files here: each rank writes its part of the output itself (ff_writer.h). */
+#include <limits.h>
 #include <mpi.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -166,10 +167,86 @@ rad_status ff_comm_sendrecv(ff_comm *comm, int dest, const double *send, size_t 
     return RAD_OK;
 }
 
+/* MPI counts are ints: larger messages go in pieces of this many bytes. */
+#define COMM_PIECE ((size_t)1 << 30)
+
 void ff_comm_broadcast(ff_comm *comm, void *data, size_t bytes, int root)
 {
     if (comm->mpi.solo) return;
-    MPI_Bcast(data, (int)bytes, MPI_BYTE, root, MPI_COMM_WORLD);
+    for (size_t at = 0; at < bytes; at += COMM_PIECE) {
+        const size_t n = bytes - at < COMM_PIECE ? bytes - at : COMM_PIECE;
+        MPI_Bcast((unsigned char *)data + at, (int)n, MPI_BYTE, root, MPI_COMM_WORLD);
+    }
+}
+
+/* counts[r] items of `item_bytes` at rank r, back to back in rank order:
+ * an MPI type of one item, the counts and displacements in items; 0
+ * (logged) where they exceed an int. */
+static int item_layout(const ff_comm *comm, const uint64_t *counts, size_t item_bytes, MPI_Datatype *type,
+                       int **out_counts, int **out_displs)
+{
+    const int size = comm->mpi.size;
+    int *c = malloc((size_t)size * sizeof *c), *d = malloc((size_t)size * sizeof *d);
+    uint64_t at = 0;
+    int ok = c && d && item_bytes <= INT_MAX;
+    for (int r = 0; r < size && ok; r++) {
+        ok = counts[r] <= INT_MAX && at <= INT_MAX;
+        c[r] = (int)counts[r];
+        d[r] = (int)at;
+        at += counts[r];
+    }
+    if (!ok) {
+        rad_error("MPI: a block of %llu items of %zu bytes is more than one message holds",
+                  (unsigned long long)at, item_bytes);
+        free(c);
+        free(d);
+        return 0;
+    }
+    MPI_Type_contiguous((int)item_bytes, MPI_BYTE, type);
+    MPI_Type_commit(type);
+    *out_counts = c;
+    *out_displs = d;
+    return 1;
+}
+
+rad_status ff_comm_scatter_items(ff_comm *comm, const void *send, const uint64_t *counts, size_t item_bytes,
+                                 void *mine)
+{
+    const int rank = comm->mpi.rank;
+    if (comm->mpi.solo) return RAD_OK;
+    MPI_Datatype type;
+    int *c = NULL, *d = NULL;
+    if (!item_layout(comm, counts, item_bytes, &type, &c, &d)) return RAD_ERR_INVALID;
+    int code = rank == 0 ? MPI_Scatterv(send, c, d, type, MPI_IN_PLACE, c[0], type, 0, MPI_COMM_WORLD)
+                         : MPI_Scatterv(NULL, NULL, NULL, type, mine, c[rank], type, 0, MPI_COMM_WORLD);
+    MPI_Type_free(&type);
+    free(c);
+    free(d);
+    if (code != MPI_SUCCESS) {
+        log_mpi_error("handing out blocks", "MPI_Scatterv", code);
+        return RAD_ERR_BACKEND;
+    }
+    return RAD_OK;
+}
+
+rad_status ff_comm_gather_items(ff_comm *comm, const void *mine, const uint64_t *counts, size_t item_bytes,
+                                void *recv)
+{
+    const int rank = comm->mpi.rank;
+    if (comm->mpi.solo) return RAD_OK;
+    MPI_Datatype type;
+    int *c = NULL, *d = NULL;
+    if (!item_layout(comm, counts, item_bytes, &type, &c, &d)) return RAD_ERR_INVALID;
+    int code = rank == 0 ? MPI_Gatherv(MPI_IN_PLACE, c[0], type, recv, c, d, type, 0, MPI_COMM_WORLD)
+                         : MPI_Gatherv(mine, c[rank], type, NULL, NULL, NULL, type, 0, MPI_COMM_WORLD);
+    MPI_Type_free(&type);
+    free(c);
+    free(d);
+    if (code != MPI_SUCCESS) {
+        log_mpi_error("collecting blocks", "MPI_Gatherv", code);
+        return RAD_ERR_BACKEND;
+    }
+    return RAD_OK;
 }
 
 void ff_comm_gather(ff_comm *comm, const void *data, size_t bytes, void *out, int root)

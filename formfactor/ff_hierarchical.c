@@ -4,7 +4,8 @@
  * (rad_lsolve) and refines the links the solution's B makes too coarse,
  * until a pass refines nothing or --passes are done. The last solution
  * gives the error bound the file records; solve solves again from the
- * file. One rank computes (the others wait): the links are the same
+ * file. Rank 0 refines; every rank computes its share of each round's
+ * pairs on its own backend (ff_rank_rounds.h): the links are the same
  * bytes whatever the ranks and threads. */
 #include "ff_hierarchical.h"
 
@@ -18,6 +19,7 @@
 #include "ff_limits.h"
 #include "rad_cpu.h"
 #include "ff_links.h"
+#include "ff_rank_rounds.h"
 #include "ff_load.h"
 #include "ff_setup.h"
 #include "ff_solve.h"
@@ -48,6 +50,7 @@ typedef struct hier_run {
     rad_lsolve_options solved_with; /* the last flat solve's (from B = E unless warm_start: ff_solve_links
                                        may take such a one as its own) */
     int threads;
+    int ranks;          /* sharing the rounds' pairs (ff_rank_rounds.h) */
     int cpu_first;      /* --backend auto takes the CPU without asking CUDA (cpu_first_under_auto) */
     ff_closed_result closed; /* --closure: closed 1 marks the file (RAD_FF_FLAG_CLOSED); rays 0: not tested */
     double most_leaves; /* faces x 4^level: what it decides by */
@@ -204,37 +207,72 @@ static int cpu_first_under_auto(const hier_run *h, double *most)
     return opt->backend == FF_BACKEND_AUTO && *most < (double)FF_HIER_CPU_LEAVES_PER_THREAD * h->threads;
 }
 
-static rad_status build_links(hier_run *h)
+/* The occluders and the backend's setup from the loaded scene: every
+ * rank's, the same. */
+static rad_status prepare_setup(hier_run *h, ff_setup *su, double centre[3])
 {
     const ff_options *opt = h->opt;
-    const double t_setup = rad_clock_seconds();
-    const int will_ask = opt->backend != FF_BACKEND_CPU && !h->cpu_first;
-    double centre[3];
     ff_frame_centre(&h->base, centre);
     rad_status st = ff_occluders_build(&h->scene, centre, &h->triangles, &h->triangle_face, &h->triangle_count);
     if (st != RAD_OK) return st;
     double eps = ff_plane_eps(&h->base);
-    ff_setup su = {.patches = NULL, .patch_count = 0, .triangles = h->triangles,
-                   .triangle_face = h->triangle_face, .triangle_count = h->triangle_count,
-                   .samples = opt->samples, .shadow_rays = opt->shadow_rays, .seed = opt->seed,
-                   .estimator = opt->estimator, .quad_rtol = ff_links_quad_rtol(opt->link_tol, opt->quad_rtol),
-                   .quad_atol = opt->quad_atol,
-                   .target_error = opt->target_error, .max_samples = opt->max_samples, .errors = 1,
-                   .cull = opt->cull == FF_CULL_ALL,
-                   .scene_convex = opt->cull == FF_CULL_ALL && ff_scene_is_convex_enclosure(&h->scene, eps),
-                   .cull_margin = ff_cull_margin(&h->base, centre, eps), .plane_eps = eps,
-                   .ray_delta = ff_ray_delta(&h->base), .threads = h->threads};
+    *su = (ff_setup){.patches = NULL, .patch_count = 0, .triangles = h->triangles,
+                     .triangle_face = h->triangle_face, .triangle_count = h->triangle_count,
+                     .samples = opt->samples, .shadow_rays = opt->shadow_rays, .seed = opt->seed,
+                     .estimator = opt->estimator, .quad_rtol = ff_links_quad_rtol(opt->link_tol, opt->quad_rtol),
+                     .quad_atol = opt->quad_atol,
+                     .target_error = opt->target_error, .max_samples = opt->max_samples, .errors = 1,
+                     .cull = opt->cull == FF_CULL_ALL,
+                     .scene_convex = opt->cull == FF_CULL_ALL && ff_scene_is_convex_enclosure(&h->scene, eps),
+                     .cull_margin = ff_cull_margin(&h->base, centre, eps), .plane_eps = eps,
+                     .ray_delta = ff_ray_delta(&h->base), .threads = h->threads};
+    return RAD_OK;
+}
+
+/* Every rank's backend, of rank 0's kind (collective): CUDA's where rank
+ * 0 sees a GPU under --backend cuda, or auto that does not take the CPU
+ * first; else the CPU's. The ranks must agree on it, for a pair's outcome
+ * may differ between the two in the last bits. A rank's GPU: its rank
+ * modulo the GPUs it sees. */
+static rad_status open_backend(hier_run *h, ff_comm *comm, ff_setup *su)
+{
+    const ff_options *opt = h->opt;
+    const int rank = ff_comm_rank(comm);
+    const int will_ask = opt->backend != FF_BACKEND_CPU && !h->cpu_first;
     const int gpus = will_ask ? ff_cuda_device_count() : 0; /* waits for the start */
+    int gpu = gpus > 0;
+    ff_comm_broadcast(comm, &gpu, sizeof gpu, 0);
     if (opt->backend == FF_BACKEND_CUDA && gpus == 0) {
-        rad_error("--backend cuda: no CUDA device is visible to this process");
+        rad_error("--backend cuda: no CUDA device is visible to rank %d", rank);
         return RAD_ERR_UNSUPPORTED;
     }
-    if (h->cpu_first)
+    if (gpu && gpus == 0) {
+        rad_error("--method hierarchical: rank 0 computes on a GPU and rank %d sees none; the ranks' pairs must be "
+                  "computed alike (--backend cpu runs every rank on its CPU)",
+                  rank);
+        return RAD_ERR_UNSUPPORTED;
+    }
+    if (h->cpu_first && rank == 0)
         rad_info("--backend auto: the CPU (at most %.0f leaves, under %u a thread on %d threads; a GPU from there)",
                  h->most_leaves, FF_HIER_CPU_LEAVES_PER_THREAD, h->threads);
-    if ((st = decide_closure(h, &su, centre)) != RAD_OK) return st;
-    h->backend = gpus > 0 ? &ff_backend_cuda : &ff_backend_cpu;
-    if ((st = h->backend->create(&su, &h->backend_state)) != RAD_OK) return st;
+    su->device = gpu ? rank % gpus : 0;
+    h->backend = gpu ? &ff_backend_cuda : &ff_backend_cpu;
+    return h->backend->create(su, &h->backend_state);
+}
+
+/* Rank 0: the passes, the other ranks computing their share of each
+ * round (ff_rank_rounds.h) until they are done. */
+static rad_status build_links(hier_run *h, ff_comm *comm, const ff_setup *su, const double centre[3])
+{
+    const ff_options *opt = h->opt;
+    const double t_setup = rad_clock_seconds();
+    rad_status st = decide_closure(h, su, centre);
+    if (st == RAD_OK && ff_comm_size(comm) > 1) st = ff_rank_rounds_open(comm, &h->links.ranks);
+    if (st != RAD_OK) {
+        ff_rank_rounds_close(comm, h->links.ranks);
+        h->links.ranks = NULL;
+        return st;
+    }
     double total_area = 0;
     for (size_t k = 0; k < h->base.patch_count; k++) total_area += h->base.patches[k].area;
     ff_links_config config = {.link_tol = opt->link_tol, .oracle = ff_oracle_resolve(opt->oracle, opt->uniform_leaves || opt->sized_leaves),
@@ -246,14 +284,23 @@ static rad_status build_links(hier_run *h)
                               .triangle_face = h->triangle_face, .triangle_count = h->triangle_count,
                               .clusters = opt->clusters >= 0 ? opt->clusters
                                                              : h->base.patch_count >= FF_CLUSTERS_AUTO_ROOTS,
-                              .ray_delta = su.ray_delta};
+                              .ray_delta = su->ray_delta};
     if (opt->clusters < 0)
         rad_info("--clusters auto: %s (%zu faces; on from %u)", config.clusters ? "on" : "off", h->base.patch_count,
                  FF_CLUSTERS_AUTO_ROOTS);
-    rad_info("element pairs%s on the %s backend", config.clusters ? " and cluster pairs" : "", h->backend->name);
-    if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, h->backend, h->backend_state)) != RAD_OK)
+    if (ff_comm_size(comm) > 1)
+        rad_info("element pairs%s on the %s backend of each of %d ranks", config.clusters ? " and cluster pairs" : "",
+                 h->backend->name, ff_comm_size(comm));
+    else
+        rad_info("element pairs%s on the %s backend", config.clusters ? " and cluster pairs" : "", h->backend->name);
+    ff_rank_rounds *ranks = h->links.ranks;
+    if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, h->backend, h->backend_state)) != RAD_OK) {
+        ff_rank_rounds_close(comm, ranks);
+        h->links.ranks = NULL;
         return st;
-    h->seconds_setup = rad_clock_seconds() - t_setup;
+    }
+    h->links.ranks = ranks;
+    h->seconds_setup += rad_clock_seconds() - t_setup;
     for (uint32_t pass = 0; pass < opt->passes && st == RAD_OK; pass++) {
         /* the last export is not needed while the links refine (h->B and
          * h->leaves are): freed, it is not beside the refinement's pairs */
@@ -280,6 +327,8 @@ static rad_status build_links(hier_run *h)
                      (unsigned long long)h->links.tally.candidates, (unsigned long long)h->counters.rays,
                      h->seconds_links, h->solution.iterations[0], h->last_solve_gpu ? " (Jacobi on the GPU)" : "");
     }
+    ff_rank_rounds_close(comm, h->links.ranks); /* the other ranks are done */
+    h->links.ranks = NULL;
     /* a pass that refined nothing left the last solution at the oracle's tolerance */
     if (st == RAD_OK && h->solved_with.tolerance > HIER_FINAL_TOL) st = solve_flat(h, HIER_FINAL_TOL, 1);
     if (st == RAD_OK) {
@@ -431,6 +480,8 @@ static rad_status write_stats(const hier_run *h)
     rad_json_number(&w, h->solution.imbalance);
     rad_json_key(&w, "threads");
     rad_json_int(&w, h->threads);
+    rad_json_key(&w, "ranks"); /* each computing its share of every round's pairs */
+    rad_json_int(&w, h->ranks);
     rad_json_key(&w, "backend");
     rad_json_string(&w, h->backend->name);
     rad_json_key(&w, "times");
@@ -509,31 +560,45 @@ static void release_backends(hier_run *h)
 
 rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
 {
-    int rank = ff_comm_rank(comm);
+    const int rank = ff_comm_rank(comm), ranks = ff_comm_size(comm);
     hier_run h;
     memset(&h, 0, sizeof h);
     h.opt = opt;
     h.threads = rad_cpu_threads_per_rank(opt->threads, ff_comm_node_size(comm));
+    h.ranks = ranks;
     double t0 = rad_clock_seconds();
-    rad_status st = RAD_OK;
-    if (rank == 0) {
-        if (ff_comm_size(comm) > 1) rad_info("--method hierarchical: rank 0 computes the links; the other ranks wait");
-        /* CUDA starts while the scene loads under --backend cuda, once
-         * its size is known under auto (main leaves it to this run, rank
-         * 0's device: rank 0 computes the links) */
-        if (opt->backend == FF_BACKEND_CUDA) ff_cuda_prestart(0);
-        st = ff_load_scene(opt, &h.scene);
-        rad_mesh_options mo = {.subdiv = 0, .contacts = opt->contacts};
-        if (st == RAD_OK) st = rad_mesh_build(&h.scene, &mo, &h.base);
-        if (st == RAD_OK) h.cpu_first = cpu_first_under_auto(&h, &h.most_leaves);
-        if (st == RAD_OK && opt->backend == FF_BACKEND_AUTO && !h.cpu_first) ff_cuda_prestart(0);
-        if (st == RAD_OK && h.base.patch_count == 0) {
-            rad_error("%s: the scene has no faces", h.scene.path);
-            st = RAD_ERR_INVALID;
+    /* Every rank loads the scene and makes the backend's setup: each
+     * computes its share of the rounds' pairs on its own backend. Rank 0
+     * refines, solves and writes. CUDA starts while the scene loads under
+     * --backend cuda, once its size is known under auto. */
+    if (opt->backend == FF_BACKEND_CUDA) ff_cuda_prestart(rank);
+    rad_status st = ff_load_scene(opt, &h.scene);
+    rad_mesh_options mo = {.subdiv = 0, .contacts = opt->contacts};
+    if (st == RAD_OK) st = rad_mesh_build(&h.scene, &mo, &h.base);
+    if (st == RAD_OK) h.cpu_first = cpu_first_under_auto(&h, &h.most_leaves);
+    if (st == RAD_OK && opt->backend == FF_BACKEND_AUTO && !h.cpu_first) ff_cuda_prestart(rank);
+    if (st == RAD_OK && h.base.patch_count == 0) {
+        if (rank == 0) rad_error("%s: the scene has no faces", h.scene.path);
+        st = RAD_ERR_INVALID;
+    }
+    h.seconds_load = rad_clock_seconds() - t0;
+    h.peak_load = rad_mem_peak_bytes();
+    ff_setup su;
+    double centre[3];
+    const double t_setup = rad_clock_seconds();
+    if ((st = ff_comm_agree(comm, st)) == RAD_OK) st = prepare_setup(&h, &su, centre);
+    if ((st = ff_comm_agree(comm, st)) == RAD_OK) st = open_backend(&h, comm, &su);
+    h.seconds_setup = rad_clock_seconds() - t_setup;
+    if ((st = ff_comm_agree(comm, st)) == RAD_OK && rank > 0) {
+        st = ff_rank_rounds_serve(comm, h.backend, h.backend_state);
+    } else if (st == RAD_OK) {
+        /* a GPU computes this rank's pairs and others wait on theirs: its
+         * threads take this node's cores but one a waiting rank */
+        if (ranks > 1 && h.backend == &ff_backend_cuda && opt->threads <= 0) {
+            const int cores = rad_cpu_threads_per_rank(0, 1), others = ff_comm_node_size(comm) - 1;
+            h.threads = cores - others > 1 ? cores - others : 1;
         }
-        h.seconds_load = rad_clock_seconds() - t0;
-        h.peak_load = rad_mem_peak_bytes();
-        if (st == RAD_OK) st = build_links(&h);
+        st = build_links(&h, comm, &su, centre);
         release_backends(&h); /* the GPU's memory, before --radiosity's solve needs it */
         release_refinement(&h);
         if (st == RAD_OK) st = write_links(&h);

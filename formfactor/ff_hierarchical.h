@@ -8,7 +8,8 @@
 #include "ff_options.h"
 #include "rad_status.h"
 
-/* Collective (rank 0 computes); the status is every rank's. */
+/* Collective (rank 0 refines and writes; every rank computes its share of
+ * each round's pairs); the status is every rank's. */
 rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *options);
 
 #endif

@@ -4,12 +4,13 @@
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "ff_openness.h"
 #include "ff_pair_class.h" /* ff_pair_verdict */
+#include "ff_rank_rounds.h"
+#include "ff_round.h"
 #include "ff_setup.h"
 #include "rad_clock.h"
 #include "rad_log.h"
@@ -611,42 +612,42 @@ static rad_status job_push(job_list *l, uint32_t a, uint32_t b)
     return st;
 }
 
-/* ---- pairs with a cluster at an end ---- */
+/* ---- a round's pairs through the backend ---- */
 
-/* The cluster pairs jobs[0, m) into out[0, m), each decided, drawn,
- * traced and coupled (ff_cluster_pair) by the backend's cluster_draws. */
-static rad_status cluster_pairs(const ff_links *L, const ff_pair_job *jobs, size_t m, ff_cluster_drawn *out)
+/* The cluster tree and the elements, as cluster_draws takes them. */
+static ff_cluster_view cluster_view(const ff_links *L)
 {
-    const ff_cluster_view v = {.clusters = L->clusters.clusters,
-                               .roots = L->clusters.roots,
-                               .area_before = L->clusters.area_before,
-                               .patches = L->patches,
-                               .cluster_count = L->clusters.count,
-                               .root_count = L->clusters.root_count,
-                               .element_count = L->tree.element_count,
-                               .cone = L->config.cluster_cone,
-                               .open_spread = L->config.cluster_open,
-                               .delta = L->config.ray_delta};
-    return L->backend->cluster_draws(L->backend_state, &v, jobs, m, out);
+    return (ff_cluster_view){.clusters = L->clusters.clusters,
+                             .roots = L->clusters.roots,
+                             .area_before = L->clusters.area_before,
+                             .patches = L->patches,
+                             .cluster_count = L->clusters.count,
+                             .root_count = L->clusters.root_count,
+                             .element_count = L->tree.element_count,
+                             .cone = L->config.cluster_cone,
+                             .open_spread = L->config.cluster_open,
+                             .delta = L->config.ray_delta};
 }
 
-/* One round's element pairs through the backend, with counters of their
- * own (the cluster pairs may run beside it). */
-typedef struct element_call {
-    const ff_links *L;
-    const job_list *pairs;
-    ff_pair_outcome *out;
-    ff_counters counters;
-    rad_status status;
-} element_call;
-
-static void *element_pairs_thread(void *arg)
+/* The element pairs into out, the cluster pairs into cout: on this
+ * process, or shared by the ranks (L->ranks). */
+static rad_status backend_round(ff_links *L, const job_list *pairs, const job_list *cpairs, ff_pair_outcome *out,
+                                ff_cluster_drawn *cout, ff_counters *counters)
 {
-    element_call *c = arg;
-    const ff_links *L = c->L;
-    c->status = L->backend->compute_pairs(L->backend_state, L->patches, L->keys, c->pairs->jobs, c->pairs->count,
-                                          c->out, &c->counters);
-    return NULL;
+    const ff_cluster_view v = cluster_view(L);
+    const ff_round_work w = {.backend = L->backend, .backend_state = L->backend_state, .patches = L->patches,
+                             .keys = L->keys, .view = cpairs->count ? &v : NULL, .pairs = pairs->jobs,
+                             .pair_count = pairs->count, .out = out, .cluster_pairs = cpairs->jobs,
+                             .cluster_count = cpairs->count, .cluster_out = cout};
+    double seconds = 0;
+    const rad_status st = L->ranks ? ff_rank_rounds_compute(L->ranks, &w, L->tree.element_count, counters, &seconds)
+                                   : ff_round_compute(&w, counters, &seconds);
+    if (cpairs->count) {
+        L->tally.cluster_seconds += seconds;
+        L->tally.cluster_pairs += cpairs->count;
+        for (size_t i = 0; st == RAD_OK && i < cpairs->count; i++) L->tally.cluster_rays += cout[i].rays;
+    }
+    return st;
 }
 
 /* ---- a round on the threads ----
@@ -920,32 +921,11 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         }
         const double t_backend = rad_clock_seconds();
         L->tally.seconds_sort += t_backend - t_sort;
-        /* The element pairs and the cluster pairs, both on the backend:
-         * the element pairs' call on a thread of its own where the backend
-         * is a GPU (the two calls' kernels then queue on the device one
-         * after the other, the host's copies and setup beside them), else
-         * in turn. */
-        element_call call = {L, &pairs, out, {0}, RAD_OK};
-        pthread_t gpu_thread;
-        const int overlap = pairs.count && clustered && L->backend != &ff_backend_cpu &&
-                            pthread_create(&gpu_thread, NULL, element_pairs_thread, &call) == 0;
-        if (pairs.count && !overlap) element_pairs_thread(&call);
-        rad_status cst = RAD_OK;
-        if (clustered) {
-            long long t0 = rad_clock_ns();
-            cst = cluster_pairs(L, cpairs.jobs, clustered, cout);
-            const double seconds = 1e-9 * (double)(rad_clock_ns() - t0);
-            counters->visibility_seconds += seconds;
-            L->tally.cluster_seconds += seconds;
-            L->tally.cluster_pairs += clustered;
-            for (size_t i = 0; i < clustered; i++) L->tally.cluster_rays += cout[i].rays;
-        }
-        if (overlap) pthread_join(gpu_thread, NULL);
+        rad_status bst = backend_round(L, &pairs, &cpairs, out, cout, counters);
         const double t_decide = rad_clock_seconds();
         L->tally.seconds_backend += t_decide - t_backend;
-        ff_counters_add(counters, &call.counters);
         round_chunk total = {0};
-        if ((st = call.status) == RAD_OK && (st = cst) == RAD_OK) {
+        if ((st = bst) == RAD_OK) {
             L->tally.candidates += n;
             L->tally.rounds++;
             r.pairs = pairs.jobs, r.out = out, r.cout = cout;
@@ -1462,7 +1442,8 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
         }
     }
     if (area == 0) bmean = all_mean, area = all_area; /* everything emits (the furnace) */
-    if (q < 1 && bmean > 0) bound = worst / (1 - q) / (bmean / area);
+    if (worst == 0) bound = 0; /* nothing lit: B = 0 everywhere, and exactly so */
+    else if (q < 1 && bmean > 0) bound = worst / (1 - q) / (bmean / area);
 done:
     free(mean);
     free(lo);

@@ -34,6 +34,7 @@
 #include "ff_backend.h"
 #include "ff_clusters.h"
 #include "ff_counters.h"
+#include "ff_rank_rounds.h"
 #include "rad_hierarchy.h"
 #include "rad_links.h"
 #include "rad_mesh.h"
@@ -159,6 +160,8 @@ typedef struct ff_links {
     ff_links_config config;
     const ff_backend *backend;
     void *backend_state;
+    ff_rank_rounds *ranks; /* NULL: this process computes every round's pairs; else the ranks share them
+                              (ff_rank_rounds.h), rank 0 refining: set by the caller after ff_links_init */
     rad_hierarchy tree;
     rad_ff_patch *patches; /* per element, the backend's frame */
     uint32_t *keys;        /* per element: its first leaf's patch index in the mesh of the leaves
@@ -225,7 +228,8 @@ rad_status ff_links_export(const ff_links *links, rad_links *out_links, rad_mesh
  * dB_s of B over s's leaves adds where the factor varies over s (at most
  * (F_rs + e_rs) dB_s, the factors to s's leaves being >= 0: a cluster
  * link's F can be far below its error). Links at clusters count for every
- * leaf under the cluster's roots. */
+ * leaf under the cluster's roots. A scene that nothing lights (B = 0
+ * everywhere, so every beta is 0) has bound 0. */
 double ff_links_error_bound(const ff_links *links, const rad_links *exported, const double *leaf_radiosity);
 
 void ff_links_free(ff_links *links);

@@ -70,6 +70,10 @@ estimated=$(grep -n "estimate:" err.txt | head -1 | cut -d: -f1)
 grep "no face emits light" err.txt | grep -q "image will be black" || fail "dark room: says nothing of the image"
 "$ff" --subdiv 1 -o lit.ff 2> err.txt || fail "the built-in box"
 grep -q "emits" err.txt && fail "a lit scene was called dark: $(cat err.txt)"
+# The hierarchy on it too: B = 0 everywhere, so its error bound is 0 (it
+# was infinite, and the writer refused the links as not valid).
+"$ff" room.obj --method hierarchical --subdiv 2 -q -o dark_links.ff 2> err.txt || fail "dark room, hierarchical: $(cat err.txt)"
+"$solve" dark_links.ff -q -o dark_links.rad 2> err.txt || fail "dark room, hierarchical, solve: $(cat err.txt)"
 echo "ok: a scene without light is named before the estimate, once"
 
 # d. --target-error never makes results worse than no target: a loose one

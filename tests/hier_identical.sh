@@ -1,8 +1,10 @@
 #!/bin/sh
 # Hierarchical links files (issue 26) are the same bytes for any thread and
 # rank count: formfactor --method hierarchical on cornell_sphere with 1 and
-# 2 threads, and under mpirun -n 2, then solve's radiosity files too, and
-# formfactor --radiosity's (the links solved in memory).
+# 2 threads, and under mpirun -n 2 and -n 3 (every rank computes its block
+# of each round's pairs, ff_rank_rounds.h; three cut the rounds unevenly),
+# then solve's radiosity files too, and formfactor --radiosity's (the links
+# solved in memory), on one rank and on two.
 #   hier_identical.sh FORMFACTOR SOLVE SCENE WORKDIR [FORMFACTOR OPTIONS]
 # (the options replace --subdiv 4 --link-tol 3e-2; with --clusters on the
 # file also holds clusters: version 5)
@@ -23,6 +25,11 @@ if command -v mpirun >/dev/null; then
   # shellcheck disable=SC2086
   OMP_NUM_THREADS=1 mpirun -n 2 --oversubscribe "$ff" $args -o r2.ff || exit 1
   cmp t1.ff r2.ff || { echo "FAIL: 1 and 2 ranks differ"; failed=1; }
+  # shellcheck disable=SC2086
+  OMP_NUM_THREADS=1 mpirun -n 3 --oversubscribe "$ff" $args -o r3.ff || exit 1
+  cmp t1.ff r3.ff || { echo "FAIL: 1 and 3 ranks differ"; failed=1; }
+  # shellcheck disable=SC2086
+  OMP_NUM_THREADS=1 mpirun -n 2 --oversubscribe "$ff" $args --radiosity m2.rad || exit 1
 fi
 OMP_NUM_THREADS=1 "$solve" t1.ff -q -o t1.rad || exit 1
 OMP_NUM_THREADS=2 "$solve" t2.ff -q -o t2.rad || exit 1
@@ -31,5 +38,8 @@ cmp t1.rad t2.rad || { echo "FAIL: solve on 1 and 2 threads differs"; failed=1; 
 # shellcheck disable=SC2086
 OMP_NUM_THREADS=2 "$ff" $args --radiosity m.rad || exit 1
 cmp t1.rad m.rad || { echo "FAIL: formfactor --radiosity differs from formfactor, then solve"; failed=1; }
+if [ -f m2.rad ]; then
+  cmp t1.rad m2.rad || { echo "FAIL: formfactor --radiosity on 2 ranks differs"; failed=1; }
+fi
 [ "$failed" -eq 0 ] && echo "links and radiosity: the same bytes for 1 and 2 threads and ranks, and in memory"
 exit "$failed"

@@ -1,0 +1,267 @@
+/* ff_rank_rounds.c - a hierarchy's rounds shared by the ranks
+ * (ff_rank_rounds.h). */
+#include "ff_rank_rounds.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "rad_log.h"
+
+enum { OP_ROUND = 1, OP_STOP = 2 };
+
+/* What rank 0 says before each round. */
+typedef struct round_header {
+    uint32_t op;
+    uint32_t with_tree; /* the cluster tree follows (the first round with cluster pairs) */
+    uint64_t element_count;
+    uint64_t pair_count, cluster_count;
+    uint32_t tree_count, root_count; /* the tree's clusters and roots */
+    double cone, open_spread, delta; /* the cluster view's */
+} round_header;
+
+/* What each rank says after its block. */
+typedef struct round_report {
+    int32_t status;
+    int32_t pad;
+    double cluster_seconds;
+    ff_counters counters;
+} round_report;
+
+/* A rank's copy of what the rounds need: all of rank 0's on rank 0 (views),
+ * the elements and the tree received so far elsewhere. */
+typedef struct rank_state {
+    ff_comm *comm;
+    int rank, size;
+    size_t elements;      /* sent (rank 0) or received so far */
+    int tree_sent;
+    rad_ff_patch *patches; /* the other ranks' copies */
+    uint32_t *keys;
+    size_t element_cap;
+    ff_cluster *clusters;
+    uint32_t *roots;
+    double *area_before;
+    uint64_t *counts;     /* 2 x size: the blocks of a round's element pairs, then of its cluster pairs */
+    round_report *reports; /* rank 0: size */
+    ff_pair_job *pairs, *cluster_pairs; /* this rank's blocks */
+    ff_pair_outcome *out;
+    ff_cluster_drawn *cluster_out;
+    size_t pair_cap, cluster_cap;
+} rank_state;
+
+struct ff_rank_rounds {
+    rank_state s;
+};
+
+/* Rank r's share of n items: its block of an even cut, in rank order. */
+static uint64_t share(uint64_t n, int r, int size)
+{
+    return n * (uint64_t)(r + 1) / (uint64_t)size - n * (uint64_t)r / (uint64_t)size;
+}
+
+/* The counts and reports; 0 where there is no memory for them. */
+static int state_init(rank_state *s, ff_comm *comm)
+{
+    s->comm = comm;
+    s->rank = ff_comm_rank(comm);
+    s->size = ff_comm_size(comm);
+    s->counts = malloc(2 * (size_t)s->size * sizeof *s->counts);
+    s->reports = s->rank == 0 ? calloc((size_t)s->size, sizeof *s->reports) : NULL;
+    return s->counts && (s->rank != 0 || s->reports);
+}
+
+static void state_free(rank_state *s)
+{
+    free(s->counts);
+    free(s->reports);
+    free(s->patches);
+    free(s->keys);
+    free(s->clusters);
+    free(s->roots);
+    free(s->area_before);
+    free(s->pairs);
+    free(s->out);
+    free(s->cluster_pairs);
+    free(s->cluster_out);
+}
+
+static int grow(void **p, size_t *cap, size_t want, size_t item)
+{
+    if (want <= *cap) return 1;
+    size_t n = want + want / 4 + 1024;
+    void *q = realloc(*p, n * item);
+    if (!q) return 0;
+    *p = q;
+    *cap = n;
+    return 1;
+}
+
+/* The other ranks' room for a round; RAD_ERR_NOMEM (logged). */
+static rad_status reserve(rank_state *s, const round_header *h, uint64_t my_pairs, uint64_t my_clusters)
+{
+    if (!s->counts) {
+        rad_error("rank %d: out of memory", s->rank);
+        return RAD_ERR_NOMEM;
+    }
+    if (s->rank == 0) return RAD_OK;
+    size_t cap = s->element_cap;
+    int ok = grow((void **)&s->patches, &cap, h->element_count, sizeof *s->patches);
+    size_t cap_keys = s->element_cap;
+    ok = ok && grow((void **)&s->keys, &cap_keys, h->element_count, sizeof *s->keys);
+    if (ok) s->element_cap = cap < cap_keys ? cap : cap_keys;
+    if (ok && h->with_tree) {
+        free(s->clusters);
+        free(s->roots);
+        free(s->area_before);
+        s->clusters = malloc((h->tree_count ? h->tree_count : 1) * sizeof *s->clusters);
+        s->roots = malloc((h->root_count ? h->root_count : 1) * sizeof *s->roots);
+        s->area_before = malloc(((size_t)h->root_count + 1) * sizeof *s->area_before);
+        ok = s->clusters && s->roots && s->area_before;
+    }
+    size_t pair_cap = s->pair_cap, pair_cap2 = s->pair_cap;
+    ok = ok && grow((void **)&s->pairs, &pair_cap, my_pairs, sizeof *s->pairs) &&
+         grow((void **)&s->out, &pair_cap2, my_pairs, sizeof *s->out);
+    if (ok) s->pair_cap = pair_cap < pair_cap2 ? pair_cap : pair_cap2;
+    size_t ccap = s->cluster_cap, ccap2 = s->cluster_cap;
+    ok = ok && grow((void **)&s->cluster_pairs, &ccap, my_clusters, sizeof *s->cluster_pairs) &&
+         grow((void **)&s->cluster_out, &ccap2, my_clusters, sizeof *s->cluster_out);
+    if (ok) s->cluster_cap = ccap < ccap2 ? ccap : ccap2;
+    if (!ok) {
+        rad_error("rank %d: out of memory for a round of %llu elements and %llu pairs", s->rank,
+                  (unsigned long long)h->element_count, (unsigned long long)(my_pairs + my_clusters));
+        return RAD_ERR_NOMEM;
+    }
+    return RAD_OK;
+}
+
+/* One round on every rank, rank 0's w (NULL elsewhere): the elements and
+ * the tree out, the blocks out, computed, back. The other ranks compute
+ * with (backend, state); their failures reach rank 0 in the reports. */
+static rad_status round_everywhere(rank_state *s, const round_header *h, const ff_round_work *w,
+                                   const ff_backend *backend, void *backend_state, ff_counters *counters,
+                                   double *cluster_seconds)
+{
+    rad_status st = reserve(s, h, share(h->pair_count, s->rank, s->size), share(h->cluster_count, s->rank, s->size));
+    if ((st = ff_comm_agree(s->comm, st)) != RAD_OK) return st;
+    uint64_t *pair_counts = s->counts, *cluster_counts = s->counts + s->size;
+    for (int r = 0; r < s->size; r++) {
+        pair_counts[r] = share(h->pair_count, r, s->size);
+        cluster_counts[r] = share(h->cluster_count, r, s->size);
+    }
+    /* the elements made since the last round, the tree once */
+    const size_t from = s->elements, more = h->element_count - from;
+    if (more) {
+        ff_comm_broadcast(s->comm, s->rank ? (void *)(s->patches + from) : (void *)(w->patches + from),
+                          more * sizeof *s->patches, 0);
+        ff_comm_broadcast(s->comm, s->rank ? (void *)(s->keys + from) : (void *)(w->keys + from),
+                          more * sizeof *s->keys, 0);
+        s->elements = h->element_count;
+    }
+    if (h->with_tree) {
+        const ff_cluster_view *v = w ? w->view : NULL;
+        ff_comm_broadcast(s->comm, s->rank ? (void *)s->clusters : (void *)v->clusters,
+                          h->tree_count * sizeof *s->clusters, 0);
+        ff_comm_broadcast(s->comm, s->rank ? (void *)s->roots : (void *)v->roots, h->root_count * sizeof *s->roots,
+                          0);
+        ff_comm_broadcast(s->comm, s->rank ? (void *)s->area_before : (void *)v->area_before,
+                          ((size_t)h->root_count + 1) * sizeof *s->area_before, 0);
+        s->tree_sent = 1;
+    }
+    /* the blocks: rank 0's is the first, where it is */
+    ff_cluster_view view = {0};
+    ff_round_work mine;
+    if (s->rank == 0) {
+        mine = *w;
+    } else {
+        view = (ff_cluster_view){.clusters = s->clusters, .roots = s->roots, .area_before = s->area_before,
+                                 .patches = s->patches, .cluster_count = h->tree_count, .root_count = h->root_count,
+                                 .element_count = h->element_count, .cone = h->cone, .open_spread = h->open_spread,
+                                 .delta = h->delta};
+        mine = (ff_round_work){.backend = backend, .backend_state = backend_state, .patches = s->patches,
+                               .keys = s->keys, .view = &view, .pairs = s->pairs, .out = s->out,
+                               .cluster_pairs = s->cluster_pairs, .cluster_out = s->cluster_out};
+    }
+    mine.pair_count = pair_counts[s->rank];
+    mine.cluster_count = cluster_counts[s->rank];
+    if (!mine.cluster_count) mine.view = NULL;
+    if (h->pair_count) st = ff_comm_scatter_items(s->comm, w ? w->pairs : NULL, pair_counts, sizeof *s->pairs, s->pairs);
+    if (st == RAD_OK && h->cluster_count)
+        st = ff_comm_scatter_items(s->comm, w ? w->cluster_pairs : NULL, cluster_counts, sizeof *s->cluster_pairs,
+                                   s->cluster_pairs);
+    round_report report = {0};
+    report.status = st == RAD_OK ? ff_round_compute(&mine, &report.counters, &report.cluster_seconds) : st;
+    rad_status gst = RAD_OK;
+    if (h->pair_count) gst = ff_comm_gather_items(s->comm, s->out, pair_counts, sizeof *s->out, w ? w->out : NULL);
+    if (gst == RAD_OK && h->cluster_count)
+        gst = ff_comm_gather_items(s->comm, s->cluster_out, cluster_counts, sizeof *s->cluster_out,
+                                   w ? w->cluster_out : NULL);
+    round_report *all = s->reports;
+    ff_comm_gather(s->comm, &report, sizeof report, all, 0);
+    if (s->rank != 0) return report.status != RAD_OK ? (rad_status)report.status : gst;
+    st = gst;
+    *cluster_seconds = 0;
+    for (int r = 0; r < s->size; r++) {
+        if (st == RAD_OK && all[r].status != RAD_OK) st = (rad_status)all[r].status;
+        ff_counters_add(counters, &all[r].counters);
+        if (all[r].cluster_seconds > *cluster_seconds) *cluster_seconds = all[r].cluster_seconds;
+    }
+    return st;
+}
+
+rad_status ff_rank_rounds_open(ff_comm *comm, ff_rank_rounds **out)
+{
+    ff_rank_rounds *R = calloc(1, sizeof *R);
+    if (!R || !state_init(&R->s, comm)) {
+        rad_error("out of memory for the ranks' rounds");
+        if (R) state_free(&R->s);
+        free(R);
+        return RAD_ERR_NOMEM;
+    }
+    *out = R;
+    return RAD_OK;
+}
+
+rad_status ff_rank_rounds_compute(ff_rank_rounds *R, const ff_round_work *w, size_t element_count,
+                                  ff_counters *counters, double *cluster_seconds)
+{
+    rank_state *s = &R->s;
+    round_header h = {.op = OP_ROUND, .element_count = element_count, .pair_count = w->pair_count,
+                      .cluster_count = w->cluster_count};
+    if (w->cluster_count) {
+        h.with_tree = !s->tree_sent;
+        h.tree_count = w->view->cluster_count;
+        h.root_count = w->view->root_count;
+        h.cone = w->view->cone;
+        h.open_spread = w->view->open_spread;
+        h.delta = w->view->delta;
+    }
+    ff_comm_broadcast(s->comm, &h, sizeof h, 0);
+    return round_everywhere(s, &h, w, NULL, NULL, counters, cluster_seconds);
+}
+
+void ff_rank_rounds_close(ff_comm *comm, ff_rank_rounds *R)
+{
+    if (ff_comm_size(comm) > 1) {
+        round_header h = {.op = OP_STOP};
+        ff_comm_broadcast(comm, &h, sizeof h, 0);
+    }
+    if (R) state_free(&R->s);
+    free(R);
+}
+
+rad_status ff_rank_rounds_serve(ff_comm *comm, const ff_backend *backend, void *backend_state)
+{
+    rank_state s = {0};
+    state_init(&s, comm); /* without memory for it, every round fails (reserve) */
+    rad_status first = RAD_OK;
+    for (;;) {
+        round_header h;
+        ff_comm_broadcast(comm, &h, sizeof h, 0);
+        if (h.op != OP_ROUND) break;
+        ff_counters unused = {0};
+        double seconds = 0;
+        rad_status st = round_everywhere(&s, &h, NULL, backend, backend_state, &unused, &seconds);
+        if (first == RAD_OK) first = st;
+    }
+    state_free(&s);
+    return first;
+}
