@@ -35,18 +35,19 @@ uint64_t ff_comm_max_u64(ff_comm *comm, uint64_t value);
 uint64_t ff_comm_exscan_u64(ff_comm *comm, uint64_t value, uint64_t *total);
 /* Collective: root's bytes to every rank (any size). */
 void ff_comm_broadcast(ff_comm *comm, void *data, size_t bytes, int root);
-/* Collective: rank 0's items, counts[r] of `item_bytes` each for rank r,
- * back to back in rank order in `send`, each rank's block into its
- * `mine`; rank 0's own block is the first and stays where it is. Every
- * rank passes the same counts (at most INT_MAX items each, INT_MAX in all).
- * RAD_ERR_INVALID or RAD_ERR_BACKEND (logged) on failure. */
-rad_status ff_comm_scatter_items(ff_comm *comm, const void *send, const uint64_t *counts, size_t item_bytes,
-                                 void *mine);
-/* Collective, the other way: each rank's block (`mine`, counts[rank]
- * items) into rank 0's `recv` in rank order; rank 0's own block must
- * already be the first of `recv`. */
-rad_status ff_comm_gather_items(ff_comm *comm, const void *mine, const uint64_t *counts, size_t item_bytes,
-                                void *recv);
+/* The cyclic cut of `count` items among the ranks: chunk c (`chunk`
+ * items, the last maybe fewer) goes to rank c % size; rank's share. */
+uint64_t ff_comm_cyclic_count(uint64_t count, uint32_t chunk, int rank, int size);
+/* Collective: rank 0's `count` items (`item_bytes` each) cut cyclically,
+ * each rank's chunks back to back into its `mine` (rank 0's too). Every
+ * rank passes the same count (at most INT_MAX) and chunk. RAD_ERR_INVALID,
+ * RAD_ERR_NOMEM or RAD_ERR_BACKEND (logged) on failure. */
+rad_status ff_comm_scatter_cyclic(ff_comm *comm, const void *send, uint64_t count, uint32_t chunk, size_t item_bytes,
+                                  void *mine);
+/* Collective, the other way: each rank's chunks (`mine`) into their
+ * places in rank 0's `recv`. */
+rad_status ff_comm_gather_cyclic(ff_comm *comm, const void *mine, uint64_t count, uint32_t chunk, size_t item_bytes,
+                                 void *recv);
 /* Collective: every rank's `bytes` into root's `out` (size * bytes), rank order. */
 void ff_comm_gather(ff_comm *comm, const void *data, size_t bytes, void *out, int root);
 /* Collective: variable-sized blocks of uint64 gathered on root in rank order. */

@@ -179,75 +179,129 @@ void ff_comm_broadcast(ff_comm *comm, void *data, size_t bytes, int root)
     }
 }
 
-/* counts[r] items of `item_bytes` at rank r, back to back in rank order:
- * an MPI type of one item, the counts and displacements in items; 0
- * (logged) where they exceed an int. */
-static int item_layout(const ff_comm *comm, const uint64_t *counts, size_t item_bytes, MPI_Datatype *type,
-                       int **out_counts, int **out_displs)
+/* The cyclic cut: chunk c (of `chunk` items, the last maybe fewer) of
+ * `count` items goes to rank c % size. */
+uint64_t ff_comm_cyclic_count(uint64_t count, uint32_t chunk, int rank, int size)
 {
-    const int size = comm->mpi.size;
-    int *c = malloc((size_t)size * sizeof *c), *d = malloc((size_t)size * sizeof *d);
-    uint64_t at = 0;
-    int ok = c && d && item_bytes <= INT_MAX;
-    for (int r = 0; r < size && ok; r++) {
-        ok = counts[r] <= INT_MAX && at <= INT_MAX;
-        c[r] = (int)counts[r];
-        d[r] = (int)at;
-        at += counts[r];
-    }
-    if (!ok) {
-        rad_error("MPI: a block of %llu items of %zu bytes is more than one message holds",
-                  (unsigned long long)at, item_bytes);
-        free(c);
-        free(d);
+    const uint64_t chunks = (count + chunk - 1) / chunk;
+    uint64_t n = 0;
+    for (uint64_t c = (uint64_t)rank; c < chunks; c += (uint64_t)size)
+        n += count - c * chunk < chunk ? count - c * chunk : chunk;
+    return n;
+}
+
+/* An MPI type of rank r's chunks in the whole array of items (`item`);
+ * 0 (logged) where it cannot be made. */
+static int cyclic_type(uint64_t count, uint32_t chunk, int r, int size, MPI_Datatype item, MPI_Datatype *out)
+{
+    const uint64_t chunks = (count + chunk - 1) / chunk;
+    const int mine = chunks > (uint64_t)r ? (int)((chunks - 1 - (uint64_t)r) / (uint64_t)size + 1) : 0;
+    int *len = malloc(((size_t)mine + 1) * sizeof *len), *at = malloc(((size_t)mine + 1) * sizeof *at);
+    if (!len || !at) {
+        free(len);
+        free(at);
+        rad_error("MPI: out of memory for a rank's %d pieces", mine);
         return 0;
     }
-    MPI_Type_contiguous((int)item_bytes, MPI_BYTE, type);
-    MPI_Type_commit(type);
-    *out_counts = c;
-    *out_displs = d;
+    int k = 0;
+    for (uint64_t c = (uint64_t)r; c < chunks; c += (uint64_t)size, k++) {
+        len[k] = (int)(count - c * chunk < chunk ? count - c * chunk : chunk);
+        at[k] = (int)(c * chunk);
+    }
+    MPI_Type_indexed(mine, len, at, item, out);
+    MPI_Type_commit(out);
+    free(len);
+    free(at);
     return 1;
 }
 
-rad_status ff_comm_scatter_items(ff_comm *comm, const void *send, const uint64_t *counts, size_t item_bytes,
-                                 void *mine)
+/* Rank 0's own chunks between the whole array and its `mine`. */
+static void cyclic_copy_own(unsigned char *whole, unsigned char *mine, uint64_t count, uint32_t chunk, int size,
+                            size_t item_bytes, int to_mine)
 {
-    const int rank = comm->mpi.rank;
-    if (comm->mpi.solo) return RAD_OK;
-    MPI_Datatype type;
-    int *c = NULL, *d = NULL;
-    if (!item_layout(comm, counts, item_bytes, &type, &c, &d)) return RAD_ERR_INVALID;
-    int code = rank == 0 ? MPI_Scatterv(send, c, d, type, MPI_IN_PLACE, c[0], type, 0, MPI_COMM_WORLD)
-                         : MPI_Scatterv(NULL, NULL, NULL, type, mine, c[rank], type, 0, MPI_COMM_WORLD);
-    MPI_Type_free(&type);
-    free(c);
-    free(d);
-    if (code != MPI_SUCCESS) {
-        log_mpi_error("handing out blocks", "MPI_Scatterv", code);
-        return RAD_ERR_BACKEND;
+    const uint64_t chunks = (count + chunk - 1) / chunk;
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < (int64_t)chunks; c += size) {
+        const uint64_t n = count - (uint64_t)c * chunk < chunk ? count - (uint64_t)c * chunk : chunk;
+        unsigned char *w = whole + (uint64_t)c * chunk * item_bytes;
+        unsigned char *m = mine + (uint64_t)c / (uint64_t)size * chunk * item_bytes;
+        if (to_mine) memcpy(m, w, n * item_bytes);
+        else memcpy(w, m, n * item_bytes);
     }
-    return RAD_OK;
 }
 
-rad_status ff_comm_gather_items(ff_comm *comm, const void *mine, const uint64_t *counts, size_t item_bytes,
-                                void *recv)
+/* Both ways of the cyclic cut: rank 0's whole array of items and every
+ * rank's `mine` (its chunks back to back). */
+static rad_status cyclic_exchange(ff_comm *comm, unsigned char *whole, unsigned char *mine, uint64_t count,
+                                  uint32_t chunk, size_t item_bytes, int scatter)
 {
-    const int rank = comm->mpi.rank;
-    if (comm->mpi.solo) return RAD_OK;
-    MPI_Datatype type;
-    int *c = NULL, *d = NULL;
-    if (!item_layout(comm, counts, item_bytes, &type, &c, &d)) return RAD_ERR_INVALID;
-    int code = rank == 0 ? MPI_Gatherv(MPI_IN_PLACE, c[0], type, recv, c, d, type, 0, MPI_COMM_WORLD)
-                         : MPI_Gatherv(mine, c[rank], type, NULL, NULL, NULL, type, 0, MPI_COMM_WORLD);
-    MPI_Type_free(&type);
-    free(c);
-    free(d);
+    const int rank = comm->mpi.rank, size = comm->mpi.size;
+    if (comm->mpi.solo || size == 1) {
+        if (scatter) memmove(mine, whole, count * item_bytes);
+        else memmove(whole, mine, count * item_bytes);
+        return RAD_OK;
+    }
+    if (count > INT_MAX || item_bytes > INT_MAX || chunk == 0) {
+        rad_error("MPI: %llu items of %zu bytes are more than one exchange holds", (unsigned long long)count,
+                  item_bytes);
+        return RAD_ERR_INVALID;
+    }
+    MPI_Datatype item;
+    MPI_Type_contiguous((int)item_bytes, MPI_BYTE, &item);
+    MPI_Type_commit(&item);
+    int code = MPI_SUCCESS;
+    rad_status st = RAD_OK;
+    if (rank == 0) {
+        MPI_Request *req = malloc((size_t)size * sizeof *req);
+        MPI_Datatype *types = malloc((size_t)size * sizeof *types);
+        int made = 0;
+        if (!req || !types) {
+            rad_error("MPI: out of memory for %d ranks' requests", size);
+            st = RAD_ERR_NOMEM;
+        }
+        for (int r = 1; r < size && st == RAD_OK; r++, made++) {
+            if (!cyclic_type(count, chunk, r, size, item, &types[r])) {
+                st = RAD_ERR_NOMEM;
+                break;
+            }
+            code = scatter ? MPI_Isend(whole, 1, types[r], r, 11, MPI_COMM_WORLD, &req[r - 1])
+                           : MPI_Irecv(whole, 1, types[r], r, 12, MPI_COMM_WORLD, &req[r - 1]);
+            if (code != MPI_SUCCESS) {
+                MPI_Type_free(&types[r]);
+                break;
+            }
+        }
+        cyclic_copy_own(whole, mine, count, chunk, size, item_bytes, scatter);
+        if (made) MPI_Waitall(made, req, MPI_STATUSES_IGNORE);
+        for (int r = 1; r <= made; r++) MPI_Type_free(&types[r]);
+        free(req);
+        free(types);
+        if (st == RAD_OK && made < size - 1) st = RAD_ERR_BACKEND; /* an MPI call failed: the others wait on it */
+    } else {
+        const int n = (int)ff_comm_cyclic_count(count, chunk, rank, size);
+        code = scatter ? MPI_Recv(mine, n, item, 0, 11, MPI_COMM_WORLD, MPI_STATUS_IGNORE)
+                       : MPI_Send(mine, n, item, 0, 12, MPI_COMM_WORLD);
+    }
+    MPI_Type_free(&item);
     if (code != MPI_SUCCESS) {
-        log_mpi_error("collecting blocks", "MPI_Gatherv", code);
+        log_mpi_error(scatter ? "handing out chunks" : "collecting chunks", scatter ? "MPI_Isend" : "MPI_Irecv", code);
         return RAD_ERR_BACKEND;
     }
-    return RAD_OK;
+    return st;
 }
+
+rad_status ff_comm_scatter_cyclic(ff_comm *comm, const void *send, uint64_t count, uint32_t chunk, size_t item_bytes,
+                                  void *mine)
+{
+    return cyclic_exchange(comm, (unsigned char *)send, mine, count, chunk, item_bytes, 1);
+}
+
+rad_status ff_comm_gather_cyclic(ff_comm *comm, const void *mine, uint64_t count, uint32_t chunk, size_t item_bytes,
+                                 void *recv)
+{
+    return cyclic_exchange(comm, recv, (unsigned char *)mine, count, chunk, item_bytes, 0);
+}
+
 
 void ff_comm_gather(ff_comm *comm, const void *data, size_t bytes, void *out, int root)
 {

@@ -51,6 +51,7 @@ typedef struct hier_run {
                                        may take such a one as its own) */
     int threads;
     int ranks;          /* sharing the rounds' pairs (ff_rank_rounds.h) */
+    ff_rank_times rank_times; /* theirs, rank 0's view; zero on one rank */
     int cpu_first;      /* --backend auto takes the CPU without asking CUDA (cpu_first_under_auto) */
     ff_closed_result closed; /* --closure: closed 1 marks the file (RAD_FF_FLAG_CLOSED); rays 0: not tested */
     double most_leaves; /* faces x 4^level: what it decides by */
@@ -327,6 +328,13 @@ static rad_status build_links(hier_run *h, ff_comm *comm, const ff_setup *su, co
                      (unsigned long long)h->links.tally.candidates, (unsigned long long)h->counters.rays,
                      h->seconds_links, h->solution.iterations[0], h->last_solve_gpu ? " (Jacobi on the GPU)" : "");
     }
+    if (h->links.ranks) {
+        ff_rank_rounds_times_get(h->links.ranks, &h->rank_times);
+        const ff_rank_times *t = &h->rank_times;
+        rad_info("ranks: %llu rounds shared by %d; sent %.2f s, computed %.2f s (rank 0), %.2f s (the slowest rank "
+                 "each round), %.2f s (the fastest); collected %.2f s",
+                 (unsigned long long)t->rounds, h->ranks, t->send, t->own, t->slowest, t->fastest, t->collect);
+    }
     ff_rank_rounds_close(comm, h->links.ranks); /* the other ranks are done */
     h->links.ranks = NULL;
     /* a pass that refined nothing left the last solution at the oracle's tolerance */
@@ -482,6 +490,22 @@ static rad_status write_stats(const hier_run *h)
     rad_json_int(&w, h->threads);
     rad_json_key(&w, "ranks"); /* each computing its share of every round's pairs */
     rad_json_int(&w, h->ranks);
+    if (h->ranks > 1) { /* the rounds' backend time, as rank 0 saw it (ff_rank_times) */
+        const ff_rank_times *t = &h->rank_times;
+        rad_json_key(&w, "ranks_seconds");
+        rad_json_begin_object(&w, RAD_JSON_INLINE);
+        rad_json_key(&w, "send");
+        rad_json_number(&w, t->send);
+        rad_json_key(&w, "rank0");
+        rad_json_number(&w, t->own);
+        rad_json_key(&w, "slowest");
+        rad_json_number(&w, t->slowest);
+        rad_json_key(&w, "fastest");
+        rad_json_number(&w, t->fastest);
+        rad_json_key(&w, "collect");
+        rad_json_number(&w, t->collect);
+        rad_json_end_object(&w);
+    }
     rad_json_key(&w, "backend");
     rad_json_string(&w, h->backend->name);
     rad_json_key(&w, "times");

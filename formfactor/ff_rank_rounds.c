@@ -2,12 +2,20 @@
  * (ff_rank_rounds.h). */
 #include "ff_rank_rounds.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "rad_clock.h"
 #include "rad_log.h"
 
 enum { OP_ROUND = 1, OP_STOP = 2 };
+
+/* The cyclic cut's chunk: pairs next to each other in a round's list are
+ * often alike in cost (the children of one split: a near object's pairs
+ * trace many rays), so a rank takes every size-th chunk of this many,
+ * not one block of the list. */
+#define RANK_CHUNK 2048u
 
 /* What rank 0 says before each round. */
 typedef struct round_header {
@@ -19,11 +27,12 @@ typedef struct round_header {
     double cone, open_spread, delta; /* the cluster view's */
 } round_header;
 
-/* What each rank says after its block. */
+/* What each rank says after its chunks. */
 typedef struct round_report {
     int32_t status;
     int32_t pad;
     double cluster_seconds;
+    double compute_seconds; /* its chunks' wall */
     ff_counters counters;
 } round_report;
 
@@ -40,38 +49,30 @@ typedef struct rank_state {
     ff_cluster *clusters;
     uint32_t *roots;
     double *area_before;
-    uint64_t *counts;     /* 2 x size: the blocks of a round's element pairs, then of its cluster pairs */
     round_report *reports; /* rank 0: size */
-    ff_pair_job *pairs, *cluster_pairs; /* this rank's blocks */
+    ff_pair_job *pairs, *cluster_pairs; /* this rank's chunks (rank 0: copies of its own) */
     ff_pair_outcome *out;
     ff_cluster_drawn *cluster_out;
     size_t pair_cap, cluster_cap;
+    ff_rank_times times; /* rank 0 */
 } rank_state;
 
 struct ff_rank_rounds {
     rank_state s;
 };
 
-/* Rank r's share of n items: its block of an even cut, in rank order. */
-static uint64_t share(uint64_t n, int r, int size)
-{
-    return n * (uint64_t)(r + 1) / (uint64_t)size - n * (uint64_t)r / (uint64_t)size;
-}
-
-/* The counts and reports; 0 where there is no memory for them. */
+/* Rank 0's reports; 0 where there is no memory for them. */
 static int state_init(rank_state *s, ff_comm *comm)
 {
     s->comm = comm;
     s->rank = ff_comm_rank(comm);
     s->size = ff_comm_size(comm);
-    s->counts = malloc(2 * (size_t)s->size * sizeof *s->counts);
     s->reports = s->rank == 0 ? calloc((size_t)s->size, sizeof *s->reports) : NULL;
-    return s->counts && (s->rank != 0 || s->reports);
+    return s->rank != 0 || s->reports;
 }
 
 static void state_free(rank_state *s)
 {
-    free(s->counts);
     free(s->reports);
     free(s->patches);
     free(s->keys);
@@ -95,20 +96,18 @@ static int grow(void **p, size_t *cap, size_t want, size_t item)
     return 1;
 }
 
-/* The other ranks' room for a round; RAD_ERR_NOMEM (logged). */
+/* A rank's room for a round: its chunks of the pairs (rank 0's too),
+ * and elsewhere the elements and the tree; RAD_ERR_NOMEM (logged). */
 static rad_status reserve(rank_state *s, const round_header *h, uint64_t my_pairs, uint64_t my_clusters)
 {
-    if (!s->counts) {
-        rad_error("rank %d: out of memory", s->rank);
-        return RAD_ERR_NOMEM;
+    int ok = 1;
+    if (s->rank > 0) { /* rank 0 has the elements and the tree */
+        size_t cap = s->element_cap, cap_keys = s->element_cap;
+        ok = grow((void **)&s->patches, &cap, h->element_count, sizeof *s->patches) &&
+             grow((void **)&s->keys, &cap_keys, h->element_count, sizeof *s->keys);
+        if (ok) s->element_cap = cap < cap_keys ? cap : cap_keys;
     }
-    if (s->rank == 0) return RAD_OK;
-    size_t cap = s->element_cap;
-    int ok = grow((void **)&s->patches, &cap, h->element_count, sizeof *s->patches);
-    size_t cap_keys = s->element_cap;
-    ok = ok && grow((void **)&s->keys, &cap_keys, h->element_count, sizeof *s->keys);
-    if (ok) s->element_cap = cap < cap_keys ? cap : cap_keys;
-    if (ok && h->with_tree) {
+    if (ok && s->rank > 0 && h->with_tree) {
         free(s->clusters);
         free(s->roots);
         free(s->area_before);
@@ -134,19 +133,17 @@ static rad_status reserve(rank_state *s, const round_header *h, uint64_t my_pair
 }
 
 /* One round on every rank, rank 0's w (NULL elsewhere): the elements and
- * the tree out, the blocks out, computed, back. The other ranks compute
+ * the tree out, the chunks out, computed, back. The other ranks compute
  * with (backend, state); their failures reach rank 0 in the reports. */
 static rad_status round_everywhere(rank_state *s, const round_header *h, const ff_round_work *w,
                                    const ff_backend *backend, void *backend_state, ff_counters *counters,
                                    double *cluster_seconds)
 {
-    rad_status st = reserve(s, h, share(h->pair_count, s->rank, s->size), share(h->cluster_count, s->rank, s->size));
-    if ((st = ff_comm_agree(s->comm, st)) != RAD_OK) return st;
-    uint64_t *pair_counts = s->counts, *cluster_counts = s->counts + s->size;
-    for (int r = 0; r < s->size; r++) {
-        pair_counts[r] = share(h->pair_count, r, s->size);
-        cluster_counts[r] = share(h->cluster_count, r, s->size);
-    }
+    const uint64_t my_pairs = ff_comm_cyclic_count(h->pair_count, RANK_CHUNK, s->rank, s->size);
+    const uint64_t my_clusters = ff_comm_cyclic_count(h->cluster_count, RANK_CHUNK, s->rank, s->size);
+    const double t0 = rad_clock_seconds();
+    rad_status st = ff_comm_agree(s->comm, reserve(s, h, my_pairs, my_clusters));
+    if (st != RAD_OK) return st;
     /* the elements made since the last round, the tree once */
     const size_t from = s->elements, more = h->element_count - from;
     if (more) {
@@ -166,7 +163,7 @@ static rad_status round_everywhere(rank_state *s, const round_header *h, const f
                           ((size_t)h->root_count + 1) * sizeof *s->area_before, 0);
         s->tree_sent = 1;
     }
-    /* the blocks: rank 0's is the first, where it is */
+    /* this rank's chunks */
     ff_cluster_view view = {0};
     ff_round_work mine;
     if (s->rank == 0) {
@@ -177,33 +174,47 @@ static rad_status round_everywhere(rank_state *s, const round_header *h, const f
                                  .element_count = h->element_count, .cone = h->cone, .open_spread = h->open_spread,
                                  .delta = h->delta};
         mine = (ff_round_work){.backend = backend, .backend_state = backend_state, .patches = s->patches,
-                               .keys = s->keys, .view = &view, .pairs = s->pairs, .out = s->out,
-                               .cluster_pairs = s->cluster_pairs, .cluster_out = s->cluster_out};
+                               .keys = s->keys, .view = &view};
     }
-    mine.pair_count = pair_counts[s->rank];
-    mine.cluster_count = cluster_counts[s->rank];
+    mine.pairs = s->pairs, mine.out = s->out, mine.pair_count = my_pairs;
+    mine.cluster_pairs = s->cluster_pairs, mine.cluster_out = s->cluster_out, mine.cluster_count = my_clusters;
     if (!mine.cluster_count) mine.view = NULL;
-    if (h->pair_count) st = ff_comm_scatter_items(s->comm, w ? w->pairs : NULL, pair_counts, sizeof *s->pairs, s->pairs);
+    if (h->pair_count)
+        st = ff_comm_scatter_cyclic(s->comm, w ? w->pairs : NULL, h->pair_count, RANK_CHUNK, sizeof *s->pairs,
+                                    s->pairs);
     if (st == RAD_OK && h->cluster_count)
-        st = ff_comm_scatter_items(s->comm, w ? w->cluster_pairs : NULL, cluster_counts, sizeof *s->cluster_pairs,
-                                   s->cluster_pairs);
+        st = ff_comm_scatter_cyclic(s->comm, w ? w->cluster_pairs : NULL, h->cluster_count, RANK_CHUNK,
+                                    sizeof *s->cluster_pairs, s->cluster_pairs);
+    const double t1 = rad_clock_seconds();
     round_report report = {0};
     report.status = st == RAD_OK ? ff_round_compute(&mine, &report.counters, &report.cluster_seconds) : st;
+    const double t2 = rad_clock_seconds();
+    report.compute_seconds = t2 - t1;
     rad_status gst = RAD_OK;
-    if (h->pair_count) gst = ff_comm_gather_items(s->comm, s->out, pair_counts, sizeof *s->out, w ? w->out : NULL);
+    if (h->pair_count)
+        gst = ff_comm_gather_cyclic(s->comm, s->out, h->pair_count, RANK_CHUNK, sizeof *s->out, w ? w->out : NULL);
     if (gst == RAD_OK && h->cluster_count)
-        gst = ff_comm_gather_items(s->comm, s->cluster_out, cluster_counts, sizeof *s->cluster_out,
-                                   w ? w->cluster_out : NULL);
+        gst = ff_comm_gather_cyclic(s->comm, s->cluster_out, h->cluster_count, RANK_CHUNK, sizeof *s->cluster_out,
+                                    w ? w->cluster_out : NULL);
     round_report *all = s->reports;
     ff_comm_gather(s->comm, &report, sizeof report, all, 0);
     if (s->rank != 0) return report.status != RAD_OK ? (rad_status)report.status : gst;
     st = gst;
     *cluster_seconds = 0;
+    double slowest = 0, fastest = INFINITY;
     for (int r = 0; r < s->size; r++) {
         if (st == RAD_OK && all[r].status != RAD_OK) st = (rad_status)all[r].status;
         ff_counters_add(counters, &all[r].counters);
         if (all[r].cluster_seconds > *cluster_seconds) *cluster_seconds = all[r].cluster_seconds;
+        slowest = fmax(slowest, all[r].compute_seconds);
+        fastest = fmin(fastest, all[r].compute_seconds);
     }
+    s->times.send += t1 - t0;
+    s->times.own += t2 - t1;
+    s->times.slowest += slowest;
+    s->times.fastest += fastest;
+    s->times.collect += rad_clock_seconds() - t2;
+    s->times.rounds++;
     return st;
 }
 
@@ -238,6 +249,11 @@ rad_status ff_rank_rounds_compute(ff_rank_rounds *R, const ff_round_work *w, siz
     return round_everywhere(s, &h, w, NULL, NULL, counters, cluster_seconds);
 }
 
+void ff_rank_rounds_times_get(const ff_rank_rounds *R, ff_rank_times *out)
+{
+    if (R) *out = R->s.times;
+}
+
 void ff_rank_rounds_close(ff_comm *comm, ff_rank_rounds *R)
 {
     if (ff_comm_size(comm) > 1) {
@@ -251,7 +267,7 @@ void ff_rank_rounds_close(ff_comm *comm, ff_rank_rounds *R)
 rad_status ff_rank_rounds_serve(ff_comm *comm, const ff_backend *backend, void *backend_state)
 {
     rank_state s = {0};
-    state_init(&s, comm); /* without memory for it, every round fails (reserve) */
+    state_init(&s, comm); /* no reports away from rank 0: nothing to fail */
     rad_status first = RAD_OK;
     for (;;) {
         round_header h;

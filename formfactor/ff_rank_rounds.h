@@ -2,10 +2,10 @@
  * item 4).
  *
  * Rank 0 refines: it holds the elements and the links and decides every
- * round. Each round's pairs are cut into one block per rank, in list
- * order; every rank, rank 0 too, computes its block on its own backend
- * (one GPU a rank where there are GPUs) with ff_round_compute, and rank 0
- * collects the outcomes in list order. A pair's outcome depends on the
+ * round. Each round's pairs are cut into chunks dealt to the ranks in
+ * turn (ff_comm_scatter_cyclic); every rank, rank 0 too, computes its
+ * chunks on its own backend (one GPU a rank where there are GPUs) with
+ * ff_round_compute, and rank 0 collects the outcomes in their places. A pair's outcome depends on the
  * pair alone, so the links are the same bytes for any rank count.
  *
  *     rank 0:                                   the other ranks:
@@ -14,7 +14,7 @@
  *     ff_rank_rounds_close(comm, R);            (serve returns)
  *
  * Per round, rank 0 sends the elements made since the last round (192 +
- * 4 bytes each), the cluster tree once, and each rank its block of jobs
+ * 4 bytes each), the cluster tree once, and each rank its chunks of jobs
  * (16 bytes a pair); each rank returns its outcomes (80 bytes an element
  * pair, 40 a cluster pair) and its counters. Every collective is entered
  * by every rank whatever failed, so that the ranks leave together. */
@@ -39,11 +39,22 @@ rad_status ff_rank_rounds_open(ff_comm *comm, ff_rank_rounds **out);
 rad_status ff_rank_rounds_compute(ff_rank_rounds *R, const ff_round_work *w, size_t element_count,
                                   ff_counters *counters, double *cluster_seconds);
 
+/* Rank 0's view of the rounds so far, in seconds summed over them: the
+ * elements, the tree and the chunks sent (with the ranks' agreement that
+ * they have room), its own chunks computed, the slowest and the fastest
+ * rank's (what the GPUs bound), and the outcomes collected (waiting for
+ * the slowest, then the copies). */
+typedef struct ff_rank_times {
+    double send, own, slowest, fastest, collect;
+    uint64_t rounds;
+} ff_rank_times;
+void ff_rank_rounds_times_get(const ff_rank_rounds *R, ff_rank_times *out);
+
 /* Rank 0: ends the others' ff_rank_rounds_serve and frees R (which may
  * be NULL: a run that failed before or while opening must end them too). */
 void ff_rank_rounds_close(ff_comm *comm, ff_rank_rounds *R);
 
-/* The other ranks: computes their block of every round with `backend`
+/* The other ranks: computes their chunks of every round with `backend`
  * until rank 0 closes. The first failure of its own (the others' are rank
  * 0's to report). */
 rad_status ff_rank_rounds_serve(ff_comm *comm, const ff_backend *backend, void *backend_state);
