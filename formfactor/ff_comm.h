@@ -33,21 +33,38 @@ uint64_t ff_comm_max_u64(ff_comm *comm, uint64_t value);
 /* Collective: the sum of `value` over the ranks below this one; *total
  * gets the sum over all ranks. */
 uint64_t ff_comm_exscan_u64(ff_comm *comm, uint64_t value, uint64_t *total);
+/* Collective: rank 0's bytes (at most INT_MAX) to every rank, the others
+ * sleeping between looks instead of spinning on a core: for a wait that
+ * may last seconds while rank 0 works on its threads. */
+void ff_comm_broadcast_idle(ff_comm *comm, void *data, size_t bytes);
 /* Collective: root's bytes to every rank (any size). */
 void ff_comm_broadcast(ff_comm *comm, void *data, size_t bytes, int root);
 /* The cyclic cut of `count` items among the ranks: chunk c (`chunk`
  * items, the last maybe fewer) goes to rank c % size; rank's share. */
 uint64_t ff_comm_cyclic_count(uint64_t count, uint32_t chunk, int rank, int size);
+/* Where a rank's chunks of the cyclic cut land: `bytes` of its own. Where
+ * all ranks share one node, an MPI shared window, so that rank 0 copies
+ * chunks straight into and out of every rank's area (no messages); else
+ * each rank's own memory, the chunks sent as messages (also where the
+ * environment has RAD_MPI_MESSAGES=1: tests of that path on one node).
+ * open and close are collective; a rank's area may differ in size from
+ * the others'. */
+typedef struct ff_comm_area ff_comm_area;
+rad_status ff_comm_area_open(ff_comm *comm, size_t bytes, ff_comm_area **out);
+void *ff_comm_area_data(ff_comm_area *area);
+int ff_comm_area_shared(const ff_comm_area *area); /* 1: a shared window, 0: messages */
+void ff_comm_area_close(ff_comm_area *area);
 /* Collective: rank 0's `count` items (`item_bytes` each) cut cyclically,
- * each rank's chunks back to back into its `mine` (rank 0's too). Every
- * rank passes the same count (at most INT_MAX) and chunk. RAD_ERR_INVALID,
- * RAD_ERR_NOMEM or RAD_ERR_BACKEND (logged) on failure. */
+ * each rank's chunks back to back into its area at byte offset at[rank]
+ * (every rank passes every rank's offsets, the same count, at most
+ * INT_MAX, and chunk). RAD_ERR_INVALID, RAD_ERR_NOMEM or RAD_ERR_BACKEND
+ * (logged) on failure. */
 rad_status ff_comm_scatter_cyclic(ff_comm *comm, const void *send, uint64_t count, uint32_t chunk, size_t item_bytes,
-                                  void *mine);
-/* Collective, the other way: each rank's chunks (`mine`) into their
- * places in rank 0's `recv`. */
-rad_status ff_comm_gather_cyclic(ff_comm *comm, const void *mine, uint64_t count, uint32_t chunk, size_t item_bytes,
-                                 void *recv);
+                                  ff_comm_area *area, const size_t *at);
+/* Collective, the other way: each rank's chunks (its area at at[rank])
+ * into their places in rank 0's `recv`. */
+rad_status ff_comm_gather_cyclic(ff_comm *comm, ff_comm_area *area, const size_t *at, uint64_t count, uint32_t chunk,
+                                 size_t item_bytes, void *recv);
 /* Collective: every rank's `bytes` into root's `out` (size * bytes), rank order. */
 void ff_comm_gather(ff_comm *comm, const void *data, size_t bytes, void *out, int root);
 /* Collective: variable-sized blocks of uint64 gathered on root in rank order. */

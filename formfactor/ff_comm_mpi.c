@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "ff_comm.h"
@@ -179,6 +180,23 @@ void ff_comm_broadcast(ff_comm *comm, void *data, size_t bytes, int root)
     }
 }
 
+void ff_comm_broadcast_idle(ff_comm *comm, void *data, size_t bytes)
+{
+    if (comm->mpi.solo) return;
+    MPI_Request req;
+    MPI_Ibcast(data, (int)bytes, MPI_BYTE, 0, MPI_COMM_WORLD, &req);
+    if (comm->mpi.rank == 0) {
+        MPI_Wait(&req, MPI_STATUS_IGNORE);
+        return;
+    }
+    const struct timespec pause = {0, 100000}; /* 0.1 ms: a round is tens of ms at least */
+    for (int done = 0;;) {
+        MPI_Test(&req, &done, MPI_STATUS_IGNORE);
+        if (done) break;
+        nanosleep(&pause, NULL);
+    }
+}
+
 /* The cyclic cut: chunk c (of `chunk` items, the last maybe fewer) of
  * `count` items goes to rank c % size. */
 uint64_t ff_comm_cyclic_count(uint64_t count, uint32_t chunk, int rank, int size)
@@ -215,13 +233,14 @@ static int cyclic_type(uint64_t count, uint32_t chunk, int r, int size, MPI_Data
     return 1;
 }
 
-/* Rank 0's own chunks between the whole array and its `mine`. */
-static void cyclic_copy_own(unsigned char *whole, unsigned char *mine, uint64_t count, uint32_t chunk, int size,
-                            size_t item_bytes, int to_mine)
+/* Rank r's chunks between rank 0's whole array and `mine` (r's chunks
+ * back to back), on rank 0's threads. */
+static void cyclic_copy(unsigned char *whole, unsigned char *mine, uint64_t count, uint32_t chunk, int r, int size,
+                        size_t item_bytes, int to_mine)
 {
     const uint64_t chunks = (count + chunk - 1) / chunk;
 #pragma omp parallel for schedule(static)
-    for (int64_t c = 0; c < (int64_t)chunks; c += size) {
+    for (int64_t c = r; c < (int64_t)chunks; c += size) {
         const uint64_t n = count - (uint64_t)c * chunk < chunk ? count - (uint64_t)c * chunk : chunk;
         unsigned char *w = whole + (uint64_t)c * chunk * item_bytes;
         unsigned char *m = mine + (uint64_t)c / (uint64_t)size * chunk * item_bytes;
@@ -230,15 +249,101 @@ static void cyclic_copy_own(unsigned char *whole, unsigned char *mine, uint64_t 
     }
 }
 
+/* ---- areas: where the cyclic cut's chunks land ---- */
+
+struct ff_comm_area {
+    unsigned char *mine; /* this rank's bytes */
+    size_t bytes;
+    int shared;          /* an MPI shared window over the node (all ranks on one node) */
+    MPI_Win win;
+    unsigned char **bases; /* shared: every rank's bytes as this process maps them (rank 0) */
+};
+
+rad_status ff_comm_area_open(ff_comm *comm, size_t bytes, ff_comm_area **out)
+{
+    ff_comm_area *a = calloc(1, sizeof *a);
+    int ok = a != NULL;
+    const char *messages = getenv("RAD_MPI_MESSAGES"); /* tests: the path of ranks on several nodes */
+    if (ok && !comm->mpi.solo && comm->node_size == comm->mpi.size && comm->mpi.size > 1 &&
+        !(messages && *messages == '1')) {
+        MPI_Info info;
+        MPI_Info_create(&info);
+        MPI_Info_set(info, "alloc_shared_noncontig", "true"); /* each rank's pages its own (NUMA) */
+        a->bases = calloc((size_t)comm->mpi.size, sizeof *a->bases);
+        int made = a->bases && MPI_Win_allocate_shared((MPI_Aint)(bytes ? bytes : 64), 1, info, MPI_COMM_WORLD,
+                                                       &a->mine, &a->win) == MPI_SUCCESS;
+        MPI_Info_free(&info);
+        int all = 0;
+        MPI_Allreduce(&made, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+        if (all) {
+            a->shared = 1;
+            MPI_Win_lock_all(MPI_MODE_NOCHECK, a->win);
+            for (int r = 0; r < comm->mpi.size; r++) {
+                MPI_Aint size = 0;
+                int unit = 0;
+                MPI_Win_shared_query(a->win, r, &size, &unit, &a->bases[r]);
+            }
+        } else if (made) {
+            MPI_Win_free(&a->win);
+        }
+        ok = all;
+    } else if (ok) {
+        a->mine = malloc(bytes ? bytes : 64);
+        ok = a->mine != NULL;
+    }
+    if (a) a->bytes = bytes;
+    if (!ok) {
+        rad_error("MPI: no room for %zu bytes of exchange", bytes);
+        if (a) free(a->bases);
+        free(a);
+        return RAD_ERR_NOMEM;
+    }
+    *out = a;
+    return RAD_OK;
+}
+
+void *ff_comm_area_data(ff_comm_area *a) { return a->mine; }
+int ff_comm_area_shared(const ff_comm_area *a) { return a->shared; }
+
+void ff_comm_area_close(ff_comm_area *a)
+{
+    if (!a) return;
+    if (a->shared) {
+        MPI_Win_unlock_all(a->win);
+        MPI_Win_free(&a->win); /* collective */
+    } else {
+        free(a->mine);
+    }
+    free(a->bases);
+    free(a);
+}
+
+/* Shared windows: what one rank wrote is seen by the others after this. */
+static void area_fence(const ff_comm_area *a)
+{
+    MPI_Win_sync(a->win);
+    MPI_Barrier(MPI_COMM_WORLD);
+    MPI_Win_sync(a->win);
+}
+
 /* Both ways of the cyclic cut: rank 0's whole array of items and every
- * rank's `mine` (its chunks back to back). */
-static rad_status cyclic_exchange(ff_comm *comm, unsigned char *whole, unsigned char *mine, uint64_t count,
-                                  uint32_t chunk, size_t item_bytes, int scatter)
+ * rank's area at its offset at[rank] (its chunks back to back). */
+static rad_status cyclic_exchange(ff_comm *comm, unsigned char *whole, ff_comm_area *area, const size_t *at,
+                                  uint64_t count, uint32_t chunk, size_t item_bytes, int scatter)
 {
     const int rank = comm->mpi.rank, size = comm->mpi.size;
+    unsigned char *mine = area->mine + at[rank];
     if (comm->mpi.solo || size == 1) {
         if (scatter) memmove(mine, whole, count * item_bytes);
         else memmove(whole, mine, count * item_bytes);
+        return RAD_OK;
+    }
+    if (area->shared) { /* rank 0 copies every rank's chunks itself */
+        if (!scatter) area_fence(area); /* their outcomes written */
+        if (rank == 0)
+            for (int r = 0; r < size; r++)
+                cyclic_copy(whole, area->bases[r] + at[r], count, chunk, r, size, item_bytes, scatter);
+        if (scatter) area_fence(area); /* their jobs there */
         return RAD_OK;
     }
     if (count > INT_MAX || item_bytes > INT_MAX || chunk == 0) {
@@ -271,7 +376,7 @@ static rad_status cyclic_exchange(ff_comm *comm, unsigned char *whole, unsigned 
                 break;
             }
         }
-        cyclic_copy_own(whole, mine, count, chunk, size, item_bytes, scatter);
+        cyclic_copy(whole, mine, count, chunk, 0, size, item_bytes, scatter);
         if (made) MPI_Waitall(made, req, MPI_STATUSES_IGNORE);
         for (int r = 1; r <= made; r++) MPI_Type_free(&types[r]);
         free(req);
@@ -291,15 +396,15 @@ static rad_status cyclic_exchange(ff_comm *comm, unsigned char *whole, unsigned 
 }
 
 rad_status ff_comm_scatter_cyclic(ff_comm *comm, const void *send, uint64_t count, uint32_t chunk, size_t item_bytes,
-                                  void *mine)
+                                  ff_comm_area *area, const size_t *at)
 {
-    return cyclic_exchange(comm, (unsigned char *)send, mine, count, chunk, item_bytes, 1);
+    return cyclic_exchange(comm, (unsigned char *)send, area, at, count, chunk, item_bytes, 1);
 }
 
-rad_status ff_comm_gather_cyclic(ff_comm *comm, const void *mine, uint64_t count, uint32_t chunk, size_t item_bytes,
-                                 void *recv)
+rad_status ff_comm_gather_cyclic(ff_comm *comm, ff_comm_area *area, const size_t *at, uint64_t count, uint32_t chunk,
+                                 size_t item_bytes, void *recv)
 {
-    return cyclic_exchange(comm, recv, (unsigned char *)mine, count, chunk, item_bytes, 0);
+    return cyclic_exchange(comm, recv, area, at, count, chunk, item_bytes, 0);
 }
 
 

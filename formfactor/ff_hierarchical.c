@@ -615,13 +615,15 @@ rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
     h.seconds_setup = rad_clock_seconds() - t_setup;
     if ((st = ff_comm_agree(comm, st)) == RAD_OK && rank > 0) {
         st = ff_rank_rounds_serve(comm, h.backend, h.backend_state);
+        release_backends(&h);
+        int rank0 = RAD_OK; /* rank 0's end, asleep until it comes (a spinning wait takes a core from its threads) */
+        ff_comm_broadcast_idle(comm, &rank0, sizeof rank0);
     } else if (st == RAD_OK) {
-        /* a GPU computes this rank's pairs and others wait on theirs: its
-         * threads take this node's cores but one a waiting rank */
-        if (ranks > 1 && h.backend == &ff_backend_cuda && opt->threads <= 0) {
-            const int cores = rad_cpu_threads_per_rank(0, 1), others = ff_comm_node_size(comm) - 1;
-            h.threads = cores - others > 1 ? cores - others : 1;
-        }
+        /* On GPUs, the other ranks sleep while this one's threads work
+         * (decisions, exports, solves): they take all of this node's
+         * cores. CPU backends compute the rounds side by side and share
+         * them. */
+        if (ranks > 1 && h.backend == &ff_backend_cuda) h.threads = rad_cpu_threads_per_rank(opt->threads, 1);
         st = build_links(&h, comm, &su, centre);
         release_backends(&h); /* the GPU's memory, before --radiosity's solve needs it */
         release_refinement(&h);
@@ -630,6 +632,8 @@ rad_status ff_hierarchical_run(ff_comm *comm, const ff_options *opt)
         h.peak_total = rad_mem_peak_bytes();
         if (st == RAD_OK && !opt->radiosity_path) rad_info("wrote %s", opt->output);
         if (st == RAD_OK) st = write_stats(&h);
+        int end = (int)st;
+        if (ranks > 1) ff_comm_broadcast_idle(comm, &end, sizeof end);
     }
     st = ff_comm_agree(comm, st);
     release_backends(&h);

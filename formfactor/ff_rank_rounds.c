@@ -50,10 +50,12 @@ typedef struct rank_state {
     uint32_t *roots;
     double *area_before;
     round_report *reports; /* rank 0: size */
-    ff_pair_job *pairs, *cluster_pairs; /* this rank's chunks (rank 0: copies of its own) */
-    ff_pair_outcome *out;
-    ff_cluster_drawn *cluster_out;
-    size_t pair_cap, cluster_cap;
+    ff_comm_area *area;   /* this rank's chunks of jobs and outcomes (ff_comm.h), `area_bytes` */
+    size_t area_bytes;
+    int said;             /* rank 0 has said how the rounds travel */
+    size_t *scratch;      /* size: at_of's */
+    size_t *at;           /* 4 x size: each rank's offsets in its area of its jobs, cluster jobs,
+                             outcomes and cluster outcomes */
     ff_rank_times times; /* rank 0 */
 } rank_state;
 
@@ -68,7 +70,9 @@ static int state_init(rank_state *s, ff_comm *comm)
     s->rank = ff_comm_rank(comm);
     s->size = ff_comm_size(comm);
     s->reports = s->rank == 0 ? calloc((size_t)s->size, sizeof *s->reports) : NULL;
-    return s->rank != 0 || s->reports;
+    s->at = malloc(5 * (size_t)s->size * sizeof *s->at);
+    s->scratch = s->at ? s->at + 4 * (size_t)s->size : NULL;
+    return s->at && (s->rank != 0 || s->reports);
 }
 
 static void state_free(rank_state *s)
@@ -79,10 +83,22 @@ static void state_free(rank_state *s)
     free(s->clusters);
     free(s->roots);
     free(s->area_before);
-    free(s->pairs);
-    free(s->out);
-    free(s->cluster_pairs);
-    free(s->cluster_out);
+    free(s->at);
+    ff_comm_area_close(s->area); /* collective where shared: every rank frees its state at the same point */
+}
+
+/* Rank r's area for a round: its jobs, cluster jobs, outcomes and cluster
+ * outcomes, each 64-byte aligned, at at[4r ..]; the bytes in all. */
+static size_t layout(uint64_t pairs, uint64_t clusters, size_t at[4])
+{
+    const size_t sizes[4] = {pairs * sizeof(ff_pair_job), clusters * sizeof(ff_pair_job),
+                             pairs * sizeof(ff_pair_outcome), clusters * sizeof(ff_cluster_drawn)};
+    size_t total = 0;
+    for (int k = 0; k < 4; k++) {
+        at[k] = total;
+        total += (sizes[k] + 63) & ~(size_t)63;
+    }
+    return total;
 }
 
 static int grow(void **p, size_t *cap, size_t want, size_t item)
@@ -96,11 +112,11 @@ static int grow(void **p, size_t *cap, size_t want, size_t item)
     return 1;
 }
 
-/* A rank's room for a round: its chunks of the pairs (rank 0's too),
- * and elsewhere the elements and the tree; RAD_ERR_NOMEM (logged). */
+/* A rank's room for a round's elements and tree (rank 0 has them);
+ * RAD_ERR_NOMEM (logged). */
 static rad_status reserve(rank_state *s, const round_header *h, uint64_t my_pairs, uint64_t my_clusters)
 {
-    int ok = 1;
+    int ok = s->at != NULL;
     if (s->rank > 0) { /* rank 0 has the elements and the tree */
         size_t cap = s->element_cap, cap_keys = s->element_cap;
         ok = grow((void **)&s->patches, &cap, h->element_count, sizeof *s->patches) &&
@@ -116,20 +132,20 @@ static rad_status reserve(rank_state *s, const round_header *h, uint64_t my_pair
         s->area_before = malloc(((size_t)h->root_count + 1) * sizeof *s->area_before);
         ok = s->clusters && s->roots && s->area_before;
     }
-    size_t pair_cap = s->pair_cap, pair_cap2 = s->pair_cap;
-    ok = ok && grow((void **)&s->pairs, &pair_cap, my_pairs, sizeof *s->pairs) &&
-         grow((void **)&s->out, &pair_cap2, my_pairs, sizeof *s->out);
-    if (ok) s->pair_cap = pair_cap < pair_cap2 ? pair_cap : pair_cap2;
-    size_t ccap = s->cluster_cap, ccap2 = s->cluster_cap;
-    ok = ok && grow((void **)&s->cluster_pairs, &ccap, my_clusters, sizeof *s->cluster_pairs) &&
-         grow((void **)&s->cluster_out, &ccap2, my_clusters, sizeof *s->cluster_out);
-    if (ok) s->cluster_cap = ccap < ccap2 ? ccap : ccap2;
     if (!ok) {
         rad_error("rank %d: out of memory for a round of %llu elements and %llu pairs", s->rank,
                   (unsigned long long)h->element_count, (unsigned long long)(my_pairs + my_clusters));
         return RAD_ERR_NOMEM;
     }
     return RAD_OK;
+}
+
+/* Every rank's offset of part k (0 jobs, 1 cluster jobs, 2 outcomes, 3
+ * cluster outcomes), rank by rank: s->scratch. */
+static const size_t *at_of(rank_state *s, int k)
+{
+    for (int r = 0; r < s->size; r++) s->scratch[r] = s->at[4 * r + k];
+    return s->scratch;
 }
 
 /* One round on every rank, rank 0's w (NULL elsewhere): the elements and
@@ -144,6 +160,32 @@ static rad_status round_everywhere(rank_state *s, const round_header *h, const f
     const double t0 = rad_clock_seconds();
     rad_status st = ff_comm_agree(s->comm, reserve(s, h, my_pairs, my_clusters));
     if (st != RAD_OK) return st;
+    /* every rank's offsets; the areas grown together where one is short */
+    size_t need = 0;
+    for (int r = 0; r < s->size; r++) {
+        const size_t bytes = layout(ff_comm_cyclic_count(h->pair_count, RANK_CHUNK, r, s->size),
+                                    ff_comm_cyclic_count(h->cluster_count, RANK_CHUNK, r, s->size), &s->at[4 * r]);
+        if (r == s->rank) need = bytes;
+    }
+    if (ff_comm_max_u64(s->comm, !s->area || need > s->area_bytes)) {
+        ff_comm_area_close(s->area);
+        s->area = NULL;
+        s->area_bytes = need + need / 4 + ((size_t)1 << 20);
+        const int first = !s->said;
+        st = ff_comm_agree(s->comm, ff_comm_area_open(s->comm, s->area_bytes, &s->area));
+        if (st != RAD_OK) {
+            if (s->area) ff_comm_area_close(s->area); /* collective too: each rank that has one */
+            s->area = NULL;
+            return st;
+        }
+        if (first && s->rank == 0)
+            rad_info("ranks: the rounds' pairs and outcomes %s", ff_comm_area_shared(s->area)
+                                                                    ? "through memory the ranks share (one node)"
+                                                                    : "as messages");
+        s->said = 1;
+    }
+    unsigned char *area = ff_comm_area_data(s->area);
+    const size_t *at = &s->at[4 * s->rank];
     /* the elements made since the last round, the tree once */
     const size_t from = s->elements, more = h->element_count - from;
     if (more) {
@@ -176,15 +218,16 @@ static rad_status round_everywhere(rank_state *s, const round_header *h, const f
         mine = (ff_round_work){.backend = backend, .backend_state = backend_state, .patches = s->patches,
                                .keys = s->keys, .view = &view};
     }
-    mine.pairs = s->pairs, mine.out = s->out, mine.pair_count = my_pairs;
-    mine.cluster_pairs = s->cluster_pairs, mine.cluster_out = s->cluster_out, mine.cluster_count = my_clusters;
+    mine.pairs = (const ff_pair_job *)(area + at[0]), mine.pair_count = my_pairs;
+    mine.cluster_pairs = (const ff_pair_job *)(area + at[1]), mine.cluster_count = my_clusters;
+    mine.out = (ff_pair_outcome *)(area + at[2]), mine.cluster_out = (ff_cluster_drawn *)(area + at[3]);
     if (!mine.cluster_count) mine.view = NULL;
     if (h->pair_count)
-        st = ff_comm_scatter_cyclic(s->comm, w ? w->pairs : NULL, h->pair_count, RANK_CHUNK, sizeof *s->pairs,
-                                    s->pairs);
+        st = ff_comm_scatter_cyclic(s->comm, w ? w->pairs : NULL, h->pair_count, RANK_CHUNK, sizeof(ff_pair_job),
+                                    s->area, at_of(s, 0));
     if (st == RAD_OK && h->cluster_count)
         st = ff_comm_scatter_cyclic(s->comm, w ? w->cluster_pairs : NULL, h->cluster_count, RANK_CHUNK,
-                                    sizeof *s->cluster_pairs, s->cluster_pairs);
+                                    sizeof(ff_pair_job), s->area, at_of(s, 1));
     const double t1 = rad_clock_seconds();
     round_report report = {0};
     report.status = st == RAD_OK ? ff_round_compute(&mine, &report.counters, &report.cluster_seconds) : st;
@@ -192,10 +235,11 @@ static rad_status round_everywhere(rank_state *s, const round_header *h, const f
     report.compute_seconds = t2 - t1;
     rad_status gst = RAD_OK;
     if (h->pair_count)
-        gst = ff_comm_gather_cyclic(s->comm, s->out, h->pair_count, RANK_CHUNK, sizeof *s->out, w ? w->out : NULL);
+        gst = ff_comm_gather_cyclic(s->comm, s->area, at_of(s, 2), h->pair_count, RANK_CHUNK, sizeof(ff_pair_outcome),
+                                    w ? w->out : NULL);
     if (gst == RAD_OK && h->cluster_count)
-        gst = ff_comm_gather_cyclic(s->comm, s->cluster_out, h->cluster_count, RANK_CHUNK, sizeof *s->cluster_out,
-                                    w ? w->cluster_out : NULL);
+        gst = ff_comm_gather_cyclic(s->comm, s->area, at_of(s, 3), h->cluster_count, RANK_CHUNK,
+                                    sizeof(ff_cluster_drawn), w ? w->cluster_out : NULL);
     round_report *all = s->reports;
     ff_comm_gather(s->comm, &report, sizeof report, all, 0);
     if (s->rank != 0) return report.status != RAD_OK ? (rad_status)report.status : gst;
@@ -245,7 +289,7 @@ rad_status ff_rank_rounds_compute(ff_rank_rounds *R, const ff_round_work *w, siz
         h.open_spread = w->view->open_spread;
         h.delta = w->view->delta;
     }
-    ff_comm_broadcast(s->comm, &h, sizeof h, 0);
+    ff_comm_broadcast_idle(s->comm, &h, sizeof h);
     return round_everywhere(s, &h, w, NULL, NULL, counters, cluster_seconds);
 }
 
@@ -258,7 +302,7 @@ void ff_rank_rounds_close(ff_comm *comm, ff_rank_rounds *R)
 {
     if (ff_comm_size(comm) > 1) {
         round_header h = {.op = OP_STOP};
-        ff_comm_broadcast(comm, &h, sizeof h, 0);
+        ff_comm_broadcast_idle(comm, &h, sizeof h);
     }
     if (R) state_free(&R->s);
     free(R);
@@ -271,7 +315,7 @@ rad_status ff_rank_rounds_serve(ff_comm *comm, const ff_backend *backend, void *
     rad_status first = RAD_OK;
     for (;;) {
         round_header h;
-        ff_comm_broadcast(comm, &h, sizeof h, 0);
+        ff_comm_broadcast_idle(comm, &h, sizeof h); /* asleep while rank 0 decides */
         if (h.op != OP_ROUND) break;
         ff_counters unused = {0};
         double seconds = 0;

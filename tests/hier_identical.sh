@@ -1,8 +1,9 @@
 #!/bin/sh
 # Hierarchical links files (issue 26) are the same bytes for any thread and
 # rank count: formfactor --method hierarchical on cornell_sphere with 1 and
-# 2 threads, and under mpirun -n 2 and -n 3 (every rank computes its block
-# of each round's pairs, ff_rank_rounds.h; three cut the rounds unevenly),
+# 2 threads, and under mpirun -n 2 and -n 3 (every rank computes its chunks
+# of each round's pairs, ff_rank_rounds.h; three cut the rounds unevenly;
+# through shared memory and through messages),
 # then solve's radiosity files too, and formfactor --radiosity's (the links
 # solved in memory), on one rank and on two.
 #   hier_identical.sh FORMFACTOR SOLVE SCENE WORKDIR [FORMFACTOR OPTIONS]
@@ -28,6 +29,11 @@ if command -v mpirun >/dev/null; then
   # shellcheck disable=SC2086
   OMP_NUM_THREADS=1 mpirun -n 3 --oversubscribe "$ff" $args -o r3.ff || exit 1
   cmp t1.ff r3.ff || { echo "FAIL: 1 and 3 ranks differ"; failed=1; }
+  # the same through messages, as between nodes (here the ranks share one
+  # node and exchange the rounds through shared memory)
+  # shellcheck disable=SC2086
+  RAD_MPI_MESSAGES=1 OMP_NUM_THREADS=1 mpirun -x RAD_MPI_MESSAGES -n 3 --oversubscribe "$ff" $args -o m3.ff || exit 1
+  cmp t1.ff m3.ff || { echo "FAIL: 1 and 3 ranks through messages differ"; failed=1; }
   # shellcheck disable=SC2086
   OMP_NUM_THREADS=1 mpirun -n 2 --oversubscribe "$ff" $args --radiosity m2.rad || exit 1
 fi
