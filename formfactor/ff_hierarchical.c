@@ -331,8 +331,8 @@ static rad_status build_links(hier_run *h, ff_comm *comm, const ff_setup *su, co
     if (h->links.ranks) {
         ff_rank_rounds_times_get(h->links.ranks, &h->rank_times);
         const ff_rank_times *t = &h->rank_times;
-        rad_info("ranks: %llu rounds shared by %d; sent %.2f s, computed %.2f s (rank 0), %.2f s (the slowest rank "
-                 "each round), %.2f s (the fastest); collected %.2f s",
+        rad_info("ranks: %llu exchanges (rounds, or pieces of large ones) shared by %d; sent %.2f s, computed %.2f s "
+                 "(rank 0), %.2f s (the slowest rank each time), %.2f s (the fastest); collected %.2f s",
                  (unsigned long long)t->rounds, h->ranks, t->send, t->own, t->slowest, t->fastest, t->collect);
     }
     ff_rank_rounds_close(comm, h->links.ranks); /* the other ranks are done */

@@ -17,6 +17,11 @@ enum { OP_ROUND = 1, OP_STOP = 2 };
  * not one block of the list. */
 #define RANK_CHUNK 2048u
 
+/* The most pairs one exchange holds: a larger round goes in pieces, so
+ * that the areas (96 bytes a pair: its job and outcome) stay near 400 MB
+ * in all whatever the round (rounds reach 10^8 pairs at 10^6 faces). */
+#define RANK_PIECE ((uint64_t)4 << 20)
+
 /* What rank 0 says before each round. */
 typedef struct round_header {
     uint32_t op;
@@ -53,6 +58,7 @@ typedef struct rank_state {
     ff_comm_area *area;   /* this rank's chunks of jobs and outcomes (ff_comm.h), `area_bytes` */
     size_t area_bytes;
     int said;             /* rank 0 has said how the rounds travel */
+    uint64_t piece;       /* rank 0: RANK_PIECE, or RAD_MPI_PIECE's (tests) */
     size_t *scratch;      /* size: at_of's */
     size_t *at;           /* 4 x size: each rank's offsets in its area of its jobs, cluster jobs,
                              outcomes and cluster outcomes */
@@ -271,6 +277,8 @@ rad_status ff_rank_rounds_open(ff_comm *comm, ff_rank_rounds **out)
         free(R);
         return RAD_ERR_NOMEM;
     }
+    const char *piece = getenv("RAD_MPI_PIECE"); /* tests: pieces of small rounds */
+    R->s.piece = piece && atoll(piece) > 0 ? (uint64_t)atoll(piece) : RANK_PIECE;
     *out = R;
     return RAD_OK;
 }
@@ -279,18 +287,35 @@ rad_status ff_rank_rounds_compute(ff_rank_rounds *R, const ff_round_work *w, siz
                                   ff_counters *counters, double *cluster_seconds)
 {
     rank_state *s = &R->s;
-    round_header h = {.op = OP_ROUND, .element_count = element_count, .pair_count = w->pair_count,
-                      .cluster_count = w->cluster_count};
-    if (w->cluster_count) {
-        h.with_tree = !s->tree_sent;
-        h.tree_count = w->view->cluster_count;
-        h.root_count = w->view->root_count;
-        h.cone = w->view->cone;
-        h.open_spread = w->view->open_spread;
-        h.delta = w->view->delta;
+    /* in pieces of at most RANK_PIECE pairs, each a round of its own to
+     * the others: the areas hold a piece, not the whole round */
+    const uint64_t all = (uint64_t)w->pair_count + w->cluster_count;
+    const uint64_t pieces = all ? (all + s->piece - 1) / s->piece : 1;
+    rad_status st = RAD_OK;
+    *cluster_seconds = 0;
+    for (uint64_t k = 0; k < pieces && st == RAD_OK; k++) {
+        const size_t p0 = (size_t)(w->pair_count * k / pieces), p1 = (size_t)(w->pair_count * (k + 1) / pieces);
+        const size_t c0 = (size_t)(w->cluster_count * k / pieces), c1 = (size_t)(w->cluster_count * (k + 1) / pieces);
+        ff_round_work piece = *w;
+        piece.pairs = w->pairs + p0, piece.out = w->out + p0, piece.pair_count = p1 - p0;
+        piece.cluster_pairs = w->cluster_pairs + c0, piece.cluster_out = w->cluster_out + c0;
+        piece.cluster_count = c1 - c0;
+        round_header h = {.op = OP_ROUND, .element_count = element_count, .pair_count = piece.pair_count,
+                          .cluster_count = piece.cluster_count};
+        if (piece.cluster_count) {
+            h.with_tree = !s->tree_sent;
+            h.tree_count = w->view->cluster_count;
+            h.root_count = w->view->root_count;
+            h.cone = w->view->cone;
+            h.open_spread = w->view->open_spread;
+            h.delta = w->view->delta;
+        }
+        ff_comm_broadcast_idle(s->comm, &h, sizeof h);
+        double seconds = 0;
+        st = round_everywhere(s, &h, &piece, NULL, NULL, counters, &seconds);
+        *cluster_seconds += seconds;
     }
-    ff_comm_broadcast_idle(s->comm, &h, sizeof h);
-    return round_everywhere(s, &h, w, NULL, NULL, counters, cluster_seconds);
+    return st;
 }
 
 void ff_rank_rounds_times_get(const ff_rank_rounds *R, ff_rank_times *out)

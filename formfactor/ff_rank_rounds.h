@@ -13,6 +13,8 @@
  *     ... ff_rank_rounds_compute(R, &work, ...) per round ...
  *     ff_rank_rounds_close(comm, R);            (serve returns)
  *
+ * A round of more than 4 M pairs goes in pieces (RANK_PIECE; RAD_MPI_PIECE
+ * in the environment sets it for tests), each exchanged as a round.
  * Per round, rank 0 sends the elements made since the last round (192 +
  * 4 bytes each), the cluster tree once, and each rank its chunks of jobs
  * (16 bytes a pair); each rank returns its outcomes (80 bytes an element
@@ -39,14 +41,15 @@ rad_status ff_rank_rounds_open(ff_comm *comm, ff_rank_rounds **out);
 rad_status ff_rank_rounds_compute(ff_rank_rounds *R, const ff_round_work *w, size_t element_count,
                                   ff_counters *counters, double *cluster_seconds);
 
-/* Rank 0's view of the rounds so far, in seconds summed over them: the
+/* Rank 0's view of the exchanges so far (a round, or each piece of a
+ * large one), in seconds summed over them: the
  * elements, the tree and the chunks sent (with the ranks' agreement that
  * they have room), its own chunks computed, the slowest and the fastest
  * rank's (what the GPUs bound), and the outcomes collected (waiting for
  * the slowest, then the copies). */
 typedef struct ff_rank_times {
     double send, own, slowest, fastest, collect;
-    uint64_t rounds;
+    uint64_t rounds; /* exchanges */
 } ff_rank_times;
 void ff_rank_rounds_times_get(const ff_rank_rounds *R, ff_rank_times *out);
 

@@ -29,10 +29,16 @@ if command -v mpirun >/dev/null; then
   # shellcheck disable=SC2086
   OMP_NUM_THREADS=1 mpirun -n 3 --oversubscribe "$ff" $args -o r3.ff || exit 1
   cmp t1.ff r3.ff || { echo "FAIL: 1 and 3 ranks differ"; failed=1; }
+  # shellcheck disable=SC2086
+  RAD_MPI_PIECE=777 OMP_NUM_THREADS=1 mpirun -x RAD_MPI_PIECE -n 2 --oversubscribe "$ff" $args -o p2.ff || exit 1
+  cmp t1.ff p2.ff || { echo "FAIL: 1 and 2 ranks in pieces differ"; failed=1; }
   # the same through messages, as between nodes (here the ranks share one
   # node and exchange the rounds through shared memory)
   # shellcheck disable=SC2086
-  RAD_MPI_MESSAGES=1 OMP_NUM_THREADS=1 mpirun -x RAD_MPI_MESSAGES -n 3 --oversubscribe "$ff" $args -o m3.ff || exit 1
+  # and large rounds in pieces (1000 pairs here, 4 M in a run)
+  # shellcheck disable=SC2086
+  RAD_MPI_MESSAGES=1 RAD_MPI_PIECE=1000 OMP_NUM_THREADS=1 mpirun -x RAD_MPI_MESSAGES -x RAD_MPI_PIECE -n 3 \
+    --oversubscribe "$ff" $args -o m3.ff || exit 1
   cmp t1.ff m3.ff || { echo "FAIL: 1 and 3 ranks through messages differ"; failed=1; }
   # shellcheck disable=SC2086
   OMP_NUM_THREADS=1 mpirun -n 2 --oversubscribe "$ff" $args --radiosity m2.rad || exit 1
