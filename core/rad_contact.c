@@ -100,6 +100,7 @@ typedef struct cutter {
     uint32_t stamp_now;
     uint32_t *cand;        /* the faces near the face being cut, ascending */
     size_t cand_count, cand_cap;
+    uint8_t *cut;          /* per face: survey_face found something that cuts it */
     int failed;
 } cutter;
 
@@ -756,9 +757,12 @@ static void near_faces(cutter *C, uint32_t f)
     qsort(C->cand, C->cand_count, sizeof *C->cand, ascending);
 }
 
-static void cut_face(cutter *C, uint32_t f)
+/* What cuts face f: the segments, opposite and covering faces its
+ * neighbours make (meet), and its near misses counted. Reads the scene
+ * and writes only C's scratch and near counters: rad_contact_cut_build
+ * runs it on the threads, each with a cutter of its own. */
+static void survey_face(cutter *C, uint32_t f)
 {
-    const rad_face *F = &C->scene->faces[f];
     C->seg_count = C->opposite_count = C->covering_count = C->pool_count = C->piece_count = 0;
     near_faces(C, f);
     for (size_t i = 0; i < C->cand_count && !C->failed; i++) {
@@ -769,9 +773,23 @@ static void cut_face(cutter *C, uint32_t f)
         const uint32_t g = C->cand[i];
         if (g != f && boxes_meet(&C->box[f], &C->box[g], C->near)) near_miss(C, f, g);
     }
+}
+
+static int surveyed_cut(const cutter *C) { return C->seg_count || C->opposite_count || C->covering_count; }
+
+/* Face f surveyed again (its near misses counted already) and cut. */
+static void cut_face(cutter *C, uint32_t f)
+{
+    const rad_face *F = &C->scene->faces[f];
+    const size_t near_count = C->near_count;
+    const uint32_t near_face = C->near_face, near_cover = C->near_cover;
+    const double near_distance = C->near_distance;
+    survey_face(C, f);
+    C->near_count = near_count, C->near_face = near_face, C->near_cover = near_cover;
+    C->near_distance = near_distance;
     if (C->failed) return;
     double diameter = rad_box_diagonal(&C->box[f]);
-    if (C->seg_count == 0 && C->opposite_count == 0 && C->covering_count == 0) {
+    if (!surveyed_cut(C)) {
         emit(C, f, F->v, F->vertex_count);
         return;
     }
@@ -792,6 +810,67 @@ static void cut_face(cutter *C, uint32_t f)
     }
 }
 
+/* Every face surveyed on the threads (the work of all but the few faces
+ * that are cut), each thread with a cutter of its own sharing the scene's
+ * read-only tables: C->cut per face, and C's near misses as the faces in
+ * order would have counted them (the count, and the first one's faces and
+ * distance). The cut faces are then cut in order on one thread, as
+ * before: the same pieces and vertex numbers for any thread count. */
+static rad_status survey_faces(cutter *C, uint32_t nf)
+{
+    C->cut = calloc(nf ? nf : 1, 1);
+    uint32_t *near_count = calloc(nf ? nf : 1, sizeof *near_count);
+    uint32_t *near_cover = malloc((nf ? nf : 1) * sizeof *near_cover);
+    double *near_distance = malloc((nf ? nf : 1) * sizeof *near_distance);
+    int failed = !C->cut || !near_count || !near_cover || !near_distance;
+#pragma omp parallel if (!failed) reduction(| : failed)
+    {
+        cutter T = *C; /* the shared tables; scratch of its own */
+        T.stamp = calloc(nf ? nf : 1, sizeof *T.stamp);
+        T.stamp_now = 0;
+        T.cand = NULL, T.cand_count = T.cand_cap = 0;
+        T.segs = NULL, T.seg_count = T.seg_cap = 0;
+        T.opposite = NULL, T.opposite_count = T.opposite_cap = 0;
+        T.covering = NULL, T.covering_count = T.covering_cap = 0;
+        T.pool = NULL, T.pool_count = T.pool_cap = 0;
+        T.line = NULL, T.line_cap = 0;
+        T.pieces = NULL, T.piece_count = T.piece_cap = 0;
+        T.out = NULL, T.out_count = T.out_cap = 0;
+        T.failed = !T.stamp;
+#pragma omp for schedule(dynamic, 1024)
+        for (uint32_t f = 0; f < nf; f++) {
+            if (T.failed) continue;
+            T.near_count = 0;
+            survey_face(&T, f);
+            C->cut[f] = (uint8_t)surveyed_cut(&T);
+            near_count[f] = (uint32_t)T.near_count;
+            if (T.near_count) near_cover[f] = T.near_cover, near_distance[f] = T.near_distance;
+        }
+        failed |= T.failed;
+        free(T.stamp);
+        free(T.cand);
+        free(T.segs);
+        free(T.opposite);
+        free(T.covering);
+        free(T.pool);
+        free(T.line);
+        free(T.pieces);
+        free(T.out);
+    }
+    if (!failed) {
+        for (uint32_t f = 0; f < nf; f++) {
+            if (!near_count[f]) continue;
+            if (C->near_count == 0)
+                C->near_face = f, C->near_cover = near_cover[f], C->near_distance = near_distance[f];
+            C->near_count += near_count[f];
+        }
+    }
+    free(near_count);
+    free(near_cover);
+    free(near_distance);
+    return failed ? RAD_ERR_NOMEM : RAD_OK;
+}
+
 rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, rad_contact_cut *out_cut)
 {
     cutter C;
@@ -807,7 +886,7 @@ rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, 
     if (!C.normal || !C.box || !C.pos) goto done;
     memcpy(C.pos, scene->positions, 3 * scene->vertex_count * sizeof *C.pos);
     C.vertex_count = scene->vertex_count;
-    rad_box scene_box = rad_box_empty(); /* of the faces' vertices (unused ones left out) */
+#pragma omp parallel for schedule(static)
     for (uint32_t f = 0; f < nf; f++) {
         const rad_face *F = &scene->faces[f];
         rad_vec3 c[4], centroid;
@@ -815,7 +894,11 @@ rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, 
         for (uint32_t k = 0; k < F->vertex_count; k++) c[k] = face_corner(&C, f, k);
         rad_polygon_geometry(c, (int)F->vertex_count, &area, &C.normal[f], &centroid);
         C.box[f] = rad_box_of_corners(C.pos, F->v, F->vertex_count);
-        for (uint32_t k = 0; k < F->vertex_count; k++) rad_box_add(&scene_box, C.pos + 3 * (size_t)F->v[k]);
+    }
+    rad_box scene_box = rad_box_empty(); /* of the faces' vertices (unused ones left out): their boxes' corners */
+    for (uint32_t f = 0; f < nf; f++) {
+        rad_box_add(&scene_box, C.box[f].lo);
+        rad_box_add(&scene_box, C.box[f].hi);
     }
     double scene_diameter = rad_box_diagonal(&scene_box);
     C.tol = RAD_CONTACT_TOL * scene_diameter;
@@ -831,7 +914,15 @@ rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, 
     if (!C.stamp || rad_face_grid_build(C.box, (uint32_t)nf, C.gap + C.tol, &C.grid) != RAD_OK ||
         near_index_build(&C, (uint32_t)nf, scene_diameter) != RAD_OK)
         goto done;
-    for (uint32_t f = 0; f < nf && !C.failed; f++) cut_face(&C, f);
+    if (survey_faces(&C, (uint32_t)nf) != RAD_OK) goto done;
+    for (uint32_t f = 0; f < nf && !C.failed; f++) {
+        if (C.cut[f]) {
+            cut_face(&C, f);
+        } else {
+            const rad_face *F = &scene->faces[f];
+            emit(&C, f, F->v, F->vertex_count);
+        }
+    }
     if (C.failed) goto done;
     double *shrunk = realloc(C.pos, (C.vertex_count ? C.vertex_count : 1) * 3 * sizeof *shrunk);
     if (shrunk) C.pos = shrunk;
@@ -852,6 +943,7 @@ done:
     free(C.cand);
     rad_face_grid_free(&C.grid);
     free(C.near_index);
+    free(C.cut);
     free(C.pos);
     free(C.pool);
     free(C.line);
