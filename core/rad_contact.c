@@ -823,39 +823,41 @@ static rad_status survey_faces(cutter *C, uint32_t nf)
     uint32_t *near_cover = malloc((nf ? nf : 1) * sizeof *near_cover);
     double *near_distance = malloc((nf ? nf : 1) * sizeof *near_distance);
     int failed = !C->cut || !near_count || !near_cover || !near_distance;
-#pragma omp parallel if (!failed) reduction(| : failed)
-    {
-        cutter T = *C; /* the shared tables; scratch of its own */
-        T.stamp = calloc(nf ? nf : 1, sizeof *T.stamp);
-        T.stamp_now = 0;
-        T.cand = NULL, T.cand_count = T.cand_cap = 0;
-        T.segs = NULL, T.seg_count = T.seg_cap = 0;
-        T.opposite = NULL, T.opposite_count = T.opposite_cap = 0;
-        T.covering = NULL, T.covering_count = T.covering_cap = 0;
-        T.pool = NULL, T.pool_count = T.pool_cap = 0;
-        T.line = NULL, T.line_cap = 0;
-        T.pieces = NULL, T.piece_count = T.piece_cap = 0;
-        T.out = NULL, T.out_count = T.out_cap = 0;
-        T.failed = !T.stamp;
+    if (!failed) {
+#pragma omp parallel reduction(| : failed)
+        {
+            cutter T = *C; /* the shared tables; scratch of its own */
+            T.stamp = calloc(nf ? nf : 1, sizeof *T.stamp);
+            T.stamp_now = 0;
+            T.cand = NULL, T.cand_count = T.cand_cap = 0;
+            T.segs = NULL, T.seg_count = T.seg_cap = 0;
+            T.opposite = NULL, T.opposite_count = T.opposite_cap = 0;
+            T.covering = NULL, T.covering_count = T.covering_cap = 0;
+            T.pool = NULL, T.pool_count = T.pool_cap = 0;
+            T.line = NULL, T.line_cap = 0;
+            T.pieces = NULL, T.piece_count = T.piece_cap = 0;
+            T.out = NULL, T.out_count = T.out_cap = 0;
+            T.failed = !T.stamp;
 #pragma omp for schedule(dynamic, 1024)
-        for (uint32_t f = 0; f < nf; f++) {
-            if (T.failed) continue;
-            T.near_count = 0;
-            survey_face(&T, f);
-            C->cut[f] = (uint8_t)surveyed_cut(&T);
-            near_count[f] = (uint32_t)T.near_count;
-            if (T.near_count) near_cover[f] = T.near_cover, near_distance[f] = T.near_distance;
+            for (uint32_t f = 0; f < nf; f++) {
+                if (T.failed) continue;
+                T.near_count = 0;
+                survey_face(&T, f);
+                C->cut[f] = (uint8_t)surveyed_cut(&T);
+                near_count[f] = (uint32_t)T.near_count;
+                if (T.near_count) near_cover[f] = T.near_cover, near_distance[f] = T.near_distance;
+            }
+            failed |= T.failed;
+            free(T.stamp);
+            free(T.cand);
+            free(T.segs);
+            free(T.opposite);
+            free(T.covering);
+            free(T.pool);
+            free(T.line);
+            free(T.pieces);
+            free(T.out);
         }
-        failed |= T.failed;
-        free(T.stamp);
-        free(T.cand);
-        free(T.segs);
-        free(T.opposite);
-        free(T.covering);
-        free(T.pool);
-        free(T.line);
-        free(T.pieces);
-        free(T.out);
     }
     if (!failed) {
         for (uint32_t f = 0; f < nf; f++) {
