@@ -763,7 +763,7 @@ static void near_faces(cutter *C, uint32_t f)
  * runs it on the threads, each with a cutter of its own. */
 static void survey_face(cutter *C, uint32_t f)
 {
-    C->seg_count = C->opposite_count = C->covering_count = C->pool_count = C->piece_count = 0;
+    C->seg_count = C->opposite_count = C->covering_count = 0;
     near_faces(C, f);
     for (size_t i = 0; i < C->cand_count && !C->failed; i++) {
         const uint32_t g = C->cand[i];
@@ -787,6 +787,7 @@ static void cut_face(cutter *C, uint32_t f)
     survey_face(C, f);
     C->near_count = near_count, C->near_face = near_face, C->near_cover = near_cover;
     C->near_distance = near_distance;
+    C->pool_count = C->piece_count = 0;
     if (C->failed) return;
     double diameter = rad_box_diagonal(&C->box[f]);
     if (!surveyed_cut(C)) {
@@ -810,6 +811,16 @@ static void cut_face(cutter *C, uint32_t f)
     }
 }
 
+/* survey_face's scratch (near_faces' and meet's), freed. */
+static void survey_scratch_free(cutter *C)
+{
+    free(C->stamp);
+    free(C->cand);
+    free(C->segs);
+    free(C->opposite);
+    free(C->covering);
+}
+
 /* Every face surveyed on the threads (the work of all but the few faces
  * that are cut), each thread with a cutter of its own sharing the scene's
  * read-only tables: C->cut per face, and C's near misses as the faces in
@@ -826,17 +837,8 @@ static rad_status survey_faces(cutter *C, uint32_t nf)
     if (!failed) {
 #pragma omp parallel reduction(| : failed)
         {
-            cutter T = *C; /* the shared tables; scratch of its own */
+            cutter T = *C; /* the shared tables; survey_face's scratch of its own (none of C's made yet) */
             T.stamp = calloc(nf ? nf : 1, sizeof *T.stamp);
-            T.stamp_now = 0;
-            T.cand = NULL, T.cand_count = T.cand_cap = 0;
-            T.segs = NULL, T.seg_count = T.seg_cap = 0;
-            T.opposite = NULL, T.opposite_count = T.opposite_cap = 0;
-            T.covering = NULL, T.covering_count = T.covering_cap = 0;
-            T.pool = NULL, T.pool_count = T.pool_cap = 0;
-            T.line = NULL, T.line_cap = 0;
-            T.pieces = NULL, T.piece_count = T.piece_cap = 0;
-            T.out = NULL, T.out_count = T.out_cap = 0;
             T.failed = !T.stamp;
 #pragma omp for schedule(dynamic, 1024)
             for (uint32_t f = 0; f < nf; f++) {
@@ -848,15 +850,7 @@ static rad_status survey_faces(cutter *C, uint32_t nf)
                 if (T.near_count) near_cover[f] = T.near_cover, near_distance[f] = T.near_distance;
             }
             failed |= T.failed;
-            free(T.stamp);
-            free(T.cand);
-            free(T.segs);
-            free(T.opposite);
-            free(T.covering);
-            free(T.pool);
-            free(T.line);
-            free(T.pieces);
-            free(T.out);
+            survey_scratch_free(&T);
         }
     }
     if (!failed) {
@@ -941,8 +935,7 @@ done:
                   C.vertex_count, C.out_count);
     free(C.normal);
     free(C.box);
-    free(C.stamp);
-    free(C.cand);
+    survey_scratch_free(&C);
     rad_face_grid_free(&C.grid);
     free(C.near_index);
     free(C.cut);
@@ -951,9 +944,6 @@ done:
     free(C.line);
     free(C.hash);
     free(C.pieces);
-    free(C.segs);
-    free(C.opposite);
-    free(C.covering);
     free(C.out);
     return status;
 }

@@ -199,12 +199,18 @@ void ff_comm_broadcast_idle(ff_comm *comm, void *data, size_t bytes)
 
 /* The cyclic cut: chunk c (of `chunk` items, the last maybe fewer) of
  * `count` items goes to rank c % size. */
+static uint64_t chunks_of(uint64_t count, uint32_t chunk) { return (count + chunk - 1) / chunk; }
+
+static uint64_t chunk_items(uint64_t count, uint32_t chunk, uint64_t c)
+{
+    return count - c * chunk < chunk ? count - c * chunk : chunk;
+}
+
 uint64_t ff_comm_cyclic_count(uint64_t count, uint32_t chunk, int rank, int size)
 {
-    const uint64_t chunks = (count + chunk - 1) / chunk;
+    const uint64_t chunks = chunks_of(count, chunk);
     uint64_t n = 0;
-    for (uint64_t c = (uint64_t)rank; c < chunks; c += (uint64_t)size)
-        n += count - c * chunk < chunk ? count - c * chunk : chunk;
+    for (uint64_t c = (uint64_t)rank; c < chunks; c += (uint64_t)size) n += chunk_items(count, chunk, c);
     return n;
 }
 
@@ -212,7 +218,7 @@ uint64_t ff_comm_cyclic_count(uint64_t count, uint32_t chunk, int rank, int size
  * 0 (logged) where it cannot be made. */
 static int cyclic_type(uint64_t count, uint32_t chunk, int r, int size, MPI_Datatype item, MPI_Datatype *out)
 {
-    const uint64_t chunks = (count + chunk - 1) / chunk;
+    const uint64_t chunks = chunks_of(count, chunk);
     const int mine = chunks > (uint64_t)r ? (int)((chunks - 1 - (uint64_t)r) / (uint64_t)size + 1) : 0;
     int *len = malloc(((size_t)mine + 1) * sizeof *len), *at = malloc(((size_t)mine + 1) * sizeof *at);
     if (!len || !at) {
@@ -223,7 +229,7 @@ static int cyclic_type(uint64_t count, uint32_t chunk, int r, int size, MPI_Data
     }
     int k = 0;
     for (uint64_t c = (uint64_t)r; c < chunks; c += (uint64_t)size, k++) {
-        len[k] = (int)(count - c * chunk < chunk ? count - c * chunk : chunk);
+        len[k] = (int)chunk_items(count, chunk, c);
         at[k] = (int)(c * chunk);
     }
     MPI_Type_indexed(mine, len, at, item, out);
@@ -238,10 +244,10 @@ static int cyclic_type(uint64_t count, uint32_t chunk, int r, int size, MPI_Data
 static void cyclic_copy(unsigned char *whole, unsigned char *mine, uint64_t count, uint32_t chunk, int r, int size,
                         size_t item_bytes, int to_mine)
 {
-    const uint64_t chunks = (count + chunk - 1) / chunk;
+    const uint64_t chunks = chunks_of(count, chunk);
 #pragma omp parallel for schedule(static)
     for (int64_t c = r; c < (int64_t)chunks; c += size) {
-        const uint64_t n = count - (uint64_t)c * chunk < chunk ? count - (uint64_t)c * chunk : chunk;
+        const uint64_t n = chunk_items(count, chunk, (uint64_t)c);
         unsigned char *w = whole + (uint64_t)c * chunk * item_bytes;
         unsigned char *m = mine + (uint64_t)c / (uint64_t)size * chunk * item_bytes;
         if (to_mine) memcpy(m, w, n * item_bytes);
@@ -253,7 +259,6 @@ static void cyclic_copy(unsigned char *whole, unsigned char *mine, uint64_t coun
 
 struct ff_comm_area {
     unsigned char *mine; /* this rank's bytes */
-    size_t bytes;
     int shared;          /* an MPI shared window over the node (all ranks on one node) */
     MPI_Win win;
     unsigned char **bases; /* shared: every rank's bytes as this process maps them (rank 0) */
@@ -291,7 +296,6 @@ rad_status ff_comm_area_open(ff_comm *comm, size_t bytes, ff_comm_area **out)
         a->mine = malloc(bytes ? bytes : 64);
         ok = a->mine != NULL;
     }
-    if (a) a->bytes = bytes;
     if (!ok) {
         rad_error("MPI: no room for %zu bytes of exchange", bytes);
         if (a) free(a->bases);
@@ -406,7 +410,6 @@ rad_status ff_comm_gather_cyclic(ff_comm *comm, ff_comm_area *area, const size_t
 {
     return cyclic_exchange(comm, recv, area, at, count, chunk, item_bytes, 0);
 }
-
 
 void ff_comm_gather(ff_comm *comm, const void *data, size_t bytes, void *out, int root)
 {

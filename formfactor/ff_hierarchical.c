@@ -268,12 +268,6 @@ static rad_status build_links(hier_run *h, ff_comm *comm, const ff_setup *su, co
     const ff_options *opt = h->opt;
     const double t_setup = rad_clock_seconds();
     rad_status st = decide_closure(h, su, centre);
-    if (st == RAD_OK && ff_comm_size(comm) > 1) st = ff_rank_rounds_open(comm, &h->links.ranks);
-    if (st != RAD_OK) {
-        ff_rank_rounds_close(comm, h->links.ranks);
-        h->links.ranks = NULL;
-        return st;
-    }
     double total_area = 0;
     for (size_t k = 0; k < h->base.patch_count; k++) total_area += h->base.patches[k].area;
     ff_links_config config = {.link_tol = opt->link_tol, .oracle = ff_oracle_resolve(opt->oracle, opt->uniform_leaves || opt->sized_leaves),
@@ -286,21 +280,17 @@ static rad_status build_links(hier_run *h, ff_comm *comm, const ff_setup *su, co
                               .clusters = opt->clusters >= 0 ? opt->clusters
                                                              : h->base.patch_count >= FF_CLUSTERS_AUTO_ROOTS,
                               .ray_delta = su->ray_delta};
-    if (opt->clusters < 0)
+    if (st == RAD_OK && opt->clusters < 0)
         rad_info("--clusters auto: %s (%zu faces; on from %u)", config.clusters ? "on" : "off", h->base.patch_count,
                  FF_CLUSTERS_AUTO_ROOTS);
-    if (ff_comm_size(comm) > 1)
-        rad_info("element pairs%s on the %s backend of each of %d ranks", config.clusters ? " and cluster pairs" : "",
-                 h->backend->name, ff_comm_size(comm));
-    else
-        rad_info("element pairs%s on the %s backend", config.clusters ? " and cluster pairs" : "", h->backend->name);
-    ff_rank_rounds *ranks = h->links.ranks;
-    if ((st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, h->backend, h->backend_state)) != RAD_OK) {
-        ff_rank_rounds_close(comm, ranks);
-        h->links.ranks = NULL;
-        return st;
-    }
-    h->links.ranks = ranks;
+    char each[48] = "";
+    if (h->ranks > 1) snprintf(each, sizeof each, " of each of %d ranks", h->ranks);
+    if (st == RAD_OK)
+        rad_info("element pairs%s on the %s backend%s", config.clusters ? " and cluster pairs" : "", h->backend->name,
+                 each);
+    if (st == RAD_OK)
+        st = ff_links_init(&h->links, &h->scene, &h->base, centre, &config, h->backend, h->backend_state);
+    if (st == RAD_OK && h->ranks > 1) st = ff_rank_rounds_open(comm, &h->links.ranks);
     h->seconds_setup += rad_clock_seconds() - t_setup;
     for (uint32_t pass = 0; pass < opt->passes && st == RAD_OK; pass++) {
         /* the last export is not needed while the links refine (h->B and
@@ -335,7 +325,7 @@ static rad_status build_links(hier_run *h, ff_comm *comm, const ff_setup *su, co
                  "(rank 0), %.2f s (the slowest rank each time), %.2f s (the fastest); collected %.2f s",
                  (unsigned long long)t->rounds, h->ranks, t->send, t->own, t->slowest, t->fastest, t->collect);
     }
-    ff_rank_rounds_close(comm, h->links.ranks); /* the other ranks are done */
+    ff_rank_rounds_close(comm, h->links.ranks); /* the other ranks are done, whatever failed */
     h->links.ranks = NULL;
     /* a pass that refined nothing left the last solution at the oracle's tolerance */
     if (st == RAD_OK && h->solved_with.tolerance > HIER_FINAL_TOL) st = solve_flat(h, HIER_FINAL_TOL, 1);

@@ -59,9 +59,8 @@ typedef struct rank_state {
     size_t area_bytes;
     int said;             /* rank 0 has said how the rounds travel */
     uint64_t piece;       /* rank 0: RANK_PIECE, or RAD_MPI_PIECE's (tests) */
-    size_t *scratch;      /* size: at_of's */
-    size_t *at;           /* 4 x size: each rank's offsets in its area of its jobs, cluster jobs,
-                             outcomes and cluster outcomes */
+    size_t *at;           /* 4 x size, by part: every rank's offset in its area of its jobs (at[r]),
+                             cluster jobs (at[size + r]), outcomes and cluster outcomes */
     ff_rank_times times; /* rank 0 */
 } rank_state;
 
@@ -76,8 +75,7 @@ static int state_init(rank_state *s, ff_comm *comm)
     s->rank = ff_comm_rank(comm);
     s->size = ff_comm_size(comm);
     s->reports = s->rank == 0 ? calloc((size_t)s->size, sizeof *s->reports) : NULL;
-    s->at = malloc(5 * (size_t)s->size * sizeof *s->at);
-    s->scratch = s->at ? s->at + 4 * (size_t)s->size : NULL;
+    s->at = malloc(4 * (size_t)s->size * sizeof *s->at);
     return s->at && (s->rank != 0 || s->reports);
 }
 
@@ -94,18 +92,22 @@ static void state_free(rank_state *s)
 }
 
 /* Rank r's area for a round: its jobs, cluster jobs, outcomes and cluster
- * outcomes, each 64-byte aligned, at at[4r ..]; the bytes in all. */
-static size_t layout(uint64_t pairs, uint64_t clusters, size_t at[4])
+ * outcomes, each 64-byte aligned, at s->at[k * size + r]; the bytes in all. */
+static size_t layout(rank_state *s, int r, uint64_t pairs, uint64_t clusters)
 {
     const size_t sizes[4] = {pairs * sizeof(ff_pair_job), clusters * sizeof(ff_pair_job),
                              pairs * sizeof(ff_pair_outcome), clusters * sizeof(ff_cluster_drawn)};
     size_t total = 0;
     for (int k = 0; k < 4; k++) {
-        at[k] = total;
+        s->at[k * s->size + r] = total;
         total += (sizes[k] + 63) & ~(size_t)63;
     }
     return total;
 }
+
+/* Every rank's offset of part k (0 jobs, 1 cluster jobs, 2 outcomes, 3
+ * cluster outcomes), rank by rank. */
+static const size_t *at_of(const rank_state *s, int k) { return s->at + (size_t)k * s->size; }
 
 static int grow(void **p, size_t *cap, size_t want, size_t item)
 {
@@ -146,14 +148,6 @@ static rad_status reserve(rank_state *s, const round_header *h, uint64_t my_pair
     return RAD_OK;
 }
 
-/* Every rank's offset of part k (0 jobs, 1 cluster jobs, 2 outcomes, 3
- * cluster outcomes), rank by rank: s->scratch. */
-static const size_t *at_of(rank_state *s, int k)
-{
-    for (int r = 0; r < s->size; r++) s->scratch[r] = s->at[4 * r + k];
-    return s->scratch;
-}
-
 /* One round on every rank, rank 0's w (NULL elsewhere): the elements and
  * the tree out, the chunks out, computed, back. The other ranks compute
  * with (backend, state); their failures reach rank 0 in the reports. */
@@ -169,29 +163,29 @@ static rad_status round_everywhere(rank_state *s, const round_header *h, const f
     /* every rank's offsets; the areas grown together where one is short */
     size_t need = 0;
     for (int r = 0; r < s->size; r++) {
-        const size_t bytes = layout(ff_comm_cyclic_count(h->pair_count, RANK_CHUNK, r, s->size),
-                                    ff_comm_cyclic_count(h->cluster_count, RANK_CHUNK, r, s->size), &s->at[4 * r]);
+        const size_t bytes = layout(s, r, ff_comm_cyclic_count(h->pair_count, RANK_CHUNK, r, s->size),
+                                    ff_comm_cyclic_count(h->cluster_count, RANK_CHUNK, r, s->size));
         if (r == s->rank) need = bytes;
     }
     if (ff_comm_max_u64(s->comm, !s->area || need > s->area_bytes)) {
         ff_comm_area_close(s->area);
         s->area = NULL;
         s->area_bytes = need + need / 4 + ((size_t)1 << 20);
-        const int first = !s->said;
         st = ff_comm_agree(s->comm, ff_comm_area_open(s->comm, s->area_bytes, &s->area));
         if (st != RAD_OK) {
             if (s->area) ff_comm_area_close(s->area); /* collective too: each rank that has one */
             s->area = NULL;
             return st;
         }
-        if (first && s->rank == 0)
+        if (!s->said && s->rank == 0)
             rad_info("ranks: the rounds' pairs and outcomes %s", ff_comm_area_shared(s->area)
                                                                     ? "through memory the ranks share (one node)"
                                                                     : "as messages");
         s->said = 1;
     }
     unsigned char *area = ff_comm_area_data(s->area);
-    const size_t *at = &s->at[4 * s->rank];
+    size_t at[4];
+    for (int k = 0; k < 4; k++) at[k] = at_of(s, k)[s->rank];
     /* the elements made since the last round, the tree once */
     const size_t from = s->elements, more = h->element_count - from;
     if (more) {
@@ -336,7 +330,7 @@ void ff_rank_rounds_close(ff_comm *comm, ff_rank_rounds *R)
 rad_status ff_rank_rounds_serve(ff_comm *comm, const ff_backend *backend, void *backend_state)
 {
     rank_state s = {0};
-    state_init(&s, comm); /* no reports away from rank 0: nothing to fail */
+    state_init(&s, comm); /* without room for its offsets every round fails (reserve), the others told so */
     rad_status first = RAD_OK;
     for (;;) {
         round_header h;
