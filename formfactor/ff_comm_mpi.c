@@ -180,21 +180,30 @@ void ff_comm_broadcast(ff_comm *comm, void *data, size_t bytes, int root)
     }
 }
 
+/* Waits for req; ranks other than 0 asleep between tests, so that a
+ * rank waiting for rank 0 leaves the node's cores to rank 0's threads
+ * (a rank spinning in MPI beside them slows each of their parallel
+ * regions to its slowest thread). */
+static void wait_idle(const ff_comm *comm, MPI_Request *req)
+{
+    if (comm->mpi.rank == 0) {
+        MPI_Wait(req, MPI_STATUS_IGNORE);
+        return;
+    }
+    const struct timespec pause = {0, 100000}; /* 0.1 ms: a round is tens of ms at least */
+    for (int done = 0;;) {
+        MPI_Test(req, &done, MPI_STATUS_IGNORE);
+        if (done) break;
+        nanosleep(&pause, NULL);
+    }
+}
+
 void ff_comm_broadcast_idle(ff_comm *comm, void *data, size_t bytes)
 {
     if (comm->mpi.solo) return;
     MPI_Request req;
     MPI_Ibcast(data, (int)bytes, MPI_BYTE, 0, MPI_COMM_WORLD, &req);
-    if (comm->mpi.rank == 0) {
-        MPI_Wait(&req, MPI_STATUS_IGNORE);
-        return;
-    }
-    const struct timespec pause = {0, 100000}; /* 0.1 ms: a round is tens of ms at least */
-    for (int done = 0;;) {
-        MPI_Test(&req, &done, MPI_STATUS_IGNORE);
-        if (done) break;
-        nanosleep(&pause, NULL);
-    }
+    wait_idle(comm, &req);
 }
 
 /* The cyclic cut: chunk c (of `chunk` items, the last maybe fewer) of
@@ -239,18 +248,20 @@ static int cyclic_type(uint64_t count, uint32_t chunk, int r, int size, MPI_Data
     return 1;
 }
 
-/* Rank r's chunks between rank 0's whole array and `mine` (r's chunks
- * back to back), on rank 0's threads. */
-static void cyclic_copy(unsigned char *whole, unsigned char *mine, uint64_t count, uint32_t chunk, int r, int size,
-                        size_t item_bytes, int to_mine)
+/* Chunks between rank 0's whole array and the ranks' areas (bases[r] +
+ * at[r]: r's chunks back to back), in one parallel region on rank 0's
+ * threads: every rank's (step 1) or rank 0's own (step size). */
+static void cyclic_copy(unsigned char *whole, unsigned char *const *bases, const size_t *at, uint64_t count,
+                        uint32_t chunk, int size, int step, size_t item_bytes, int to_ranks)
 {
     const uint64_t chunks = chunks_of(count, chunk);
 #pragma omp parallel for schedule(static)
-    for (int64_t c = r; c < (int64_t)chunks; c += size) {
+    for (int64_t c = 0; c < (int64_t)chunks; c += step) {
+        const int r = (int)(c % size);
         const uint64_t n = chunk_items(count, chunk, (uint64_t)c);
         unsigned char *w = whole + (uint64_t)c * chunk * item_bytes;
-        unsigned char *m = mine + (uint64_t)c / (uint64_t)size * chunk * item_bytes;
-        if (to_mine) memcpy(m, w, n * item_bytes);
+        unsigned char *m = bases[r] + at[r] + (uint64_t)c / (uint64_t)size * chunk * item_bytes;
+        if (to_ranks) memcpy(m, w, n * item_bytes);
         else memcpy(w, m, n * item_bytes);
     }
 }
@@ -323,10 +334,12 @@ void ff_comm_area_close(ff_comm_area *a)
 }
 
 /* Shared windows: what one rank wrote is seen by the others after this. */
-static void area_fence(const ff_comm_area *a)
+static void area_fence(const ff_comm *comm, const ff_comm_area *a)
 {
     MPI_Win_sync(a->win);
-    MPI_Barrier(MPI_COMM_WORLD);
+    MPI_Request req;
+    MPI_Ibarrier(MPI_COMM_WORLD, &req);
+    wait_idle(comm, &req);
     MPI_Win_sync(a->win);
 }
 
@@ -343,11 +356,9 @@ static rad_status cyclic_exchange(ff_comm *comm, unsigned char *whole, ff_comm_a
         return RAD_OK;
     }
     if (area->shared) { /* rank 0 copies every rank's chunks itself */
-        if (!scatter) area_fence(area); /* their outcomes written */
-        if (rank == 0)
-            for (int r = 0; r < size; r++)
-                cyclic_copy(whole, area->bases[r] + at[r], count, chunk, r, size, item_bytes, scatter);
-        if (scatter) area_fence(area); /* their jobs there */
+        if (!scatter) area_fence(comm, area); /* their outcomes written */
+        if (rank == 0) cyclic_copy(whole, area->bases, at, count, chunk, size, 1, item_bytes, scatter);
+        if (scatter) area_fence(comm, area); /* their jobs there */
         return RAD_OK;
     }
     if (count > INT_MAX || item_bytes > INT_MAX || chunk == 0) {
@@ -380,7 +391,7 @@ static rad_status cyclic_exchange(ff_comm *comm, unsigned char *whole, ff_comm_a
                 break;
             }
         }
-        cyclic_copy(whole, mine, count, chunk, 0, size, item_bytes, scatter);
+        cyclic_copy(whole, &mine, &(size_t){0}, count, chunk, size, size, item_bytes, scatter);
         if (made) MPI_Waitall(made, req, MPI_STATUSES_IGNORE);
         for (int r = 1; r <= made; r++) MPI_Type_free(&types[r]);
         free(req);

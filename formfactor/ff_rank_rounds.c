@@ -233,6 +233,10 @@ static rad_status round_everywhere(rank_state *s, const round_header *h, const f
     report.status = st == RAD_OK ? ff_round_compute(&mine, &report.counters, &report.cluster_seconds) : st;
     const double t2 = rad_clock_seconds();
     report.compute_seconds = t2 - t1;
+    /* the reports first: the other ranks then wait for rank 0's copies
+     * asleep (area fence), not spinning in a gather */
+    round_report *all = s->reports;
+    ff_comm_gather(s->comm, &report, sizeof report, all, 0);
     rad_status gst = RAD_OK;
     if (h->pair_count)
         gst = ff_comm_gather_cyclic(s->comm, s->area, at_of(s, 2), h->pair_count, RANK_CHUNK, sizeof(ff_pair_outcome),
@@ -240,8 +244,6 @@ static rad_status round_everywhere(rank_state *s, const round_header *h, const f
     if (gst == RAD_OK && h->cluster_count)
         gst = ff_comm_gather_cyclic(s->comm, s->area, at_of(s, 3), h->cluster_count, RANK_CHUNK,
                                     sizeof(ff_cluster_drawn), w ? w->cluster_out : NULL);
-    round_report *all = s->reports;
-    ff_comm_gather(s->comm, &report, sizeof report, all, 0);
     if (s->rank != 0) return report.status != RAD_OK ? (rad_status)report.status : gst;
     st = gst;
     *cluster_seconds = 0;
