@@ -216,22 +216,28 @@ static void plan_tree_lists(shaped_plan *p)
 }
 
 /* The pair of every link (reverse, link_count): the link at its source
- * back to its receiver (shaped_pair_link), receivers on the threads.
- * RAD_ERR_INVALID for one without (the first such link named). */
+ * back to its receiver (shaped_pair_link), the links in blocks on the
+ * threads (rad_links_receiver_of). RAD_ERR_INVALID for one without
+ * (the first such link named). */
 static rad_status plan_pairs(const shaped_plan *p, uint64_t *reverse)
 {
     const rad_links *L = p->L;
-    const uint32_t ids = (uint32_t)rad_links_id_count(L);
+    const uint64_t blocks = (L->link_count + RAD_LINKS_BLOCK - 1) / RAD_LINKS_BLOCK;
     uint64_t bad = UINT64_MAX;
-#pragma omp parallel for schedule(dynamic, 1024) num_threads(p->threads) reduction(min : bad)
-    for (uint32_t r = 0; r < ids; r++)
-        for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++) {
+#pragma omp parallel for schedule(dynamic, 4) num_threads(p->threads) reduction(min : bad)
+    for (uint64_t b = 0; b < blocks; b++) {
+        const uint64_t k0 = b * RAD_LINKS_BLOCK;
+        const uint64_t k1 = k0 + RAD_LINKS_BLOCK < L->link_count ? k0 + RAD_LINKS_BLOCK : L->link_count;
+        uint32_t r = rad_links_receiver_of(L, k0);
+        for (uint64_t k = k0; k < k1; k++) {
+            while (L->first_link[r + 1] <= k) r++;
             reverse[k] = shaped_pair_link(&p->view, k, r);
             if (reverse[k] == UINT64_MAX) {
                 bad = k < bad ? k : bad;
                 break;
             }
         }
+    }
     if (bad != UINT64_MAX) {
         uint32_t r = 0;
         while (L->first_link[r + 1] <= bad) r++;
