@@ -109,11 +109,11 @@ static inline uint64_t rad_links_id_count(const rad_links *links)
 }
 
 /* The receiver of link k (k < link_count): the id whose range
- * [first_link[id], first_link[id + 1]) holds it. For loops over the links
- * in blocks, each starting here: a loop over receivers in chunks leaves
- * one thread with the largest clusters' links, which are many (up to
- * 3.5e5 each at 10^6 faces, 1.0e7 in the largest 62) and next to each
- * other (the top of the cluster tree). */
+ * [first_link[id], first_link[id + 1]) holds it. Where a loop runs over
+ * the links in blocks, each block starts here: a loop over receivers in
+ * chunks leaves one thread with the largest clusters' links, which are
+ * many (up to 3.5e5 each at 10^6 faces, 1.0e7 in the largest 62) and next
+ * to each other (the top of the cluster tree). */
 static inline uint32_t rad_links_receiver_of(const rad_links *links, uint64_t k)
 {
     uint64_t lo = 0, hi = rad_links_id_count(links); /* first_link[lo] <= k < first_link[hi] */
@@ -124,9 +124,6 @@ static inline uint32_t rad_links_receiver_of(const rad_links *links, uint64_t k)
     }
     return (uint32_t)lo;
 }
-
-/* Links in blocks of this many for the loops above. */
-#define RAD_LINKS_BLOCK 16384
 
 void rad_links_free(rad_links *links); /* safe on zeroed */
 

@@ -215,6 +215,9 @@ static void plan_tree_lists(shaped_plan *p)
     p->tree_first[0] = 0;
 }
 
+/* The links in blocks of this many for plan_pairs. */
+#define PAIR_BLOCK 16384
+
 /* The pair of every link (reverse, link_count): the link at its source
  * back to its receiver (shaped_pair_link), the links in blocks on the
  * threads (rad_links_receiver_of). RAD_ERR_INVALID for one without
@@ -222,12 +225,11 @@ static void plan_tree_lists(shaped_plan *p)
 static rad_status plan_pairs(const shaped_plan *p, uint64_t *reverse)
 {
     const rad_links *L = p->L;
-    const uint64_t blocks = (L->link_count + RAD_LINKS_BLOCK - 1) / RAD_LINKS_BLOCK;
+    const uint64_t blocks = (L->link_count + PAIR_BLOCK - 1) / PAIR_BLOCK;
     uint64_t bad = UINT64_MAX;
 #pragma omp parallel for schedule(dynamic, 4) num_threads(p->threads) reduction(min : bad)
     for (uint64_t b = 0; b < blocks; b++) {
-        const uint64_t k0 = b * RAD_LINKS_BLOCK;
-        const uint64_t k1 = k0 + RAD_LINKS_BLOCK < L->link_count ? k0 + RAD_LINKS_BLOCK : L->link_count;
+        const uint64_t k0 = b * PAIR_BLOCK, k1 = k0 + PAIR_BLOCK < L->link_count ? k0 + PAIR_BLOCK : L->link_count;
         uint32_t r = rad_links_receiver_of(L, k0);
         for (uint64_t k = k0; k < k1; k++) {
             while (L->first_link[r + 1] <= k) r++;
@@ -239,8 +241,7 @@ static rad_status plan_pairs(const shaped_plan *p, uint64_t *reverse)
         }
     }
     if (bad != UINT64_MAX) {
-        uint32_t r = 0;
-        while (L->first_link[r + 1] <= bad) r++;
+        const uint32_t r = rad_links_receiver_of(L, bad);
         rad_error("links: link %llu (id %u <- %u) has no link back: links come in pairs", (unsigned long long)bad, r,
                   L->links[bad].source);
         return RAD_ERR_INVALID;
