@@ -47,6 +47,20 @@ void rad_mem_release(void *p, size_t bytes)
 #endif
 }
 
+void rad_mem_trim(void *p, size_t used, size_t bytes)
+{
+#if defined(__linux__) && defined(MADV_DONTNEED)
+    const uintptr_t huge = (uintptr_t)2 << 20;
+    if (!p) return;
+    uintptr_t begin = ((uintptr_t)p + used + huge - 1) & ~(huge - 1), end = ((uintptr_t)p + bytes) & ~(uintptr_t)4095;
+    if (end > begin) (void)madvise((void *)begin, (size_t)(end - begin), MADV_DONTNEED);
+#else
+    (void)p;
+    (void)used;
+    (void)bytes;
+#endif
+}
+
 double rad_mem_peak_bytes(void)
 {
 #if defined(__unix__) || defined(__APPLE__) /* macOS defines only the second */

@@ -33,6 +33,14 @@ void rad_mem_advise_huge(void *p, size_t bytes);
 void *rad_mem_reserve(size_t bytes);
 void rad_mem_release(void *p, size_t bytes); /* NULL is fine */
 
+/* Gives back the pages of a rad_mem_reserve array past its first `used`
+ * bytes (whole 2 MiB pages, so that none is split): the array keeps its
+ * address and reads as zeros there until written again. A buffer kept
+ * from round to round, each round using a part of it, so stays resident
+ * for what a round uses - without the first touch of fresh pages every
+ * round (a fault and a page cleared for each) - and no more. */
+void rad_mem_trim(void *p, size_t used, size_t bytes);
+
 /* The process's resident high-water mark so far, in bytes (getrusage's
  * ru_maxrss); 0 where the system does not say. Taken after each phase,
  * it shows which phase set the peak (--stats' "peak_bytes"). */

@@ -227,6 +227,13 @@ struct cuda_state {
     ff_cluster_drawn *d_drawn;
     size_t cluster_job_capacity;
     int clusters_uploaded;
+    /* compute_pairs and cluster_draws run on host threads of their own,
+     * each on a stream of its own that does not wait for the legacy
+     * default stream: one's kernels run beside the other's, and one's
+     * copies beside the other's kernels (on the default stream each call
+     * waited for the other's work, and its copies ran with the GPU idle). */
+    cudaStream_t pair_stream, cluster_stream;
+    cudaEvent_t pair_start, pair_stop;
 };
 
 /* Pass 1: thread per pair, the classification (ff_pair_class.h) the CPU
@@ -537,6 +544,10 @@ static void cuda_destroy(void *state)
     cudaFree(s->cluster_elements.patches);
     cudaFree(s->d_cluster_jobs);
     cudaFree(s->d_drawn);
+    if (s->pair_stream) cudaStreamDestroy(s->pair_stream);
+    if (s->cluster_stream) cudaStreamDestroy(s->cluster_stream);
+    if (s->pair_start) cudaEventDestroy(s->pair_start);
+    if (s->pair_stop) cudaEventDestroy(s->pair_stop);
     ff_cuda_records_free(s->records);
     if (s->start) cudaEventDestroy(s->start);
     if (s->middle) cudaEventDestroy(s->middle);
@@ -609,6 +620,10 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
     RAD_CUDA_TRY(cudaEventCreate(&s->start));
     RAD_CUDA_TRY(cudaEventCreate(&s->middle));
     RAD_CUDA_TRY(cudaEventCreate(&s->stop));
+    RAD_CUDA_TRY(cudaEventCreate(&s->pair_start));
+    RAD_CUDA_TRY(cudaEventCreate(&s->pair_stop));
+    RAD_CUDA_TRY(cudaStreamCreateWithFlags(&s->pair_stream, cudaStreamNonBlocking));
+    RAD_CUDA_TRY(cudaStreamCreateWithFlags(&s->cluster_stream, cudaStreamNonBlocking));
     { /* Load the kernels now (CUDA loads modules lazily, at a kernel's
        * first launch), so that setup, not the kernels' time, pays for it. */
         cudaFuncAttributes attributes;
@@ -863,8 +878,10 @@ static rad_status cuda_compute_records(void *state, uint32_t row_begin, uint32_t
 }
 
 /* Elements [0, count) and their keys on the device: the buffers grown
- * (keeping what is there), the elements past those uploaded copied. */
-static rad_status upload_elements(cuda_elements *e, const rad_ff_patch *patches, const uint32_t *keys, size_t count)
+ * (keeping what is there), the elements past those uploaded copied, on
+ * `stream` (the copies done when it returns). */
+static rad_status upload_elements(cuda_elements *e, const rad_ff_patch *patches, const uint32_t *keys, size_t count,
+                                  cudaStream_t stream)
 {
     rad_status status = RAD_OK;
     if (count > e->capacity) {
@@ -875,9 +892,12 @@ static rad_status upload_elements(cuda_elements *e, const rad_ff_patch *patches,
         cudaError_t err = cudaMalloc(&elements, cap * sizeof *elements);
         if (err == cudaSuccess && keys) err = cudaMalloc(&element_keys, cap * sizeof *element_keys);
         if (err == cudaSuccess && e->uploaded) {
-            err = cudaMemcpy(elements, e->patches, e->uploaded * sizeof *elements, cudaMemcpyDeviceToDevice);
+            err = cudaMemcpyAsync(elements, e->patches, e->uploaded * sizeof *elements, cudaMemcpyDeviceToDevice,
+                                  stream);
             if (err == cudaSuccess && keys)
-                err = cudaMemcpy(element_keys, e->keys, e->uploaded * sizeof *element_keys, cudaMemcpyDeviceToDevice);
+                err = cudaMemcpyAsync(element_keys, e->keys, e->uploaded * sizeof *element_keys,
+                                      cudaMemcpyDeviceToDevice, stream);
+            if (err == cudaSuccess) err = cudaStreamSynchronize(stream); /* before the old copies go */
         }
         if (err != cudaSuccess) {
             cudaFree(elements);
@@ -892,8 +912,12 @@ static rad_status upload_elements(cuda_elements *e, const rad_ff_patch *patches,
     }
     if (count > e->uploaded) {
         const size_t from = e->uploaded, more = count - from;
-        RAD_CUDA_TRY(cudaMemcpy(e->patches + from, patches + from, more * sizeof *patches, cudaMemcpyHostToDevice));
-        if (keys) RAD_CUDA_TRY(cudaMemcpy(e->keys + from, keys + from, more * sizeof *keys, cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpyAsync(e->patches + from, patches + from, more * sizeof *patches, cudaMemcpyHostToDevice,
+                                     stream));
+        if (keys)
+            RAD_CUDA_TRY(
+                cudaMemcpyAsync(e->keys + from, keys + from, more * sizeof *keys, cudaMemcpyHostToDevice, stream));
+        RAD_CUDA_TRY(cudaStreamSynchronize(stream));
         e->uploaded = count;
     }
 done:
@@ -908,6 +932,7 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
 {
     cuda_state *s = (cuda_state *)state;
     const ff_setup *su = &s->setup;
+    const cudaStream_t st = s->pair_stream;
     rad_status status = RAD_OK;
     unsigned long long counts[C_COUNT] = {0};
     uint32_t pair_counts[L_COUNT] = {0};
@@ -928,7 +953,7 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
         const size_t top = (jobs[k].a > jobs[k].b ? jobs[k].a : jobs[k].b) + (size_t)1;
         if (top > elements) elements = top;
     }
-    if ((status = upload_elements(&s->elements, patches, keys, elements)) != RAD_OK) return status;
+    if ((status = upload_elements(&s->elements, patches, keys, elements, st)) != RAD_OK) return status;
     if (count > s->job_capacity) {
         cudaFree(s->d_jobs);
         cudaFree(s->d_outcomes);
@@ -943,9 +968,9 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
         RAD_CUDA_TRY(cudaMalloc(&s->d_job_list, cap * sizeof *s->d_job_list));
         s->job_capacity = cap;
     }
-    RAD_CUDA_TRY(cudaMemcpy(s->d_jobs, jobs, count * sizeof *jobs, cudaMemcpyHostToDevice));
-    RAD_CUDA_TRY(cudaMemset(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT));
-    RAD_CUDA_TRY(cudaMemset(s->d_pair_counts, 0, L_COUNT * sizeof(uint32_t)));
+    RAD_CUDA_TRY(cudaMemcpyAsync(s->d_jobs, jobs, count * sizeof *jobs, cudaMemcpyHostToDevice, st));
+    RAD_CUDA_TRY(cudaMemsetAsync(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT, st));
+    RAD_CUDA_TRY(cudaMemsetAsync(s->d_pair_counts, 0, L_COUNT * sizeof(uint32_t), st));
     p.patches = s->elements.patches;
     p.keys = s->elements.keys;
     p.jobs = s->d_jobs;
@@ -968,11 +993,12 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
     p.counters = s->d_counters;
     counters->memory_seconds += rad_clock_seconds() - t_mem;
 
-    RAD_CUDA_TRY(cudaEventRecord(s->start));
-    ff_link_facing_kernel<<<(unsigned)((count + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK>>>(
+    RAD_CUDA_TRY(cudaEventRecord(s->pair_start, st));
+    ff_link_facing_kernel<<<(unsigned)((count + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK, 0, st>>>(
         p, s->d_job_list, s->d_pair_counts);
     RAD_CUDA_TRY(cudaGetLastError());
-    RAD_CUDA_TRY(cudaMemcpy(pair_counts, s->d_pair_counts, sizeof pair_counts, cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY(cudaMemcpyAsync(pair_counts, s->d_pair_counts, sizeof pair_counts, cudaMemcpyDeviceToHost, st));
+    RAD_CUDA_TRY(cudaStreamSynchronize(st));
     for (int list = L_FAR; list <= L_NEAR; list++) {
         if (pair_counts[list] == 0) continue;
         p.count = pair_counts[list];
@@ -981,15 +1007,16 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
         p.lanes = list == L_FAR ? FF_CUDA_FAR_LANES : FF_CUDA_NEAR_LANES;
         uint64_t per_block = FF_CUDA_BLOCK / p.lanes;
         uint64_t blocks = ((uint64_t)p.count + per_block - 1) / per_block;
-        ff_link_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK>>>(p);
+        ff_link_pairs_kernel<<<(unsigned)blocks, FF_CUDA_BLOCK, 0, st>>>(p);
         RAD_CUDA_TRY(cudaGetLastError());
     }
-    RAD_CUDA_TRY(cudaEventRecord(s->stop));
-    RAD_CUDA_TRY(cudaEventSynchronize(s->stop)); /* execution errors surface here */
-    RAD_CUDA_TRY(cudaEventElapsedTime(&kernel_ms, s->start, s->stop));
+    RAD_CUDA_TRY(cudaEventRecord(s->pair_stop, st));
+    RAD_CUDA_TRY(cudaEventSynchronize(s->pair_stop)); /* execution errors surface here */
+    RAD_CUDA_TRY(cudaEventElapsedTime(&kernel_ms, s->pair_start, s->pair_stop));
     t_mem = rad_clock_seconds();
-    RAD_CUDA_TRY(cudaMemcpy(out, s->d_outcomes, count * sizeof *out, cudaMemcpyDeviceToHost));
-    RAD_CUDA_TRY(cudaMemcpy(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY(cudaMemcpyAsync(out, s->d_outcomes, count * sizeof *out, cudaMemcpyDeviceToHost, st));
+    RAD_CUDA_TRY(cudaMemcpyAsync(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost, st));
+    RAD_CUDA_TRY(cudaStreamSynchronize(st));
     counters->memory_seconds += rad_clock_seconds() - t_mem;
     call = cuda_counters(counts, pair_counts, count);
     {
@@ -1017,6 +1044,7 @@ static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, cons
                                      ff_cluster_drawn *out)
 {
     cuda_state *s = (cuda_state *)state;
+    const cudaStream_t st = s->cluster_stream;
     rad_status status = RAD_OK;
     cuda_tracer t;
     ff_cluster_view dv;
@@ -1031,14 +1059,16 @@ static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, cons
         if (!s->d_clusters) RAD_CUDA_TRY(cudaMalloc(&s->d_clusters, clusters * sizeof *s->d_clusters));
         if (!s->d_roots) RAD_CUDA_TRY(cudaMalloc(&s->d_roots, roots * sizeof *s->d_roots));
         if (!s->d_area_before) RAD_CUDA_TRY(cudaMalloc(&s->d_area_before, roots * sizeof *s->d_area_before));
-        RAD_CUDA_TRY(cudaMemcpy(s->d_clusters, v->clusters, v->cluster_count * sizeof *s->d_clusters,
-                                cudaMemcpyHostToDevice));
-        RAD_CUDA_TRY(cudaMemcpy(s->d_roots, v->roots, v->root_count * sizeof *s->d_roots, cudaMemcpyHostToDevice));
-        RAD_CUDA_TRY(cudaMemcpy(s->d_area_before, v->area_before, roots * sizeof *s->d_area_before,
-                                cudaMemcpyHostToDevice));
+        RAD_CUDA_TRY(cudaMemcpyAsync(s->d_clusters, v->clusters, v->cluster_count * sizeof *s->d_clusters,
+                                     cudaMemcpyHostToDevice, st));
+        RAD_CUDA_TRY(cudaMemcpyAsync(s->d_roots, v->roots, v->root_count * sizeof *s->d_roots, cudaMemcpyHostToDevice,
+                                     st));
+        RAD_CUDA_TRY(cudaMemcpyAsync(s->d_area_before, v->area_before, roots * sizeof *s->d_area_before,
+                                     cudaMemcpyHostToDevice, st));
         s->clusters_uploaded = 1;
     }
-    if ((status = upload_elements(&s->cluster_elements, v->patches, NULL, v->element_count)) != RAD_OK) return status;
+    if ((status = upload_elements(&s->cluster_elements, v->patches, NULL, v->element_count, st)) != RAD_OK)
+        return status;
     if (count > s->cluster_job_capacity) {
         cudaFree(s->d_cluster_jobs);
         cudaFree(s->d_drawn);
@@ -1050,7 +1080,7 @@ static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, cons
         RAD_CUDA_TRY(cudaMalloc(&s->d_drawn, cap * sizeof *s->d_drawn));
         s->cluster_job_capacity = cap;
     }
-    RAD_CUDA_TRY(cudaMemcpy(s->d_cluster_jobs, jobs, count * sizeof *jobs, cudaMemcpyHostToDevice));
+    RAD_CUDA_TRY(cudaMemcpyAsync(s->d_cluster_jobs, jobs, count * sizeof *jobs, cudaMemcpyHostToDevice, st));
     dv = *v;
     dv.clusters = s->d_clusters;
     dv.roots = s->d_roots;
@@ -1062,10 +1092,11 @@ static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, cons
     t.root_count = s->root_count;
     t.delta = s->setup.ray_delta;
     t.last = NULL; /* ff_cluster_pair keeps its own */
-    ff_cluster_draws_kernel<<<(unsigned)((count + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK>>>(
+    ff_cluster_draws_kernel<<<(unsigned)((count + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK, 0, st>>>(
         dv, t, s->d_cluster_jobs, (uint32_t)count, s->d_drawn);
     RAD_CUDA_TRY(cudaGetLastError());
-    RAD_CUDA_TRY(cudaMemcpy(out, s->d_drawn, count * sizeof *out, cudaMemcpyDeviceToHost));
+    RAD_CUDA_TRY(cudaMemcpyAsync(out, s->d_drawn, count * sizeof *out, cudaMemcpyDeviceToHost, st));
+    RAD_CUDA_TRY(cudaStreamSynchronize(st)); /* execution errors surface here */
 done:
     return status;
 }

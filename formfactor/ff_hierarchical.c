@@ -527,6 +527,8 @@ static rad_status write_stats(const hier_run *h)
     rad_json_number(&w, h->counters.kernel_seconds);
     rad_json_key(&w, "visibility");
     rad_json_number(&w, h->counters.visibility_seconds);
+    rad_json_key(&w, "gpu_memory"); /* CUDA: the element pairs' transfers and device allocations */
+    rad_json_number(&w, h->counters.memory_seconds);
     rad_json_key(&w, "solves");
     rad_json_number(&w, h->seconds_solve);
     rad_json_key(&w, opt->radiosity_path ? "radiosity" : "io"); /* --radiosity: the solve in memory, and its file */

@@ -14,6 +14,7 @@
 #include "ff_setup.h"
 #include "rad_clock.h"
 #include "rad_log.h"
+#include "rad_mem.h"
 
 const char *ff_oracle_name(ff_oracle oracle)
 {
@@ -882,6 +883,49 @@ static rad_status apply_round(ff_links *L, round_state *r, job_list *next, round
     return RAD_OK;
 }
 
+/* A round's outcomes, kept from round to round: the backend writes
+ * gigabytes of them a round at 10^6 faces, and into fresh pages every
+ * write is a fault and a cleared page first (at 10^6 faces on one H200,
+ * most of what the element pairs' transfers took). Each round takes the
+ * bytes it needs; the pages past them are given back (rad_mem_trim), so
+ * that the resident size follows the round as malloc's did. */
+typedef struct round_buffer {
+    void *data;
+    size_t bytes;
+    int mapped; /* rad_mem_reserve's (else malloc's) */
+} round_buffer;
+
+static void round_buffer_free(round_buffer *b)
+{
+    if (b->mapped)
+        rad_mem_release(b->data, b->bytes);
+    else
+        free(b->data);
+    *b = (round_buffer){0};
+}
+
+/* The pages past the first `bytes` given back. */
+static void round_buffer_trim(round_buffer *b, size_t bytes)
+{
+    if (b->mapped && bytes < b->bytes) rad_mem_trim(b->data, bytes, b->bytes);
+}
+
+/* Room for `bytes`; NULL (nothing logged) where there is no memory. */
+static void *round_buffer_take(round_buffer *b, size_t bytes)
+{
+    if (bytes > b->bytes || !b->data) {
+        round_buffer_free(b);
+        const size_t room = bytes + bytes / 4 + 4096;
+        b->data = rad_mem_reserve(room);
+        b->mapped = b->data != NULL;
+        if (!b->data) b->data = malloc(room);
+        b->bytes = b->data ? room : 0;
+        return b->data;
+    }
+    round_buffer_trim(b, bytes);
+    return b->data;
+}
+
 /* Candidates through the backend, then decided (above). */
 static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters, uint64_t *refined)
 {
@@ -889,6 +933,7 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     round_state r = {.list = list};
     size_t verdict_cap = 0, chunk_cap = 0;
     job_list next = {0}, pairs = {0}, cpairs = {0};
+    round_buffer out_buffer = {0}, cout_buffer = {0};
     while (st == RAD_OK && list->count > 0) {
         const size_t n = list->count;
         r.chunk_count = (n + ROUND_CHUNK - 1) / ROUND_CHUNK;
@@ -910,11 +955,9 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         const double t_sort = rad_clock_seconds();
         if ((st = sort_round(L, &r, &pairs, &cpairs)) != RAD_OK) break;
         const size_t clustered = cpairs.count;
-        ff_pair_outcome *out = pairs.count ? malloc(pairs.count * sizeof *out) : NULL;
-        ff_cluster_drawn *cout = clustered ? malloc(clustered * sizeof *cout) : NULL;
-        if ((pairs.count && !out) || (clustered && !cout)) {
-            free(out);
-            free(cout);
+        ff_pair_outcome *out = round_buffer_take(&out_buffer, pairs.count * sizeof *out);
+        ff_cluster_drawn *cout = round_buffer_take(&cout_buffer, clustered * sizeof *cout);
+        if (!out || !cout) {
             rad_error("hierarchy: out of memory for %zu candidate pairs", n);
             st = RAD_ERR_NOMEM;
             break;
@@ -932,8 +975,6 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
             decide_round(L, &r);
             st = apply_round(L, &r, &next, &total);
         }
-        free(out);
-        free(cout);
         if (st != RAD_OK) break;
         *refined += total.splits;
         if (clustered && n >= 100000) /* progress, where rounds take seconds */
@@ -945,12 +986,17 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
         job_list t = *list;
         *list = next;
         next = t;
+        /* no more resident while the next round is sorted than it may use */
+        round_buffer_trim(&out_buffer, list->count * sizeof(ff_pair_outcome));
+        round_buffer_trim(&cout_buffer, list->count * sizeof(ff_cluster_drawn));
     }
     free(r.verdict);
     free(r.chunks);
     free(next.jobs);
     free(pairs.jobs);
     free(cpairs.jobs);
+    round_buffer_free(&out_buffer);
+    round_buffer_free(&cout_buffer);
     return st;
 }
 

@@ -1,0 +1,82 @@
+/* test_mem.c - rad_mem_trim: a reserved array's pages past what a round
+ * uses given back, the rest kept.
+ *
+ *  - After a trim to `used` bytes, the bytes before `used` and before the
+ *    next 2 MiB boundary keep what was written; past that boundary the
+ *    pages are no longer resident (mincore) and read zeros.
+ *  - The array stays usable: written again past the trim, it holds what
+ *    was written.
+ *  - A trim to the whole size, or of NULL, changes nothing. */
+#define _DEFAULT_SOURCE /* mincore */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#if defined(__linux__)
+#include <sys/mman.h>
+#include <unistd.h>
+#endif
+
+#include "rad_mem.h"
+#include "rad_test.h"
+
+#define MIB ((size_t)1 << 20)
+
+static int all_bytes(const unsigned char *p, size_t n, unsigned char v)
+{
+    for (size_t k = 0; k < n; k++)
+        if (p[k] != v) return 0;
+    return 1;
+}
+
+#if defined(__linux__)
+/* The share of the pages of [p, p + n) resident now. */
+static double resident_share(const unsigned char *p, size_t n)
+{
+    const size_t page = (size_t)sysconf(_SC_PAGESIZE);
+    uintptr_t begin = (uintptr_t)p & ~(uintptr_t)(page - 1);
+    size_t pages = ((uintptr_t)p + n - begin + page - 1) / page;
+    unsigned char *v = malloc(pages);
+    if (!v || mincore((void *)begin, pages * page, v) != 0) {
+        free(v);
+        return -1;
+    }
+    size_t in = 0;
+    for (size_t k = 0; k < pages; k++) in += v[k] & 1;
+    free(v);
+    return (double)in / (double)pages;
+}
+#endif
+
+static void test_trim(void)
+{
+    const size_t bytes = 40 * MIB, used = 5 * MIB + 123;
+    unsigned char *p = rad_mem_reserve(bytes);
+    RAD_CHECK(p != NULL);
+    if (!p) return;
+    memset(p, 0xab, bytes);
+    rad_mem_trim(p, bytes, bytes); /* the whole: nothing given back */
+    RAD_CHECK(all_bytes(p, bytes, 0xab));
+    rad_mem_trim(NULL, used, bytes);
+    rad_mem_trim(p, used, bytes);
+    const uintptr_t huge = 2 * MIB;
+    const size_t kept = (size_t)((((uintptr_t)p + used + huge - 1) & ~(huge - 1)) - (uintptr_t)p);
+    RAD_CHECK(kept >= used && kept < used + huge);
+    RAD_CHECK(all_bytes(p, kept, 0xab));
+#if defined(__linux__)
+    /* resident before reading: a read maps the zero page back in */
+    const double gone = resident_share(p + kept, bytes - kept), here = resident_share(p, used);
+    RAD_CHECK(gone >= 0 && gone < 0.01);
+    RAD_CHECK(here > 0.99);
+    RAD_CHECK(all_bytes(p + kept, bytes - kept, 0));
+#endif
+    memset(p + kept, 0x5c, bytes - kept); /* used again past the trim */
+    RAD_CHECK(all_bytes(p + kept, bytes - kept, 0x5c));
+    RAD_CHECK(all_bytes(p, kept, 0xab));
+    rad_mem_release(p, bytes);
+}
+
+int main(void)
+{
+    test_trim();
+    return rad_test_finish();
+}
