@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "rad_log.h"
+#include "rad_mem.h"
 #include "shaped_gpu.h"
 
 typedef struct host_state {
@@ -47,6 +48,7 @@ static rad_status host_create(const solve_shaped_device_plan *plan, int device, 
     if (h) {
         h->plan = *plan;
         h->f = malloc((plan->weight_count ? plan->weight_count : 1) * sizeof *h->f);
+        rad_mem_advise_huge(h->f, plan->weight_count * sizeof *h->f);
         h->inv_mean = calloc(v->end_count ? v->end_count : 1, sizeof *h->inv_mean);
         h->B = malloc(3 * v->id_count * sizeof *h->B);
         h->H = malloc(3 * v->id_count * sizeof *h->H);
