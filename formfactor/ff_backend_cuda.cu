@@ -634,6 +634,10 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
         RAD_CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_link_facing_kernel));
         RAD_CUDA_TRY(cudaFuncGetAttributes(&attributes, ff_link_pairs_kernel));
     }
+    /* The copies above ran on the legacy stream, from pageable memory: a
+     * call returns once its bytes are staged, not landed, and the pairs'
+     * and clusters' streams do not wait for that stream. */
+    RAD_CUDA_TRY(cudaDeviceSynchronize());
 done:
     ff_bvh_free(&bvh);
     if (status != RAD_OK) {

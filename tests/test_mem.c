@@ -51,8 +51,10 @@ static void test_trim(void)
 {
     const size_t bytes = 40 * MIB, used = 5 * MIB + 123;
     unsigned char *p = rad_mem_reserve(bytes);
+#if defined(__linux__)
     RAD_CHECK(p != NULL);
-    if (!p) return;
+#endif
+    if (!p) return; /* no reservations here (rad_mem.h): callers fall back to malloc */
     memset(p, 0xab, bytes);
     rad_mem_trim(p, bytes, bytes); /* the whole: nothing given back */
     RAD_CHECK(all_bytes(p, bytes, 0xab));
