@@ -3,6 +3,7 @@
 #include "rad_mem.h"
 
 #include <stdint.h>
+#include <stdlib.h>
 #if defined(__unix__)
 #include <sys/mman.h>
 #endif
@@ -10,10 +11,12 @@
 #include <sys/resource.h>
 #endif
 
+#define HUGE_PAGE ((uintptr_t)2 << 20) /* a transparent huge page on x86-64 and most arm64 kernels */
+
 void rad_mem_advise_huge(void *p, size_t bytes)
 {
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
-    const uintptr_t huge = (uintptr_t)2 << 20;
+    const uintptr_t huge = HUGE_PAGE;
     if (!p || bytes < RAD_MEM_HUGE_MIN) return;
     uintptr_t begin = ((uintptr_t)p + huge - 1) & ~(huge - 1), end = ((uintptr_t)p + bytes) & ~(huge - 1);
     if (end > begin) (void)madvise((void *)begin, (size_t)(end - begin), MADV_HUGEPAGE);
@@ -21,6 +24,13 @@ void rad_mem_advise_huge(void *p, size_t bytes)
     (void)p;
     (void)bytes;
 #endif
+}
+
+void *rad_mem_alloc(size_t bytes)
+{
+    void *p = malloc(bytes ? bytes : 1);
+    rad_mem_advise_huge(p, bytes);
+    return p;
 }
 
 void *rad_mem_reserve(size_t bytes)
@@ -50,7 +60,7 @@ void rad_mem_release(void *p, size_t bytes)
 void rad_mem_trim(void *p, size_t used, size_t bytes)
 {
 #if defined(__linux__) && defined(MADV_DONTNEED)
-    const uintptr_t huge = (uintptr_t)2 << 20;
+    const uintptr_t huge = HUGE_PAGE;
     if (!p) return;
     uintptr_t begin = ((uintptr_t)p + used + huge - 1) & ~(huge - 1), end = ((uintptr_t)p + bytes) & ~(uintptr_t)4095;
     if (end > begin) (void)madvise((void *)begin, (size_t)(end - begin), MADV_DONTNEED);

@@ -22,6 +22,10 @@
 
 void rad_mem_advise_huge(void *p, size_t bytes);
 
+/* malloc(bytes), advised as above before anything touches it: for large
+ * arrays allocated once and then filled. Freed with free. */
+void *rad_mem_alloc(size_t bytes);
+
 /* An array that grows in place to at most `bytes` without ever moving:
  * address space reserved up front (an anonymous mapping that commits no
  * memory until its pages are touched: MAP_NORESERVE), advised as above.

@@ -1282,8 +1282,7 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     size_t n = h->element_count, C = L->clusters.count, ids = n + C;
     out->nodes = malloc(n * sizeof *out->nodes);
     out->first_link = calloc(ids + 1, sizeof *out->first_link);
-    out->links = malloc((L->link_count ? 2 * L->link_count : 1) * sizeof *out->links);
-    rad_mem_advise_huge(out->links, 2 * L->link_count * sizeof *out->links); /* gigabytes, filled once */
+    out->links = rad_mem_alloc(2 * L->link_count * sizeof *out->links); /* gigabytes, filled once */
     if (C) {
         out->clusters = malloc(C * sizeof *out->clusters);
         out->cluster_roots = malloc(L->clusters.root_count * sizeof *out->cluster_roots);

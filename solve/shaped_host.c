@@ -47,8 +47,7 @@ static rad_status host_create(const solve_shaped_device_plan *plan, int device, 
     host_state *h = calloc(1, sizeof *h);
     if (h) {
         h->plan = *plan;
-        h->f = malloc((plan->weight_count ? plan->weight_count : 1) * sizeof *h->f);
-        rad_mem_advise_huge(h->f, plan->weight_count * sizeof *h->f);
+        h->f = rad_mem_alloc(plan->weight_count * sizeof *h->f);
         h->inv_mean = calloc(v->end_count ? v->end_count : 1, sizeof *h->inv_mean);
         h->B = malloc(3 * v->id_count * sizeof *h->B);
         h->H = malloc(3 * v->id_count * sizeof *h->H);

@@ -256,13 +256,10 @@ static rad_status plan_pairs(const shaped_plan *p, uint64_t *reverse)
 static rad_status alloc_ends(shaped_plan *p, uint64_t ends)
 {
     const size_t n = ends ? ends : 1;
-    p->end_link = malloc(n * sizeof *p->end_link);
-    p->end_receiver = malloc(n * sizeof *p->end_receiver);
-    p->end_at = malloc(n * sizeof *p->end_at);
-    p->inv_mean = calloc(n, sizeof *p->inv_mean);
-    rad_mem_advise_huge(p->end_link, n * sizeof *p->end_link); /* link-sized arrays: huge pages, fewer faults */
-    rad_mem_advise_huge(p->end_receiver, n * sizeof *p->end_receiver);
-    rad_mem_advise_huge(p->end_at, n * sizeof *p->end_at);
+    p->end_link = rad_mem_alloc(n * sizeof *p->end_link); /* link-sized arrays: huge pages, fewer faults */
+    p->end_receiver = rad_mem_alloc(n * sizeof *p->end_receiver);
+    p->end_at = rad_mem_alloc(n * sizeof *p->end_at);
+    p->inv_mean = calloc(n, sizeof *p->inv_mean); /* large: mapped untouched, so advised in time */
     rad_mem_advise_huge(p->inv_mean, n * sizeof *p->inv_mean);
     if (p->end_link && p->end_receiver && p->end_at && p->inv_mean) return RAD_OK;
     rad_error("links: out of memory for the shaped solve's %llu ends", (unsigned long long)ends);
@@ -354,8 +351,7 @@ rad_status shaped_plan_factors(shaped_plan *p)
 {
     const rad_links *L = p->L;
     const uint32_t n = L->node_count;
-    p->f = malloc((p->weight_count ? p->weight_count : 1) * sizeof *p->f);
-    rad_mem_advise_huge(p->f, p->weight_count * sizeof *p->f);
+    p->f = rad_mem_alloc(p->weight_count * sizeof *p->f);
     if (!p->f) {
         rad_error("links: out of memory for the shaped solve's %llu point factors",
                   (unsigned long long)p->weight_count);
@@ -445,12 +441,9 @@ rad_status shaped_plan_make(const rad_links *L, const rad_mesh *leaves, const do
     p->leaf_area = malloc((size_t)n * sizeof *p->leaf_area);
     uint64_t *reverse = NULL; /* until the ends are numbered */
     if (!flat) { /* flat: no ends, no per-link array at all (shaped_link_end) */
-        p->end = malloc(links * sizeof *p->end);
-        p->pair_end = malloc(links * sizeof *p->pair_end);
-        reverse = malloc(links * sizeof *reverse);
-        rad_mem_advise_huge(p->end, links * sizeof *p->end);
-        rad_mem_advise_huge(p->pair_end, links * sizeof *p->pair_end);
-        rad_mem_advise_huge(reverse, links * sizeof *reverse);
+        p->end = rad_mem_alloc(links * sizeof *p->end);
+        p->pair_end = rad_mem_alloc(links * sizeof *p->pair_end);
+        reverse = rad_mem_alloc(links * sizeof *reverse);
     }
     p->shaped_first = calloc(ids + 1, sizeof *p->shaped_first);
     if (L->cluster_count) p->root_cluster = malloc((size_t)L->root_count * sizeof *p->root_cluster);
