@@ -6,6 +6,9 @@
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "rad_log.h"
 #include "rad_polygon.h"
@@ -163,6 +166,46 @@ static const char *links_fault(const rad_links *links, uint32_t r, uint64_t *out
         if (!(isfinite(link->error) && link->error >= 0)) return "error not finite and >= 0";
     }
     return NULL;
+}
+
+rad_status rad_links_pairing_make(const rad_links *L, int threads, rad_links_pairing *w)
+{
+    memset(w, 0, sizeof *w);
+    const uint64_t ids = rad_links_id_count(L);
+#ifdef _OPENMP
+    if (threads <= 0) threads = omp_get_max_threads();
+#endif
+    uint32_t blocks = threads > 1 ? (uint32_t)threads : 1;
+    if (blocks > RAD_LINKS_PAIR_BLOCKS) blocks = RAD_LINKS_PAIR_BLOCKS;
+    if (L->link_count < (uint64_t)blocks * 4096) blocks = 1;
+    w->blocks = blocks;
+    w->ids = ids;
+    for (uint32_t b = 1; b < blocks; b++) w->begin[b] = rad_links_receiver_of(L, L->link_count / blocks * b);
+    w->begin[0] = 0;
+    w->begin[blocks] = (uint32_t)ids;
+    w->cursor = malloc((size_t)blocks * (ids ? ids : 1) * sizeof *w->cursor);
+    if (!w->cursor) {
+        rad_error("links: out of memory for pairing %llu links", (unsigned long long)L->link_count);
+        return RAD_ERR_NOMEM;
+    }
+    /* block b starts in each source's links past those whose source is
+     * below its first receiver: one pass over each source's links */
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(threads > 0 ? threads : 1)
+    for (uint64_t s = 0; s < ids; s++) {
+        const uint64_t k0 = L->first_link[s], k1 = L->first_link[s + 1];
+        uint64_t k = k0;
+        for (uint32_t b = 0; b < blocks; b++) {
+            while (k < k1 && L->links[k].source < w->begin[b]) k++;
+            w->cursor[(size_t)b * ids + s] = (uint32_t)(k - k0); /* < 2^32: strictly ascending sources */
+        }
+    }
+    return RAD_OK;
+}
+
+void rad_links_pairing_free(rad_links_pairing *w)
+{
+    free(w->cursor);
+    memset(w, 0, sizeof *w);
 }
 
 /* The first of ids [begin, end) whose links fail links_fault, or end: on

@@ -4,8 +4,10 @@
 
 #include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 #if defined(__unix__)
 #include <sys/mman.h>
+#include <unistd.h>
 #endif
 #if defined(__unix__) || defined(__APPLE__)
 #include <sys/resource.h>
@@ -55,6 +57,58 @@ void rad_mem_release(void *p, size_t bytes)
     (void)p;
     (void)bytes;
 #endif
+}
+
+/* The address space a growing array reserves at first: the machine's
+ * memory; 0 where a limit on the address space (RLIMIT_AS) would count
+ * it, or the system does not say. */
+static size_t reservation_bytes(void)
+{
+#if defined(__linux__) && defined(_SC_PHYS_PAGES)
+    struct rlimit as;
+    if (getrlimit(RLIMIT_AS, &as) != 0 || as.rlim_cur != RLIM_INFINITY) return 0;
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    return pages > 0 && page > 0 ? (size_t)pages * (size_t)page : 0;
+#else
+    return 0;
+#endif
+}
+
+void *rad_mem_grow(void *p, size_t used, size_t need, rad_mem_span *span)
+{
+    if (p && need <= span->bytes) return p;
+    size_t room = need > SIZE_MAX / 2 ? need : 2 * need;
+    const size_t machine = reservation_bytes();
+    void *q = machine ? rad_mem_reserve(room > machine ? room : machine) : NULL;
+    const int reserved = q != NULL;
+    if (reserved) {
+        room = room > machine ? room : machine;
+    } else {
+        if (p && !span->reserved) {
+            q = realloc(p, room);
+            if (!q) return NULL;
+            span->bytes = room;
+            return q;
+        }
+        if (!(q = malloc(room))) return NULL;
+    }
+    if (p) {
+        memcpy(q, p, used);
+        rad_mem_span_free(p, span);
+    }
+    span->bytes = room;
+    span->reserved = reserved;
+    return q;
+}
+
+void rad_mem_span_free(void *p, rad_mem_span *span)
+{
+    if (span->reserved)
+        rad_mem_release(p, span->bytes);
+    else
+        free(p);
+    span->bytes = 0;
+    span->reserved = 0;
 }
 
 void rad_mem_trim(void *p, size_t used, size_t bytes)

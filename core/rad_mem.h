@@ -37,6 +37,26 @@ void *rad_mem_alloc(size_t bytes);
 void *rad_mem_reserve(size_t bytes);
 void rad_mem_release(void *p, size_t bytes); /* NULL is fine */
 
+/* An array that grows by appending (rad_mem_grow): its room in bytes,
+ * and whether that is address space reserved (else malloc's). Zeroed at
+ * first. */
+typedef struct rad_mem_span {
+    size_t bytes;
+    int reserved;
+} rad_mem_span;
+
+/* Room for `need` bytes in the array p (NULL at first) of span: p itself
+ * while it has the room, else a new array holding p's first `used` bytes
+ * (p then released). The first reservation takes as much address space
+ * as the machine has memory - which commits nothing - so the array never
+ * moves again: realloc's moves of a growing multi-gigabyte array each
+ * copy it into fresh pages and split its huge pages (above). Where
+ * nothing can be reserved (not Linux, strict overcommit, or a limit on
+ * the address space: RLIMIT_AS), malloc's arrays, doubled. NULL (p and
+ * span untouched) for lack of memory. Freed with rad_mem_span_free. */
+void *rad_mem_grow(void *p, size_t used, size_t need, rad_mem_span *span);
+void rad_mem_span_free(void *p, rad_mem_span *span); /* NULL is fine; zeroes span */
+
 /* Gives back the pages of a rad_mem_reserve array past its first `used`
  * bytes (whole 2 MiB pages, so that none is split): the array keeps its
  * address and reads as zeros there until written again. A buffer kept

@@ -258,8 +258,8 @@ void ff_links_free(ff_links *L)
     free(L->root_key);
     free(L->radiosity);
     free(L->spread);
-    free(L->links);
-    free(L->link_left);
+    rad_mem_span_free(L->links, &L->link_span);
+    rad_mem_span_free(L->link_left, &L->left_span);
     ff_clusters_free(&L->clusters);
     free(L->cluster_radiosity);
     free(L->cluster_rho);
@@ -452,6 +452,7 @@ static float ray_floor(const ff_links *L, uint32_t a, uint32_t b)
 typedef struct job_list {
     ff_pair_job *jobs;
     size_t count, cap;
+    rad_mem_span span;
 } job_list;
 
 /* A cluster whose faces face apart (normals beyond config.cluster_cone of
@@ -578,22 +579,23 @@ static size_t split_jobs(const ff_links *L, uint32_t a, uint32_t b, ff_pair_job 
     return n;
 }
 
-/* Room for `need` items of `size` bytes in `array` (capacity *cap,
- * doubled from 1024 until it holds them): *out is the array, moved where
- * it grew (logged and untouched for lack of memory). */
-static rad_status grow(void *array, size_t *cap, size_t need, size_t size, const char *what, void **out)
+/* Room for `need` items of `size` bytes in `array` (its first `count`
+ * kept; capacity *cap): *out is the array, moved where it had to grow
+ * past its span (logged and untouched for lack of memory). In place
+ * almost always (rad_mem_grow): the links reach gigabytes. */
+static rad_status grow(void *array, rad_mem_span *span, size_t *cap, size_t count, size_t need, size_t size,
+                       const char *what, void **out)
 {
     *out = array;
     if (need <= *cap) return RAD_OK;
-    size_t c = *cap ? *cap : 1024;
-    while (c < need) c *= 2;
-    void *q = realloc(array, c * size);
+    if (need < 1024) need = 1024;
+    void *q = rad_mem_grow(array, count * size, need * size, span);
     if (!q) {
-        rad_error("hierarchy: out of memory for %zu %s", c, what);
+        rad_error("hierarchy: out of memory for %zu %s", need, what);
         return RAD_ERR_NOMEM;
     }
     *out = q;
-    *cap = c;
+    *cap = span->bytes / size;
     return RAD_OK;
 }
 
@@ -601,9 +603,16 @@ static rad_status grow(void *array, size_t *cap, size_t need, size_t size, const
 static rad_status job_reserve(job_list *l, size_t more)
 {
     void *jobs;
-    const rad_status st = grow(l->jobs, &l->cap, l->count + more, sizeof *l->jobs, "candidate pairs", &jobs);
+    const rad_status st =
+        grow(l->jobs, &l->span, &l->cap, l->count, l->count + more, sizeof *l->jobs, "candidate pairs", &jobs);
     l->jobs = jobs;
     return st;
+}
+
+static void job_free(job_list *l)
+{
+    rad_mem_span_free(l->jobs, &l->span);
+    *l = (job_list){0};
 }
 
 static rad_status job_push(job_list *l, uint32_t a, uint32_t b)
@@ -841,19 +850,19 @@ static void write_round(ff_links *L, const round_state *r, job_list *next)
     }
 }
 
-/* Room for `more` links past link_count. */
+/* Room for `more` links past link_count (and their g under the gather
+ * oracle). */
 static rad_status link_reserve(ff_links *L, size_t more)
 {
     void *links;
-    const size_t cap = L->link_cap;
-    rad_status st = grow(L->links, &L->link_cap, L->link_count + more, sizeof *L->links, "links", &links);
+    rad_status st = grow(L->links, &L->link_span, &L->link_cap, L->link_count, L->link_count + more,
+                         sizeof *L->links, "links", &links);
     L->links = links;
-    if (st == RAD_OK && L->config.oracle == FF_ORACLE_GATHER && (!L->link_left || L->link_cap != cap)) {
-        float *left = realloc(L->link_left, 2 * L->link_cap * sizeof *left);
-        if (!left) {
-            rad_error("hierarchy: out of memory for %zu links' g", L->link_cap);
-            return RAD_ERR_NOMEM;
-        }
+    if (st == RAD_OK && L->config.oracle == FF_ORACLE_GATHER) {
+        void *left;
+        size_t cap = L->left_span.bytes / (2 * sizeof *L->link_left);
+        st = grow(L->link_left, &L->left_span, &cap, 2 * L->link_count, 2 * (L->link_count + more),
+                  sizeof *L->link_left, "links' g", &left);
         L->link_left = left;
     }
     return st;
@@ -992,9 +1001,9 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     }
     free(r.verdict);
     free(r.chunks);
-    free(next.jobs);
-    free(pairs.jobs);
-    free(cpairs.jobs);
+    job_free(&next);
+    job_free(&pairs);
+    job_free(&cpairs);
     round_buffer_free(&out_buffer);
     round_buffer_free(&cout_buffer);
     return st;
@@ -1206,7 +1215,7 @@ rad_status ff_links_refine(ff_links *L, const double *leaf_radiosity, ff_counter
         L->tally.seconds_reweigh += rad_clock_seconds() - t0;
     }
     if (st == RAD_OK) st = run_rounds(L, &list, counters, &refined);
-    free(list.jobs);
+    job_free(&list);
     L->tally.refined_pairs += refined;
     L->passes++;
     if (out_refined) *out_refined = refined;
@@ -1273,6 +1282,28 @@ static void sort_links(rad_link *x, size_t n, int depth)
     }
 }
 
+/* The export counts and places the links in groups of EXPORT_GROUP pairs,
+ * the lines of the next group's counters (and its ends' areas) asked for
+ * while this one's are used: a locked add waits for the stores before it
+ * and takes its line alone, so one pair at a time the counts and places
+ * went at one cache miss each (most of the export at 10^6 triangles). */
+#define EXPORT_GROUP 32
+
+static void export_prefetch(const ff_links *L, uint64_t *counts, uint32_t n, size_t from, int areas)
+{
+    const size_t to = from + EXPORT_GROUP < L->link_count ? from + EXPORT_GROUP : L->link_count;
+    for (size_t k = from; k < to; k++) {
+        const uint32_t ids[2] = {L->links[k].a, L->links[k].b};
+        for (int i = 0; i < 2; i++) {
+            const uint32_t id = ids[i];
+            __builtin_prefetch(&counts[ff_is_cluster(id) ? n + ff_cluster_of(id) : id], 1);
+            if (areas)
+                __builtin_prefetch(ff_is_cluster(id) ? (const void *)&L->clusters.clusters[ff_cluster_of(id)].link.area
+                                                     : (const void *)&L->tree.elements[id].area);
+        }
+    }
+}
+
 rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
 {
     const rad_hierarchy *h = &L->tree;
@@ -1321,13 +1352,18 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     /* Counted and scattered on the threads: a receiver's links land in
      * any order, which the sort by source below makes one (a receiver
      * links a source once). */
+    const size_t groups = (L->link_count + EXPORT_GROUP - 1) / EXPORT_GROUP;
 #pragma omp parallel for schedule(static)
-    for (size_t k = 0; k < L->link_count; k++) {
-        const uint32_t a = EXPORT_ID(L->links[k].a) + 1, b = EXPORT_ID(L->links[k].b) + 1;
+    for (size_t g = 0; g < groups; g++) {
+        const size_t k0 = g * EXPORT_GROUP, k1 = k0 + EXPORT_GROUP < L->link_count ? k0 + EXPORT_GROUP : L->link_count;
+        export_prefetch(L, out->first_link + 1, (uint32_t)n, k1, 0);
+        for (size_t k = k0; k < k1; k++) {
+            const uint32_t a = EXPORT_ID(L->links[k].a) + 1, b = EXPORT_ID(L->links[k].b) + 1;
 #pragma omp atomic
-        out->first_link[a]++;
+            out->first_link[a]++;
 #pragma omp atomic
-        out->first_link[b]++;
+            out->first_link[b]++;
+        }
     }
     for (size_t e = 0; e < ids; e++) out->first_link[e + 1] += out->first_link[e];
     out->link_count = out->first_link[ids];
@@ -1339,16 +1375,28 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     }
     memcpy(fill, out->first_link, ids * sizeof *fill);
 #pragma omp parallel for schedule(static)
-    for (size_t k = 0; k < L->link_count; k++) {
-        const ff_link_pair *p = &L->links[k];
-        uint32_t a = EXPORT_ID(p->a), b = EXPORT_ID(p->b);
-        uint64_t at_a, at_b;
+    for (size_t g = 0; g < groups; g++) {
+        const size_t k0 = g * EXPORT_GROUP, k1 = k0 + EXPORT_GROUP < L->link_count ? k0 + EXPORT_GROUP : L->link_count;
+        uint64_t at[EXPORT_GROUP][2];
+        export_prefetch(L, fill, (uint32_t)n, k1, 1);
+        for (size_t k = k0; k < k1; k++) { /* the places, each line asked for before its store */
+            const ff_link_pair *p = &L->links[k];
+            uint64_t *to = at[k - k0];
 #pragma omp atomic capture
-        at_a = fill[a]++;
+            to[0] = fill[EXPORT_ID(p->a)]++;
 #pragma omp atomic capture
-        at_b = fill[b]++;
-        out->links[at_a] = (rad_link){.source = b, .error = p->error_ab, .factor = p->coupling * node_area(L, p->b)};
-        out->links[at_b] = (rad_link){.source = a, .error = p->error_ba, .factor = p->coupling * node_area(L, p->a)};
+            to[1] = fill[EXPORT_ID(p->b)]++;
+            __builtin_prefetch(&out->links[to[0]], 1);
+            __builtin_prefetch(&out->links[to[1]], 1);
+        }
+        for (size_t k = k0; k < k1; k++) {
+            const ff_link_pair *p = &L->links[k];
+            const uint64_t *to = at[k - k0];
+            out->links[to[0]] = (rad_link){.source = EXPORT_ID(p->b), .error = p->error_ab,
+                                           .factor = p->coupling * node_area(L, p->b)};
+            out->links[to[1]] = (rad_link){.source = EXPORT_ID(p->a), .error = p->error_ba,
+                                           .factor = p->coupling * node_area(L, p->a)};
+        }
     }
 #undef EXPORT_ID
     free(fill);
@@ -1362,17 +1410,41 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
 
 /* ---- the error bound ---- */
 
-static const rad_link *find_link(const rad_links *x, uint32_t receiver, uint32_t source)
+/* What a link's bound reads of its source: B's largest value over its
+ * leaves, and how far B there strays from its mean (0 at a leaf). */
+typedef struct bound_source {
+    double hi[3], spread[3];
+} bound_source;
+
+/* One link's share of its receiver's beta (ch: the channel): the receiver
+ * term (0 at a leaf receiver), and the source's spread times the link's
+ * factor and error, scaled by the back link's relative error (1 without
+ * one). */
+static void link_beta(const rad_link *l, const rad_link *back, const bound_source *s, const double rho[3],
+                      double receiver_error, double out[3])
 {
-    uint64_t lo = x->first_link[receiver], hi = x->first_link[receiver + 1];
-    while (lo < hi) {
-        uint64_t mid = lo + (hi - lo) / 2;
-        if (x->links[mid].source < source)
-            lo = mid + 1;
-        else
-            hi = mid;
+    const double rel = back && back->factor > 0 ? fmin(1.0, back->error / back->factor) : 1.0;
+    for (int c = 0; c < 3; c++) out[c] += rho[c] * (receiver_error * s->hi[c] + rel * (l->factor + l->error) * s->spread[c]);
+}
+
+/* Receiver r's links' beta (rad_links_pairing's walk of a block: `at`
+ * its cursors). A source without spread (a leaf, or B even over its
+ * leaves) adds 0 whatever the back link: not looked up then, for any
+ * receiver, as the walk allows. */
+static void receiver_beta(const rad_links *x, uint32_t *at, uint32_t r, const bound_source *src, const double rho[3],
+                          int leaf, double out[3])
+{
+    out[0] = out[1] = out[2] = 0;
+    for (uint64_t k = x->first_link[r]; k < x->first_link[r + 1]; k++) {
+        const rad_link *l = &x->links[k];
+        const bound_source *s = &src[l->source];
+        const rad_link *back = NULL;
+        if (s->spread[0] > 0 || s->spread[1] > 0 || s->spread[2] > 0) {
+            const uint64_t j = rad_links_pair_next(x, at, r, k);
+            back = j != UINT64_MAX ? &x->links[j] : NULL;
+        }
+        link_beta(l, back, s, rho, leaf ? 0.0 : l->error, out);
     }
-    return lo < x->first_link[receiver + 1] && x->links[lo].source == source ? &x->links[lo] : NULL;
 }
 
 double ff_links_error_bound(const ff_links *L, const rad_links *x, const double *leaf_radiosity)
@@ -1381,9 +1453,10 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
     double *mean = calloc(3 * ids, sizeof *mean), *lo = malloc(3 * ids * sizeof *lo), *hi = malloc(3 * ids * sizeof *hi);
     double *beta = calloc(3 * ids, sizeof *beta);
     double *own = malloc(3 * (n ? n : 1) * sizeof *own);
+    bound_source *src = malloc((ids ? ids : 1) * sizeof *src);
     uint32_t *leaf_cluster = x->cluster_count ? malloc(x->root_count * sizeof *leaf_cluster) : NULL;
     double bound = INFINITY;
-    if (!mean || !lo || !hi || !beta || !own || (x->cluster_count && !leaf_cluster)) goto done;
+    if (!mean || !lo || !hi || !beta || !own || !src || (x->cluster_count && !leaf_cluster)) goto done;
     /* B's mean, least and largest over each node's leaves (children after parents). */
     for (size_t e = n; e-- > 0;) {
         const rad_link_node *d = &x->nodes[e];
@@ -1420,48 +1493,36 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
         }
         for (int ch = 0; ch < 3; ch++) m[ch] /= k->area;
     }
-    /* each cluster's own links (one thread per cluster, in link order),
-     * then its parent's beta added, parents first */
-#pragma omp parallel for schedule(dynamic, 64)
-    for (size_t c = 0; c < x->cluster_count; c++) {
-        const size_t id = n + c;
-        const double *rho = &L->cluster_rho[3 * c];
-        for (uint64_t k = x->first_link[id]; k < x->first_link[id + 1]; k++) {
-            const rad_link *l = &x->links[k];
-            const rad_link *back = find_link(x, l->source, (uint32_t)id);
-            double rel = back && back->factor > 0 ? fmin(1.0, back->error / back->factor) : 1.0;
-            for (int ch = 0; ch < 3; ch++) {
-                size_t s = l->source;
-                double dB = fmax(hi[3 * s + ch] - mean[3 * s + ch], mean[3 * s + ch] - lo[3 * s + ch]);
-                beta[3 * id + ch] += rho[ch] * (l->error * hi[3 * s + ch] + rel * (l->factor + l->error) * dB);
-            }
+    /* what the links read of a source, side by side: one cache line */
+#pragma omp parallel for schedule(static)
+    for (size_t s = 0; s < ids; s++)
+        for (int c = 0; c < 3; c++) {
+            src[s].hi[c] = hi[3 * s + c];
+            src[s].spread[c] = fmax(hi[3 * s + c] - mean[3 * s + c], mean[3 * s + c] - lo[3 * s + c]);
+        }
+    /* Each node's and cluster's own links, receiver by receiver in link
+     * order (the blocks of rad_links_pairing on the threads); then each
+     * cluster's parent's beta added (parents first), and to each node
+     * what its root's clusters and its ancestors add. A leaf receiver's
+     * F_rs is the sum of its leaves' F over s (the factor adds up over the
+     * source): only the spread of B over s is left. */
+    rad_links_pairing w;
+    if (rad_links_pairing_make(x, 0, &w) != RAD_OK) goto done;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (uint32_t b = 0; b < w.blocks; b++) {
+        uint32_t *at = rad_links_pairing_cursors(&w, b);
+        for (uint32_t r = w.begin[b]; r < w.begin[b + 1]; r++) {
+            if (r < n)
+                receiver_beta(x, at, r, src, L->tree.base->patches[x->nodes[r].root].rho,
+                              x->nodes[r].leaf != RAD_NO_ELEMENT, &own[3 * (size_t)r]);
+            else
+                receiver_beta(x, at, r, src, &L->cluster_rho[3 * ((size_t)r - n)], 0, &beta[3 * (size_t)r]);
         }
     }
+    rad_links_pairing_free(&w);
     for (size_t c = 0; c < x->cluster_count; c++)
         if (x->clusters[c].parent != RAD_NO_ELEMENT)
             for (int ch = 0; ch < 3; ch++) beta[3 * (n + c) + ch] += beta[3 * (n + x->clusters[c].parent) + ch];
-    /* Each node's own links (one thread per node, in link order), then
-     * what its root's clusters and its ancestors add (parents first). */
-#pragma omp parallel for schedule(dynamic, 256)
-    for (size_t r = 0; r < n; r++) {
-        const double *rho = L->tree.base->patches[x->nodes[r].root].rho;
-        double sum[3] = {0, 0, 0};
-        for (uint64_t k = x->first_link[r]; k < x->first_link[r + 1]; k++) {
-            const rad_link *l = &x->links[k];
-            const rad_link *back = find_link(x, l->source, (uint32_t)r);
-            double rel = back && back->factor > 0 ? fmin(1.0, back->error / back->factor) : 1.0;
-            /* A leaf receiver's F_rs is the sum of its leaves' F over s (the
-             * factor adds up over the source): only the spread of B over s
-             * is left; a leaf source has none. */
-            double receiver = x->nodes[r].leaf == RAD_NO_ELEMENT ? l->error : 0.0;
-            for (int c = 0; c < 3; c++) {
-                size_t s = l->source;
-                double dB = fmax(hi[3 * s + c] - mean[3 * s + c], mean[3 * s + c] - lo[3 * s + c]);
-                sum[c] += rho[c] * (receiver * hi[3 * s + c] + rel * (l->factor + l->error) * dB);
-            }
-        }
-        for (int c = 0; c < 3; c++) own[3 * r + c] = sum[c];
-    }
     double q = 0, bmean = 0, area = 0, all_mean = 0, all_area = 0, worst = 0;
     for (size_t r = 0; r < n; r++) {
         const double *rho = L->tree.base->patches[x->nodes[r].root].rho;
@@ -1496,6 +1557,7 @@ done:
     free(hi);
     free(beta);
     free(own);
+    free(src);
     free(leaf_cluster);
     return bound;
 }

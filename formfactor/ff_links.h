@@ -37,6 +37,7 @@
 #include "ff_rank_rounds.h"
 #include "rad_hierarchy.h"
 #include "rad_links.h"
+#include "rad_mem.h"
 #include "rad_mesh.h"
 #include "rad_scene.h"
 #include "rad_status.h"
@@ -185,6 +186,7 @@ typedef struct ff_links {
     float *link_left;      /* the gather oracle only (else NULL): 2 per link, g of F_ab and of F_ba, what
                               solve's shaped solve leaves of them; link_cap pairs of room */
     size_t link_count, link_cap;
+    rad_mem_span link_span, left_span; /* links and link_left: grown in place (rad_mem_grow) */
     ff_links_tally tally;
     uint32_t passes;
 } ff_links;

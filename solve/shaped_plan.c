@@ -216,35 +216,47 @@ static void plan_tree_lists(shaped_plan *p)
     p->tree_first[0] = 0;
 }
 
-/* The links in blocks of this many for plan_pairs. */
-#define PAIR_BLOCK 16384
+/* The first link that has no link back at its source (shaped_pair_link),
+ * for the message: searched only once plan_pairs has found one. */
+static uint64_t first_unpaired(const shaped_plan *p)
+{
+    const rad_links *L = p->L;
+    uint32_t r = 0;
+    for (uint64_t k = 0; k < L->link_count; k++) {
+        while (L->first_link[r + 1] <= k) r++;
+        if (shaped_pair_link(&p->view, k, r) == UINT64_MAX) return k;
+    }
+    return UINT64_MAX;
+}
 
 /* The pair of every link (reverse, link_count): the link at its source
- * back to its receiver (shaped_pair_link), the links in blocks on the
- * threads (rad_links_receiver_of). RAD_ERR_INVALID for one without
- * (the first such link named). */
+ * back to its receiver, by the transpose of rad_links_pairing, its blocks
+ * on the threads. RAD_ERR_INVALID for a link without its pair (the first
+ * such link named), or RAD_ERR_NOMEM (logged). */
 static rad_status plan_pairs(const shaped_plan *p, uint64_t *reverse)
 {
     const rad_links *L = p->L;
-    const uint64_t blocks = (L->link_count + PAIR_BLOCK - 1) / PAIR_BLOCK;
-    uint64_t bad = UINT64_MAX;
-#pragma omp parallel for schedule(dynamic, 4) num_threads(p->threads) reduction(min : bad)
-    for (uint64_t b = 0; b < blocks; b++) {
-        const uint64_t k0 = b * PAIR_BLOCK, k1 = k0 + PAIR_BLOCK < L->link_count ? k0 + PAIR_BLOCK : L->link_count;
-        uint32_t r = rad_links_receiver_of(L, k0);
-        for (uint64_t k = k0; k < k1; k++) {
-            while (L->first_link[r + 1] <= k) r++;
-            reverse[k] = shaped_pair_link(&p->view, k, r);
-            if (reverse[k] == UINT64_MAX) {
-                bad = k < bad ? k : bad;
-                break;
-            }
-        }
+    rad_links_pairing w;
+    if (rad_links_pairing_make(L, p->threads, &w) != RAD_OK) return RAD_ERR_NOMEM;
+    int unpaired = 0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(p->threads) reduction(|| : unpaired)
+    for (uint32_t b = 0; b < w.blocks; b++) {
+        uint32_t *at = rad_links_pairing_cursors(&w, b);
+        for (uint32_t r = w.begin[b]; r < w.begin[b + 1] && !unpaired; r++)
+            for (uint64_t k = L->first_link[r]; k < L->first_link[r + 1]; k++)
+                if ((reverse[k] = rad_links_pair_next(L, at, r, k)) == UINT64_MAX) {
+                    unpaired = 1;
+                    break;
+                }
     }
-    if (bad != UINT64_MAX) {
-        const uint32_t r = rad_links_receiver_of(L, bad);
-        rad_error("links: link %llu (id %u <- %u) has no link back: links come in pairs", (unsigned long long)bad, r,
-                  L->links[bad].source);
+    rad_links_pairing_free(&w);
+    if (unpaired) {
+        const uint64_t bad = first_unpaired(p);
+        if (bad != UINT64_MAX)
+            rad_error("links: link %llu (id %u <- %u) has no link back: links come in pairs", (unsigned long long)bad,
+                      rad_links_receiver_of(L, bad), L->links[bad].source);
+        else
+            rad_error("links: the links do not come in pairs");
         return RAD_ERR_INVALID;
     }
     return RAD_OK;
