@@ -306,25 +306,42 @@ static ff_cluster_bound node_bound(const ff_links *L, uint32_t id)
 static void cluster_values(ff_links *L, const double *lo, const double *hi)
 {
     const ff_cluster_tree *t = &L->clusters;
+    /* each cluster's least and largest B (lo, hi) for its parent: the
+     * values from the children, each root read once (a cluster's roots
+     * again at each level of the tree were most of a pass's serial time
+     * at 10^6 faces); from the roots themselves without the memory */
+    double *range = lo ? malloc(6 * (t->count ? t->count : 1) * sizeof *range) : NULL;
     for (uint32_t c = t->count; c-- > 0;) {
         const rad_link_cluster *l = &t->clusters[c].link;
         double *rho = &L->cluster_rho[3 * (size_t)c], *B = &L->cluster_radiosity[3 * (size_t)c];
         double low[3] = {INFINITY, INFINITY, INFINITY}, high[3] = {-INFINITY, -INFINITY, -INFINITY};
         for (int k = 0; k < 3; k++) rho[k] = B[k] = 0;
-        for (uint32_t i = l->root_begin; i < l->root_end; i++) {
-            uint32_t r = t->roots[i];
-            const double *root_rho = L->tree.base->patches[r].rho, *root_B = &L->radiosity[3 * (size_t)r];
-            for (int k = 0; k < 3; k++) {
-                rho[k] = fmax(rho[k], root_rho[k]);
-                B[k] = fmax(B[k], root_B[k]);
-                if (lo) low[k] = fmin(low[k], lo[3 * (size_t)r + k]), high[k] = fmax(high[k], hi[3 * (size_t)r + k]);
+        if (l->child_count && (range || !lo)) {
+            for (uint32_t j = l->first_child; j < l->first_child + l->child_count; j++)
+                for (int k = 0; k < 3; k++) {
+                    rho[k] = fmax(rho[k], L->cluster_rho[3 * (size_t)j + k]);
+                    B[k] = fmax(B[k], L->cluster_radiosity[3 * (size_t)j + k]);
+                    if (lo) low[k] = fmin(low[k], range[6 * (size_t)j + k]), high[k] = fmax(high[k], range[6 * (size_t)j + 3 + k]);
+                }
+        } else {
+            for (uint32_t i = l->root_begin; i < l->root_end; i++) {
+                uint32_t r = t->roots[i];
+                const double *root_rho = L->tree.base->patches[r].rho, *root_B = &L->radiosity[3 * (size_t)r];
+                for (int k = 0; k < 3; k++) {
+                    rho[k] = fmax(rho[k], root_rho[k]);
+                    B[k] = fmax(B[k], root_B[k]);
+                    if (lo) low[k] = fmin(low[k], lo[3 * (size_t)r + k]), high[k] = fmax(high[k], hi[3 * (size_t)r + k]);
+                }
             }
         }
+        if (range)
+            for (int k = 0; k < 3; k++) range[6 * (size_t)c + k] = low[k], range[6 * (size_t)c + 3 + k] = high[k];
         double d = 0;
         for (int k = 0; lo && k < 3; k++) d = fmax(d, high[k] - low[k]);
         L->cluster_spread[c] = d;
         for (int k = 0; !lo && k < 3; k++) B[k] = fmax(B[k], L->reflected);
     }
+    free(range);
 }
 
 /* ---- the oracle ---- */
@@ -655,7 +672,10 @@ static rad_status backend_round(ff_links *L, const job_list *pairs, const job_li
     if (cpairs->count) {
         L->tally.cluster_seconds += seconds;
         L->tally.cluster_pairs += cpairs->count;
-        for (size_t i = 0; st == RAD_OK && i < cpairs->count; i++) L->tally.cluster_rays += cout[i].rays;
+        uint64_t rays = 0; /* a read of every outcome: gigabytes in a large round, one thread's second */
+#pragma omp parallel for schedule(static) reduction(+ : rays)
+        for (size_t i = 0; i < (st == RAD_OK ? cpairs->count : 0); i++) rays += cout[i].rays;
+        L->tally.cluster_rays += rays;
     }
     return st;
 }
@@ -1475,10 +1495,12 @@ double ff_links_error_bound(const ff_links *L, const rad_links *x, const double 
             mean[3 * e + c] = s / d->area, lo[3 * e + c] = l, hi[3 * e + c] = h;
         }
     }
-    /* Clusters: B over their roots (children after parents), then their
-     * links' beta, each cluster's parent's added (parents first), and each
-     * root's leaf cluster, whose beta it takes before its own links. */
-    for (size_t c = x->cluster_count; c-- > 0;) {
+    /* Clusters: B over their roots (each cluster on its own: on the
+     * threads), then their links' beta, each cluster's parent's added
+     * (parents first), and each root's leaf cluster, whose beta it takes
+     * before its own links. */
+#pragma omp parallel for schedule(dynamic, 64)
+    for (size_t c = 0; c < x->cluster_count; c++) {
         const rad_link_cluster *k = &x->clusters[c];
         double *m = &mean[3 * (n + c)], *l = &lo[3 * (n + c)], *h = &hi[3 * (n + c)];
         for (int ch = 0; ch < 3; ch++) m[ch] = 0, l[ch] = INFINITY, h[ch] = -INFINITY;

@@ -1,5 +1,5 @@
 /* test_mem.c - rad_mem_trim: a reserved array's pages past what a round
- * uses given back, the rest kept.
+ * uses given back, the rest kept; rad_mem_grow: an array grown in place.
  *
  *  - After a trim to `used` bytes, the bytes before `used` and before the
  *    next 2 MiB boundary keep what was written; past that boundary the
@@ -13,6 +13,7 @@
 #include <string.h>
 #if defined(__linux__)
 #include <sys/mman.h>
+#include <sys/resource.h>
 #include <unistd.h>
 #endif
 
@@ -77,8 +78,41 @@ static void test_trim(void)
     rad_mem_release(p, bytes);
 }
 
+/* rad_mem_grow: from nothing, then larger and larger, what was written
+ * kept; in place once reserved (Linux without an address-space limit). */
+static void test_grow(void)
+{
+    rad_mem_span span = {0};
+    unsigned char *p = rad_mem_grow(NULL, 0, 1000, &span);
+    RAD_CHECK(p != NULL && span.bytes >= 1000);
+    if (!p) return;
+    memset(p, 0x11, 1000);
+    size_t used = 1000;
+    unsigned char *first = p;
+    for (size_t need = 3000; need <= 64 * MIB; need *= 4) {
+        unsigned char *q = rad_mem_grow(p, used, need, &span);
+        RAD_CHECK(q != NULL && span.bytes >= need);
+        if (!q) break;
+        RAD_CHECK(all_bytes(q, 1000, 0x11));
+        if (span.reserved) RAD_CHECK(q == first); /* never moved */
+        memset(q + used, 0x22, need - used);
+        RAD_CHECK(all_bytes(q + 1000, need - 1000, 0x22));
+        p = q, used = need;
+    }
+#if defined(__linux__)
+    struct rlimit as;
+    if (getrlimit(RLIMIT_AS, &as) == 0 && as.rlim_cur == RLIM_INFINITY) RAD_CHECK(span.reserved);
+#endif
+    unsigned char *same = rad_mem_grow(p, used, used / 2, &span); /* room enough: p itself */
+    RAD_CHECK(same == p);
+    rad_mem_span_free(p, &span);
+    RAD_CHECK(span.bytes == 0 && span.reserved == 0);
+    rad_mem_span_free(NULL, &span);
+}
+
 int main(void)
 {
     test_trim();
+    test_grow();
     return rad_test_finish();
 }
