@@ -138,21 +138,27 @@ static void plan_trees(shaped_plan *p, const double *B, double *node_B, double *
     const rad_links *L = p->L;
     const uint32_t n = L->node_count;
     double *hi = lo + 3 * (size_t)n;
+    /* the leaves first, on the threads (each reads its patch: a cache miss) */
+#pragma omp parallel for schedule(static) num_threads(p->threads)
+    for (uint32_t i = 0; i < n; i++) {
+        const rad_link_node *e = &L->nodes[i];
+        if (e->first_child != RAD_NO_ELEMENT) continue;
+        const rad_patch *patch = &p->leaves->patches[e->leaf];
+        double *b = &node_B[3 * (size_t)i], *bl = &lo[3 * (size_t)i], *bh = &hi[3 * (size_t)i];
+        p->count[i] = 1;
+        p->leaf_area[i] = e->area;
+        for (int c = 0; c < 3; c++) {
+            b[c] = bl[c] = bh[c] = B[3 * (size_t)e->leaf + c];
+            p->rho[3 * (size_t)i + c] = patch->rho[c];
+            p->E[3 * (size_t)i + c] = patch->emission[c];
+        }
+        spread[i] = 0;
+    }
+    /* then the split nodes from their children (after their parents) */
     for (uint32_t i = n; i-- > 0;) {
         const rad_link_node *e = &L->nodes[i];
-        double *b = &node_B[3 * (size_t)i], *bl = &lo[3 * (size_t)i], *bh = &hi[3 * (size_t)i];
-        if (e->first_child == RAD_NO_ELEMENT) {
-            const rad_patch *patch = &p->leaves->patches[e->leaf];
-            p->count[i] = 1;
-            p->leaf_area[i] = e->area;
-            for (int c = 0; c < 3; c++) {
-                b[c] = bl[c] = bh[c] = B[3 * (size_t)e->leaf + c];
-                p->rho[3 * (size_t)i + c] = patch->rho[c];
-                p->E[3 * (size_t)i + c] = patch->emission[c];
-            }
-            spread[i] = 0;
-            continue;
-        }
+        if (e->first_child == RAD_NO_ELEMENT) continue;
+        double *bl = &lo[3 * (size_t)i], *bh = &hi[3 * (size_t)i];
         const uint32_t f = e->first_child;
         p->count[i] = 0;
         p->leaf_area[i] = 0;
@@ -190,6 +196,7 @@ static void plan_trees(shaped_plan *p, const double *B, double *node_B, double *
         }
     }
     shaped_plan_pull_clusters(p, node_B);
+#pragma omp parallel for schedule(static) num_threads(p->threads)
     for (uint32_t q = 0; q < L->leaf_count; q++) {
         const uint32_t x = p->leaf_nodes[q];
         const rad_patch *patch = &p->leaves->patches[L->nodes[x].leaf];
