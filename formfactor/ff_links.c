@@ -880,7 +880,7 @@ static rad_status link_reserve(ff_links *L, size_t more)
     L->links = links;
     if (st == RAD_OK && L->config.oracle == FF_ORACLE_GATHER) {
         void *left;
-        size_t cap = L->left_span.bytes / (2 * sizeof *L->link_left);
+        size_t cap = L->left_span.bytes / sizeof *L->link_left; /* floats, 2 a link */
         st = grow(L->link_left, &L->left_span, &cap, 2 * L->link_count, 2 * (L->link_count + more),
                   sizeof *L->link_left, "links' g", &left);
         L->link_left = left;
