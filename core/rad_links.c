@@ -168,6 +168,11 @@ static const char *links_fault(const rad_links *links, uint32_t r, uint64_t *out
     return NULL;
 }
 
+/* Fewer links a block than this are paired in one block: the cursors'
+ * set-up (a pass over every source's links per block) would cost more
+ * than the threads save. */
+#define PAIR_BLOCK_MIN_LINKS 4096
+
 rad_status rad_links_pairing_make(const rad_links *L, int threads, rad_links_pairing *w)
 {
     memset(w, 0, sizeof *w);
@@ -177,7 +182,7 @@ rad_status rad_links_pairing_make(const rad_links *L, int threads, rad_links_pai
 #endif
     uint32_t blocks = threads > 1 ? (uint32_t)threads : 1;
     if (blocks > RAD_LINKS_PAIR_BLOCKS) blocks = RAD_LINKS_PAIR_BLOCKS;
-    if (L->link_count < (uint64_t)blocks * 4096) blocks = 1;
+    if (L->link_count < (uint64_t)blocks * PAIR_BLOCK_MIN_LINKS) blocks = 1;
     w->blocks = blocks;
     w->ids = ids;
     for (uint32_t b = 1; b < blocks; b++) w->begin[b] = rad_links_receiver_of(L, L->link_count / blocks * b);

@@ -1309,9 +1309,15 @@ static void sort_links(rad_link *x, size_t n, int depth)
  * went at one cache miss each (most of the export at 10^6 triangles). */
 #define EXPORT_GROUP 32
 
+/* The end of the group of pairs from `from`. */
+static size_t export_group_end(const ff_links *L, size_t from)
+{
+    return from + EXPORT_GROUP < L->link_count ? from + EXPORT_GROUP : L->link_count;
+}
+
 static void export_prefetch(const ff_links *L, uint64_t *counts, uint32_t n, size_t from, int areas)
 {
-    const size_t to = from + EXPORT_GROUP < L->link_count ? from + EXPORT_GROUP : L->link_count;
+    const size_t to = export_group_end(L, from);
     for (size_t k = from; k < to; k++) {
         const uint32_t ids[2] = {L->links[k].a, L->links[k].b};
         for (int i = 0; i < 2; i++) {
@@ -1375,7 +1381,7 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     const size_t groups = (L->link_count + EXPORT_GROUP - 1) / EXPORT_GROUP;
 #pragma omp parallel for schedule(static)
     for (size_t g = 0; g < groups; g++) {
-        const size_t k0 = g * EXPORT_GROUP, k1 = k0 + EXPORT_GROUP < L->link_count ? k0 + EXPORT_GROUP : L->link_count;
+        const size_t k0 = g * EXPORT_GROUP, k1 = export_group_end(L, k0);
         export_prefetch(L, out->first_link + 1, (uint32_t)n, k1, 0);
         for (size_t k = k0; k < k1; k++) {
             const uint32_t a = EXPORT_ID(L->links[k].a) + 1, b = EXPORT_ID(L->links[k].b) + 1;
@@ -1396,7 +1402,7 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     memcpy(fill, out->first_link, ids * sizeof *fill);
 #pragma omp parallel for schedule(static)
     for (size_t g = 0; g < groups; g++) {
-        const size_t k0 = g * EXPORT_GROUP, k1 = k0 + EXPORT_GROUP < L->link_count ? k0 + EXPORT_GROUP : L->link_count;
+        const size_t k0 = g * EXPORT_GROUP, k1 = export_group_end(L, k0);
         uint64_t at[EXPORT_GROUP][2];
         export_prefetch(L, fill, (uint32_t)n, k1, 1);
         for (size_t k = k0; k < k1; k++) { /* the places, each line asked for before its store */
@@ -1436,21 +1442,12 @@ typedef struct bound_source {
     double hi[3], spread[3];
 } bound_source;
 
-/* One link's share of its receiver's beta (ch: the channel): the receiver
- * term (0 at a leaf receiver), and the source's spread times the link's
- * factor and error, scaled by the back link's relative error (1 without
- * one). */
-static void link_beta(const rad_link *l, const rad_link *back, const bound_source *s, const double rho[3],
-                      double receiver_error, double out[3])
-{
-    const double rel = back && back->factor > 0 ? fmin(1.0, back->error / back->factor) : 1.0;
-    for (int c = 0; c < 3; c++) out[c] += rho[c] * (receiver_error * s->hi[c] + rel * (l->factor + l->error) * s->spread[c]);
-}
-
 /* Receiver r's links' beta (rad_links_pairing's walk of a block: `at`
- * its cursors). A source without spread (a leaf, or B even over its
- * leaves) adds 0 whatever the back link: not looked up then, for any
- * receiver, as the walk allows. */
+ * its cursors): for each link the receiver term (0 at a leaf receiver),
+ * and the source's spread times the link's factor and error, scaled by
+ * the back link's relative error (1 without one). A source without
+ * spread (a leaf, or B even over its leaves) adds 0 whatever the back
+ * link: not looked up then, for any receiver, as the walk allows. */
 static void receiver_beta(const rad_links *x, uint32_t *at, uint32_t r, const bound_source *src, const double rho[3],
                           int leaf, double out[3])
 {
@@ -1458,12 +1455,14 @@ static void receiver_beta(const rad_links *x, uint32_t *at, uint32_t r, const bo
     for (uint64_t k = x->first_link[r]; k < x->first_link[r + 1]; k++) {
         const rad_link *l = &x->links[k];
         const bound_source *s = &src[l->source];
-        const rad_link *back = NULL;
+        double rel = 1.0;
         if (s->spread[0] > 0 || s->spread[1] > 0 || s->spread[2] > 0) {
             const uint64_t j = rad_links_pair_next(x, at, r, k);
-            back = j != UINT64_MAX ? &x->links[j] : NULL;
+            if (j != UINT64_MAX && x->links[j].factor > 0) rel = fmin(1.0, x->links[j].error / x->links[j].factor);
         }
-        link_beta(l, back, s, rho, leaf ? 0.0 : l->error, out);
+        const double receiver_error = leaf ? 0.0 : l->error;
+        for (int c = 0; c < 3; c++)
+            out[c] += rho[c] * (receiver_error * s->hi[c] + rel * (l->factor + l->error) * s->spread[c]);
     }
 }
 
