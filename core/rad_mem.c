@@ -5,6 +5,9 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 #if defined(__unix__)
 #include <sys/mman.h>
 #include <unistd.h>
@@ -123,6 +126,31 @@ void rad_mem_trim(void *p, size_t used, size_t bytes)
     (void)used;
     (void)bytes;
 #endif
+}
+
+#define COPY_SLICE_MIN ((size_t)1 << 20) /* bytes a thread: below it, fewer threads */
+#define COPY_THREADS_MAX 8               /* the memory's bandwidth is reached by about as many */
+
+void rad_mem_copy(void *dst, const void *src, size_t bytes, int threads)
+{
+    size_t slices = bytes / COPY_SLICE_MIN;
+#ifdef _OPENMP
+    if (threads <= 0) threads = omp_get_max_threads() < COPY_THREADS_MAX ? omp_get_max_threads() : COPY_THREADS_MAX;
+#else
+    threads = 1;
+#endif
+    if (slices > (size_t)threads) slices = (size_t)threads;
+    if (slices <= 1) {
+        memcpy(dst, src, bytes);
+        return;
+    }
+    const size_t line = 64, share = (bytes / slices + line - 1) / line * line;
+#pragma omp parallel for num_threads((int)slices) schedule(static, 1)
+    for (size_t k = 0; k < slices; k++) {
+        const size_t at = k * share < bytes ? k * share : bytes;
+        const size_t n = bytes - at < share ? bytes - at : share;
+        memcpy((char *)dst + at, (const char *)src + at, n);
+    }
 }
 
 double rad_mem_peak_bytes(void)

@@ -65,6 +65,14 @@ void rad_mem_span_free(void *p, rad_mem_span *span); /* NULL is fine; zeroes spa
  * round (a fault and a page cleared for each) - and no more. */
 void rad_mem_trim(void *p, size_t used, size_t bytes);
 
+/* memcpy(dst, src, bytes) on up to `threads` OpenMP threads (0: up to
+ * 8 of the team's), in slices of whole cache lines; one thread below a
+ * few MiB. One thread copies at a fraction of what the memory moves: a
+ * page-locked staging buffer emptied into pageable memory ran at 30 GB/s
+ * on 8 threads of an H200 host against 13 GB/s for the driver's own
+ * copy. Callable from any thread, OpenMP's or not. */
+void rad_mem_copy(void *dst, const void *src, size_t bytes, int threads);
+
 /* The process's resident high-water mark so far, in bytes (getrusage's
  * ru_maxrss); 0 where the system does not say. Taken after each phase,
  * it shows which phase set the peak (--stats' "peak_bytes"). */

@@ -34,6 +34,7 @@ extern "C" {
 }
 #include "ff_cuda_records.h"
 #include "rad_cuda_check.h"
+#include "rad_cuda_stage.h"
 
 /* The tracer the shared per-pair procedure calls: the flat BVH, and the
  * calling thread's occluder cache (last: ff_bvh_occluded_cached; set by
@@ -234,7 +235,47 @@ struct cuda_state {
      * waited for the other's work, and its copies ran with the GPU idle). */
     cudaStream_t pair_stream, cluster_stream;
     cudaEvent_t pair_start, pair_stop;
+    /* The two streams' buffers (round_alloc), from a pool of this state's
+     * own where the device has memory pools, else NULL (cudaMalloc). */
+    cudaMemPool_t pool;
+    rad_cuda_stage pair_stage, cluster_stage; /* the two streams' copies of outcomes and jobs */
 };
+
+/* A buffer the pairs' or the clusters' calls grow, on their stream:
+ * stream-ordered from s->pool, so that growing one stream's buffers does
+ * not wait for the other stream's kernels (cudaFree waits for the whole
+ * device: each growth of the element pairs' buffers waited for the
+ * cluster draws under way), else cudaMalloc. */
+static cudaError_t round_alloc(const cuda_state *s, void **p, size_t bytes, cudaStream_t stream)
+{
+    return s->pool ? cudaMallocFromPoolAsync(p, bytes, s->pool, stream) : cudaMalloc(p, bytes);
+}
+
+/* round_alloc's buffer freed after `stream`'s work so far; NULL is none. */
+static void round_free(const cuda_state *s, void *p, cudaStream_t stream)
+{
+    if (!p) return;
+    if (s->pool)
+        cudaFreeAsync(p, stream);
+    else
+        cudaFree(p);
+}
+
+/* s->pool, where the device has memory pools: freed memory stays in it
+ * for the next growth (until cuda_trim gives it back). */
+static cudaError_t round_pool_create(cuda_state *s)
+{
+    int pools = 0;
+    cudaError_t err = cudaDeviceGetAttribute(&pools, cudaDevAttrMemoryPoolsSupported, s->device);
+    if (err != cudaSuccess || !pools) return cudaSuccess;
+    cudaMemPoolProps props = {};
+    props.allocType = cudaMemAllocationTypePinned;
+    props.location.type = cudaMemLocationTypeDevice;
+    props.location.id = s->device;
+    if ((err = cudaMemPoolCreate(&s->pool, &props)) != cudaSuccess) return err;
+    uint64_t keep = UINT64_MAX;
+    return cudaMemPoolSetAttribute(s->pool, cudaMemPoolAttrReleaseThreshold, &keep);
+}
 
 /* Pass 1: thread per pair, the classification (ff_pair_class.h) the CPU
  * backend makes; zeros for pairs that are not computed; computed pairs
@@ -533,17 +574,22 @@ static void cuda_destroy(void *state)
     cudaFree(s->d_ray_pairs);
     cudaFree(s->d_counters);
     cudaFree(s->d_area);
-    cudaFree(s->elements.patches);
-    cudaFree(s->elements.keys);
-    cudaFree(s->d_jobs);
-    cudaFree(s->d_outcomes);
-    cudaFree(s->d_job_list);
     cudaFree(s->d_clusters);
     cudaFree(s->d_roots);
     cudaFree(s->d_area_before);
-    cudaFree(s->cluster_elements.patches);
-    cudaFree(s->d_cluster_jobs);
-    cudaFree(s->d_drawn);
+    round_free(s, s->elements.patches, s->pair_stream);
+    round_free(s, s->elements.keys, s->pair_stream);
+    round_free(s, s->d_jobs, s->pair_stream);
+    round_free(s, s->d_outcomes, s->pair_stream);
+    round_free(s, s->d_job_list, s->pair_stream);
+    round_free(s, s->cluster_elements.patches, s->cluster_stream);
+    round_free(s, s->d_cluster_jobs, s->cluster_stream);
+    round_free(s, s->d_drawn, s->cluster_stream);
+    if (s->pair_stream) cudaStreamSynchronize(s->pair_stream);
+    if (s->cluster_stream) cudaStreamSynchronize(s->cluster_stream);
+    rad_cuda_stage_free(&s->pair_stage);
+    rad_cuda_stage_free(&s->cluster_stage);
+    if (s->pool) cudaMemPoolDestroy(s->pool);
     if (s->pair_stream) cudaStreamDestroy(s->pair_stream);
     if (s->cluster_stream) cudaStreamDestroy(s->cluster_stream);
     if (s->pair_start) cudaEventDestroy(s->pair_start);
@@ -568,10 +614,18 @@ static void cuda_trim(void *state)
     s->d_errors = NULL, s->errors_capacity = 0;
     cudaFree(s->d_ray_pairs);
     s->d_ray_pairs = NULL, s->ray_capacity = 0;
-    cudaFree(s->d_jobs), cudaFree(s->d_outcomes), cudaFree(s->d_job_list);
+    round_free(s, s->d_jobs, s->pair_stream), round_free(s, s->d_outcomes, s->pair_stream);
+    round_free(s, s->d_job_list, s->pair_stream);
     s->d_jobs = NULL, s->d_outcomes = NULL, s->d_job_list = NULL, s->job_capacity = 0;
-    cudaFree(s->d_cluster_jobs), cudaFree(s->d_drawn);
+    round_free(s, s->d_cluster_jobs, s->cluster_stream), round_free(s, s->d_drawn, s->cluster_stream);
     s->d_cluster_jobs = NULL, s->d_drawn = NULL, s->cluster_job_capacity = 0;
+    if (s->pool) { /* the memory back to the device, for what runs next (the links' solve) */
+        cudaStreamSynchronize(s->pair_stream);
+        cudaStreamSynchronize(s->cluster_stream);
+        cudaMemPoolTrimTo(s->pool, 0);
+    }
+    rad_cuda_stage_free(&s->pair_stage); /* and the page-locked buffers to the host */
+    rad_cuda_stage_free(&s->cluster_stage);
 }
 
 static rad_status cuda_create(const ff_setup *setup, void **out_state)
@@ -624,6 +678,7 @@ static rad_status cuda_create(const ff_setup *setup, void **out_state)
     RAD_CUDA_TRY(cudaEventCreate(&s->pair_stop));
     RAD_CUDA_TRY(cudaStreamCreateWithFlags(&s->pair_stream, cudaStreamNonBlocking));
     RAD_CUDA_TRY(cudaStreamCreateWithFlags(&s->cluster_stream, cudaStreamNonBlocking));
+    RAD_CUDA_TRY(round_pool_create(s));
     { /* Load the kernels now (CUDA loads modules lazily, at a kernel's
        * first launch), so that setup, not the kernels' time, pays for it. */
         cudaFuncAttributes attributes;
@@ -884,34 +939,34 @@ static rad_status cuda_compute_records(void *state, uint32_t row_begin, uint32_t
 /* Elements [0, count) and their keys on the device: the buffers grown
  * (keeping what is there), the elements past those uploaded copied, on
  * `stream` (the copies done when it returns). */
-static rad_status upload_elements(cuda_elements *e, const rad_ff_patch *patches, const uint32_t *keys, size_t count,
-                                  cudaStream_t stream)
+static rad_status upload_elements(const cuda_state *s, cuda_elements *e, const rad_ff_patch *patches,
+                                  const uint32_t *keys, size_t count, cudaStream_t stream)
 {
     rad_status status = RAD_OK;
     if (count > e->capacity) {
         size_t cap = e->capacity ? 2 * e->capacity : 4096;
         while (cap < count) cap *= 2;
-        rad_ff_patch *elements = NULL;
-        uint32_t *element_keys = NULL;
-        cudaError_t err = cudaMalloc(&elements, cap * sizeof *elements);
-        if (err == cudaSuccess && keys) err = cudaMalloc(&element_keys, cap * sizeof *element_keys);
+        void *elements = NULL, *element_keys = NULL;
+        cudaError_t err = round_alloc(s, &elements, cap * sizeof *patches, stream);
+        if (err == cudaSuccess && keys) err = round_alloc(s, &element_keys, cap * sizeof *keys, stream);
         if (err == cudaSuccess && e->uploaded) {
-            err = cudaMemcpyAsync(elements, e->patches, e->uploaded * sizeof *elements, cudaMemcpyDeviceToDevice,
+            err = cudaMemcpyAsync(elements, e->patches, e->uploaded * sizeof *patches, cudaMemcpyDeviceToDevice,
                                   stream);
             if (err == cudaSuccess && keys)
-                err = cudaMemcpyAsync(element_keys, e->keys, e->uploaded * sizeof *element_keys,
-                                      cudaMemcpyDeviceToDevice, stream);
-            if (err == cudaSuccess) err = cudaStreamSynchronize(stream); /* before the old copies go */
+                err = cudaMemcpyAsync(element_keys, e->keys, e->uploaded * sizeof *keys, cudaMemcpyDeviceToDevice,
+                                      stream);
+            /* before the old copies go (a pool's free follows the copies on the stream) */
+            if (err == cudaSuccess && !s->pool) err = cudaStreamSynchronize(stream);
         }
         if (err != cudaSuccess) {
-            cudaFree(elements);
-            cudaFree(element_keys);
+            round_free(s, elements, stream);
+            round_free(s, element_keys, stream);
         }
         RAD_CUDA_TRY(err);
-        cudaFree(e->patches);
-        cudaFree(e->keys);
-        e->patches = elements;
-        e->keys = element_keys;
+        round_free(s, e->patches, stream);
+        round_free(s, e->keys, stream);
+        e->patches = (rad_ff_patch *)elements;
+        e->keys = (uint32_t *)element_keys;
         e->capacity = cap;
     }
     if (count > e->uploaded) {
@@ -957,22 +1012,23 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
         const size_t top = (jobs[k].a > jobs[k].b ? jobs[k].a : jobs[k].b) + (size_t)1;
         if (top > elements) elements = top;
     }
-    if ((status = upload_elements(&s->elements, patches, keys, elements, st)) != RAD_OK) return status;
+    if ((status = upload_elements(s, &s->elements, patches, keys, elements, st)) != RAD_OK) return status;
     if (count > s->job_capacity) {
-        cudaFree(s->d_jobs);
-        cudaFree(s->d_outcomes);
-        cudaFree(s->d_job_list);
+        round_free(s, s->d_jobs, st);
+        round_free(s, s->d_outcomes, st);
+        round_free(s, s->d_job_list, st);
         s->d_jobs = NULL;
         s->d_outcomes = NULL;
         s->d_job_list = NULL;
         s->job_capacity = 0;
         size_t cap = count < 65536 ? 65536 : count + count / 4;
-        RAD_CUDA_TRY(cudaMalloc(&s->d_jobs, cap * sizeof *s->d_jobs));
-        RAD_CUDA_TRY(cudaMalloc(&s->d_outcomes, cap * sizeof *s->d_outcomes));
-        RAD_CUDA_TRY(cudaMalloc(&s->d_job_list, cap * sizeof *s->d_job_list));
+        RAD_CUDA_TRY(round_alloc(s, (void **)&s->d_jobs, cap * sizeof *s->d_jobs, st));
+        RAD_CUDA_TRY(round_alloc(s, (void **)&s->d_outcomes, cap * sizeof *s->d_outcomes, st));
+        RAD_CUDA_TRY(round_alloc(s, (void **)&s->d_job_list, cap * sizeof *s->d_job_list, st));
         s->job_capacity = cap;
     }
-    RAD_CUDA_TRY(cudaMemcpyAsync(s->d_jobs, jobs, count * sizeof *jobs, cudaMemcpyHostToDevice, st));
+    if ((status = rad_cuda_stage_up(&s->pair_stage, s->d_jobs, jobs, count * sizeof *jobs, st)) != RAD_OK)
+        return status;
     RAD_CUDA_TRY(cudaMemsetAsync(s->d_counters, 0, sizeof(unsigned long long) * C_COUNT, st));
     RAD_CUDA_TRY(cudaMemsetAsync(s->d_pair_counts, 0, L_COUNT * sizeof(uint32_t), st));
     p.patches = s->elements.patches;
@@ -1018,9 +1074,9 @@ static rad_status cuda_compute_pairs(void *state, const rad_ff_patch *patches, c
     RAD_CUDA_TRY(cudaEventSynchronize(s->pair_stop)); /* execution errors surface here */
     RAD_CUDA_TRY(cudaEventElapsedTime(&kernel_ms, s->pair_start, s->pair_stop));
     t_mem = rad_clock_seconds();
-    RAD_CUDA_TRY(cudaMemcpyAsync(out, s->d_outcomes, count * sizeof *out, cudaMemcpyDeviceToHost, st));
     RAD_CUDA_TRY(cudaMemcpyAsync(counts, s->d_counters, sizeof counts, cudaMemcpyDeviceToHost, st));
-    RAD_CUDA_TRY(cudaStreamSynchronize(st));
+    if ((status = rad_cuda_stage_down(&s->pair_stage, out, s->d_outcomes, count * sizeof *out, st)) != RAD_OK)
+        return status;
     counters->memory_seconds += rad_clock_seconds() - t_mem;
     call = cuda_counters(counts, pair_counts, count);
     {
@@ -1071,20 +1127,21 @@ static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, cons
                                      cudaMemcpyHostToDevice, st));
         s->clusters_uploaded = 1;
     }
-    if ((status = upload_elements(&s->cluster_elements, v->patches, NULL, v->element_count, st)) != RAD_OK)
+    if ((status = upload_elements(s, &s->cluster_elements, v->patches, NULL, v->element_count, st)) != RAD_OK)
         return status;
     if (count > s->cluster_job_capacity) {
-        cudaFree(s->d_cluster_jobs);
-        cudaFree(s->d_drawn);
+        round_free(s, s->d_cluster_jobs, st);
+        round_free(s, s->d_drawn, st);
         s->d_cluster_jobs = NULL;
         s->d_drawn = NULL;
         s->cluster_job_capacity = 0;
         size_t cap = count < 65536 ? 65536 : count + count / 4;
-        RAD_CUDA_TRY(cudaMalloc(&s->d_cluster_jobs, cap * sizeof *s->d_cluster_jobs));
-        RAD_CUDA_TRY(cudaMalloc(&s->d_drawn, cap * sizeof *s->d_drawn));
+        RAD_CUDA_TRY(round_alloc(s, (void **)&s->d_cluster_jobs, cap * sizeof *s->d_cluster_jobs, st));
+        RAD_CUDA_TRY(round_alloc(s, (void **)&s->d_drawn, cap * sizeof *s->d_drawn, st));
         s->cluster_job_capacity = cap;
     }
-    RAD_CUDA_TRY(cudaMemcpyAsync(s->d_cluster_jobs, jobs, count * sizeof *jobs, cudaMemcpyHostToDevice, st));
+    if ((status = rad_cuda_stage_up(&s->cluster_stage, s->d_cluster_jobs, jobs, count * sizeof *jobs, st)) != RAD_OK)
+        return status;
     dv = *v;
     dv.clusters = s->d_clusters;
     dv.roots = s->d_roots;
@@ -1099,8 +1156,7 @@ static rad_status cuda_cluster_draws(void *state, const ff_cluster_view *v, cons
     ff_cluster_draws_kernel<<<(unsigned)((count + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK), FF_CUDA_BLOCK, 0, st>>>(
         dv, t, s->d_cluster_jobs, (uint32_t)count, s->d_drawn);
     RAD_CUDA_TRY(cudaGetLastError());
-    RAD_CUDA_TRY(cudaMemcpyAsync(out, s->d_drawn, count * sizeof *out, cudaMemcpyDeviceToHost, st));
-    RAD_CUDA_TRY(cudaStreamSynchronize(st)); /* execution errors surface here */
+    status = rad_cuda_stage_down(&s->cluster_stage, out, s->d_drawn, count * sizeof *out, st); /* errors surface here */
 done:
     return status;
 }

@@ -30,6 +30,7 @@ extern "C" {
 #include "shaped_gpu.h"
 }
 #include "rad_cuda_check.h"
+#include "rad_cuda_stage.h"
 
 /* Threads per block of the item kernels (a power of two: the block
  * reduction halves it). */
@@ -58,6 +59,7 @@ struct cuda_state {
     double *partial;               /* leaf blocks * 3: each block's maxima */
     double *change;                /* 3 */
     int dropped;                   /* drop ran */
+    rad_cuda_stage stage;          /* the plan's arrays up, B and H back (the legacy stream) */
 };
 
 /* Blocks of `per` threads for `items` items. */
@@ -203,7 +205,7 @@ static rad_status device_alloc(cuda_state *s, void **out, const void *src, size_
     }
     RAD_CUDA_TRY(cudaMalloc(&p, bytes ? bytes : 1));
     s->owned[s->owned_count++] = p;
-    if (src && bytes) RAD_CUDA_TRY(cudaMemcpy(p, src, bytes, cudaMemcpyHostToDevice));
+    if (src && bytes && (status = rad_cuda_stage_up(&s->stage, p, src, bytes, 0)) != RAD_OK) return status;
     *out = p;
 done:
     return status;
@@ -232,6 +234,7 @@ static void cuda_destroy(void *state)
     cuda_state *s = (cuda_state *)state;
     if (!s) return;
     cudaSetDevice(s->device); /* the arrays' device; nothing to report from a teardown */
+    rad_cuda_stage_free(&s->stage);
     for (int k = 0; k < s->owned_count; k++) cudaFree(s->owned[k]);
     free(s->depth_first);
     free(s);
@@ -355,7 +358,7 @@ static rad_status cuda_factors(void *state, double *inv_mean)
         RAD_CUDA_TRY(cudaGetLastError());
     }
     /* waits for the kernels; a fault in one of them is reported here */
-    RAD_CUDA_TRY(cudaMemcpy(inv_mean, s->inv_mean, ends * sizeof(double), cudaMemcpyDeviceToHost));
+    status = rad_cuda_stage_down(&s->stage, inv_mean, s->inv_mean, ends * sizeof(double), 0);
 done:
     return status;
 }
@@ -468,12 +471,9 @@ done:
 static rad_status cuda_store(void *state, double *B, double *H)
 {
     cuda_state *s = (cuda_state *)state;
-    rad_status status = RAD_OK;
     const size_t bytes = 3 * s->plan.view.id_count * sizeof(double);
-    RAD_CUDA_TRY(cudaMemcpy(B, s->B, bytes, cudaMemcpyDeviceToHost));
-    RAD_CUDA_TRY(cudaMemcpy(H, s->H, bytes, cudaMemcpyDeviceToHost));
-done:
-    return status;
+    rad_status status = rad_cuda_stage_down(&s->stage, B, s->B, bytes, 0);
+    return status == RAD_OK ? rad_cuda_stage_down(&s->stage, H, s->H, bytes, 0) : status;
 }
 
 static const char *cuda_device_name(void *state) { return ((cuda_state *)state)->name; }

@@ -6,7 +6,10 @@
  *    pages are no longer resident (mincore) and read zeros.
  *  - The array stays usable: written again past the trim, it holds what
  *    was written.
- *  - A trim to the whole size, or of NULL, changes nothing. */
+ *  - A trim to the whole size, or of NULL, changes nothing.
+ * rad_mem_copy: every byte copied and none past the end, for sizes that
+ * do not divide by the threads or by a cache line, on 0 (the default) to
+ * 16 threads, from unaligned addresses. */
 #define _DEFAULT_SOURCE /* mincore */
 #include <stdint.h>
 #include <stdlib.h>
@@ -110,9 +113,33 @@ static void test_grow(void)
     rad_mem_span_free(NULL, &span);
 }
 
+static void test_copy(void)
+{
+    const size_t most = 9 * MIB + 77;
+    unsigned char *src = malloc(most + 3), *dst = malloc(most + 3);
+    RAD_CHECK(src && dst);
+    if (!src || !dst) {
+        free(src), free(dst);
+        return;
+    }
+    for (size_t k = 0; k < most + 3; k++) src[k] = (unsigned char)(k * 131 + (k >> 11));
+    const size_t sizes[] = {0, 1, 63, 65, MIB - 1, 2 * MIB + 5, 8 * MIB, most};
+    const int threads[] = {0, 1, 2, 3, 7, 16};
+    for (size_t i = 0; i < sizeof sizes / sizeof *sizes; i++)
+        for (size_t t = 0; t < sizeof threads / sizeof *threads; t++) {
+            const size_t n = sizes[i];
+            memset(dst, 0xEE, most + 3);
+            rad_mem_copy(dst + 1, src + 2, n, threads[t]);
+            RAD_CHECK(dst[0] == 0xEE && memcmp(dst + 1, src + 2, n) == 0 && dst[n + 1] == 0xEE);
+        }
+    free(src);
+    free(dst);
+}
+
 int main(void)
 {
     test_trim();
     test_grow();
+    test_copy();
     return rad_test_finish();
 }
