@@ -1,10 +1,12 @@
 /* rad_hierarchy.c - element quadtrees over a mesh (rad_hierarchy.h). */
 #include "rad_hierarchy.h"
 
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "rad_log.h"
+#include "rad_mem.h"
 #include "rad_polygon.h"
 
 static rad_vec3 position(const rad_hierarchy *h, uint32_t v)
@@ -189,25 +191,39 @@ rad_status rad_hierarchy_split_to(rad_hierarchy *h, uint32_t root, uint32_t dept
     return status;
 }
 
-/* Appends the leaves of `element`'s subtree, depth first. */
-static void collect_leaves(const rad_hierarchy *h, uint32_t element, rad_mesh *out)
+/* The leaves of `element`'s subtree, depth first, into out (NULL: only
+ * counted); their number. */
+static size_t subtree_leaves(const rad_hierarchy *h, uint32_t element, uint32_t *out)
 {
-    const rad_element *e = &h->elements[element];
-    if (e->first_child != RAD_NO_ELEMENT) {
-        for (uint32_t i = 0; i < 4; i++) collect_leaves(h, e->first_child + i, out);
-        return;
+    const uint32_t first = h->elements[element].first_child;
+    if (first == RAD_NO_ELEMENT) {
+        if (out) *out = element;
+        return 1;
     }
-    const rad_patch *root = &h->base->patches[e->root];
-    rad_patch *p = &out->patches[out->patch_count];
-    memset(p, 0, sizeof *p);
-    p->vertex_count = e->vertex_count;
-    memcpy(p->v, e->v, sizeof p->v);
-    p->source_face = root->source_face;
-    p->area = e->area, p->normal = e->normal, p->centroid = e->centroid;
-    memcpy(p->rho, root->rho, sizeof p->rho);
-    memcpy(p->emission, root->emission, sizeof p->emission);
-    if (out->patch_group) out->patch_group[out->patch_count] = h->base->patch_group[e->root];
-    out->patch_count++;
+    size_t n = 0;
+    for (uint32_t i = 0; i < 4; i++) n += subtree_leaves(h, first + i, out ? out + n : NULL);
+    return n;
+}
+
+uint32_t *rad_hierarchy_leaf_elements(const rad_hierarchy *h)
+{
+    const size_t roots = h->base->patch_count;
+    uint32_t *order = rad_mem_alloc((h->leaf_count ? h->leaf_count : 1) * sizeof *order);
+    size_t *at = malloc((roots + 1) * sizeof *at);
+    if (!order || !at) {
+        free(order);
+        free(at);
+        rad_error("hierarchy: out of memory for %zu leaves", h->leaf_count);
+        return NULL;
+    }
+    at[0] = 0;
+#pragma omp parallel for schedule(dynamic, 1024)
+    for (size_t r = 0; r < roots; r++) at[r + 1] = subtree_leaves(h, (uint32_t)r, NULL);
+    for (size_t r = 0; r < roots; r++) at[r + 1] += at[r];
+#pragma omp parallel for schedule(dynamic, 1024)
+    for (size_t r = 0; r < roots; r++) subtree_leaves(h, (uint32_t)r, order + at[r]);
+    free(at);
+    return order;
 }
 
 rad_status rad_hierarchy_leaves(const rad_hierarchy *h, rad_mesh *out)
@@ -217,16 +233,18 @@ rad_status rad_hierarchy_leaves(const rad_hierarchy *h, rad_mesh *out)
     memset(out, 0, sizeof *out);
     const rad_mesh *base = h->base;
     size_t leaves = h->leaf_count ? h->leaf_count : 1;
-    m.positions = malloc((h->vertex_count ? h->vertex_count : 1) * 3 * sizeof *m.positions);
-    m.patches = malloc(leaves * sizeof *m.patches);
+    m.positions = rad_mem_alloc((h->vertex_count ? h->vertex_count : 1) * 3 * sizeof *m.positions);
+    m.patches = rad_mem_alloc(leaves * sizeof *m.patches);
+    uint32_t *order = rad_hierarchy_leaf_elements(h);
     int groups = base->group_count > 0 && base->patch_group && base->group_names;
     if (groups) {
         m.patch_group = malloc(leaves * sizeof *m.patch_group);
         m.group_names = malloc(base->group_count * sizeof *m.group_names);
     }
-    if (!m.positions || !m.patches || (groups && (!m.patch_group || !m.group_names))) {
+    if (!m.positions || !m.patches || !order || (groups && (!m.patch_group || !m.group_names))) {
         rad_error("hierarchy: out of memory for %zu leaves", h->leaf_count);
         rad_mesh_free(&m);
+        free(order);
         return RAD_ERR_NOMEM;
     }
     memcpy(m.positions, h->positions, h->vertex_count * 3 * sizeof *m.positions);
@@ -235,7 +253,23 @@ rad_status rad_hierarchy_leaves(const rad_hierarchy *h, rad_mesh *out)
         memcpy(m.group_names, base->group_names, base->group_count * sizeof *m.group_names);
         m.group_count = base->group_count;
     }
-    for (size_t r = 0; r < base->patch_count; r++) collect_leaves(h, (uint32_t)r, &m);
+    m.patch_count = h->leaf_count;
+    const ptrdiff_t count = (ptrdiff_t)h->leaf_count;
+#pragma omp parallel for schedule(static)
+    for (ptrdiff_t k = 0; k < count; k++) {
+        const rad_element *e = &h->elements[order[k]];
+        const rad_patch *root = &base->patches[e->root];
+        rad_patch *p = &m.patches[k];
+        memset(p, 0, sizeof *p);
+        p->vertex_count = e->vertex_count;
+        memcpy(p->v, e->v, sizeof p->v);
+        p->source_face = root->source_face;
+        p->area = e->area, p->normal = e->normal, p->centroid = e->centroid;
+        memcpy(p->rho, root->rho, sizeof p->rho);
+        memcpy(p->emission, root->emission, sizeof p->emission);
+        if (groups) m.patch_group[k] = base->patch_group[e->root];
+    }
+    free(order);
     *out = m;
     return RAD_OK;
 }

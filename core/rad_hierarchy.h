@@ -78,6 +78,11 @@ rad_status rad_hierarchy_split_to(rad_hierarchy *h, uint32_t root, uint32_t dept
  * with the root's material and source face, the base's groups. */
 rad_status rad_hierarchy_leaves(const rad_hierarchy *h, rad_mesh *out);
 
+/* The leaves' elements in that order (h->leaf_count of them), found on
+ * the threads, root by root; NULL (logged) for lack of memory. Freed with
+ * free. */
+uint32_t *rad_hierarchy_leaf_elements(const rad_hierarchy *h);
+
 void rad_hierarchy_free(rad_hierarchy *h); /* safe on zeroed */
 
 #endif

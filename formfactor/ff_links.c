@@ -1029,39 +1029,13 @@ static rad_status run_rounds(ff_links *L, job_list *list, ff_counters *counters,
     return st;
 }
 
-/* The leaf elements in the order of the leaves mesh (rad_hierarchy_leaves:
- * root by root, depth first), h->leaf_count of them; NULL (logged) for
- * lack of memory. */
-static uint32_t *leaf_elements(const rad_hierarchy *h)
-{
-    uint32_t *order = malloc((h->leaf_count ? h->leaf_count : 1) * sizeof *order);
-    uint32_t stack[3 * 16 + 4]; /* depth first: 3 waiting siblings per level, 15 levels at most */
-    if (!order) {
-        rad_error("hierarchy: out of memory for %zu leaves", h->leaf_count);
-        return NULL;
-    }
-    size_t leaf = 0;
-    for (size_t r = 0; r < h->base->patch_count; r++) {
-        size_t top = 0;
-        stack[top++] = (uint32_t)r;
-        while (top) {
-            uint32_t e = stack[--top];
-            if (h->elements[e].first_child == RAD_NO_ELEMENT)
-                order[leaf++] = e;
-            else
-                for (uint32_t i = 4; i-- > 0;) stack[top++] = h->elements[e].first_child + i;
-        }
-    }
-    return order;
-}
-
 /* The oracle's B per element from a solution on the leaves: leaves take
  * theirs, split elements the area-weighted mean of their children
  * (children come after their parent: one pass from the end). */
 static void set_radiosity(ff_links *L, const double *leaf_radiosity)
 {
     const rad_hierarchy *h = &L->tree;
-    uint32_t *leaves = leaf_elements(h);
+    uint32_t *leaves = rad_hierarchy_leaf_elements(h);
     if (!leaves) return;
     for (size_t k = 0; k < h->leaf_count; k++)
         memcpy(&L->radiosity[3 * (size_t)leaves[k]], &leaf_radiosity[3 * k], 3 * sizeof(double));
@@ -1111,7 +1085,7 @@ static void set_radiosity(ff_links *L, const double *leaf_radiosity)
 int ff_links_leaf_radiosity(const ff_links *L, double *B)
 {
     const rad_hierarchy *h = &L->tree;
-    uint32_t *leaves = leaf_elements(h);
+    uint32_t *leaves = rad_hierarchy_leaf_elements(h);
     if (!leaves) return 0;
     for (size_t k = 0; k < h->leaf_count; k++) memcpy(&B[3 * k], &L->radiosity[3 * (size_t)leaves[k]], 3 * sizeof(double));
     free(leaves);
@@ -1337,14 +1311,15 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     rad_status st = rad_hierarchy_leaves(h, leaves);
     if (st != RAD_OK) return st;
     size_t n = h->element_count, C = L->clusters.count, ids = n + C;
-    out->nodes = malloc(n * sizeof *out->nodes);
+    out->nodes = rad_mem_alloc(n * sizeof *out->nodes);
     out->first_link = calloc(ids + 1, sizeof *out->first_link);
+    rad_mem_advise_huge(out->first_link, (ids + 1) * sizeof *out->first_link); /* calloc's fresh pages, untouched */
     out->links = rad_mem_alloc(2 * L->link_count * sizeof *out->links); /* gigabytes, filled once */
     if (C) {
         out->clusters = malloc(C * sizeof *out->clusters);
         out->cluster_roots = malloc(L->clusters.root_count * sizeof *out->cluster_roots);
     }
-    uint32_t *order = leaf_elements(h);
+    uint32_t *order = rad_hierarchy_leaf_elements(h);
     if (!out->nodes || !out->first_link || !out->links || !order || (C && (!out->clusters || !out->cluster_roots))) {
         free(order);
         rad_links_free(out);
@@ -1356,6 +1331,7 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     out->root_count = (uint32_t)h->base->patch_count;
     out->leaf_count = (uint32_t)leaves->patch_count;
     out->link_tol = L->config.link_tol;
+#pragma omp parallel for schedule(static)
     for (size_t e = 0; e < n; e++) {
         const rad_element *el = &h->elements[e];
         rad_link_node *d = &out->nodes[e];
@@ -1368,6 +1344,7 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
         memcpy(d->v, el->v, sizeof d->v);
         d->area = el->area;
     }
+#pragma omp parallel for schedule(static)
     for (uint32_t k = 0; k < out->leaf_count; k++) out->nodes[order[k]].leaf = k;
     free(order);
     out->cluster_count = (uint32_t)C;
@@ -1393,7 +1370,7 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     }
     for (size_t e = 0; e < ids; e++) out->first_link[e + 1] += out->first_link[e];
     out->link_count = out->first_link[ids];
-    uint64_t *fill = malloc((ids ? ids : 1) * sizeof *fill);
+    uint64_t *fill = rad_mem_alloc((ids ? ids : 1) * sizeof *fill);
     if (!fill) {
         rad_links_free(out);
         rad_mesh_free(leaves);
