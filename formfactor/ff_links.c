@@ -1236,7 +1236,10 @@ static int by_source(const void *x, const void *y)
 /* A receiver's links by source: a quicksort with the order inline (qsort's
  * calls through a pointer were most of the export: 820 M links at 10^6
  * triangles), insertion sort below 24, qsort where the partitions go
- * badly (depth). The order is total, so any sort gives the same bytes. */
+ * badly (depth); in a parallel region, parts of SORT_TASK_MIN links or
+ * more as tasks. The order is total, so any sort gives the same bytes. */
+#define SORT_TASK_MIN ((size_t)1 << 15) /* links: a part this large is sorted as a task of its own */
+
 static void sort_links(rad_link *x, size_t n, int depth)
 {
     while (n > 24) {
@@ -1260,12 +1263,19 @@ static void sort_links(rad_link *x, size_t n, int depth)
             i++, j--;
         }
         const size_t left = j + 1;
-        if (left < n - left) { /* the smaller side by recursion, the larger in the loop */
-            sort_links(x, left, depth);
+        rad_link *small = x;
+        size_t small_n = left;
+        if (left < n - left) { /* the smaller side apart, the larger in the loop */
             x += left, n -= left;
         } else {
-            sort_links(x + left, n - left, depth);
+            small = x + left, small_n = n - left;
             n = left;
+        }
+        if (small_n >= SORT_TASK_MIN) { /* a large cluster's list: its parts on idle threads */
+#pragma omp task default(none) firstprivate(small, small_n, depth) untied
+            sort_links(small, small_n, depth);
+        } else {
+            sort_links(small, small_n, depth);
         }
     }
     for (size_t i = 1; i < n; i++) {
@@ -1403,11 +1413,16 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
     }
 #undef EXPORT_ID
     free(fill);
-    /* each receiver's links by source: one thread sorts each (a total
-     * order, so the same bytes for any thread count) */
-#pragma omp parallel for schedule(dynamic, 256)
-    for (size_t e = 0; e < ids; e++)
+    /* each receiver's links by source (a total order, so the same bytes
+     * for any thread count): the clusters first, whose lists run to
+     * millions of links at 10^6 faces, their large parts as tasks that
+     * the threads done with the elements take up; last in the loop, one
+     * thread sorted each alone while the others waited */
+#pragma omp parallel for schedule(dynamic, 64)
+    for (size_t i = 0; i < ids; i++) {
+        const size_t e = i < C ? n + i : i - C;
         sort_links(out->links + out->first_link[e], out->first_link[e + 1] - out->first_link[e], 64);
+    }
     return RAD_OK;
 }
 
