@@ -243,4 +243,4 @@ static rad_status cpu_cluster_draws(void *state, const ff_cluster_view *v, const
 
 const ff_backend ff_backend_cpu = {"cpu",          cpu_create,    cpu_compute_rows, cpu_destroy,
                                    cpu_alloc_rows, cpu_free_rows, NULL,             cpu_compute_pairs,
-                                   cpu_cluster_draws, NULL};
+                                   cpu_cluster_draws, NULL,             NULL};

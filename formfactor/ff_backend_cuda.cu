@@ -106,6 +106,7 @@ template <typename T> static inline RAD_HD T cuda_lane_sum(T v, unsigned lanes)
 #include "rad_ff_pair.h"
 
 #include "ff_pair_class.h"
+#include "ff_openness.h"
 
 enum { FF_CUDA_BLOCK = 256 };
 /* Lanes per pair: far pairs (a few quadrature points) in groups of
@@ -1161,6 +1162,39 @@ done:
     return status;
 }
 
+/* ff_backend.openness: a thread per face (ff_face_openness). */
+__global__ static void ff_openness_kernel(cuda_tracer t, const rad_ff_patch *patches, uint32_t count, double reach,
+                                          float *open)
+{
+    uint32_t f = blockIdx.x * blockDim.x + threadIdx.x;
+    if (f >= count) return;
+    open[f] = ff_face_openness(&patches[f], f, reach, t.delta, t.nodes, t.tris, t.root, t.root_count);
+}
+
+static rad_status cuda_openness(void *state, const rad_ff_patch *patches, uint32_t count, double reach, float *open)
+{
+    cuda_state *s = (cuda_state *)state;
+    const cudaStream_t st = s->pair_stream;
+    rad_status status = RAD_OK;
+    rad_ff_patch *d_patches = NULL;
+    float *d_open = NULL;
+    cuda_tracer t = {s->d_nodes, s->d_tris, s->root, s->root_count, s->setup.ray_delta, NULL};
+    if (count == 0) return RAD_OK;
+    RAD_CUDA_TRY(cudaSetDevice(s->device));
+    RAD_CUDA_TRY(round_alloc(s, (void **)&d_patches, count * sizeof *patches, st));
+    RAD_CUDA_TRY(round_alloc(s, (void **)&d_open, count * sizeof *open, st));
+    if ((status = rad_cuda_stage_up(&s->pair_stage, d_patches, patches, count * sizeof *patches, st)) != RAD_OK)
+        goto done;
+    ff_openness_kernel<<<(count + FF_CUDA_BLOCK - 1) / FF_CUDA_BLOCK, FF_CUDA_BLOCK, 0, st>>>(t, d_patches, count,
+                                                                                          reach, d_open);
+    RAD_CUDA_TRY(cudaGetLastError());
+    status = rad_cuda_stage_down(&s->pair_stage, open, d_open, count * sizeof *open, st); /* errors surface here */
+done:
+    round_free(s, d_patches, st);
+    round_free(s, d_open, st);
+    return status;
+}
+
 /* Row buffers in page-locked host memory: results stream back by DMA. */
 static double *cuda_alloc_rows(void *state, size_t count)
 {
@@ -1181,4 +1215,4 @@ static void cuda_free_rows(void *state, double *rows)
 
 extern "C" const ff_backend ff_backend_cuda = {"cuda",          cuda_create,    cuda_compute_rows, cuda_destroy,
                                                cuda_alloc_rows, cuda_free_rows, cuda_compute_records, cuda_compute_pairs,
-                                               cuda_cluster_draws, cuda_trim};
+                                               cuda_cluster_draws, cuda_trim, cuda_openness};

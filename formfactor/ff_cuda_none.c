@@ -35,4 +35,4 @@ static void none_free_rows(void *state, double *rows) { (void)state, (void)rows;
 
 const ff_backend ff_backend_cuda = {"cuda",          none_create,    none_compute_rows, none_destroy,
                                     none_alloc_rows, none_free_rows, NULL,              NULL,
-                                    NULL,           NULL};
+                                    NULL,           NULL,            NULL};

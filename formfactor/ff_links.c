@@ -132,8 +132,10 @@ static rad_status clusters_init(ff_links *L)
             rad_error("clusters: out of memory for the openness of %u faces", roots);
             return RAD_ERR_NOMEM;
         }
-        st = ff_openness(L->patches, roots, L->config.triangles, L->config.triangle_face, L->config.triangle_count,
-                         L->config.ray_delta, open);
+        st = L->backend->openness
+                 ? L->backend->openness(L->backend_state, L->patches, roots, ff_openness_reach(L->patches, roots), open)
+                 : ff_openness(L->patches, roots, L->config.triangles, L->config.triangle_face,
+                               L->config.triangle_count, L->config.ray_delta, open);
         L->tally.open_seconds = rad_clock_seconds() - t0;
     }
     if (st == RAD_OK) st = ff_clusters_build(L->patches, open, roots, L->config.cluster_cone, &L->clusters);
