@@ -183,20 +183,34 @@ rad_status ff_clusters_build(const rad_ff_patch *patches, const float *open, uin
     for (uint32_t k = 0; k < root_count; k++) out->roots[k] = k;
     out->clusters[0].link = (rad_link_cluster){RAD_NO_ELEMENT, RAD_NO_ELEMENT, 0, 0, root_count, 0, 0};
     out->count = 1;
-    /* Clusters are split in index order, so children come after parents
-     * and each one's two children are consecutive. */
-    for (uint32_t c = 0; c < out->count; c++) {
-        rad_link_cluster *l = &out->clusters[c].link;
-        uint32_t begin = l->root_begin, end = l->root_end, n = end - begin;
-        if (n <= FF_CLUSTER_LEAF_ROOTS) continue;
-        split_keys(patches, out->roots, begin, end, max_cone, keys);
-        uint32_t half = n / 2;
-        select_kth(keys, n, half);
-        for (uint32_t k = 0; k < n; k++) out->roots[begin + k] = keys[k].root;
-        l->first_child = out->count;
-        l->child_count = 2;
-        out->clusters[out->count++].link = (rad_link_cluster){c, RAD_NO_ELEMENT, 0, begin, begin + half, 0, 0};
-        out->clusters[out->count++].link = (rad_link_cluster){c, RAD_NO_ELEMENT, 0, begin + half, end, 0, 0};
+    /* Clusters are numbered level by level, children after parents and
+     * each one's two children consecutive: a level's splits are counted
+     * first (a cluster splits where it holds more than
+     * FF_CLUSTER_LEAF_ROOTS roots), which numbers the next level, and
+     * then made side by side (disjoint ranges of roots and keys). */
+    for (uint32_t level_begin = 0; level_begin < out->count;) {
+        const uint32_t level_end = (uint32_t)out->count;
+        uint32_t next = level_end;
+        for (uint32_t c = level_begin; c < level_end; c++) {
+            rad_link_cluster *l = &out->clusters[c].link;
+            const uint32_t begin = l->root_begin, end = l->root_end, half = (end - begin) / 2;
+            if (end - begin <= FF_CLUSTER_LEAF_ROOTS) continue;
+            l->first_child = next;
+            l->child_count = 2;
+            out->clusters[next++].link = (rad_link_cluster){c, RAD_NO_ELEMENT, 0, begin, begin + half, 0, 0};
+            out->clusters[next++].link = (rad_link_cluster){c, RAD_NO_ELEMENT, 0, begin + half, end, 0, 0};
+        }
+#pragma omp parallel for schedule(dynamic, 1) if (next - level_end > 2)
+        for (uint32_t c = level_begin; c < level_end; c++) {
+            const rad_link_cluster *l = &out->clusters[c].link;
+            const uint32_t begin = l->root_begin, end = l->root_end, n = end - begin;
+            if (l->child_count == 0) continue;
+            split_keys(patches, out->roots, begin, end, max_cone, keys + begin);
+            select_kth(keys + begin, n, n / 2);
+            for (uint32_t k = 0; k < n; k++) out->roots[begin + k] = keys[begin + k].root;
+        }
+        level_begin = level_end;
+        out->count = next;
     }
     free(keys);
     out->area_before[0] = 0;
