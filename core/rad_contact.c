@@ -21,6 +21,7 @@
 
 #include <assert.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -62,6 +63,19 @@ typedef struct near_entry {
     uint32_t face;
 } near_entry;
 
+/* A piece emitted as out[out_begin, out_end) whose inside test
+ * (inside_solid, rays through the grid: most of the cutting's time at
+ * 10^6 faces) is left to resolve_solid_checks, on the threads, after every
+ * face is cut: what it reads (the scene's faces, their normals, the grid)
+ * no longer changes then. */
+typedef struct solid_check {
+    rad_vec3 centroid, normal;
+    uint32_t face;
+    uint8_t pressed; /* pressed(centroid), at the time: it reads the face's survey */
+    uint8_t hidden;
+    size_t out_begin, out_end;
+} solid_check;
+
 typedef struct cutter {
     const rad_scene *scene;
     double tol, min_length, offset; /* absolute, scene units */
@@ -101,6 +115,8 @@ typedef struct cutter {
     uint32_t *cand;        /* the faces near the face being cut, ascending */
     size_t cand_count, cand_cap;
     uint8_t *cut;          /* per face: survey_face found something that cuts it */
+    solid_check *checks;   /* the pieces emitted before their solid test (finish_piece) */
+    size_t check_count, check_cap;
     int failed;
 } cutter;
 
@@ -544,12 +560,7 @@ static void finish_piece(cutter *C, uint32_t f, double diameter, int has_contact
         C->hidden++;
         return;
     }
-    if (has_contact &&
-        ((pressed(C, centroid) && inside_solid(C, f, rad_v3_sub(centroid, rad_v3_scale(nrm, C->offset)), rad_v3_scale(nrm, -1))) ||
-         inside_solid(C, f, rad_v3_add(centroid, rad_v3_scale(nrm, C->offset)), nrm))) {
-        C->hidden++;
-        return;
-    }
+    const size_t out_begin = C->out_count;
     for (uint32_t i = 1; i + 1 < n;) {
         if (i + 2 < n) {
             uint32_t q[4] = {v[0], v[i], v[i + 1], v[i + 2]};
@@ -561,6 +572,35 @@ static void finish_piece(cutter *C, uint32_t f, double diameter, int has_contact
             i += 1;
         }
     }
+    if (has_contact && !C->failed) { /* hidden if inside a solid: decided by resolve_solid_checks */
+        if (!GROW(C, checks, check_cap, C->check_count + 1)) return;
+        C->checks[C->check_count++] = (solid_check){.centroid = centroid, .normal = nrm, .face = f,
+                                                    .pressed = (uint8_t)pressed(C, centroid),
+                                                    .out_begin = out_begin, .out_end = C->out_count};
+    }
+}
+
+/* The inside tests finish_piece left, on the threads; the pieces found
+ * inside a solid taken out of C->out, the rest kept in order: the pieces
+ * and the count of hidden ones as the tests made in turn gave them. */
+static void resolve_solid_checks(cutter *C)
+{
+    const ptrdiff_t count = (ptrdiff_t)C->check_count;
+#pragma omp parallel for schedule(dynamic, 16)
+    for (ptrdiff_t k = 0; k < count; k++) {
+        solid_check *s = &C->checks[k];
+        const rad_vec3 c = s->centroid, n = s->normal, d = rad_v3_scale(n, C->offset);
+        s->hidden = (uint8_t)((s->pressed && inside_solid(C, s->face, rad_v3_sub(c, d), rad_v3_scale(n, -1))) ||
+                              inside_solid(C, s->face, rad_v3_add(c, d), n));
+    }
+    size_t to = 0, k = 0;
+    for (size_t i = 0; i < C->out_count; i++) {
+        while (k < C->check_count && C->checks[k].out_end <= i) k++;
+        if (k < C->check_count && C->checks[k].out_begin <= i && C->checks[k].hidden) continue;
+        C->out[to++] = C->out[i];
+    }
+    for (size_t j = 0; j < C->check_count; j++) C->hidden += C->checks[j].hidden;
+    C->out_count = to;
 }
 
 /* rad_polygon_vertex_fn of the grid: a new vertex is the cut vertex at its
@@ -920,6 +960,7 @@ rad_status rad_contact_cut_build(const rad_scene *scene, const int *face_level, 
         }
     }
     if (C.failed) goto done;
+    resolve_solid_checks(&C);
     double *shrunk = realloc(C.pos, (C.vertex_count ? C.vertex_count : 1) * 3 * sizeof *shrunk);
     if (shrunk) C.pos = shrunk;
     *out_cut = (rad_contact_cut){.positions = C.pos, .vertex_count = C.vertex_count, .pieces = C.out,
@@ -944,6 +985,7 @@ done:
     free(C.line);
     free(C.hash);
     free(C.pieces);
+    free(C.checks);
     free(C.out);
     return status;
 }
