@@ -226,7 +226,7 @@ uint32_t *rad_hierarchy_leaf_elements(const rad_hierarchy *h)
     return order;
 }
 
-rad_status rad_hierarchy_leaves(const rad_hierarchy *h, rad_mesh *out)
+rad_status rad_hierarchy_leaves_of(const rad_hierarchy *h, const uint32_t *order, rad_mesh *out)
 {
     rad_mesh m;
     memset(&m, 0, sizeof m);
@@ -235,16 +235,14 @@ rad_status rad_hierarchy_leaves(const rad_hierarchy *h, rad_mesh *out)
     size_t leaves = h->leaf_count ? h->leaf_count : 1;
     m.positions = rad_mem_alloc((h->vertex_count ? h->vertex_count : 1) * 3 * sizeof *m.positions);
     m.patches = rad_mem_alloc(leaves * sizeof *m.patches);
-    uint32_t *order = rad_hierarchy_leaf_elements(h);
     int groups = base->group_count > 0 && base->patch_group && base->group_names;
     if (groups) {
         m.patch_group = malloc(leaves * sizeof *m.patch_group);
         m.group_names = malloc(base->group_count * sizeof *m.group_names);
     }
-    if (!m.positions || !m.patches || !order || (groups && (!m.patch_group || !m.group_names))) {
+    if (!m.positions || !m.patches || (groups && (!m.patch_group || !m.group_names))) {
         rad_error("hierarchy: out of memory for %zu leaves", h->leaf_count);
         rad_mesh_free(&m);
-        free(order);
         return RAD_ERR_NOMEM;
     }
     memcpy(m.positions, h->positions, h->vertex_count * 3 * sizeof *m.positions);
@@ -269,9 +267,20 @@ rad_status rad_hierarchy_leaves(const rad_hierarchy *h, rad_mesh *out)
         memcpy(p->emission, root->emission, sizeof p->emission);
         if (groups) m.patch_group[k] = base->patch_group[e->root];
     }
-    free(order);
     *out = m;
     return RAD_OK;
+}
+
+rad_status rad_hierarchy_leaves(const rad_hierarchy *h, rad_mesh *out)
+{
+    uint32_t *order = rad_hierarchy_leaf_elements(h);
+    if (!order) {
+        memset(out, 0, sizeof *out);
+        return RAD_ERR_NOMEM;
+    }
+    rad_status st = rad_hierarchy_leaves_of(h, order, out);
+    free(order);
+    return st;
 }
 
 void rad_hierarchy_free(rad_hierarchy *h)

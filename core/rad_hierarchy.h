@@ -83,6 +83,10 @@ rad_status rad_hierarchy_leaves(const rad_hierarchy *h, rad_mesh *out);
  * free. */
 uint32_t *rad_hierarchy_leaf_elements(const rad_hierarchy *h);
 
+/* rad_hierarchy_leaves from the leaves' elements `order` already found
+ * (rad_hierarchy_leaf_elements), for a caller that needs them too. */
+rad_status rad_hierarchy_leaves_of(const rad_hierarchy *h, const uint32_t *order, rad_mesh *out);
+
 void rad_hierarchy_free(rad_hierarchy *h); /* safe on zeroed */
 
 #endif

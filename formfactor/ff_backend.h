@@ -184,9 +184,10 @@ typedef struct ff_backend {
      * passes for what else needs the device (the hierarchy's flat solves
      * on the GPU); the next round grows them again. NULL: nothing to free. */
     void (*trim)(void *state);
-    /* Optional (NULL: the host's ff_openness): open[f] for the patches
-     * 0 .. count - 1 (ff_openness.h: ff_face_openness through the setup's
-     * occluders), rays of length `reach`. */
+    /* Clusters' openness (ff_openness.h): open[f] = ff_face_openness
+     * for the patches 0 .. count - 1 through the setup's occluders, rays
+     * of length `reach` (the CPU's threads, or a CUDA thread a face).
+     * NULL: not offered (with cluster_draws, what clusters need). */
     rad_status (*openness)(void *state, const rad_ff_patch *patches, uint32_t count, double reach, float *open);
 } ff_backend;
 

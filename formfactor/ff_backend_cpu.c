@@ -47,6 +47,7 @@ static int cpu_occluded(const cpu_tracer *t, rad_vec3 x, rad_vec3 nx, uint32_t a
 #define RAD_FF_TICKS() rad_clock_ns()
 #include "rad_ff_pair.h"
 
+#include "ff_openness.h"
 #include "ff_pair_class.h"
 
 typedef struct cpu_state {
@@ -241,6 +242,14 @@ static rad_status cpu_cluster_draws(void *state, const ff_cluster_view *v, const
     return RAD_OK;
 }
 
+/* ff_backend.openness through the occluders' BVH built at create. */
+static rad_status cpu_openness(void *state, const rad_ff_patch *patches, uint32_t count, double reach, float *open)
+{
+    const cpu_state *s = state;
+    ff_openness_bvh(patches, count, reach, s->setup.ray_delta, &s->bvh, open);
+    return RAD_OK;
+}
+
 const ff_backend ff_backend_cpu = {"cpu",          cpu_create,    cpu_compute_rows, cpu_destroy,
                                    cpu_alloc_rows, cpu_free_rows, NULL,             cpu_compute_pairs,
-                                   cpu_cluster_draws, NULL,             NULL};
+                                   cpu_cluster_draws, NULL,             cpu_openness};

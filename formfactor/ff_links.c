@@ -114,7 +114,7 @@ static void cluster_values(ff_links *L, const double *lo, const double *hi);
 
 static rad_status clusters_init(ff_links *L)
 {
-    if (!L->backend->cluster_draws) {
+    if (!L->backend->cluster_draws || !L->backend->openness) {
         rad_error("the %s backend cannot compute cluster links", L->backend->name);
         return RAD_ERR_UNSUPPORTED;
     }
@@ -132,10 +132,7 @@ static rad_status clusters_init(ff_links *L)
             rad_error("clusters: out of memory for the openness of %u faces", roots);
             return RAD_ERR_NOMEM;
         }
-        st = L->backend->openness
-                 ? L->backend->openness(L->backend_state, L->patches, roots, ff_openness_reach(L->patches, roots), open)
-                 : ff_openness(L->patches, roots, L->config.triangles, L->config.triangle_face,
-                               L->config.triangle_count, L->config.ray_delta, open);
+        st = L->backend->openness(L->backend_state, L->patches, roots, ff_openness_reach(L->patches, roots), open);
         L->tally.open_seconds = rad_clock_seconds() - t0;
     }
     if (st == RAD_OK) st = ff_clusters_build(L->patches, open, roots, L->config.cluster_cone, &L->clusters);
@@ -1320,8 +1317,12 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
 {
     const rad_hierarchy *h = &L->tree;
     memset(out, 0, sizeof *out);
-    rad_status st = rad_hierarchy_leaves(h, leaves);
-    if (st != RAD_OK) return st;
+    uint32_t *order = rad_hierarchy_leaf_elements(h); /* the leaves mesh's order, and each node's leaf */
+    rad_status st = order ? rad_hierarchy_leaves_of(h, order, leaves) : RAD_ERR_NOMEM;
+    if (st != RAD_OK) {
+        free(order);
+        return st;
+    }
     size_t n = h->element_count, C = L->clusters.count, ids = n + C;
     out->nodes = rad_mem_alloc(n * sizeof *out->nodes);
     out->first_link = calloc(ids + 1, sizeof *out->first_link);
@@ -1331,8 +1332,7 @@ rad_status ff_links_export(const ff_links *L, rad_links *out, rad_mesh *leaves)
         out->clusters = malloc(C * sizeof *out->clusters);
         out->cluster_roots = malloc(L->clusters.root_count * sizeof *out->cluster_roots);
     }
-    uint32_t *order = rad_hierarchy_leaf_elements(h);
-    if (!out->nodes || !out->first_link || !out->links || !order || (C && (!out->clusters || !out->cluster_roots))) {
+    if (!out->nodes || !out->first_link || !out->links || (C && (!out->clusters || !out->cluster_roots))) {
         free(order);
         rad_links_free(out);
         rad_mesh_free(leaves);

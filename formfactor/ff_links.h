@@ -146,7 +146,7 @@ typedef struct ff_links_tally {
     uint64_t candidates, refined_pairs, rounds;
     uint64_t cluster_pairs, cluster_rays; /* candidates with a cluster at an end, their segments */
     double cluster_seconds;               /* their wall (the backend's cluster_draws) */
-    double open_seconds;                  /* the faces' openness (ff_openness), before the cluster tree */
+    double open_seconds;                  /* the faces' openness (ff_backend.openness), before the cluster tree */
     /* the rounds' wall by part: the candidates sorted into element and
      * cluster pairs, the backend's calls (both kinds, beside each other),
      * the decisions (links kept, pairs split, new elements), and a later

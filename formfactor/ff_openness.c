@@ -12,18 +12,23 @@ double ff_openness_reach(const rad_ff_patch *patches, uint32_t count)
     return FF_OPEN_REACH * rad_box_diagonal(&box);
 }
 
+void ff_openness_bvh(const rad_ff_patch *patches, uint32_t count, double reach, double delta, const ff_bvh *bvh,
+                     float *open)
+{
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int64_t f = 0; f < (int64_t)count; f++)
+        open[f] = ff_face_openness(&patches[f], (uint32_t)f, reach, delta, bvh->nodes, bvh->tris, bvh->root,
+                                   bvh->root_count);
+}
+
 rad_status ff_openness(const rad_ff_patch *patches, uint32_t count, const double *triangles,
                        const uint32_t *triangle_face, uint32_t triangle_count, double delta, float *open)
 {
     if (count == 0) return RAD_OK;
-    const double reach = ff_openness_reach(patches, count);
     ff_bvh bvh;
     rad_status st = ff_bvh_build(triangles, triangle_face, triangle_count, &bvh);
     if (st != RAD_OK) return st;
-#pragma omp parallel for schedule(dynamic, 256)
-    for (int64_t f = 0; f < (int64_t)count; f++)
-        open[f] = ff_face_openness(&patches[f], (uint32_t)f, reach, delta, bvh.nodes, bvh.tris, bvh.root,
-                                   bvh.root_count);
+    ff_openness_bvh(patches, count, ff_openness_reach(patches, count), delta, &bvh, open);
     ff_bvh_free(&bvh);
     return RAD_OK;
 }

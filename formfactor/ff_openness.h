@@ -73,9 +73,15 @@ static inline RAD_HD float ff_face_openness(const rad_ff_patch *p, uint32_t f, d
 /* The rays' length: FF_OPEN_REACH of the diagonal of the patches' box. */
 double ff_openness_reach(const rad_ff_patch *patches, uint32_t count);
 
+/* open[f] = ff_face_openness for patches 0 .. count - 1 through a built
+ * BVH, on the host's threads (the CPU backend's ff_backend.openness). */
+void ff_openness_bvh(const rad_ff_patch *patches, uint32_t count, double reach, double delta, const ff_bvh *bvh,
+                     float *open);
+
 /* open[f] in [0, 1] for patches 0 .. count - 1 (the roots, in the frame
  * the occluder triangles are in); delta as ff_segment's. Builds and frees a
- * BVH of the triangles. RAD_ERR_NOMEM (logged). */
+ * BVH of the triangles (the tests' reference: the links take the
+ * backend's, which holds one already). RAD_ERR_NOMEM (logged). */
 rad_status ff_openness(const rad_ff_patch *patches, uint32_t count, const double *triangles,
                        const uint32_t *triangle_face, uint32_t triangle_count, double delta, float *open);
 
